@@ -1,0 +1,176 @@
+"""The ``pfbench`` command line (typer): parses arguments, calls the runner, prints. No numerics."""
+from __future__ import annotations
+
+import contextlib
+import sys
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+from rich.console import Console
+from rich.table import Table as RichTable
+
+from . import __version__
+from .errors import UserError
+
+app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
+                  help="Reproduce the tables of particle-filter papers from YAML experiments.")
+# Wide enough for the tables when stdout is a file or a pipe (rich would assume 80 columns).
+out = Console(highlight=False, width=None if sys.stdout.isatty() else 200)
+err = Console(stderr=True, highlight=False)
+_state = {"debug": False}
+
+
+@contextlib.contextmanager
+def _guard():
+    """A UserError becomes one line on stderr and exit status 2 (a traceback only with --debug)."""
+    try:
+        yield
+    except UserError as exc:
+        if _state["debug"]:
+            raise
+        err.print(f"pfbench: error: {exc}", markup=False, soft_wrap=True)
+        raise typer.Exit(2) from None
+
+
+def _version(value: bool):
+    if value:
+        out.print(f"pfbench {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _main(
+    version: bool = typer.Option(False, "--version", callback=_version, is_eager=True,
+                                 help="Print the version and exit."),
+    debug: bool = typer.Option(False, "--debug", help="Show tracebacks for errors."),
+):
+    _state["debug"] = debug
+
+
+def _load(config: Path, trials=None, seed=None, sets=()):
+    from .config import load
+    return load(config, {"trials": trials, "seed": seed}, sets)
+
+
+def _print_table(exp, tab):
+    from .tables import display_columns, footnotes
+    head, cells = display_columns(exp, tab)
+    t = RichTable(title=f"{exp.name}" + (f"  ({exp.paper} {exp.table})" if exp.paper else ""),
+                  show_lines=False)
+    for h in head:
+        t.add_column(h, no_wrap=True)
+    for row in cells:
+        t.add_row(*row)
+    out.print(t)
+    for note in footnotes(exp, tab):
+        out.print(note, markup=False)
+
+
+@app.command()
+def run(
+    config: Path = typer.Argument(..., help="Experiment YAML file."),
+    trials: Optional[int] = typer.Option(None, "--trials", min=1, help="Override the trial count."),
+    seed: Optional[int] = typer.Option(None, "--seed", min=0, help="Override the base seed."),
+    workers: int = typer.Option(1, "--workers", "-w", min=1,
+                                help="Local worker processes (results do not depend on it)."),
+    out_dir: Optional[Path] = typer.Option(None, "--out", help="Results folder "
+                                           "(default: results/<experiment>)."),
+    resume: bool = typer.Option(False, "--resume", help="Keep the finished trials of an earlier "
+                                "run of the same experiment in the results folder."),
+    set_: List[str] = typer.Option([], "--set", help="Override a config key: KEY.PATH=VALUE "
+                                   "(YAML value; '*' matches every key), repeatable."),
+):
+    """Run an experiment: Monte Carlo trials, then the table beside the paper's values."""
+    with _guard():
+        exp = _load(config, trials, seed, set_)
+        from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
+                                   TimeElapsedColumn, TimeRemainingColumn)
+
+        from . import tables
+        from .runner import Interrupted, run_experiment
+        folder = out_dir or Path("results") / exp.name
+        runs = ", ".join(f.key for f in exp.filters)
+        err.print(f"{exp.name}: {exp.trials} trials of {exp.scenario} x [{runs}], seed {exp.seed}, "
+                  f"{workers} worker(s) -> {folder}", markup=False)
+        with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                      TimeElapsedColumn(), TimeRemainingColumn(), console=err,
+                      transient=True) as bar:
+            task = bar.add_task("trials", total=exp.trials)
+            try:
+                res = run_experiment(exp, folder, workers=workers, resume=resume,
+                                     progress=lambda d, n: bar.update(task, completed=d))
+            except Interrupted as exc:
+                bar.stop()
+                err.print(f"pfbench: {exc}", markup=False)
+                raise typer.Exit(130) from None
+        tab = tables.summary(exp, res.rows)
+        tables.write(exp, tab, folder, res.meta)
+        _print_table(exp, tab)
+        note = f" ({exp.trials - res.ran} resumed)" if res.ran < exp.trials else ""
+        err.print(f"{res.ran} trials in {res.wall_s:.1f} s{note}; wrote {folder}/trials.csv, "
+                  "table.csv, table.md, meta.json", markup=False)
+
+
+@app.command()
+def validate(config: Path = typer.Argument(..., help="Experiment YAML file."),
+             set_: List[str] = typer.Option([], "--set", help="KEY.PATH=VALUE override.")):
+    """Check a config against the schema; run nothing."""
+    with _guard():
+        exp = _load(config, sets=set_)
+        runs = ", ".join(f.key for f in exp.filters)
+        out.print(f"{config}: ok: {exp.name}: scenario {exp.scenario}, {exp.trials} trials, "
+                  f"seed {exp.seed}, filter runs {runs}", markup=False)
+
+
+@app.command("list")
+def list_(configs: Path = typer.Option(Path("configs"), "--configs",
+                                       help="Folder of experiment files to list.")):
+    """List scenarios, filters, resampling schemes and configs, one line each."""
+    import yaml
+
+    from .filters import FILTERS
+    from .resampling import SCHEMES
+    from .scenarios import SCENARIOS
+    out.print("scenarios:", style="bold")
+    for name, mod in SCENARIOS.items():
+        out.print(f"  {name:<18} {mod.DESCRIPTION}", markup=False)
+    out.print("filters:", style="bold")
+    for name, f in FILTERS.items():
+        out.print(f"  {name:<18} {f.description}", markup=False)
+    out.print("resampling:", style="bold")
+    for name, text in SCHEMES.items():
+        out.print(f"  {name:<18} {text}", markup=False)
+    out.print(f"configs ({configs}):", style="bold")
+    for path in sorted(configs.glob("*.yaml")):
+        try:
+            raw = yaml.safe_load(path.read_text()) or {}
+            what = raw.get("description") or ""
+            tag = f"{raw.get('paper')} {raw.get('table')}: " if raw.get("paper") else ""
+        except (yaml.YAMLError, AttributeError, OSError):
+            tag, what = "", "(not valid YAML)"
+        out.print(f"  {path.name:<28} {tag}{what}", markup=False)
+
+
+@app.command()
+def bench(
+    json_path: Optional[Path] = typer.Option(None, "--json", help="Also write the records as "
+                                             "JSON to this file."),
+    quick: bool = typer.Option(False, "--quick", help="Fewer sizes and repeats (a smoke test)."),
+    c_ref: Optional[Path] = typer.Option(None, "--c-ref", help="A compiled C reference "
+                                         "(ungm_ref) to time in the same run."),
+    threads: int = typer.Option(0, "--threads", min=0, help="Threads for the batch "
+                                "(0: every core)."),
+):
+    """Kernel throughput (particle-steps/s) on UNGM against a numpy (and optional C) reference."""
+    with _guard():
+        from .bench import run_bench
+        run_bench(json_path=json_path, quick=quick, c_ref=c_ref, threads=threads, console=out)
+
+
+def main():  # console-script entry point
+    app()
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

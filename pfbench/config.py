@@ -1,0 +1,336 @@
+"""YAML experiment -> validated, frozen :class:`Experiment`.
+
+Loading is strict: ``yaml.safe_load`` semantics with duplicate keys rejected; every section is checked
+against the schema of its scenario or filter type (unknown keys, wrong types, out-of-range values);
+errors are :class:`ConfigError` with the file, line and key path.
+"""
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterator, Mapping
+
+import yaml
+
+from .filters import FILTERS
+from .papers import PAPERS
+from .scenarios import SCENARIOS
+from .schema import ConfigError, Key, check_mapping, check_section, describe, did_you_mean
+
+FORMAT_VERSION = 1
+
+
+class Params(Mapping):
+    """A read-only mapping of validated parameters (also readable as attributes)."""
+
+    def __init__(self, data: dict):
+        self._data = dict(data)
+
+    def __getitem__(self, k):
+        return self._data[k]
+
+    def __iter__(self) -> Iterator:
+        return iter(self._data)
+
+    def __len__(self) -> int:
+        return len(self._data)
+
+    def __getattr__(self, k):
+        try:
+            return self.__dict__["_data"][k]
+        except KeyError:
+            raise AttributeError(k) from None
+
+    def __repr__(self) -> str:
+        return f"Params({self._data!r})"
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, Mapping) and dict(self) == dict(other)
+
+    def __hash__(self):
+        return hash(json.dumps(self._data, sort_keys=True, default=str))
+
+
+@dataclass(frozen=True)
+class FilterRun:
+    """One filter of an experiment at one particle count (``particles`` is None without particles)."""
+
+    key: str          # unique id within the experiment: "pf@50", "ukf"
+    name: str         # the config key under `filters`
+    type: str
+    label: str        # the paper's name for the row ("PF", "UKF")
+    particles: int | None
+    params: Params
+
+
+@dataclass(frozen=True)
+class Experiment:
+    name: str
+    source: str
+    paper: str | None
+    table: str | None
+    description: str
+    seed: int
+    trials: int
+    scenario: str
+    scenario_params: Params
+    filters: tuple[FilterRun, ...]
+    compare: Params
+    raw: dict = field(repr=False, compare=False, hash=False)
+
+    @property
+    def hash(self) -> str:
+        """sha256 of everything a trial's rows depend on: seed, scenario, filters (not ``trials``)."""
+        payload = {"seed": self.seed, "scenario": self.scenario,
+                   "scenario_params": dict(self.scenario_params),
+                   "filters": [[f.key, f.type, f.label, f.particles, dict(f.params)]
+                               for f in self.filters]}
+        text = json.dumps(payload, sort_keys=True, default=str)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    def filter(self, key: str) -> FilterRun:
+        return next(f for f in self.filters if f.key == key)
+
+
+# ---------------------------------------------------------------- YAML reading
+
+class _StrictLoader(yaml.SafeLoader):
+    """safe_load, but a mapping with a repeated key is an error."""
+
+
+def _construct_mapping(loader, node, deep=False):
+    seen = {}
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=True)
+        if key in seen:
+            raise ConfigError(str(key), f"duplicate key (first given on line {seen[key]})",
+                              line=key_node.start_mark.line + 1)
+        seen[key] = key_node.start_mark.line + 1
+    return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
+
+
+_StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+
+
+def _lines(node, path="", out=None) -> dict[str, int]:
+    """Map each key path ("filters.pf.particles") to its line number in the file."""
+    out = {} if out is None else out
+    if isinstance(node, yaml.MappingNode):
+        for k, v in node.value:
+            p = f"{path}.{k.value}" if path else str(k.value)
+            out[p] = k.start_mark.line + 1
+            _lines(v, p, out)
+    elif isinstance(node, yaml.SequenceNode):
+        for i, v in enumerate(node.value):
+            p = f"{path}[{i}]"
+            out[p] = v.start_mark.line + 1
+            _lines(v, p, out)
+    return out
+
+
+def read_yaml(path: str | Path) -> tuple[Any, dict[str, int]]:
+    """Return (data, line numbers by key path) of a YAML file, rejecting duplicate keys."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError("", "no such file", source=str(path)) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError("", f"cannot read: {exc}", source=str(path)) from None
+    try:
+        data = yaml.load(text, Loader=_StrictLoader)
+        node = yaml.compose(text, Loader=yaml.SafeLoader)
+    except ConfigError as err:
+        raise ConfigError(err.path, err.message, source=str(path), line=err.line) from None
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise ConfigError("", f"not valid YAML: {problem}", source=str(path),
+                          line=mark.line + 1 if mark else None) from None
+    return data, _lines(node)
+
+
+# ---------------------------------------------------------------- overrides
+
+def apply_override(raw: dict, assignment: str) -> None:
+    """Apply ``KEY.PATH=VALUE`` (VALUE read as YAML; ``*`` in the path matches every key) to raw."""
+    key, sep, text = assignment.partition("=")
+    key = key.strip()
+    if not sep or not key:
+        raise ConfigError(f"--set {assignment}", "expected KEY=VALUE, e.g. scenario.steps=60")
+    try:
+        value = yaml.load(text, Loader=_StrictLoader)
+    except (yaml.YAMLError, ConfigError):
+        raise ConfigError(f"--set {key}", f"cannot read the value {text!r}") from None
+    parts = key.split(".")
+
+    def walk(node, i, trail):
+        name = parts[i]
+        here = ".".join(trail + [name])
+        if not isinstance(node, dict):
+            raise ConfigError(f"--set {key}", f"'{'.'.join(trail)}' is not a mapping")
+        if i == len(parts) - 1:
+            targets = list(node) if name == "*" else [name]
+            for t in targets:
+                node[t] = copy.deepcopy(value)
+            return
+        if name == "*":
+            for k in node:
+                walk(node[k], i + 1, trail + [str(k)])
+            return
+        if name not in node:
+            if parts[i + 1] != "*" and i == 0:
+                node[name] = {}
+            else:
+                raise ConfigError(f"--set {key}", f"no '{here}' in the config"
+                                  + did_you_mean(name, list(node)))
+        walk(node[name], i + 1, trail + [name])
+
+    walk(raw, 0, [])
+
+
+# ---------------------------------------------------------------- validation
+
+TOP_SCHEMA = {
+    "name": Key("str", None, "experiment name, the results folder (default: the file name)",
+                nullable=True),
+    "paper": Key("choice", None, "the paper whose table this reproduces", choices=tuple(PAPERS),
+                 nullable=True),
+    "table": Key("str", None, "the table of that paper (a key of pfbench.papers)", nullable=True),
+    "description": Key("str", None, "one line on what the experiment shows", nullable=True),
+    "seed": Key("int", 0, "base seed of numpy.random.SeedSequence (0 is a valid seed)", min=0),
+    "trials": Key("int", 100, "Monte Carlo trials (independent truths and filter runs)", min=1),
+}
+
+COMPARE_SCHEMA = {
+    "rel_tol": Key("float", 0.0, "also call a value reproduced when ours is within this fraction "
+                   "of the paper's (0: only when the paper's value is inside our 95% interval)",
+                   min=0.0),
+    "floor": Key("str", None, "key of a filter run with many particles whose result bounds what any "
+                 "filter can reach; paper values below it are marked 'below the model's floor'",
+                 nullable=True),
+}
+
+FILTER_COMMON = {
+    "type": Key("str", None, "filter type (default: the filter's key)", nullable=True),
+    "label": Key("str", None, "row name in the tables, the paper's name (default: the key)",
+                 nullable=True),
+    "particles": Key("ints", None, "particle count, or a list: one run per count", min=2,
+                     nullable=True),
+}
+
+
+def _validate_filters(raw: Any, scenario: str) -> tuple[FilterRun, ...]:
+    raw = check_mapping("filters", raw)
+    if not raw:
+        raise ConfigError("filters", "expected at least one filter")
+    runs: list[FilterRun] = []
+    for name, spec in raw.items():
+        path = f"filters.{name}"
+        spec = check_mapping(path, spec if spec is not None else {})
+        ftype_name = spec.get("type", name)
+        if ftype_name is None or ftype_name not in FILTERS:
+            shown = ftype_name if "type" in spec else name
+            where = f"{path}.type" if "type" in spec else path
+            raise ConfigError(where, f"unknown filter type '{shown}'" + did_you_mean(shown, FILTERS)
+                              + f"; valid types: {', '.join(FILTERS)}"
+                              + ("" if "type" in spec else " (set 'type' when the key is not one)"))
+        ftype = FILTERS[ftype_name]
+        if ftype.scenarios is not None and scenario not in ftype.scenarios:
+            raise ConfigError(path, f"filter type '{ftype_name}' runs only on scenario "
+                              + ", ".join(ftype.scenarios))
+        common = check_section({k: v for k, v in spec.items() if k in FILTER_COMMON},
+                               FILTER_COMMON, path)
+        params = check_section({k: v for k, v in spec.items() if k not in FILTER_COMMON},
+                               ftype.schema, path)
+        if ftype_name == "ukf":
+            L = 3 if params["augmented"] else 1
+            if L + params["kappa"] <= 0:
+                raise ConfigError(f"{path}.kappa", f"expected kappa > {-L} (L + kappa > 0 with "
+                                  f"L = {L}), got {params['kappa']!r}")
+        label = common["label"] or name
+        counts = common["particles"]
+        if ftype.particles and counts is None:
+            raise ConfigError(f"{path}.particles", "missing required key (an integer >= 2 or a "
+                              "list of them)")
+        if not ftype.particles and counts is not None:
+            raise ConfigError(f"{path}.particles", f"filter type '{ftype_name}' has no particles")
+        for n in counts or (None,):
+            key = name if n is None else f"{name}@{n}"
+            runs.append(FilterRun(key, name, ftype_name, label, n, Params(params)))
+    seen = {}
+    for r in runs:
+        row = (r.label, r.particles)
+        if row in seen:
+            raise ConfigError(f"filters.{r.name}.label", f"label '{r.label}' with "
+                              f"{r.particles} particles is also used by filters.{seen[row]}")
+        seen[row] = r.name
+    return tuple(runs)
+
+
+def validate(raw: Any, source: str = "config") -> Experiment:
+    """Validate the raw mapping of a config file into an :class:`Experiment`."""
+    raw = check_mapping("", raw if raw is not None else {})
+    top = check_section({k: v for k, v in raw.items() if k not in ("scenario", "filters", "compare")},
+                        TOP_SCHEMA, "")
+    if "scenario" not in raw:
+        raise ConfigError("scenario", "missing required section (a mapping with 'name' and the "
+                          "scenario's keys)")
+    scen_raw = check_mapping("scenario", raw["scenario"])
+    scen_name = scen_raw.get("name")
+    if not isinstance(scen_name, str) or scen_name not in SCENARIOS:
+        msg = ("missing required key" if scen_name is None
+               else f"unknown scenario {describe(scen_name)}" + did_you_mean(scen_name, SCENARIOS))
+        raise ConfigError("scenario.name", f"{msg}; valid scenarios: {', '.join(SCENARIOS)}")
+    scen_params = check_section({k: v for k, v in scen_raw.items() if k != "name"},
+                                SCENARIOS[scen_name].SCHEMA, "scenario")
+    if "filters" not in raw:
+        raise ConfigError("filters", "missing required section (a mapping of filter name -> "
+                          "settings)")
+    filters = _validate_filters(raw["filters"], scen_name)
+    compare = check_section(raw.get("compare") or {}, COMPARE_SCHEMA, "compare")
+    if compare["floor"] is not None and compare["floor"] not in {f.key for f in filters}:
+        keys = [f.key for f in filters]
+        raise ConfigError("compare.floor", f"no filter run '{compare['floor']}'"
+                          + did_you_mean(compare["floor"], keys) + f"; runs: {', '.join(keys)}")
+    if top["table"] is not None:
+        if top["paper"] is None:
+            raise ConfigError("table", "needs 'paper' too")
+        tables = PAPERS[top["paper"]].tables
+        if top["table"] not in tables:
+            raise ConfigError("table", f"paper {top['paper']} has no table '{top['table']}'"
+                              + did_you_mean(top["table"], tables) + f"; tables: {', '.join(tables)}")
+    name = top["name"] or Path(source).stem
+    return Experiment(name=name, source=source, paper=top["paper"], table=top["table"],
+                      description=top["description"] or "", seed=top["seed"],
+                      trials=top["trials"], scenario=scen_name,
+                      scenario_params=Params(scen_params), filters=filters,
+                      compare=Params(compare), raw=copy.deepcopy(raw))
+
+
+def load(path: str | Path, overrides: dict[str, Any] | None = None,
+         sets: list[str] | tuple[str, ...] = ()) -> Experiment:
+    """Read, override and validate a config file.
+
+    overrides : top-level values from command-line flags (``trials``, ``seed``); None is skipped.
+    sets : ``KEY.PATH=VALUE`` assignments (``--set``), applied before validation.
+    """
+    source = str(path)
+    data, lines = read_yaml(path)
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise ConfigError("", f"expected a mapping of keys at the top, got {describe(data)}",
+                          source=source)
+    try:
+        for assignment in sets:
+            apply_override(data, assignment)
+        for k, v in (overrides or {}).items():
+            if v is not None:
+                data[k] = v
+        return validate(data, source)
+    except ConfigError as err:
+        raise err.located(source, lines) from None

@@ -1,0 +1,86 @@
+"""Per-trial metrics of a filter run, and summaries over trials with 95% intervals."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+# Per-trial metric columns, in the order trials.csv shows them.
+METRICS = {
+    "rmse": "root mean squared error of the estimate over t = 1..T",
+    "mse": "mean squared error over t = 1..T (rmse squared)",
+    "mean_ess": "mean effective sample size 1 / sum W^2 over t = 1..T (particle filters)",
+    "resample_count": "number of steps that resampled",
+    "diversity_l1": "mean pairwise |x_i - x_j| of the particles right after resampling, averaged "
+                    "over the steps that resampled",
+    "distinct_frac": "fraction of distinct particles right after resampling, averaged likewise",
+    "underflow_steps": "steps where every log-weight was -inf or NaN (weights reset to uniform)",
+    "lik_evals_per_step": "measurement-model evaluations per step (N for a PF, sigma points for "
+                          "a UKF)",
+}
+
+
+def _nanmean(a) -> float:
+    a = np.asarray(a, dtype=float)
+    a = a[~np.isnan(a)]
+    return float(a.mean()) if a.size else math.nan
+
+
+def trial_metrics(x: np.ndarray, out: dict) -> dict:
+    """Metrics of one filter run: truth ``x`` (T+1,), filter output ``out`` (traces (T+1,))."""
+    err = out["xhat"][1:] - x[1:]
+    mse = float(np.mean(err * err))
+    row = {"rmse": math.sqrt(mse), "mse": mse, "mean_ess": math.nan, "resample_count": math.nan,
+           "diversity_l1": math.nan, "distinct_frac": math.nan,
+           "underflow_steps": float(out.get("underflow_steps", 0)),
+           "lik_evals_per_step": float(out["lik_evals_per_step"])}
+    if "ess" in out:
+        row["mean_ess"] = float(np.mean(out["ess"][1:]))
+        row["resample_count"] = float(np.sum(out["resampled"][1:]))
+        row["diversity_l1"] = _nanmean(out["div_l1"][1:])
+        row["distinct_frac"] = _nanmean(out["distinct"][1:])
+    return row
+
+
+_T975 = (12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179,
+         2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060,
+         2.056, 2.052, 2.048, 2.045, 2.042)
+Z975 = 1.959963984540054
+
+
+def t975(df: int) -> float:
+    """0.975 quantile of Student's t with ``df`` degrees of freedom (table, then Cornish-Fisher)."""
+    if df < 1:
+        return math.nan
+    if df <= len(_T975):
+        return _T975[df - 1]
+    z = Z975
+    return (z + (z ** 3 + z) / (4 * df) + (5 * z ** 5 + 16 * z ** 3 + 3 * z) / (96 * df ** 2)
+            + (3 * z ** 7 + 19 * z ** 5 + 17 * z ** 3 - 15 * z) / (384 * df ** 3))
+
+
+def summarize(values) -> dict:
+    """Mean, variance, standard error and 95% intervals over trials (NaN values are dropped).
+
+    The mean's interval uses Student's t; the variance's uses the distribution-free standard error
+    sqrt((m4 - s^4 (n-3)/(n-1)) / n) with a normal quantile (values over 30 trials or so).
+    """
+    v = np.asarray(values, dtype=float)
+    v = v[~np.isnan(v)]
+    n = v.size
+    out = {"n": n, "mean": math.nan, "var": math.nan, "se": math.nan, "ci_lo": math.nan,
+           "ci_hi": math.nan, "var_ci_lo": math.nan, "var_ci_hi": math.nan}
+    if n == 0:
+        return out
+    mean = float(v.mean())
+    out["mean"] = mean
+    if n < 2:
+        return out
+    var = float(v.var(ddof=1))
+    se = math.sqrt(var / n)
+    half = t975(n - 1) * se
+    m4 = float(np.mean((v - mean) ** 4))
+    var_se = math.sqrt(max(m4 - var * var * (n - 3) / (n - 1), 0.0) / n)
+    out.update(var=var, se=se, ci_lo=mean - half, ci_hi=mean + half,
+               var_ci_lo=max(var - Z975 * var_se, 0.0), var_ci_hi=var + Z975 * var_se)
+    return out

@@ -1,0 +1,152 @@
+"""Resampling schemes: multinomial, systematic, stratified, residual.
+
+Each scheme maps non-negative weights ``w`` (N,), not necessarily normalised, to N ancestor indices.
+All of them merge sorted positions in [0, S) against the running sum of ``w`` (S = sum of w). Indices
+never pass the last particle of positive weight, so round-off in S (weights that sum to 1 - 1e-12, a
+last position that rounds up to S) can neither index past the end nor pick a zero-weight particle.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, types
+
+from .rng import STATE, uniform
+
+SCHEMES = {
+    "multinomial": "independent draws from the weights (sorted uniforms, O(N))",
+    "systematic": "one uniform offset, N evenly spaced positions (lowest variance, the usual default)",
+    "stratified": "one uniform per stratum [i/N, (i+1)/N)",
+    "residual": "floor(N w) deterministic copies, the rest multinomial on the residual weights",
+}
+SCHEME_CODES = {name: code for code, name in enumerate(SCHEMES)}
+
+_IDX = types.int64[::1]
+_W = types.float64[::1]
+
+
+@njit(types.int64(_W), cache=True)
+def _last_positive(w):
+    j = w.size - 1
+    while j > 0 and not (w[j] > 0.0):
+        j -= 1
+    return j
+
+
+@njit(types.void(_W, types.float64, _W, _IDX, types.int64), cache=True)
+def _merge(w, S, pos, idx, start):
+    """idx[start + i] = first j with cumsum(w)[j] > pos[i]; pos sorted ascending in [0, S)."""
+    jmax = _last_positive(w)
+    j = 0
+    cum = w[0]
+    for i in range(pos.size):
+        p = pos[i]
+        while p >= cum and j < jmax:
+            j += 1
+            cum += w[j]
+        idx[start + i] = j
+
+
+@njit(types.void(_W, types.float64, STATE, _IDX), cache=True)
+def systematic(w, S, s, idx):
+    """Systematic resampling: positions (u + i) S / N with one u ~ U[0, 1)."""
+    N = idx.size
+    step = S / N
+    u = uniform(s)
+    jmax = _last_positive(w)
+    j = 0
+    cum = w[0]
+    for i in range(N):
+        p = (u + i) * step
+        while p >= cum and j < jmax:
+            j += 1
+            cum += w[j]
+        idx[i] = j
+
+
+@njit(types.void(_W, types.float64, STATE, _IDX), cache=True)
+def stratified(w, S, s, idx):
+    """Stratified resampling: positions (u_i + i) S / N with independent u_i ~ U[0, 1)."""
+    N = idx.size
+    step = S / N
+    jmax = _last_positive(w)
+    j = 0
+    cum = w[0]
+    for i in range(N):
+        p = (uniform(s) + i) * step
+        while p >= cum and j < jmax:
+            j += 1
+            cum += w[j]
+        idx[i] = j
+
+
+@njit(types.void(_W, types.float64, STATE, _IDX, types.int64, types.int64), cache=True)
+def _multinomial_into(w, S, s, idx, start, M):
+    """Write M multinomial draws from w into idx[start:start+M] (sorted uniforms by spacings)."""
+    if M <= 0:
+        return
+    pos = np.empty(M)
+    acc = 0.0
+    for i in range(M):
+        acc += -math.log(1.0 - uniform(s))
+        pos[i] = acc
+    total = acc - math.log(1.0 - uniform(s))
+    scale = S / total
+    for i in range(M):
+        pos[i] *= scale
+    _merge(w, S, pos, idx, start)
+
+
+@njit(types.void(_W, types.float64, STATE, _IDX), cache=True)
+def multinomial(w, S, s, idx):
+    """Multinomial resampling: N independent draws from the normalised weights."""
+    _multinomial_into(w, S, s, idx, 0, idx.size)
+
+
+@njit(types.void(_W, types.float64, STATE, _IDX), cache=True)
+def residual(w, S, s, idx):
+    """Residual resampling: floor(N W_i) copies of i, the remainder multinomial on the residuals."""
+    N = idx.size
+    r = np.empty(N)
+    k = 0
+    for i in range(N):
+        nw = N * w[i] / S
+        c = int(math.floor(nw + 1e-9))  # 1e-9: uniform weights give exactly one copy each
+        rem = nw - c
+        r[i] = rem if rem > 0.0 else 0.0
+        for _ in range(c):
+            if k < N:
+                idx[k] = i
+                k += 1
+    if k < N:
+        R = 0.0
+        for i in range(N):
+            R += r[i]
+        if R > 0.0:
+            _multinomial_into(r, R, s, idx, k, N - k)
+        else:  # all mass was deterministic; round-off left slots: fill from the weights
+            _multinomial_into(w, S, s, idx, k, N - k)
+
+
+@njit(types.void(types.int64, _W, types.float64, STATE, _IDX), cache=True)
+def resample(scheme, w, S, s, idx):
+    """Dispatch on ``scheme`` (a value of ``SCHEME_CODES``); ``S`` must equal ``w.sum()``."""
+    if scheme == 0:
+        multinomial(w, S, s, idx)
+    elif scheme == 1:
+        systematic(w, S, s, idx)
+    elif scheme == 2:
+        stratified(w, S, s, idx)
+    else:
+        residual(w, S, s, idx)
+
+
+def ancestors(weights, scheme: str, state: np.ndarray) -> np.ndarray:
+    """Python entry point: ancestor indices (N,) for ``weights`` (N,) under ``scheme``."""
+    w = np.ascontiguousarray(weights, dtype=np.float64)
+    if w.ndim != 1 or w.size == 0 or not np.all(w >= 0) or not np.isfinite(w).all() or w.sum() <= 0:
+        raise ValueError("weights must be a non-empty 1-D array of finite non-negative numbers with a positive sum")
+    idx = np.empty(w.size, dtype=np.int64)
+    resample(SCHEME_CODES[scheme], w, float(w.sum()), state, idx)
+    return idx

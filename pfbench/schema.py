@@ -1,0 +1,200 @@
+"""Strict checking of config sections against declared keys.
+
+A section schema is a dict ``name -> Key``. :func:`check_section` returns a plain dict with every key
+of the schema (defaults filled in) or raises :class:`ConfigError` naming the key path, what was
+expected and what was found, with a did-you-mean for misspelt keys and names.
+"""
+from __future__ import annotations
+
+import difflib
+import math
+from dataclasses import dataclass
+from typing import Any, Callable
+
+from .errors import UserError
+
+REQUIRED = object()
+
+# PyYAML follows YAML 1.1: 1e3 and 1e-3 (no dot) are read as strings, not numbers.
+_YAML11_HINT = "YAML 1.1 reads a number without a dot in its mantissa, like 1e3, as text: write 1.0e3"
+
+
+class ConfigError(UserError):
+    """A config that does not fit its schema; ``str()`` is the one-line message."""
+
+    def __init__(self, path: str, message: str, *, source: str = "", line: int | None = None):
+        self.path, self.message, self.source, self.line = path, message, source, line
+        super().__init__(self._text())
+
+    def _text(self) -> str:
+        where = self.source or "config"
+        if self.line is not None:
+            where += f":{self.line}"
+        return f"{where}: {self.path}: {self.message}" if self.path else f"{where}: {self.message}"
+
+    def located(self, source: str, lines: dict[str, int]) -> "ConfigError":
+        """Return this error with the file name and the line of the key path filled in."""
+        line = self.line
+        p = self.path
+        while line is None and p:
+            line = lines.get(p)
+            p = p.rpartition(".")[0]
+        return ConfigError(self.path, self.message, source=source, line=line)
+
+
+def did_you_mean(word: str, options) -> str:
+    close = difflib.get_close_matches(str(word), [str(o) for o in options], n=1, cutoff=0.6)
+    return f" (did you mean '{close[0]}'?)" if close else ""
+
+
+def describe(value: Any) -> str:
+    if isinstance(value, bool):
+        return f"the boolean {str(value).lower()}"
+    if isinstance(value, str):
+        return f"the string '{value}'"
+    if isinstance(value, (int, float)):
+        return f"{value!r}"
+    if value is None:
+        return "nothing (null)"
+    if isinstance(value, list):
+        return "a list"
+    if isinstance(value, dict):
+        return "a mapping"
+    return type(value).__name__
+
+
+def _looks_numeric(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+@dataclass(frozen=True)
+class Key:
+    """One config key.
+
+    kind : 'int', 'float', 'str', 'bool', 'choice', 'ints' (an int or a list of distinct ints)
+    default : value used when the key is absent; ``REQUIRED`` if it must be given
+    doc : one line for the README and ``pfbench list --keys``
+    min, max : bounds for numbers (``min_exclusive``: strictly greater than min)
+    choices : allowed values for 'choice'
+    nullable : null (None) is allowed
+    check : extra validator returning an error message or None
+    """
+
+    kind: str
+    default: Any = REQUIRED
+    doc: str = ""
+    min: float | None = None
+    max: float | None = None
+    min_exclusive: bool = False
+    choices: tuple = ()
+    nullable: bool = False
+    check: Callable[[Any], str | None] | None = None
+
+    def expected(self) -> str:
+        if self.kind == "choice":
+            return "one of " + ", ".join(f"'{c}'" for c in self.choices)
+        noun = {"int": "an integer", "float": "a number", "str": "a string", "bool": "true or false",
+                "ints": "an integer or a list of integers"}[self.kind]
+        bounds = []
+        if self.min is not None:
+            bounds.append(f"{'>' if self.min_exclusive else '>='} {self.min:g}")
+        if self.max is not None:
+            bounds.append(f"<= {self.max:g}")
+        return noun + (" " + " and ".join(bounds) if bounds else "")
+
+    def _range_ok(self, v) -> bool:
+        if self.min is not None and (v <= self.min if self.min_exclusive else v < self.min):
+            return False
+        return self.max is None or v <= self.max
+
+    def _wrong(self, path: str, value: Any) -> ConfigError:
+        msg = f"expected {self.expected()}, got {describe(value)}"
+        if isinstance(value, str) and self.kind in ("int", "float", "ints") and _looks_numeric(value):
+            msg += f" ({_YAML11_HINT})"
+        return ConfigError(path, msg)
+
+    def _scalar(self, path: str, value: Any, kind: str):
+        if kind == "int":
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise self._wrong(path, value)
+        elif kind == "float":
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise self._wrong(path, value)
+            if not math.isfinite(value):
+                raise ConfigError(path, f"expected a finite number, got {value!r}")
+            value = float(value)
+        if kind in ("int", "float") and not self._range_ok(value):
+            raise ConfigError(path, f"expected {self.expected()}, got {describe(value)}")
+        return value
+
+    def validate(self, path: str, value: Any):
+        """Return the checked (and normalised) value or raise :class:`ConfigError`."""
+        if value is None:
+            if self.nullable:
+                return None
+            raise ConfigError(path, f"expected {self.expected()}, got nothing (null)")
+        k = self.kind
+        if k in ("int", "float"):
+            value = self._scalar(path, value, k)
+        elif k == "bool":
+            if not isinstance(value, bool):
+                raise self._wrong(path, value)
+        elif k == "str":
+            if not isinstance(value, str) or not value.strip():
+                raise ConfigError(path, f"expected a non-empty string, got {describe(value)}")
+        elif k == "choice":
+            if not isinstance(value, str) or value not in self.choices:
+                raise ConfigError(path, f"expected {self.expected()}, got {describe(value)}"
+                                  + did_you_mean(value, self.choices))
+        elif k == "ints":
+            items = value if isinstance(value, list) else [value]
+            if not items:
+                raise ConfigError(path, f"expected {self.expected()}, got an empty list")
+            out = []
+            for i, item in enumerate(items):
+                sub = f"{path}[{i}]" if isinstance(value, list) else path
+                if isinstance(item, bool) or not isinstance(item, int):
+                    raise self._wrong(sub, item)
+                if not self._range_ok(item):
+                    raise ConfigError(sub, f"expected {self.expected()}, got {item!r}")
+                out.append(item)
+            if len(set(out)) != len(out):
+                raise ConfigError(path, f"expected distinct values, got {out}")
+            value = tuple(out)
+        else:  # pragma: no cover - a schema bug, not a user error
+            raise AssertionError(f"unknown key kind {k}")
+        if self.check is not None:
+            problem = self.check(value)
+            if problem:
+                raise ConfigError(path, problem)
+        return value
+
+
+def check_mapping(path: str, raw: Any) -> dict:
+    if not isinstance(raw, dict):
+        raise ConfigError(path, f"expected a mapping of keys, got {describe(raw)}")
+    return raw
+
+
+def check_section(raw: Any, schema: dict[str, Key], path: str, *, ignore: tuple = ()) -> dict:
+    """Validate mapping ``raw`` against ``schema``; return every schema key with defaults filled."""
+    raw = check_mapping(path, raw)
+    prefix = f"{path}." if path else ""
+    for name in raw:
+        if name not in schema and name not in ignore:
+            valid = sorted(schema)
+            raise ConfigError(f"{prefix}{name}", "unknown key" + did_you_mean(name, valid)
+                              + f"; valid keys: {', '.join(valid)}")
+    out = {}
+    for name, key in schema.items():
+        if name in raw:
+            out[name] = key.validate(f"{prefix}{name}", raw[name])
+        elif key.default is REQUIRED:
+            raise ConfigError(f"{prefix}{name}", f"missing required key ({key.expected()})")
+        else:
+            out[name] = key.default
+    return out

@@ -1,0 +1,160 @@
+"""Rows of trials -> summary table with the paper's values, ratios and verdicts -> CSV / Markdown."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pandas as pd
+
+from .config import Experiment
+from .metrics import summarize
+from .papers import PAPERS, Quantity, Table, reported
+from .runner import atomic_write
+
+# Per-trial metrics summarised as their mean over trials in every table.
+MEAN_COLUMNS = ("mean_ess", "resample_count", "diversity_l1", "distinct_frac",
+                "lik_evals_per_step")
+
+
+def verdict(paper: float | None, ours: float, lo: float, hi: float, *, rel_tol: float = 0.0,
+            floor: float | None = None, not_comparable: str | None = None) -> str:
+    """Compare a paper value with ours (point ``ours``, 95% interval [lo, hi]).
+
+    'reproduced' when the paper's value lies in our interval (or within ``rel_tol`` of ours);
+    'differs (x R)' otherwise, R = ours / paper, noting when the paper's value is below ``floor``
+    (the lower 95% bound of what a near-optimal filter reaches); 'not comparable: reason' if set.
+    """
+    if paper is None or (isinstance(paper, float) and math.isnan(paper)):
+        return ""
+    if not_comparable:
+        return f"not comparable: {not_comparable}"
+    if math.isnan(ours):
+        return "not comparable: no finite result"
+    if lo <= paper <= hi:
+        return "reproduced"
+    ratio = ours / paper if paper else math.inf
+    if rel_tol > 0 and abs(ratio - 1.0) <= rel_tol:
+        return f"reproduced (within {rel_tol:.0%})"
+    text = f"differs (x{ratio:.2f})"
+    if floor is not None and paper < floor:
+        text += "; paper below the model's floor"
+    return text
+
+
+def _stat(s: dict, q: Quantity) -> tuple[float, float, float]:
+    if q.stat == "mean":
+        return s["mean"], s["ci_lo"], s["ci_hi"]
+    return s["var"], s["var_ci_lo"], s["var_ci_hi"]
+
+
+def summary(exp: Experiment, rows: list[dict] | pd.DataFrame) -> pd.DataFrame:
+    """One row per filter run: statistics over trials, and the paper columns when there are any."""
+    df = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(rows)
+    table: Table | None = reported(exp.paper, exp.table)
+    by_key = {f.key: g for f in exp.filters for k, g in [(f.key, df[df["filter"] == f.key])]}
+    floor = None
+    if exp.compare["floor"] is not None:
+        floor = summarize(by_key[exp.compare["floor"]]["rmse"])["ci_lo"]
+    out = []
+    for run in exp.filters:
+        g = by_key[run.key]
+        r = {"filter": run.key, "label": run.label, "particles": run.particles, "trials": len(g)}
+        for metric in ("rmse", "mse"):
+            s = summarize(g[metric])
+            r.update({f"{metric}_{k}": s[k] for k in ("mean", "ci_lo", "ci_hi", "var",
+                                                       "var_ci_lo", "var_ci_hi", "se")})
+        for metric in MEAN_COLUMNS:
+            r[metric] = summarize(g[metric])["mean"]
+        r["underflow_steps"] = float(g["underflow_steps"].sum())
+        r["wall_ms_per_trial"] = 1e3 * float(g["wall_s"].mean()) if len(g) else math.nan
+        if table is not None:
+            values = table.values.get((run.label, run.particles), {})
+            for q in table.quantities:
+                paper = values.get(q.key)
+                s = summarize(g[q.metric])
+                ours, lo, hi = _stat(s, q)
+                r[f"paper_{q.key}"] = paper
+                r[f"ratio_{q.key}"] = ours / paper if paper else math.nan
+                r[f"verdict_{q.key}"] = verdict(
+                    paper, ours, lo, hi, rel_tol=exp.compare["rel_tol"],
+                    floor=floor if run.key != exp.compare["floor"] else None,
+                    not_comparable=table.not_comparable)
+        out.append(r)
+    return pd.DataFrame(out)
+
+
+def _fmt(v, digits=4) -> str:
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return "-"
+    if isinstance(v, float):
+        return f"{v:.{digits}g}"
+    return str(v)
+
+
+def display_columns(exp: Experiment, tab: pd.DataFrame) -> tuple[list[str], list[list[str]]]:
+    """Header and cells of the human table (Markdown and the console share it)."""
+    table = reported(exp.paper, exp.table)
+    quantities = table.quantities if table else ()
+    head = ["Filter", "N", "Trials", "RMSE mean [95% CI]", "RMSE var [95% CI]"]
+    for q in quantities:
+        head += [f"Paper {q.title}", "Ratio", "Verdict"]
+    head += ["Mean ESS", "Distinct", "Evals/step", "ms/trial"]
+    cells = []
+    for _, r in tab.iterrows():
+        n = r["particles"]
+        row = [r["label"], "-" if n is None or n != n else str(int(n)), str(int(r["trials"])),
+               f"{_fmt(r['rmse_mean'])} [{_fmt(r['rmse_ci_lo'])}, {_fmt(r['rmse_ci_hi'])}]",
+               f"{_fmt(r['rmse_var'])} [{_fmt(r['rmse_var_ci_lo'])}, {_fmt(r['rmse_var_ci_hi'])}]"]
+        for q in quantities:
+            row += [_fmt(r[f"paper_{q.key}"]), _fmt(r[f"ratio_{q.key}"], 3),
+                    r[f"verdict_{q.key}"] or "-"]
+        row += [_fmt(r["mean_ess"]), _fmt(r["distinct_frac"], 3), _fmt(r["lik_evals_per_step"]),
+                _fmt(r["wall_ms_per_trial"], 3)]
+        cells.append(row)
+    return head, cells
+
+
+def footnotes(exp: Experiment, tab: pd.DataFrame) -> list[str]:
+    """Lines that explain the table: the floor row, underflow events."""
+    notes = []
+    if exp.compare["floor"] is not None:
+        r = tab[tab["filter"] == exp.compare["floor"]].iloc[0]
+        notes.append(f"Floor: {r['label']} with N = {int(r['particles'])} reaches RMSE "
+                     f"{r['rmse_mean']:.3f} [{r['rmse_ci_lo']:.3f}, {r['rmse_ci_hi']:.3f}]; no filter "
+                     "can average below what a near-optimal filter reaches, so a paper value under "
+                     "that interval is marked 'paper below the model's floor'.")
+    events = float(tab["underflow_steps"].sum())
+    if events > 0:
+        notes.append(f"Underflow steps (every weight zero, measurement ignored): {int(events)}.")
+    return notes
+
+
+def markdown(exp: Experiment, tab: pd.DataFrame, meta: dict | None = None) -> str:
+    """table.md: title, provenance, the table and the paper's notes."""
+    table = reported(exp.paper, exp.table)
+    lines = [f"# {exp.name}", ""]
+    if exp.description:
+        lines += [exp.description, ""]
+    if table is not None:
+        lines += [f"Paper: `{exp.paper}` {exp.table}: {PAPERS[exp.paper].citation}.", "",
+                  f"Table: {table.caption}.", ""]
+    trials = int(tab["trials"].max()) if len(tab) else 0
+    lines += [f"Scenario `{exp.scenario}`; {trials} trials; seed {exp.seed}; experiment hash "
+              f"`{exp.hash}`" + (f"; pfbench {meta['versions']['pfbench']}" if meta else "") + ".",
+              "", "Intervals are 95% over trials (Student's t for the mean; a distribution-free "
+              "standard error for the variance).", ""]
+    head, cells = display_columns(exp, tab)
+    lines.append("| " + " | ".join(head) + " |")
+    lines.append("|" + "|".join(" --- " for _ in head) + "|")
+    for row in cells:
+        lines.append("| " + " | ".join(c.replace("|", "/") for c in row) + " |")
+    notes = footnotes(exp, tab) + list(table.notes if table is not None else ())
+    if notes:
+        lines += ["", "Notes:", ""] + [f"- {n}" for n in notes]
+    return "\n".join(lines) + "\n"
+
+
+def write(exp: Experiment, tab: pd.DataFrame, out_dir: Path, meta: dict | None = None) -> None:
+    """Write table.csv and table.md into ``out_dir`` (atomically)."""
+    atomic_write(Path(out_dir) / "table.csv", tab.to_csv(index=False, lineterminator="\n"))
+    atomic_write(Path(out_dir) / "table.md", markdown(exp, tab, meta))
