@@ -15,9 +15,19 @@ from .errors import UserError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Reproduce the tables of particle-filter papers from YAML experiments.")
-# Wide enough for the tables when stdout is a file or a pipe (rich would assume 80 columns).
-out = Console(highlight=False, width=None if sys.stdout.isatty() else 200)
 err = Console(stderr=True, highlight=False)
+
+
+class _Out:
+    """stdout through rich, bound to the sys.stdout of the moment (test runners swap it)."""
+
+    def print(self, *args, **kwargs):
+        # Wide enough for the tables when stdout is a file or a pipe (rich would assume 80 columns).
+        width = None if sys.stdout.isatty() else 200
+        Console(file=sys.stdout, highlight=False, width=width).print(*args, **kwargs)
+
+
+out = _Out()
 _state = {"debug": False}
 
 

@@ -106,7 +106,7 @@ def display_columns(exp: Experiment, tab: pd.DataFrame) -> tuple[list[str], list
                f"{_fmt(r['rmse_mean'])} [{_fmt(r['rmse_ci_lo'])}, {_fmt(r['rmse_ci_hi'])}]",
                f"{_fmt(r['rmse_var'])} [{_fmt(r['rmse_var_ci_lo'])}, {_fmt(r['rmse_var_ci_hi'])}]"]
         for q in quantities:
-            row += [_fmt(r[f"paper_{q.key}"]), _fmt(r[f"ratio_{q.key}"], 3),
+            row += [_fmt(r[f"paper_{q.key}"], 6), _fmt(r[f"ratio_{q.key}"], 3),
                     r[f"verdict_{q.key}"] or "-"]
         row += [_fmt(r["mean_ess"]), _fmt(r["distinct_frac"], 3), _fmt(r["lik_evals_per_step"]),
                 _fmt(r["wall_ms_per_trial"], 3)]

@@ -1,0 +1,210 @@
+"""``pfbench bench``: throughput of the bootstrap PF kernel on UNGM, beside references timed in
+the same run.
+
+Workload (the C reference's, ../shared/bench): UNGM with Q = 10, R = 1, T = 100, truth from
+x_0 = 0.1, particle prior N(0, 2), systematic resampling every step, weighted-mean estimate. The
+pfbench kernel is the one ``pfbench run`` uses, with the per-step diagnostics off. Implementations:
+``pfbench`` (single trial, one thread; and a batch of trials over threads), ``numpy`` (vectorised
+over particles, one process), and ``c`` when ``--c-ref`` names a compiled ungm_ref.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import struct
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+import numba
+import numpy as np
+from numba import njit, prange, types
+
+from .errors import UserError
+from .filters.pf import PF_SIG, pf_kernel
+from .rng import state_from_seed
+from .scenarios import ungm
+from .scenarios.base import ModelFn, simulate
+
+T = 100
+Q, R, P0, X0 = 10.0, 1.0, 2.0, 0.1
+SIZES = (100, 1_000, 10_000, 100_000, 1_000_000)
+BATCH_TRIALS, BATCH_N = 1000, 100
+_SCHEME_SYSTEMATIC = 1
+
+_F = types.float64[::1]
+_F2 = types.float64[:, ::1]
+del PF_SIG  # the batch kernel calls pf_kernel with the same argument types
+
+
+@njit(types.void(ModelFn, ModelFn, _F, _F, _F2, types.float64, types.float64, types.int64,
+                 types.uint64[:, ::1], _F2), cache=True, parallel=True)
+def pf_batch(f, h, theta, noise, Y, prior_mean, prior_var, N, S, XH):
+    """Run pf_kernel on every row of Y (trials x (T+1)) in parallel; estimates into XH."""
+    K, T1 = Y.shape
+    for k in prange(K):
+        ess = np.empty(T1)
+        res = np.empty(T1, dtype=np.int64)
+        d1 = np.empty(T1)
+        d2 = np.empty(T1)
+        pf_kernel(f, h, theta, noise, Y[k], prior_mean, prior_var, N, 1, np.inf, 0, 0, S[k],
+                  XH[k], ess, res, d1, d2)
+
+
+def bench_model():
+    params = {k: key.default for k, key in ungm.SCHEMA.items()}
+    params.update(steps=T, process_noise_var=Q, measurement_noise_var=R, x0=X0, prior_mean=0.0,
+                  prior_var=P0)
+    return ungm.build(params)
+
+
+def bench_data(K: int, seed: int = 12345):
+    """Truths X and measurements Y, each (K, T+1), of the benchmark model."""
+    model = bench_model()
+    X = np.empty((K, T + 1))
+    Y = np.empty((K, T + 1))
+    for k, ss in enumerate(np.random.SeedSequence(seed).spawn(K)):
+        X[k], Y[k] = simulate(model, state_from_seed(ss))
+    return X, Y
+
+
+def pfbench_single(model, y, N, state):
+    T1 = y.size
+    xhat, ess, d1, d2 = (np.empty(T1) for _ in range(4))
+    res = np.empty(T1, dtype=np.int64)
+    pf_kernel(model.transition, model.observe, model.theta, model.noise, y, model.prior_mean,
+              model.prior_var, N, _SCHEME_SYSTEMATIC, np.inf, 0, 0, state, xhat, ess, res, d1, d2)
+    return xhat
+
+
+def numpy_pf(y: np.ndarray, N: int, rng: np.random.Generator) -> np.ndarray:
+    """The same filter written as plain vectorised numpy (the usual way without a compiler)."""
+    sq = math.sqrt(Q)
+    x = rng.normal(0.0, math.sqrt(P0), N)
+    xhat = np.zeros(y.size)
+    steps = np.arange(N)
+    for t in range(1, y.size):
+        xn = 0.5 * x + 25.0 * x / (1.0 + x * x) + 8.0 * math.cos(1.2 * t) + sq * rng.standard_normal(N)
+        lw = -0.5 * (y[t] - xn * xn / 20.0) ** 2 / R
+        w = np.exp(lw - lw.max())
+        c = np.cumsum(w)
+        S = c[-1]
+        xhat[t] = w @ xn / S
+        pos = (rng.random() + steps) * (S / N)
+        idx = np.minimum(np.searchsorted(c, pos, side="right"), N - 1)
+        x = xn[idx]
+    return xhat
+
+
+def _best(fn, min_time: float, reps: int) -> tuple[float, int]:
+    """Best over ``reps`` of the mean time per call, each rep repeating fn for >= min_time."""
+    best, calls = math.inf, 0
+    for _ in range(reps):
+        n, t0 = 0, time.perf_counter()
+        while True:
+            fn()
+            n += 1
+            el = time.perf_counter() - t0
+            if el >= min_time:
+                break
+        if el / n < best:
+            best, calls = el / n, n
+    return best, calls
+
+
+def _record(impl, mode, N, trials, seconds, threads, **extra):
+    rec = {"workload": "ungm", "impl": impl, "mode": mode, "particles": N, "trials": trials,
+           "steps": T, "threads": threads, "seconds": seconds,
+           "particle_steps_per_s": N * T * trials / seconds}
+    rec.update(extra)
+    return rec
+
+
+def _write_c_data(path: Path, X, Y):
+    with open(path, "wb") as fh:
+        fh.write(struct.pack("<qq", X.shape[0], X.shape[1] - 1))
+        fh.write(np.ascontiguousarray(X, dtype="<f8").tobytes())
+        fh.write(np.ascontiguousarray(Y, dtype="<f8").tobytes())
+
+
+def _c_lines(binary: Path, *args) -> list[list[float]]:
+    try:
+        res = subprocess.run([str(binary), *map(str, args)], capture_output=True, text=True,
+                             timeout=600, check=True)
+    except (OSError, subprocess.SubprocessError) as exc:
+        raise UserError(f"--c-ref {binary}: could not run it: {exc}") from None
+    return [list(map(float, line.split())) for line in res.stdout.splitlines() if line.strip()]
+
+
+def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None):
+    """Time every implementation, print a table of throughputs and ratios, optionally write JSON."""
+    from rich.table import Table
+    if c_ref is not None and not Path(c_ref).is_file():
+        raise UserError(f"--c-ref {c_ref}: no such file (build it: gcc -O3 -march=native "
+                        "-fopenmp -o ungm_ref ungm_ref.c -lm)")
+    threads = threads or os.cpu_count() or 1
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    sizes = (100, 10_000) if quick else SIZES
+    min_time, reps = (0.05, 1) if quick else (0.3, 3)
+    K = 100 if quick else BATCH_TRIALS
+    X, Y = bench_data(K)
+    model = bench_model()
+    records = []
+    say = console.print if console else print
+    say(f"UNGM bootstrap PF, T = {T}, systematic resampling every step; {os.cpu_count()} cores; "
+        f"numba {numba.__version__}, numpy {np.__version__}")
+    state = state_from_seed(np.random.SeedSequence(7))
+    rng = np.random.default_rng(7)
+    for N in sizes:
+        sec, _ = _best(lambda: pfbench_single(model, Y[0], N, state), min_time, reps)
+        records.append(_record("pfbench", "single", N, 1, sec, 1))
+        sec, _ = _best(lambda: numpy_pf(Y[0], N, rng), min_time, 1 if N >= 100_000 else reps)
+        records.append(_record("numpy", "single", N, 1, sec, 1))
+    S = np.stack([state_from_seed(ss) for ss in np.random.SeedSequence(8).spawn(K)])
+    XH = np.empty_like(Y)
+    run_batch = lambda: pf_batch(model.transition, model.observe, model.theta, model.noise, Y,
+                                 model.prior_mean, model.prior_var, BATCH_N, S, XH)
+    run_batch()
+    sec, _ = _best(run_batch, min_time, reps)
+    rm_pf = float(np.mean(np.sqrt(np.mean((XH[:, 1:] - X[:, 1:]) ** 2, axis=1))))
+    records.append(_record("pfbench", "batch", BATCH_N, K, sec, numba.get_num_threads(),
+                           mean_rmse=rm_pf))
+    XN = np.empty_like(Y)
+
+    def numpy_batch():
+        for k in range(K):
+            XN[k] = numpy_pf(Y[k], BATCH_N, rng)
+
+    sec, _ = _best(numpy_batch, min_time, 1 if not quick else 1)
+    rm_np = float(np.mean(np.sqrt(np.mean((XN[:, 1:] - X[:, 1:]) ** 2, axis=1))))
+    records.append(_record("numpy", "batch", BATCH_N, K, sec, 1, mean_rmse=rm_np))
+    if c_ref is not None:
+        with tempfile.TemporaryDirectory() as tmp:
+            data = Path(tmp) / "ungm.bin"
+            _write_c_data(data, X, Y)
+            for N in sizes:
+                lines = _c_lines(c_ref, data, "single", N, reps, min_time)
+                records.append(_record("c", "single", N, 1, min(l[0] for l in lines), 1))
+            lines = _c_lines(c_ref, data, "batch", BATCH_N, reps, K, threads)
+            records.append(_record("c", "batch", BATCH_N, K, min(l[0] for l in lines), threads))
+    by = {(r["impl"], r["mode"], r["particles"]): r["particle_steps_per_s"] for r in records}
+    tab = Table(title="particle-steps per second (higher is better)")
+    for h in ("workload", "N", "trials", "pfbench", "numpy", "C", "pfbench/numpy", "pfbench/C"):
+        tab.add_column(h, justify="right")
+    for mode, N, trials in [("single", n, 1) for n in sizes] + [("batch", BATCH_N, K)]:
+        p, n, c = (by.get((i, mode, N)) for i in ("pfbench", "numpy", "c"))
+        tab.add_row(f"{mode}", f"{N:,}", f"{trials:,}", f"{p / 1e6:.1f} M", f"{n / 1e6:.1f} M",
+                    f"{c / 1e6:.1f} M" if c else "-", f"{p / n:.1f}x",
+                    f"{p / c:.2f}x" if c else "-")
+    if console:
+        console.print(tab)
+    say(f"batch mean RMSE (same data): pfbench {rm_pf:.3f}, numpy {rm_np:.3f} (the same filter: "
+        "they agree within Monte Carlo error)")
+    say(f"batch: pfbench on {numba.get_num_threads()} threads; numpy and the single-trial rows on "
+        "one core")
+    if json_path is not None:
+        Path(json_path).write_text(json.dumps(records, indent=2) + "\n")
+        say(f"wrote {json_path}")
+    return records

@@ -1,0 +1,60 @@
+import json
+
+import pandas as pd
+from typer.testing import CliRunner
+
+from pfbench import __version__
+from pfbench.cli import app
+
+from .conftest import ROOT, SMALL
+
+runner = CliRunner()
+
+
+def test_version():
+    res = runner.invoke(app, ["--version"])
+    assert res.exit_code == 0 and __version__ in res.output
+
+
+def test_list_names_every_registry_entry():
+    res = runner.invoke(app, ["list", "--configs", str(ROOT / "configs")])
+    assert res.exit_code == 0
+    for word in ("ungm", "linear_gaussian", "pf", "ukf", "kf", "systematic", "residual",
+                 "multinomial", "stratified", "ifa_pf_ungm.yaml", "sspf_ungm.yaml"):
+        assert word in res.output
+
+
+def test_validate_ok(write_config):
+    res = runner.invoke(app, ["validate", str(write_config(SMALL))])
+    assert res.exit_code == 0 and "ok" in res.output and "pf@20" in res.output
+
+
+def test_end_to_end_paper_config_with_few_trials(tmp_path):
+    out = tmp_path / "ifa"
+    res = runner.invoke(app, ["run", str(ROOT / "configs/ifa_pf_ungm.yaml"), "--trials", "4",
+                              "--set", "filters.pf_floor.particles=300",
+                              "--set", "compare.floor=pf_floor@300", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "PF" in res.output and "4.2216" in res.output
+    tab = pd.read_csv(out / "table.csv")
+    pf50 = tab[(tab["label"] == "PF") & (tab["particles"] == 50)].iloc[0]
+    assert pf50["paper_rmse_mean"] == 4.2216
+    assert abs(pf50["ratio_rmse_mean"] - pf50["rmse_mean"] / 4.2216) < 1e-12
+    assert isinstance(pf50["verdict_rmse_mean"], str) and pf50["verdict_rmse_mean"]
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["trials"] == 4 and meta["seed"] == 2021 and meta["experiment_hash"]
+    assert "Paper: `ifa2021`" in (out / "table.md").read_text()
+
+
+def test_bench_quick_writes_records(tmp_path):
+    path = tmp_path / "b.json"
+    res = runner.invoke(app, ["bench", "--quick", "--json", str(path)])
+    assert res.exit_code == 0, res.output
+    recs = json.loads(path.read_text())
+    keys = {"workload", "impl", "particles", "trials", "steps", "particle_steps_per_s"}
+    assert all(keys <= set(r) for r in recs)
+    assert {r["impl"] for r in recs} == {"pfbench", "numpy"}
+    assert all(r["workload"] == "ungm" and r["particle_steps_per_s"] > 0 for r in recs)
+    batch = {r["impl"]: r["mean_rmse"] for r in recs if r["mode"] == "batch"}
+    # same filter on the same data: mean RMSEs agree within Monte Carlo error (spread ~1 / sqrt(100))
+    assert abs(batch["pfbench"] - batch["numpy"]) < 0.5

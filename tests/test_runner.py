@@ -1,0 +1,112 @@
+"""The trial contract: determinism across workers, resume, and independence of filters."""
+import shutil
+
+import numpy as np
+import pandas as pd
+from typer.testing import CliRunner
+
+from pfbench.cli import app
+from pfbench.config import load
+from pfbench.runner import TIMING_COLUMNS, run_experiment, run_trial
+
+from .conftest import SMALL
+
+runner = CliRunner()
+
+
+def _numbers(path):
+    df = pd.read_csv(path)
+    return df.drop(columns=list(TIMING_COLUMNS))
+
+
+def test_trial_is_pure_and_seed_zero_is_a_seed(write_config):
+    exp = load(write_config(SMALL))
+    a = run_trial(exp, 3)
+    b = run_trial(exp, 3)
+    for ra, rb in zip(a, b):
+        ra.pop("wall_s"), rb.pop("wall_s")
+        assert ra == rb
+    other = load(write_config(SMALL.replace("seed: 0", "seed: 1"), "other.yaml"))
+    assert run_trial(other, 3)[0]["rmse"] != a[0]["rmse"]
+
+
+def test_workers_do_not_change_results(tmp_path, write_config):
+    exp = load(write_config(SMALL.replace("trials: 6", "trials: 9")))
+    one = run_experiment(exp, tmp_path / "w1", workers=1)
+    two = run_experiment(exp, tmp_path / "w2", workers=2)
+    assert one.ran == two.ran == 9
+    pd.testing.assert_frame_equal(_numbers(tmp_path / "w1/trials.csv"),
+                                  _numbers(tmp_path / "w2/trials.csv"), check_exact=True)
+
+
+def test_interrupted_then_resumed_equals_uninterrupted(tmp_path, write_config):
+    exp = load(write_config(SMALL.replace("trials: 6", "trials: 8")))
+    full = tmp_path / "full"
+    run_experiment(exp, full)
+    # Build the state of a run killed mid-write: 3 finished trials and a torn line.
+    part = tmp_path / "part"
+    part.mkdir()
+    lines = (full / "trials.csv").read_text().splitlines(keepends=True)
+    n_runs = len(exp.filters)
+    (part / "trials.partial.csv").write_text("".join(lines[: 1 + 3 * n_runs])
+                                             + lines[1 + 3 * n_runs][:17])
+    (part / "run.json").write_text('{"experiment_hash": "%s"}' % exp.hash)
+    res = run_experiment(exp, part, resume=True)
+    assert res.ran == 5
+    pd.testing.assert_frame_equal(_numbers(full / "trials.csv"), _numbers(part / "trials.csv"),
+                                  check_exact=True)
+    assert not (part / "trials.partial.csv").exists()
+
+
+def test_resume_extends_a_finished_run_and_refuses_another_experiment(tmp_path, write_config):
+    cfg = write_config(SMALL)
+    out = tmp_path / "r"
+    res = runner.invoke(app, ["run", str(cfg), "--out", str(out), "--trials", "4"])
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["run", str(cfg), "--out", str(out), "--trials", "6", "--resume"])
+    assert res.exit_code == 0, res.output
+    assert "2 resumed" not in res.output and "(4 resumed)" in res.output
+    ref = tmp_path / "ref"
+    runner.invoke(app, ["run", str(cfg), "--out", str(ref)])
+    pd.testing.assert_frame_equal(_numbers(out / "trials.csv"), _numbers(ref / "trials.csv"),
+                                  check_exact=True)
+    res = runner.invoke(app, ["run", str(cfg), "--out", str(out), "--seed", "5", "--resume"])
+    assert res.exit_code == 2 and "different experiment" in res.output
+
+
+def test_adding_a_filter_does_not_change_the_others(tmp_path, write_config):
+    base = load(write_config(SMALL))
+    more = load(write_config(SMALL.replace("filters:\n", "filters:\n  extra:\n    type: pf\n"
+                                           "    label: PF2\n    particles: 7\n"), "more.yaml"))
+    a = run_experiment(base, tmp_path / "a")
+    b = run_experiment(more, tmp_path / "b")
+    da = _numbers(tmp_path / "a/trials.csv")
+    db = _numbers(tmp_path / "b/trials.csv")
+    db = db[db["filter"] != "extra@7"].reset_index(drop=True)
+    pd.testing.assert_frame_equal(da, db, check_exact=True)
+    assert a.ran == b.ran
+
+
+def test_common_random_numbers_every_filter_sees_the_same_truth(write_config):
+    # Two PF runs with the same particle count but different keys share the data, not the filter
+    # noise: their RMSEs differ, yet both track the same truth closely.
+    exp = load(write_config(SMALL.replace("particles: [20, 40]", "particles: [2000]")
+                            + "  pf_b:\n    type: pf\n    label: PFb\n    particles: 2000\n"))
+    rows = run_trial(exp, 0)
+    r = {row["filter"]: row["rmse"] for row in rows}
+    assert r["pf@2000"] != r["pf_b@2000"]
+    assert abs(r["pf@2000"] - r["pf_b@2000"]) < 0.25 * r["pf@2000"]
+
+
+def test_files_of_a_run(tmp_path, write_config):
+    exp = load(write_config(SMALL))
+    out = tmp_path / "x"
+    res = runner.invoke(app, ["run", str(write_config(SMALL)), "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    for name in ("trials.csv", "table.csv", "table.md", "meta.json"):
+        assert (out / name).exists()
+    assert not list(out.glob(".*tmp*"))
+    df = pd.read_csv(out / "trials.csv")
+    assert len(df) == exp.trials * len(exp.filters)
+    assert np.isfinite(df["rmse"]).all()
+    shutil.rmtree(out)

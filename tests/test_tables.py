@@ -1,0 +1,59 @@
+import math
+
+import numpy as np
+import pytest
+
+from pfbench.metrics import summarize, t975
+from pfbench.papers import PAPERS
+from pfbench.tables import verdict
+
+
+def test_t_quantiles_against_scipy():
+    stats = pytest.importorskip("scipy.stats")
+    for df in (1, 2, 5, 10, 29, 30, 31, 40, 60, 100, 499, 10_000):
+        assert math.isclose(t975(df), stats.t.ppf(0.975, df), rel_tol=2e-3), df
+
+
+def test_summary_interval_covers_the_true_mean_about_95_percent():
+    rng = np.random.default_rng(0)
+    hits = 0
+    reps = 2000
+    for _ in range(reps):
+        s = summarize(rng.exponential(2.0, size=40))
+        hits += s["ci_lo"] <= 2.0 <= s["ci_hi"]
+    # coverage of the t interval for skewed data at n = 40 is close to 95%: within 2.5 points
+    assert abs(hits / reps - 0.95) < 0.025
+
+
+def test_variance_interval_covers_the_true_variance():
+    rng = np.random.default_rng(1)
+    hits = sum(
+        (lambda s: s["var_ci_lo"] <= 4.0 <= s["var_ci_hi"])(summarize(rng.normal(0, 2, 500)))
+        for _ in range(1000))
+    assert abs(hits / 1000 - 0.95) < 0.03
+
+
+def test_summary_drops_nan_and_handles_tiny_samples():
+    s = summarize([1.0, float("nan"), 3.0])
+    assert s["n"] == 2 and s["mean"] == 2.0
+    assert math.isnan(summarize([])["mean"])
+    assert math.isnan(summarize([1.0])["ci_lo"])
+
+
+def test_verdicts():
+    assert verdict(None, 1.0, 0.9, 1.1) == ""
+    assert verdict(1.0, 1.05, 0.95, 1.15) == "reproduced"
+    assert verdict(2.0, 1.0, 0.9, 1.1) == "differs (x0.50)"
+    assert verdict(1.05, 1.0, 0.98, 1.02, rel_tol=0.1).startswith("reproduced (within 10%)")
+    assert "floor" in verdict(2.0, 3.0, 2.9, 3.1, floor=2.5)
+    assert "floor" not in verdict(2.0, 3.0, 2.9, 3.1, floor=1.5)
+    assert verdict(1.0, 1.0, 0.9, 1.1, not_comparable="units").startswith("not comparable")
+
+
+def test_paper_tables_are_well_formed():
+    for paper in PAPERS.values():
+        for table in paper.tables.values():
+            keys = {q.key for q in table.quantities}
+            for (label, n), values in table.values.items():
+                assert isinstance(label, str) and (n is None or n >= 2)
+                assert set(values) <= keys
