@@ -168,7 +168,8 @@ def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None):
                                  model.prior_mean, model.prior_var, BATCH_N, S, XH)
     run_batch()
     sec, _ = _best(run_batch, min_time, reps)
-    rm_pf = float(np.mean(np.sqrt(np.mean((XH[:, 1:] - X[:, 1:]) ** 2, axis=1))))
+    rmse_pf = np.sqrt(np.mean((XH[:, 1:] - X[:, 1:]) ** 2, axis=1))
+    rm_pf = float(rmse_pf.mean())
     records.append(_record("pfbench", "batch", BATCH_N, K, sec, numba.get_num_threads(),
                            mean_rmse=rm_pf))
     XN = np.empty_like(Y)
@@ -178,7 +179,10 @@ def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None):
             XN[k] = numpy_pf(Y[k], BATCH_N, rng)
 
     sec, _ = _best(numpy_batch, min_time, 1 if not quick else 1)
-    rm_np = float(np.mean(np.sqrt(np.mean((XN[:, 1:] - X[:, 1:]) ** 2, axis=1))))
+    rmse_np = np.sqrt(np.mean((XN[:, 1:] - X[:, 1:]) ** 2, axis=1))
+    rm_np = float(rmse_np.mean())
+    diff = rmse_pf - rmse_np
+    diff_se = float(diff.std(ddof=1) / math.sqrt(K))
     records.append(_record("numpy", "batch", BATCH_N, K, sec, 1, mean_rmse=rm_np))
     if c_ref is not None:
         with tempfile.TemporaryDirectory() as tmp:
@@ -200,8 +204,8 @@ def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None):
                     f"{p / c:.2f}x" if c else "-")
     if console:
         console.print(tab)
-    say(f"batch mean RMSE (same data): pfbench {rm_pf:.3f}, numpy {rm_np:.3f} (the same filter: "
-        "they agree within Monte Carlo error)")
+    say(f"check, the same filter: batch mean RMSE on the same data: pfbench {rm_pf:.3f}, numpy "
+        f"{rm_np:.3f}; paired difference {rm_pf - rm_np:+.3f} (standard error {diff_se:.3f})")
     say(f"batch: pfbench on {numba.get_num_threads()} threads; numpy and the single-trial rows on "
         "one core")
     if json_path is not None:

@@ -1,4 +1,4 @@
-"""Random numbers inside numba kernels: xoshiro256+ with Box-Muller normals.
+"""Random numbers inside numba kernels: xoshiro256+ bits, ziggurat normals.
 
 Every kernel takes its generator state ``s`` (uint64[4]) as an argument and advances it in place, so
 a kernel is a pure function of its inputs and the state is seeded from a ``numpy.random.SeedSequence``
@@ -12,10 +12,38 @@ import math
 import numpy as np
 from numba import njit, types, uint64
 
-TWO_PI = 6.283185307179586
 _U53 = 1.0 / 9007199254740992.0  # 2**-53
 
 STATE = types.uint64[::1]
+
+
+def _ziggurat_tables():
+    """Tables of the 256-layer ziggurat for the standard normal (Marsaglia & Tsang 2000, with the
+    52-bit mantissas numpy uses): ki (acceptance thresholds), wi (widths), fi (densities)."""
+    n, m1 = 256, 2.0 ** 52
+    dn = tn = 3.6541528853610088      # r, the start of the tail
+    vn = 0.00492867323399             # area of each layer
+    ki = np.zeros(n, dtype=np.uint64)
+    wi = np.zeros(n)
+    fi = np.zeros(n)
+    q = vn / math.exp(-0.5 * dn * dn)
+    ki[0] = int(dn / q * m1)
+    wi[0], wi[n - 1] = q / m1, dn / m1
+    fi[0], fi[n - 1] = 1.0, math.exp(-0.5 * dn * dn)
+    for i in range(n - 2, 0, -1):
+        dn = math.sqrt(-2.0 * math.log(vn / dn + math.exp(-0.5 * dn * dn)))
+        ki[i + 1] = int(dn / tn * m1)
+        tn = dn
+        fi[i] = math.exp(-0.5 * dn * dn)
+        wi[i] = dn / m1
+    return ki, wi, fi
+
+
+_ZKI, _ZWI, _ZFI = _ziggurat_tables()
+_ZR = 3.6541528853610088
+_ZINV_R = 1.0 / _ZR
+_LOW8 = uint64(0xFF)
+_MANT52 = uint64(0x000FFFFFFFFFFFFF)
 
 
 def state_from_seed(seed_seq: np.random.SeedSequence) -> np.ndarray:
@@ -48,27 +76,39 @@ def uniform(s):
 
 @njit(types.float64(STATE), cache=True)
 def normal(s):
-    """One standard normal draw (Box-Muller; the second value of the pair is discarded)."""
-    u1 = 1.0 - uniform(s)
-    u2 = uniform(s)
-    return math.sqrt(-2.0 * math.log(u1)) * math.cos(TWO_PI * u2)
+    """One standard normal draw (ziggurat: one 64-bit draw per value 98.8% of the time)."""
+    while True:
+        r = next_u64(s)
+        idx = r & _LOW8
+        r >>= uint64(8)
+        rabs = (r >> uint64(1)) & _MANT52
+        x = rabs * _ZWI[idx]
+        if r & uint64(1):
+            x = -x
+        if rabs < _ZKI[idx]:
+            return x
+        if idx == 0:  # the tail beyond r, by Marsaglia's exponential method
+            while True:
+                xx = -_ZINV_R * math.log1p(-uniform(s))
+                yy = -math.log1p(-uniform(s))
+                if yy + yy > xx * xx:
+                    return -(_ZR + xx) if (rabs >> uint64(8)) & uint64(1) else _ZR + xx
+        elif (_ZFI[idx - 1] - _ZFI[idx]) * uniform(s) + _ZFI[idx] < math.exp(-0.5 * x * x):
+            return x
 
 
 @njit(types.void(STATE, types.float64[::1]), cache=True)
 def fill_normal(s, z):
-    """Fill ``z`` with independent standard normal draws (Box-Muller pairs)."""
-    n = z.size
-    i = 0
-    while i + 1 < n:
-        u1 = 1.0 - uniform(s)
-        u2 = uniform(s)
-        r = math.sqrt(-2.0 * math.log(u1))
-        th = TWO_PI * u2
-        z[i] = r * math.cos(th)
-        z[i + 1] = r * math.sin(th)
-        i += 2
-    if i < n:
+    """Fill ``z`` with independent standard normal draws."""
+    for i in range(z.size):
         z[i] = normal(s)
+
+
+@njit(types.void(STATE, types.float64, types.float64[::1]), cache=True)
+def add_normal(s, sd, x):
+    """x += sd * z in place, z independent standard normal draws."""
+    for i in range(x.size):
+        x[i] += sd * normal(s)
 
 
 @njit(types.void(STATE, types.float64[::1]), cache=True)

@@ -154,3 +154,25 @@ def test_mean_abs_pairwise_matches_brute_force():
     x = np.random.default_rng(0).normal(size=57)
     brute = np.mean([abs(a - b) for i, a in enumerate(x) for b in x[i + 1:]])
     assert math.isclose(mean_abs_pairwise(x), brute, rel_tol=1e-12)
+
+
+def test_particles_with_nan_likelihood_get_zero_weight_without_an_event():
+    # An observation model that is NaN for x > 0: those particles must weigh nothing, the rest
+    # carry the estimate, and the step is not an underflow event.
+    from numba import njit
+
+    from pfbench.scenarios.base import MODEL_SIG, ScalarModel
+
+    @njit(MODEL_SIG)
+    def nan_above_zero(x, t, theta, out):
+        for i in range(x.size):
+            out[i] = np.nan if x[i] > 0.0 else x[i]
+
+    base = _linear(steps=3, prior_var=4.0)
+    model = ScalarModel(base.transition, nan_above_zero, base.theta, base.noise, 0.0, 0.0, 4.0, 3)
+    y = np.array([0.0, -1.0, -1.0, -1.0])
+    out = _pf(model, y, 400, 5, resample="neff", neff_ratio=0.01)
+    assert out["underflow_steps"] == 0
+    assert np.all(np.isfinite(out["xhat"]))
+    assert np.all(out["xhat"][1:] < 0)          # only particles at x <= 0 carry weight
+    assert np.all(out["ess"][1:] < 400)

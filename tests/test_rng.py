@@ -1,6 +1,7 @@
 import math
 
 import numpy as np
+import pytest
 
 from pfbench.rng import fill_normal, fill_uniform, state_from_seed
 
@@ -41,3 +42,27 @@ def test_normal_moments_and_cdf():
     # tails: P(|z| > 3) = 0.0026998
     p = np.mean(np.abs(z) > 3)
     assert abs(p - 0.0026998) < 5 * math.sqrt(0.0027 / n)
+
+
+def test_normal_tail_beyond_the_ziggurat_base():
+    # |z| > 3.6541528853610088 is drawn by the ziggurat's tail method; check its mass and shape.
+    n = 2_000_000
+    z = np.empty(n)
+    fill_normal(state_from_seed(np.random.SeedSequence(3)), z)
+    r = 3.6541528853610088
+    tail = np.abs(z[np.abs(z) > r])
+    p = math.erfc(r / math.sqrt(2))
+    assert abs(tail.size / n - p) < 5 * math.sqrt(p / n)
+    # conditional mean of |z| beyond r: phi(r) / (1 - Phi(r)) for one side
+    phi = math.exp(-r * r / 2) / math.sqrt(2 * math.pi)
+    cond = phi / (p / 2)
+    assert abs(tail.mean() - cond) < 5 * tail.std() / math.sqrt(tail.size)
+    assert np.mean(z[np.abs(z) > r] > 0) == pytest.approx(0.5, abs=5 * 0.5 / math.sqrt(tail.size))
+
+
+def test_ziggurat_tables_are_consistent():
+    from pfbench import rng
+    ki, wi, fi = rng._ZKI, rng._ZWI, rng._ZFI
+    assert fi[0] == 1.0 and np.all(np.diff(fi) < 0)        # densities fall layer by layer
+    assert np.all(np.diff(wi[1:]) > 0)                      # widths grow toward the base
+    assert hex(int(ki[0]))[:10] == hex(0x000EF33D8025EF6A)[:10]  # numpy's table, same layers

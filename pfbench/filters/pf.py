@@ -60,7 +60,7 @@ def pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, scheme, threshold
     that step is ignored rather than turned into NaN.
     """
     T = y.size - 1
-    R = noise[3]
+    half_inv_R = 0.5 / noise[3]
     x = np.empty(N)
     fill_normal(s, x)
     sd0 = math.sqrt(prior_var)
@@ -87,12 +87,9 @@ def pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, scheme, threshold
         m = -np.inf
         for i in range(N):
             d = yt - hx[i]
-            l = lw[i] - 0.5 * d * d / R
-            if l != l:
-                l = -np.inf
+            l = lw[i] - half_inv_R * d * d
             lw[i] = l
-            if l > m:
-                m = l
+            m = max(m, l)  # NaN log-weights lose every comparison: they never become the max
         if not (m > -np.inf):
             events += 1
             for i in range(N):
@@ -103,11 +100,16 @@ def pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, scheme, threshold
         sx = 0.0
         for i in range(N):
             e = math.exp(lw[i] - m)
+            e = e if e == e else 0.0  # a NaN log-weight is a zero weight
             w[i] = e
             S += e
             S2 += e * e
-            if e > 0.0:
-                sx += e * xn[i]
+            sx += e * xn[i]
+        if not math.isfinite(sx):  # rare: a zero-weight particle at +-inf or NaN (0 * inf)
+            sx = 0.0
+            for i in range(N):
+                if w[i] > 0.0:
+                    sx += w[i] * xn[i]
         ess[t] = S * S / S2
         est = sx / S
         if ess[t] < threshold:

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 from numba import njit, types
 
-from ..rng import STATE, fill_normal, normal
+from ..rng import STATE, add_normal, normal
 
 MODEL_SIG = types.void(types.float64[::1], types.float64, types.float64[::1], types.float64[::1])
 ModelFn = types.FunctionType(MODEL_SIG)
@@ -56,14 +56,7 @@ class ScalarModel:
 @njit(types.void(STATE, types.float64[::1], types.float64[::1]), cache=True)
 def add_process_noise(s, noise, x):
     """x += w with w drawn from the process noise described by ``noise``."""
-    sd = math.sqrt(noise[1])
-    if x.size == 1:
-        x[0] += sd * normal(s)
-        return
-    z = np.empty(x.size)
-    fill_normal(s, z)
-    for i in range(x.size):
-        x[i] += sd * z[i]
+    add_normal(s, math.sqrt(noise[1]), x)
 
 
 @njit(types.void(ModelFn, ModelFn, types.float64[::1], types.float64[::1], types.float64, STATE,
