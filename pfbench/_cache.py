@@ -2,7 +2,7 @@
 
 numba keys a cached kernel on its own file's timestamp only; a kernel that inlines a function from
 another module (a resampling scheme, the random generator) would keep stale code after that module
-changes. Keying the whole cache folder on a hash of every source file of the package means an
+changes. Keying the whole cache folder on a hash of the package's numba source files means an
 upgrade or an edit never meets a stale kernel. Must run before any ``@njit(cache=True)`` decorates.
 """
 from __future__ import annotations
@@ -15,11 +15,15 @@ import numba
 
 
 def _source_hash() -> str:
+    """Hash of every source file of the package that holds numba code (an edit of the CLI or the
+    tables does not invalidate the kernels)."""
     root = Path(__file__).resolve().parent
     h = hashlib.sha256()
     for path in sorted(root.rglob("*.py")):
-        h.update(str(path.relative_to(root)).encode())
-        h.update(path.read_bytes())
+        text = path.read_bytes()
+        if b"@njit" in text:
+            h.update(str(path.relative_to(root)).encode())
+            h.update(text)
     return h.hexdigest()[:16]
 
 

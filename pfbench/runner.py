@@ -19,10 +19,9 @@ import subprocess
 import sys
 import time
 import zlib
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from datetime import datetime, timezone
-from functools import lru_cache
+from functools import lru_cache, partial
 from pathlib import Path
 from typing import Callable, Iterable
 
@@ -103,7 +102,10 @@ def _chunks(trials: list[int], size: int) -> list[list[int]]:
 
 
 def execute(exp: Experiment, trials: list[int], workers: int) -> Iterable[list[list[dict]]]:
-    """Yield the rows of chunks of ``trials`` as they finish (in-process or a process pool)."""
+    """Yield the rows of chunks of ``trials`` as they finish (in-process or a process pool).
+
+    Workers ignore SIGINT; on Ctrl-C the parent terminates them, keeping what already arrived.
+    """
     if workers <= 1 or len(trials) <= 1:
         for chunk in _chunks(trials, 1):
             yield _run_chunk(exp, chunk)
@@ -111,21 +113,13 @@ def execute(exp: Experiment, trials: list[int], workers: int) -> Iterable[list[l
     import multiprocessing as mp
     ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
     size = max(1, min(25, math.ceil(len(trials) / (workers * 6))))
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_ignore_sigint)
-    pending = {pool.submit(_run_chunk, exp, c) for c in _chunks(trials, size)}
+    pool = ctx.Pool(workers, initializer=_ignore_sigint)
     try:
-        while pending:
-            done, pending = wait(pending, return_when=FIRST_COMPLETED)
-            for fut in done:
-                yield fut.result()
+        yield from pool.imap_unordered(partial(_run_chunk, exp), _chunks(trials, size))
+        pool.close()
     finally:
-        for fut in pending:
-            fut.cancel()
-        procs = list(getattr(pool, "_processes", {}).values())
-        pool.shutdown(wait=False, cancel_futures=True)
-        if pending:
-            for p in procs:
-                p.terminate()
+        pool.terminate()
+        pool.join()
 
 
 # ---------------------------------------------------------------- files

@@ -110,3 +110,42 @@ def test_files_of_a_run(tmp_path, write_config):
     assert len(df) == exp.trials * len(exp.filters)
     assert np.isfinite(df["rmse"]).all()
     shutil.rmtree(out)
+
+
+def test_ctrl_c_keeps_finished_trials_and_resume_completes_them(tmp_path, write_config):
+    """A real SIGINT to a running `pfbench run --workers 2`: exit 130, one message, no traceback,
+    finished trials kept; --resume then gives the uninterrupted result bit for bit."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    text = SMALL.replace("trials: 6", "trials: 400").replace("steps: 30", "steps: 100") \
+                .replace("[20, 40]", "[20, 3000]")
+    cfg = write_config(text)
+    out = tmp_path / "run"
+    cmd = [sys.executable, "-m", "pfbench.cli", "run", str(cfg), "--workers", "2", "--out", str(out)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            start_new_session=True)
+    partial = out / "trials.partial.csv"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if partial.exists() and len(partial.read_text().splitlines()) > 1 + 3 * 20:
+            break
+        time.sleep(0.1)
+    assert proc.poll() is None, "the run ended before it could be interrupted"
+    os.killpg(proc.pid, signal.SIGINT)          # what Ctrl-C in a terminal sends
+    output, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 130, output
+    assert "interrupted:" in output and "--resume" in output
+    assert "Traceback" not in output and "Exception" not in output
+    kept = len(pd.read_csv(partial)) // 3
+    assert 20 <= kept < 400
+    res = runner.invoke(app, ["run", str(cfg), "--out", str(out), "--resume", "--workers", "2"])
+    assert res.exit_code == 0, res.output
+    assert f"({kept} resumed)" in res.output
+    ref = tmp_path / "ref"
+    assert runner.invoke(app, ["run", str(cfg), "--out", str(ref), "--workers", "2"]).exit_code == 0
+    pd.testing.assert_frame_equal(_numbers(out / "trials.csv"), _numbers(ref / "trials.csv"),
+                                  check_exact=True)
