@@ -22,8 +22,8 @@ class _Out:
     """stdout through rich, bound to the sys.stdout of the moment (test runners swap it)."""
 
     def print(self, *args, **kwargs):
-        # Wide enough for the tables when stdout is a file or a pipe (rich would assume 80 columns).
-        width = None if sys.stdout.isatty() else 200
+        # Wide enough that a table piped to a file keeps one line per row (rich assumes 80 columns).
+        width = None if sys.stdout.isatty() else 320
         Console(file=sys.stdout, highlight=False, width=width).print(*args, **kwargs)
 
 
@@ -64,17 +64,19 @@ def _load(config: Path, trials=None, seed=None, sets=()):
 
 
 def _print_table(exp, tab):
-    from .tables import display_columns, footnotes
-    head, cells = display_columns(exp, tab)
-    t = RichTable(title=f"{exp.name}" + (f"  ({exp.paper} {exp.table})" if exp.paper else ""),
-                  show_lines=False)
-    for h in head:
-        t.add_column(h, no_wrap=True)
-    for row in cells:
-        t.add_row(*row)
-    out.print(t)
+    from .tables import console_tables, footnotes
+    title = exp.name + (f"  ({exp.paper} {exp.table})" if exp.paper else "")
+    for name, head, cells in console_tables(exp, tab):
+        t = RichTable(title=f"{title}: {name}" if name else title, title_justify="left")
+        for h in head:
+            t.add_column(h, overflow="fold")
+        for row in cells:
+            t.add_row(*row)
+        out.print(t)
     for note in footnotes(exp, tab):
         out.print(note, markup=False)
+    out.print("Intervals: 95% over trials. Every column, and the paper's notes: table.md.",
+              markup=False)
 
 
 @app.command()

@@ -114,6 +114,34 @@ def display_columns(exp: Experiment, tab: pd.DataFrame) -> tuple[list[str], list
     return head, cells
 
 
+def console_tables(exp: Experiment, tab: pd.DataFrame) -> list[tuple[str, list[str], list[list[str]]]]:
+    """The console's two narrower tables: the comparison with the paper, and the diagnostics."""
+    table = reported(exp.paper, exp.table)
+    quantities = table.quantities if table else ()
+    comp_head = ["Filter", "N", "Trials"]
+    if not quantities:
+        comp_head.append("RMSE mean [95% CI]")
+    for q in quantities:
+        comp_head += [f"{q.metric.upper()} {q.stat} [95% CI]", f"Paper {q.title}", "Verdict"]
+    diag_head = ["Filter", "N", "RMSE var", "Mean ESS", "Distinct", "Evals/step", "ms/trial"]
+    comp, diag = [], []
+    for _, r in tab.iterrows():
+        n = r["particles"]
+        who = [r["label"], "-" if n is None or n != n else str(int(n))]
+        row = who + [str(int(r["trials"]))]
+        if not quantities:
+            row.append(f"{_fmt(r['rmse_mean'])} [{_fmt(r['rmse_ci_lo'])}, {_fmt(r['rmse_ci_hi'])}]")
+        for q in quantities:
+            pre = f"{q.metric}_{'' if q.stat == 'mean' else 'var_'}"
+            point = r[f"{q.metric}_{q.stat}"]
+            row += [f"{_fmt(point)} [{_fmt(r[pre + 'ci_lo'])}, {_fmt(r[pre + 'ci_hi'])}]",
+                    _fmt(r[f"paper_{q.key}"], 6), r[f"verdict_{q.key}"] or "-"]
+        comp.append(row)
+        diag.append(who + [_fmt(r["rmse_var"]), _fmt(r["mean_ess"]), _fmt(r["distinct_frac"], 3),
+                           _fmt(r["lik_evals_per_step"]), _fmt(r["wall_ms_per_trial"], 3)])
+    return [("", comp_head, comp), ("diagnostics", diag_head, diag)]
+
+
 def footnotes(exp: Experiment, tab: pd.DataFrame) -> list[str]:
     """Lines that explain the table: the floor row, underflow events."""
     notes = []
