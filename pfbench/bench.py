@@ -23,7 +23,7 @@ import numpy as np
 from numba import njit, prange, types
 
 from .errors import UserError
-from .filters.pf import PF_SIG, pf_kernel
+from .filters.pf import pf_kernel
 from .rng import state_from_seed
 from .scenarios import ungm
 from .scenarios.base import ModelFn, simulate
@@ -36,7 +36,6 @@ _SCHEME_SYSTEMATIC = 1
 
 _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
-del PF_SIG  # the batch kernel calls pf_kernel with the same argument types
 
 
 @njit(types.void(ModelFn, ModelFn, _F, _F, _F2, types.float64, types.float64, types.int64,
@@ -178,7 +177,7 @@ def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None):
         for k in range(K):
             XN[k] = numpy_pf(Y[k], BATCH_N, rng)
 
-    sec, _ = _best(numpy_batch, min_time, 1 if not quick else 1)
+    sec, _ = _best(numpy_batch, min_time, 1)  # one rep: it takes seconds
     rmse_np = np.sqrt(np.mean((XN[:, 1:] - X[:, 1:]) ** 2, axis=1))
     rm_np = float(rmse_np.mean())
     diff = rmse_pf - rmse_np

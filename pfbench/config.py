@@ -182,7 +182,7 @@ def apply_override(raw: dict, assignment: str) -> None:
                 walk(node[k], i + 1, trail + [str(k)])
             return
         if name not in node:
-            if parts[i + 1] != "*" and i == 0:
+            if parts[i + 1] != "*" and i == 0:  # a top-level section the file leaves out
                 node[name] = {}
             else:
                 raise ConfigError(f"--set {key}", f"no '{here}' in the config"

@@ -51,7 +51,7 @@ def summary(exp: Experiment, rows: list[dict] | pd.DataFrame) -> pd.DataFrame:
     """One row per filter run: statistics over trials, and the paper columns when there are any."""
     df = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(rows)
     table: Table | None = reported(exp.paper, exp.table)
-    by_key = {f.key: g for f in exp.filters for k, g in [(f.key, df[df["filter"] == f.key])]}
+    by_key = {f.key: df[df["filter"] == f.key] for f in exp.filters}
     floor = None
     if exp.compare["floor"] is not None:
         floor = summarize(by_key[exp.compare["floor"]]["rmse"])["ci_lo"]

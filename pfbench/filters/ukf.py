@@ -16,6 +16,23 @@ from ..scenarios.base import ModelFn
 
 _F = types.float64[::1]
 
+@njit(types.UniTuple(types.float64, 2)(ModelFn, _F, types.float64, _F, _F, types.int64, _F, _F,
+                                       _F), cache=True)
+def _transform(fn, pts, t, theta, offset, add_offset, Wm, Wc, out):
+    """out = fn(pts) (+ offset when add_offset); return the weighted mean and variance of out."""
+    fn(pts, t, theta, out)
+    if add_offset:
+        for i in range(out.size):
+            out[i] += offset[i]
+    mean = 0.0
+    for i in range(out.size):
+        mean += Wm[i] * out[i]
+    var = 0.0
+    for i in range(out.size):
+        var += Wc[i] * (out[i] - mean) ** 2
+    return mean, var
+
+
 UKF_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64, types.float64,
                       types.float64, types.float64, types.float64, types.float64, types.int64, _F, _F)
 
@@ -60,16 +77,7 @@ def ukf_kernel(f, h, theta, noise, y, prior_mean, prior_var, Q, R, alpha, beta, 
         chi[:] = m
         chi[1] = m + d
         chi[1 + L] = m - d
-        f(chi, tt, theta, fx)
-        if augmented:
-            for i in range(n):
-                fx[i] += wn[i]
-        mp = 0.0
-        for i in range(n):
-            mp += Wm[i] * fx[i]
-        Pp = 0.0
-        for i in range(n):
-            Pp += Wc[i] * (fx[i] - mp) ** 2
+        mp, Pp = _transform(f, chi, tt, theta, wn, augmented, Wm, Wc, fx)
         if augmented:
             xs = fx
         else:
@@ -79,19 +87,10 @@ def ukf_kernel(f, h, theta, noise, y, prior_mean, prior_var, Q, R, alpha, beta, 
             chi[1] = mp + dp
             chi[2] = mp - dp
             xs = chi
-        h(xs, tt, theta, hz)
-        if augmented:
-            for i in range(n):
-                hz[i] += vn[i]
-        zm = 0.0
-        for i in range(n):
-            zm += Wm[i] * hz[i]
-        S = 0.0
+        zm, S = _transform(h, xs, tt, theta, vn, augmented, Wm, Wc, hz)
         C = 0.0
         for i in range(n):
-            dz = hz[i] - zm
-            S += Wc[i] * dz * dz
-            C += Wc[i] * (xs[i] - mp) * dz
+            C += Wc[i] * (xs[i] - mp) * (hz[i] - zm)
         if not augmented:
             S += R
         K = C / S
