@@ -48,8 +48,8 @@ def pf_batch(f, h, theta, noise, Y, prior_mean, prior_var, N, S, XH):
         res = np.empty(T1, dtype=np.int64)
         d1 = np.empty(T1)
         d2 = np.empty(T1)
-        pf_kernel(f, h, theta, noise, Y[k], prior_mean, prior_var, N, 1, np.inf, 0, 0, S[k],
-                  XH[k], ess, res, d1, d2)
+        pf_kernel(f, h, theta, noise, Y[k], prior_mean, prior_var, N, 1, np.inf, 0, 0, -np.inf, 0,
+                  S[k], XH[k], ess, res, d1, d2)
 
 
 def bench_model():
@@ -74,7 +74,8 @@ def pfbench_single(model, y, N, state):
     xhat, ess, d1, d2 = (np.empty(T1) for _ in range(4))
     res = np.empty(T1, dtype=np.int64)
     pf_kernel(model.transition, model.observe, model.theta, model.noise, y, model.prior_mean,
-              model.prior_var, N, _SCHEME_SYSTEMATIC, np.inf, 0, 0, state, xhat, ess, res, d1, d2)
+              model.prior_var, N, _SCHEME_SYSTEMATIC, np.inf, 0, 0, -np.inf, 0, state, xhat, ess,
+              res, d1, d2)
     return xhat
 
 
@@ -135,6 +136,35 @@ def _c_lines(binary: Path, *args) -> list[list[float]]:
     except (OSError, subprocess.SubprocessError) as exc:
         raise UserError(f"--c-ref {binary}: could not run it: {exc}") from None
     return [list(map(float, line.split())) for line in res.stdout.splitlines() if line.strip()]
+
+
+def filter_costs(Y, min_time: float, reps: int, N: int = BATCH_N) -> list[dict]:
+    """Seconds per step of every filter type at N particles on the benchmark's UNGM data, through
+    the same entry point the runner uses (so the ~65 us per call of handing over the model
+    functions is included), each filter with its default settings."""
+    from .config import Params
+    from .filters import FILTERS
+    model = bench_model()
+    out = []
+    for name, ftype in FILTERS.items():
+        if ftype.scenarios is not None:          # the exact Kalman filter needs a linear model
+            continue
+        params = Params({k: key.default for k, key in ftype.schema.items()})
+        n = N if ftype.particles else None
+        state = state_from_seed(np.random.SeedSequence(9))
+        k = [0]
+
+        def once():
+            ftype.run(model, Y[k[0] % len(Y)], params, n, state, False)
+            k[0] += 1
+
+        once()
+        sec, _ = _best(once, min_time, reps)
+        out.append({"workload": "ungm-filters", "impl": "pfbench", "filter": name,
+                    "particles": n or 0, "trials": 1, "steps": T, "seconds": sec,
+                    "seconds_per_step": sec / T,
+                    "particle_steps_per_s": (n or 1) * T / sec})
+    return out
 
 
 def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None):
@@ -207,6 +237,19 @@ def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None):
         f"{rm_np:.3f}; paired difference {rm_pf - rm_np:+.3f} (standard error {diff_se:.3f})")
     say(f"batch: pfbench on {numba.get_num_threads()} threads; numpy and the single-trial rows on "
         "one core")
+    costs = filter_costs(Y, min_time, reps)
+    records += costs
+    base = next(c["seconds_per_step"] for c in costs if c["filter"] == "pf")
+    tab = Table(title=f"cost per step of each filter at N = {BATCH_N} (one thread, default settings)")
+    for h in ("filter", "N", "us / step", "x bootstrap PF"):
+        tab.add_column(h, justify="right")
+    for c in costs:
+        tab.add_row(c["filter"], str(c["particles"] or "-"), f"{1e6 * c['seconds_per_step']:.2f}",
+                    f"{c['seconds_per_step'] / base:.2f}x")
+    if console:
+        console.print(tab)
+    say("per-step costs include each run's fixed cost (about 65 us for handing the model functions "
+        "to numba), which dominates the filters without particles")
     if json_path is not None:
         Path(json_path).write_text(json.dumps(records, indent=2) + "\n")
         say(f"wrote {json_path}")

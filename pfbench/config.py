@@ -212,6 +212,11 @@ COMPARE_SCHEMA = {
     "floor": Key("str", None, "key of a filter run with many particles whose result bounds what any "
                  "filter can reach; paper values below it are marked 'below the model's floor'",
                  nullable=True),
+    "paper_runs": Key("int", None, "Monte Carlo runs behind the paper's values, when it states them: "
+                      "the verdict's interval then adds the paper's own sampling error for a batch "
+                      "of that size", min=1, nullable=True),
+    "baseline": Key("str", None, "filter (a key under filters) every row is compared with, trial by "
+                    "trial: mean RMSE difference with its 95% interval and win rate", nullable=True),
 }
 
 FILTER_COMMON = {
@@ -246,8 +251,8 @@ def _validate_filters(raw: Any, scenario: str) -> tuple[FilterRun, ...]:
                                FILTER_COMMON, path)
         params = check_section({k: v for k, v in spec.items() if k not in FILTER_COMMON},
                                ftype.schema, path)
-        if ftype_name == "ukf":
-            L = 3 if params["augmented"] else 1
+        if "kappa" in params:
+            L = 3 if params.get("augmented", True) else 1
             if L + params["kappa"] <= 0:
                 raise ConfigError(f"{path}.kappa", f"expected kappa > {-L} (L + kappa > 0 with "
                                   f"L = {L}), got {params['kappa']!r}")
@@ -296,6 +301,10 @@ def validate(raw: Any, source: str = "config") -> Experiment:
         keys = [f.key for f in filters]
         raise ConfigError("compare.floor", f"no filter run '{compare['floor']}'"
                           + did_you_mean(compare["floor"], keys) + f"; runs: {', '.join(keys)}")
+    if compare["baseline"] is not None and compare["baseline"] not in {f.name for f in filters}:
+        names = sorted({f.name for f in filters})
+        raise ConfigError("compare.baseline", f"no filter '{compare['baseline']}'"
+                          + did_you_mean(compare["baseline"], names) + f"; filters: {', '.join(names)}")
     if top["table"] is not None:
         if top["paper"] is None:
             raise ConfigError("table", "needs 'paper' too")

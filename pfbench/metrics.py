@@ -69,7 +69,7 @@ def summarize(values) -> dict:
     v = v[~np.isnan(v)]
     n = v.size
     out = {"n": n, "mean": math.nan, "var": math.nan, "se": math.nan, "ci_lo": math.nan,
-           "ci_hi": math.nan, "var_ci_lo": math.nan, "var_ci_hi": math.nan}
+           "ci_hi": math.nan, "var_se": math.nan, "var_ci_lo": math.nan, "var_ci_hi": math.nan}
     if n == 0:
         return out
     mean = float(v.mean())
@@ -81,6 +81,20 @@ def summarize(values) -> dict:
     half = t975(n - 1) * se
     m4 = float(np.mean((v - mean) ** 4))
     var_se = math.sqrt(max(m4 - var * var * (n - 3) / (n - 1), 0.0) / n)
-    out.update(var=var, se=se, ci_lo=mean - half, ci_hi=mean + half,
+    out.update(var=var, se=se, ci_lo=mean - half, ci_hi=mean + half, var_se=var_se,
                var_ci_lo=max(var - Z975 * var_se, 0.0), var_ci_hi=var + Z975 * var_se)
     return out
+
+
+def paired(values, baseline) -> dict:
+    """Paired comparison over trials (the same truth per trial): the mean difference
+    values - baseline with its 95% interval, and the win rate (fraction of trials where the value
+    is smaller, ties counting half)."""
+    a = np.asarray(values, dtype=float)
+    b = np.asarray(baseline, dtype=float)
+    ok = ~(np.isnan(a) | np.isnan(b))
+    d = a[ok] - b[ok]
+    s = summarize(d)
+    wins = float(np.mean((d < 0) + 0.5 * (d == 0))) if d.size else math.nan
+    return {"diff_mean": s["mean"], "diff_ci_lo": s["ci_lo"], "diff_ci_hi": s["ci_hi"],
+            "win_rate": wins}

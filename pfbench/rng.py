@@ -116,3 +116,24 @@ def fill_uniform(s, u):
     """Fill ``u`` with independent U[0, 1) draws."""
     for i in range(u.size):
         u[i] = uniform(s)
+
+
+@njit(types.float64(STATE, types.float64), cache=True)
+def standard_gamma(s, shape):
+    """One Gamma(shape, rate 1) draw (Marsaglia & Tsang 2000; shape < 1 by the U^(1/shape) boost)."""
+    boost = 1.0
+    a = shape
+    if a < 1.0:
+        boost = uniform(s) ** (1.0 / a)
+        a += 1.0
+    d = a - 1.0 / 3.0
+    c = 1.0 / math.sqrt(9.0 * d)
+    while True:
+        z = normal(s)
+        v = 1.0 + c * z
+        if v <= 0.0:
+            continue
+        v = v * v * v
+        u = uniform(s)
+        if u < 1.0 - 0.0331 * z ** 4 or math.log(u) < 0.5 * z * z + d * (1.0 - v + math.log(v)):
+            return boost * d * v

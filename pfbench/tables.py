@@ -7,7 +7,7 @@ from pathlib import Path
 import pandas as pd
 
 from .config import Experiment
-from .metrics import summarize
+from .metrics import Z975, paired, summarize
 from .papers import PAPERS, Quantity, Table, reported
 from .runner import atomic_write
 
@@ -41,10 +41,34 @@ def verdict(paper: float | None, ours: float, lo: float, hi: float, *, rel_tol: 
     return text
 
 
-def _stat(s: dict, q: Quantity) -> tuple[float, float, float]:
+def _stat(s: dict, q: Quantity, paper_runs: int | None = None) -> tuple[float, float, float]:
+    """(our value, interval) for quantity q. With ``paper_runs``, the interval is widened by the
+    sampling error a batch of that many runs has (what the paper's own value carries): half-width
+    1.96 sqrt(se_ours^2 + se_batch^2), se_batch scaled from ours by sqrt(n_ours / paper_runs)."""
     if q.stat == "mean":
-        return s["mean"], s["ci_lo"], s["ci_hi"]
-    return s["var"], s["var_ci_lo"], s["var_ci_hi"]
+        v, lo, hi, se = s["mean"], s["ci_lo"], s["ci_hi"], s["se"]
+    else:
+        v, lo, hi, se = s["var"], s["var_ci_lo"], s["var_ci_hi"], s["var_se"]
+    if paper_runs and s["n"] > 1:
+        half = Z975 * se * math.sqrt(1.0 + s["n"] / paper_runs)
+        lo, hi = v - half, v + half
+    return v, lo, hi
+
+
+def baseline_runs(exp: Experiment) -> dict[str, str]:
+    """For each filter run, the key of the baseline run it is paired with (the baseline filter at the
+    same particle count, or its only run); empty without compare.baseline."""
+    name = exp.compare["baseline"]
+    if name is None:
+        return {}
+    base = [f for f in exp.filters if f.name == name]
+    out = {}
+    for f in exp.filters:
+        same = [b for b in base if b.particles == f.particles]
+        pick = same[0] if same else base[0] if len(base) == 1 else None
+        if pick is not None and pick.key != f.key:
+            out[f.key] = pick.key
+    return out
 
 
 def summary(exp: Experiment, rows: list[dict] | pd.DataFrame) -> pd.DataFrame:
@@ -55,6 +79,7 @@ def summary(exp: Experiment, rows: list[dict] | pd.DataFrame) -> pd.DataFrame:
     floor = None
     if exp.compare["floor"] is not None:
         floor = summarize(by_key[exp.compare["floor"]]["rmse"])["ci_lo"]
+    pairs = baseline_runs(exp)
     out = []
     for run in exp.filters:
         g = by_key[run.key]
@@ -67,12 +92,20 @@ def summary(exp: Experiment, rows: list[dict] | pd.DataFrame) -> pd.DataFrame:
             r[metric] = summarize(g[metric])["mean"]
         r["underflow_steps"] = float(g["underflow_steps"].sum())
         r["wall_ms_per_trial"] = 1e3 * float(g["wall_s"].mean()) if len(g) else math.nan
+        r["baseline"] = pairs.get(run.key)
+        if run.key in pairs:
+            a = g.set_index("trial")["rmse"]
+            b = by_key[pairs[run.key]].set_index("trial")["rmse"].reindex(a.index)
+            r.update({f"rmse_{k}": v for k, v in paired(a.values, b.values).items()})
+        else:
+            r.update(rmse_diff_mean=math.nan, rmse_diff_ci_lo=math.nan, rmse_diff_ci_hi=math.nan,
+                     rmse_win_rate=math.nan)
         if table is not None:
             values = table.values.get((run.label, run.particles), {})
             for q in table.quantities:
                 paper = values.get(q.key)
                 s = summarize(g[q.metric])
-                ours, lo, hi = _stat(s, q)
+                ours, lo, hi = _stat(s, q, exp.compare["paper_runs"])
                 r[f"paper_{q.key}"] = paper
                 r[f"ratio_{q.key}"] = ours / paper if paper else math.nan
                 r[f"verdict_{q.key}"] = verdict(
@@ -91,6 +124,19 @@ def _fmt(v, digits=4) -> str:
     return str(v)
 
 
+def _paired_cells(exp: Experiment, r) -> list[str]:
+    """[difference to the baseline with its interval, win rate] for row r ('-' for the baseline)."""
+    if r["baseline"] is None or r["baseline"] != r["baseline"]:
+        return ["-", "-"]
+    return [f"{r['rmse_diff_mean']:+.3g} [{r['rmse_diff_ci_lo']:+.3g}, {r['rmse_diff_ci_hi']:+.3g}]",
+            f"{r['rmse_win_rate']:.0%}"]
+
+
+def _paired_head(exp: Experiment) -> list[str]:
+    b = exp.compare["baseline"]
+    return [f"RMSE - {b} [95% CI]", f"Wins vs {b}"] if b else []
+
+
 def display_columns(exp: Experiment, tab: pd.DataFrame) -> tuple[list[str], list[list[str]]]:
     """Header and cells of the human table (Markdown and the console share it)."""
     table = reported(exp.paper, exp.table)
@@ -98,7 +144,7 @@ def display_columns(exp: Experiment, tab: pd.DataFrame) -> tuple[list[str], list
     head = ["Filter", "N", "Trials", "RMSE mean [95% CI]", "RMSE var [95% CI]"]
     for q in quantities:
         head += [f"Paper {q.title}", "Ratio", "Verdict"]
-    head += ["Mean ESS", "Distinct", "Evals/step", "ms/trial"]
+    head += _paired_head(exp) + ["Mean ESS", "Distinct", "Evals/step", "ms/trial"]
     cells = []
     for _, r in tab.iterrows():
         n = r["particles"]
@@ -108,7 +154,7 @@ def display_columns(exp: Experiment, tab: pd.DataFrame) -> tuple[list[str], list
         for q in quantities:
             row += [_fmt(r[f"paper_{q.key}"], 6), _fmt(r[f"ratio_{q.key}"], 3),
                     r[f"verdict_{q.key}"] or "-"]
-        row += [_fmt(r["mean_ess"]), _fmt(r["distinct_frac"], 3), _fmt(r["lik_evals_per_step"]),
+        row += (_paired_cells(exp, r) if exp.compare["baseline"] else []) + [_fmt(r["mean_ess"]), _fmt(r["distinct_frac"], 3), _fmt(r["lik_evals_per_step"]),
                 _fmt(r["wall_ms_per_trial"], 3)]
         cells.append(row)
     return head, cells
@@ -123,7 +169,8 @@ def console_tables(exp: Experiment, tab: pd.DataFrame) -> list[tuple[str, list[s
         comp_head.append("RMSE mean [95% CI]")
     for q in quantities:
         comp_head += [f"{q.metric.upper()} {q.stat} [95% CI]", f"Paper {q.title}", "Verdict"]
-    diag_head = ["Filter", "N", "RMSE var", "Mean ESS", "Distinct", "Evals/step", "ms/trial"]
+    diag_head = (["Filter", "N", "RMSE var"] + _paired_head(exp)
+                 + ["Mean ESS", "Distinct", "Evals/step", "ms/trial"])
     comp, diag = [], []
     for _, r in tab.iterrows():
         n = r["particles"]
@@ -137,7 +184,9 @@ def console_tables(exp: Experiment, tab: pd.DataFrame) -> list[tuple[str, list[s
             row += [f"{_fmt(point)} [{_fmt(r[pre + 'ci_lo'])}, {_fmt(r[pre + 'ci_hi'])}]",
                     _fmt(r[f"paper_{q.key}"], 6), r[f"verdict_{q.key}"] or "-"]
         comp.append(row)
-        diag.append(who + [_fmt(r["rmse_var"]), _fmt(r["mean_ess"]), _fmt(r["distinct_frac"], 3),
+        diag.append(who + [_fmt(r["rmse_var"])]
+                    + (_paired_cells(exp, r) if exp.compare["baseline"] else [])
+                    + [_fmt(r["mean_ess"]), _fmt(r["distinct_frac"], 3),
                            _fmt(r["lik_evals_per_step"]), _fmt(r["wall_ms_per_trial"], 3)])
     return [("", comp_head, comp), ("diagnostics", diag_head, diag)]
 
@@ -145,15 +194,27 @@ def console_tables(exp: Experiment, tab: pd.DataFrame) -> list[tuple[str, list[s
 def footnotes(exp: Experiment, tab: pd.DataFrame) -> list[str]:
     """Lines that explain the table: the floor row, underflow events."""
     notes = []
+    if exp.compare["paper_runs"]:
+        notes.append(f"The paper's values come from {exp.compare['paper_runs']} runs: a verdict's "
+                     "interval adds the sampling error of a batch that size to ours (half-width "
+                     "1.96 sqrt(se_ours^2 + se_batch^2)).")
+    if exp.compare["baseline"]:
+        notes.append(f"'RMSE - {exp.compare['baseline']}': mean per-trial RMSE difference to the "
+                     "baseline on the same truth, with its 95% interval; 'Wins': fraction of trials "
+                     "where the row's RMSE is lower.")
     if exp.compare["floor"] is not None:
         r = tab[tab["filter"] == exp.compare["floor"]].iloc[0]
         notes.append(f"Floor: {r['label']} with N = {int(r['particles'])} reaches RMSE "
                      f"{r['rmse_mean']:.3f} [{r['rmse_ci_lo']:.3f}, {r['rmse_ci_hi']:.3f}]; no filter "
                      "can average below what a near-optimal filter reaches, so a paper value under "
                      "that interval is marked 'paper below the model's floor'.")
-    events = float(tab["underflow_steps"].sum())
-    if events > 0:
-        notes.append(f"Underflow steps (every weight zero, measurement ignored): {int(events)}.")
+    hit = tab[tab["underflow_steps"] > 0]
+    if len(hit):
+        rows = ", ".join(f"{r['label']}" + (f" N={int(r['particles'])}" if r["particles"] ==
+                                            r["particles"] and r["particles"] is not None else "")
+                         + f": {int(r['underflow_steps'])}" for _, r in hit.iterrows())
+        notes.append("Steps where every weight was zero (the measurement was ignored), summed over "
+                     f"trials: {rows}.")
     return notes
 
 

@@ -42,8 +42,8 @@ CASES = [
     ("nan", "process_noise_var: 1.0", "process_noise_var: .nan", ["process_noise_var", "finite"]),
     ("unknown scenario", "name: ungm", "name: ungn", ["scenario.name", "did you mean 'ungm'",
                                                      "linear_gaussian"]),
-    ("unknown filter type", "  ukf:\n    label: UKF\n", "  ufk:\n    label: UKF\n",
-     ["filters.ufk", "did you mean 'ukf'", "valid types"]),
+    ("unknown filter type", "  ukf:\n    label: UKF\n", "  ukff:\n    label: UKF\n",
+     ["filters.ukff", "did you mean 'ukf'", "valid types"]),
     ("unknown resampling", "    label: PF\n", "    label: PF\n    resampling: sistematic\n",
      ["filters.pf.resampling", "did you mean 'systematic'", "residual"]),
     ("particles on a ukf", "    label: UKF\n", "    label: UKF\n    particles: 10\n",
@@ -54,6 +54,11 @@ CASES = [
     ("bad yaml", "filters:\n", "filters: [\n", ["not valid YAML"]),
     ("kappa too small", "    label: UKF\n", "    label: UKF\n    kappa: -5.0\n", ["filters.ukf.kappa"]),
     ("unknown paper", "seed: 0\n", "seed: 0\npaper: ifa2012\n", ["paper", "did you mean 'ifa2021'"]),
+    ("unknown baseline", "seed: 0\n", "seed: 0\ncompare: {baseline: pff}\n",
+     ["compare.baseline", "did you mean 'pf'"]),
+    ("paper_runs zero", "seed: 0\n", "seed: 0\ncompare: {paper_runs: 0}\n", ["compare.paper_runs"]),
+    ("negative floor", "    label: PF\n", "    label: PF\n    likelihood_floor: -1.0\n",
+     ["filters.pf.likelihood_floor", ">= 0"]),
 ]
 
 

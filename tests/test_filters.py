@@ -150,7 +150,7 @@ def test_diversity_diagnostics():
 
 
 def test_mean_abs_pairwise_matches_brute_force():
-    from pfbench.filters.pf import mean_abs_pairwise
+    from pfbench.filters._common import mean_abs_pairwise
     x = np.random.default_rng(0).normal(size=57)
     brute = np.mean([abs(a - b) for i, a in enumerate(x) for b in x[i + 1:]])
     assert math.isclose(mean_abs_pairwise(x), brute, rel_tol=1e-12)

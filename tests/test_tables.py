@@ -57,3 +57,29 @@ def test_paper_tables_are_well_formed():
             for (label, n), values in table.values.items():
                 assert isinstance(label, str) and (n is None or n >= 2)
                 assert set(values) <= keys
+
+
+def test_paper_runs_widen_the_interval_by_the_batch_error():
+    from pfbench.papers import Quantity
+    from pfbench.tables import _stat
+    rng = np.random.default_rng(2)
+    s = summarize(rng.normal(1.0, 0.3, 1000))
+    q = Quantity("m", "m", "rmse", "mean")
+    v, lo, hi = _stat(s, q)
+    assert (lo, hi) == (s["ci_lo"], s["ci_hi"])
+    v, lo, hi = _stat(s, q, paper_runs=100)
+    # a 100-run batch has sqrt(1000 / 100) times our standard error: half-width 1.96 se sqrt(11)
+    assert math.isclose(hi - v, 1.959963984540054 * s["se"] * math.sqrt(11), rel_tol=1e-12)
+    qv = Quantity("v", "v", "rmse", "var")
+    v, lo, hi = _stat(s, qv, paper_runs=100)
+    assert math.isclose(hi - v, 1.959963984540054 * s["var_se"] * math.sqrt(11), rel_tol=1e-12)
+
+
+def test_paired_difference_and_win_rate():
+    from pfbench.metrics import paired
+    a = np.array([1.0, 2.0, 3.0, 4.0])
+    b = np.array([2.0, 2.0, 1.0, 5.0])
+    p = paired(a, b)
+    assert p["diff_mean"] == pytest.approx(np.mean(a - b))
+    assert p["win_rate"] == pytest.approx((1 + 0.5 + 0 + 1) / 4)
+    assert p["diff_ci_lo"] < p["diff_mean"] < p["diff_ci_hi"]

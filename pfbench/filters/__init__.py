@@ -10,7 +10,7 @@ from typing import Callable
 
 from ..resampling import SCHEMES
 from ..schema import Key
-from . import kalman, pf, ukf
+from . import ekf, kalman, pf, ukf, upf
 
 # Seconds spent importing the kernels: numba compiles them here (first run) or loads them from the
 # disk cache. Reported in meta.json as kernel_load_s, apart from the trials' wall time.
@@ -34,6 +34,12 @@ class FilterType:
     scenarios: tuple | None = None
 
 
+def _floor_key():
+    return Key("float", 0.0, "additive floor on the likelihood R^(-1/2) exp(-d^2 / 2R) (0: none; "
+               "the Gamma benchmark's reference implementation adds 1e-99, which makes a particle "
+               "set with no particle near the measurement weigh all particles equally)", min=0.0)
+
+
 def _pf_schema():
     return {
         "resampling": Key("choice", "systematic", "resampling scheme", choices=tuple(SCHEMES)),
@@ -44,17 +50,61 @@ def _pf_schema():
         "estimate": Key("choice", "before_resampling", "state estimate: weighted mean before "
                         "resampling, or mean of the resampled particles",
                         choices=("before_resampling", "after_resampling")),
+        "likelihood_floor": _floor_key(),
     }
 
 
-def _ukf_schema():
+def _gaussian_noise_schema(what: str):
+    return {
+        "process_noise_mean": Key("float", None, f"mean of the Gaussian process noise {what} "
+                                  "assumes (default: the scenario's noise mean)", nullable=True),
+        "process_noise_var": Key("float", None, f"variance of that noise (default: the scenario's "
+                                 "noise variance)", min=0.0, min_exclusive=True, nullable=True),
+        "measurement_noise_var": Key("float", None, f"measurement noise variance {what} assumes "
+                                     "(default: the scenario's)", min=0.0, min_exclusive=True,
+                                     nullable=True),
+    }
+
+
+def _sigma_schema():
     return {
         "alpha": Key("float", 1.0, "spread of the sigma points", min=0.0, min_exclusive=True),
         "beta": Key("float", 0.0, "prior-knowledge term of the centre weight (2 is optimal for "
                     "Gaussian priors)"),
         "kappa": Key("float", 2.0, "secondary scaling; needs L + kappa > 0 (L = 3 augmented, 1 "
                      "otherwise)"),
+    }
+
+
+def _upf_schema(resample: str, mh_steps: int):
+    pf_keys = _pf_schema()
+    return {
+        "resampling": Key("choice", "residual", "resampling scheme", choices=tuple(SCHEMES)),
+        "resample": Key("choice", resample, "'always'; 'neff': when ESS < neff_ratio * N; "
+                        "'weight_change': when K = sum W_k (W_k - W_{k-1})^2 > sigma / N^2 "
+                        "(sspf2008)", choices=("always", "neff", "weight_change")),
+        "neff_ratio": pf_keys["neff_ratio"],
+        "sigma": Key("float", 1.0, "threshold of the weight-change trigger in units of 1 / N^2 "
+                     "(sspf2008 gives no value; 1 / N^2 is the K of weights split evenly over half "
+                     "the particles, an ESS of N / 2)", min=0.0, min_exclusive=True),
+        "mh_steps": Key("int", mh_steps, "independence Metropolis-Hastings moves per particle "
+                        "after each resampling, with the particle's UKF proposal", min=0),
+        "estimate": pf_keys["estimate"],
+        "likelihood_floor": _floor_key(),
+        "prior_argument": Key("choice", "transition", "where the weight's transition density is "
+                              "evaluated: 'transition' (w = x_t - f(x_{t-1}), the model) or "
+                              "'increment' (x_t - x_{t-1}, as the Gamma benchmark's reference "
+                              "implementation does)", choices=("transition", "increment")),
+        **_sigma_schema(),
+        **_gaussian_noise_schema("the proposal's UKF"),
+    }
+
+
+def _ukf_schema():
+    return {
+        **_sigma_schema(),
         "augmented": Key("bool", True, "augment the state with the process and measurement noise"),
+        **_gaussian_noise_schema("the UKF"),
     }
 
 
@@ -64,6 +114,16 @@ FILTERS = {
         FilterType("pf", "bootstrap particle filter (SIR)", _pf_schema(), pf.run),
         FilterType("ukf", "unscented Kalman filter (scaled sigma points, optional noise "
                    "augmentation)", _ukf_schema(), ukf.run, particles=False),
+        FilterType("pfmh", "bootstrap PF with Metropolis-Hastings moves after resampling (PF+MH)",
+                   {**_pf_schema(), "mh_steps": Key("int", 1, "MH moves per particle after each "
+                                                    "resampling (proposal: the transition prior)",
+                                                    min=1)}, pf.run),
+        FilterType("upf", "unscented particle filter (a UKF per particle as the proposal)",
+                   _upf_schema("always", 0), upf.run),
+        FilterType("sspf", "SSPF (sspf2008): UPF + weight-change-triggered residual resampling + "
+                   "MH move", _upf_schema("weight_change", 1), upf.run),
+        FilterType("ekf", "extended Kalman filter", _gaussian_noise_schema("the EKF"), ekf.run,
+                   particles=False),
         FilterType("kf", "exact Kalman filter (linear_gaussian scenario only)", {}, kalman.run,
                    particles=False, scenarios=("linear_gaussian",)),
     )

@@ -13,54 +13,34 @@ from numba import njit, types
 from ..resampling import SCHEME_CODES, resample
 from ..rng import STATE, fill_normal
 from ..scenarios.base import ModelFn, add_process_noise
+from ._common import diversity, floored, mh_move, normalise
 
 _F = types.float64[::1]
 _I = types.int64[::1]
 
 PF_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64, types.int64,
-                     types.int64, types.float64, types.int64, types.int64, STATE,
-                     _F, _F, _I, _F, _F)
-
-
-@njit(types.float64(_F), cache=True)
-def mean_abs_pairwise(x):
-    """Mean over pairs i < j of |x_i - x_j| (O(N log N) through the sorted values)."""
-    N = x.size
-    if N < 2:
-        return 0.0
-    z = np.sort(x)
-    acc = 0.0
-    for i in range(N):
-        acc += (2.0 * i - N + 1.0) * z[i]
-    return 2.0 * acc / (N * (N - 1.0))
-
-
-@njit(types.float64(_I, _I, types.int64), cache=True)
-def distinct_fraction(idx, mark, stamp):
-    """Fraction of distinct values in ancestor indices ``idx``; ``mark`` (N,) is scratch."""
-    count = 0
-    for i in range(idx.size):
-        j = idx[i]
-        if mark[j] != stamp:
-            mark[j] = stamp
-            count += 1
-    return count / idx.size
+                     types.int64, types.float64, types.int64, types.int64, types.float64,
+                     types.int64, STATE, _F, _F, _I, _F, _F)
 
 
 @njit(PF_SIG, cache=True)
 def pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, scheme, threshold, estimate_after,
-              diag, s, xhat, ess, resampled, div_l1, distinct):
+              mh_steps, log_floor, diag, s, xhat, ess, resampled, div_l1, distinct):
     """Run a bootstrap PF over y (T+1,) and fill the (T+1,) traces; return the underflow count.
 
     threshold : resample when ESS < threshold (np.inf: every step)
-    estimate_after : 1 = estimate is the mean of the resampled particles, 0 = weighted mean before
-    diag : 1 = fill div_l1 (mean pairwise |x_i - x_j|) and distinct (fraction of distinct ancestors)
-           after each resampling; NaN at steps without resampling
-    An underflow step (every log-weight -inf or NaN) resets the weights to uniform: the measurement of
-    that step is ignored rather than turned into NaN.
+    estimate_after : 1 = estimate is the mean of the particles after resampling (and the MH
+        moves), 0 = the weighted mean before resampling
+    mh_steps : Metropolis-Hastings moves per particle after each resampling (0: plain PF; PF+MH)
+    log_floor : log of an additive floor on the likelihood (-inf: none; see ``floored``)
+    diag : 1 = fill div_l1 (mean pairwise |x_i - x_j|) and distinct (fraction of distinct values)
+        after each resampling; NaN at steps without resampling
+    An underflow step (every log-weight -inf or NaN) resets the weights to uniform: the measurement
+    of that step is ignored rather than turned into NaN.
     """
     T = y.size - 1
     half_inv_R = 0.5 / noise[3]
+    c0 = -0.5 * math.log(noise[3])  # the likelihood's scale R^(-1/2), which a floor compares with
     x = np.empty(N)
     fill_normal(s, x)
     sd0 = math.sqrt(prior_var)
@@ -71,7 +51,11 @@ def pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, scheme, threshold
     w = np.empty(N)
     lw = np.zeros(N)
     idx = np.empty(N, dtype=np.int64)
-    mark = np.full(N, -1, dtype=np.int64)
+    m = mh_steps > 0
+    xprev = np.empty(N if m else 0)
+    hcur = np.empty(N if m else 0)
+    prop = np.empty(N if m else 0)
+    hprop = np.empty(N if m else 0)
     events = 0
     xhat[0] = prior_mean
     ess[0] = N
@@ -84,60 +68,52 @@ def pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, scheme, threshold
         add_process_noise(s, noise, xn)
         h(xn, tt, theta, hx)
         yt = y[t]
-        m = -np.inf
-        for i in range(N):
-            d = yt - hx[i]
-            l = lw[i] - half_inv_R * d * d
-            lw[i] = l
-            m = max(m, l)  # NaN log-weights lose every comparison: they never become the max
-        if not (m > -np.inf):
-            events += 1
+        mx = -np.inf
+        if log_floor == -np.inf:
             for i in range(N):
-                lw[i] = 0.0
-            m = 0.0
-        S = 0.0
-        S2 = 0.0
-        sx = 0.0
-        for i in range(N):
-            e = math.exp(lw[i] - m)
-            e = e if e == e else 0.0  # a NaN log-weight is a zero weight
-            w[i] = e
-            S += e
-            S2 += e * e
-            sx += e * xn[i]
-        if not math.isfinite(sx):  # rare: a zero-weight particle at +-inf or NaN (0 * inf)
-            sx = 0.0
-            for i in range(N):
-                if w[i] > 0.0:
-                    sx += w[i] * xn[i]
-        ess[t] = S * S / S2
-        est = sx / S
-        if ess[t] < threshold:
-            resample(scheme, w, S, s, idx)
-            acc = 0.0
-            for i in range(N):
-                v = xn[idx[i]]
-                x[i] = v
-                acc += v
-                lw[i] = 0.0
-            resampled[t] = 1
-            if estimate_after:
-                est = acc / N
-            if diag:
-                div_l1[t] = mean_abs_pairwise(x)
-                distinct[t] = distinct_fraction(idx, mark, t)
-            else:
-                div_l1[t] = np.nan
-                distinct[t] = np.nan
+                d = yt - hx[i]
+                l = lw[i] - half_inv_R * d * d
+                lw[i] = l
+                mx = max(mx, l)  # a NaN loses every comparison: it never becomes the max
         else:
             for i in range(N):
-                x[i] = xn[i]
-                lw[i] -= m
-            resampled[t] = 0
-            div_l1[t] = np.nan
-            distinct[t] = np.nan
+                d = yt - hx[i]
+                l = lw[i] + floored(c0 - half_inv_R * d * d, log_floor)
+                lw[i] = l
+                mx = max(mx, l)
+        S, S2, sx, under = normalise(lw, w, xn, mx)
+        events += int(under)
+        ess[t] = S * S / S2
+        est = sx / S
+        div_l1[t] = np.nan
+        distinct[t] = np.nan
+        resampled[t] = 0
+        if ess[t] < threshold:
+            resample(scheme, w, S, s, idx)
+            if m:
+                for i in range(N):
+                    xprev[i] = x[idx[i]]
+                    hcur[i] = hx[idx[i]]
+            for i in range(N):
+                x[i] = xn[idx[i]]
+                lw[i] = 0.0
+            for _ in range(mh_steps):
+                mh_move(f, h, theta, noise, xprev, x, hcur, yt, tt, log_floor, s, prop, hprop)
+            resampled[t] = 1
+            if estimate_after:
+                est = x.sum() / N
+            if diag:
+                div_l1[t], distinct[t] = diversity(x)
+        else:
+            x, xn = xn, x
         xhat[t] = est
     return events
+
+
+def log_floor(params) -> float:
+    """log of the configured likelihood floor (-inf when there is none)."""
+    floor = params.get("likelihood_floor", 0.0)
+    return math.log(floor) if floor > 0 else -np.inf
 
 
 def run(model, y, params, particles, state, diag=True):
@@ -146,10 +122,13 @@ def run(model, y, params, particles, state, diag=True):
     out = {"xhat": np.empty(T1), "ess": np.empty(T1), "resampled": np.empty(T1, dtype=np.int64),
            "div_l1": np.empty(T1), "distinct": np.empty(T1)}
     threshold = np.inf if params["resample"] == "always" else params["neff_ratio"] * particles
+    mh = int(params.get("mh_steps", 0))
     out["underflow_steps"] = pf_kernel(
         model.transition, model.observe, model.theta, model.noise, y, model.prior_mean,
         model.prior_var, particles, SCHEME_CODES[params["resampling"]], threshold,
-        int(params["estimate"] == "after_resampling"), int(diag), state,
+        int(params["estimate"] == "after_resampling"), mh, log_floor(params), int(diag), state,
         out["xhat"], out["ess"], out["resampled"], out["div_l1"], out["distinct"])
-    out["lik_evals_per_step"] = float(particles)
+    # each MH sweep evaluates the likelihood once more per particle (at the proposal), at the
+    # steps that resample
+    out["lik_evals_per_step"] = particles * (1.0 + mh * float(np.mean(out["resampled"][1:])))
     return out

@@ -13,6 +13,7 @@ import numpy as np
 from numba import njit, types
 
 from ..scenarios.base import ModelFn
+from .ekf import noise_moments
 
 _F = types.float64[::1]
 
@@ -34,15 +35,17 @@ def _transform(fn, pts, t, theta, offset, add_offset, Wm, Wc, out):
 
 
 UKF_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64, types.float64,
-                      types.float64, types.float64, types.float64, types.float64, types.int64, _F, _F)
+                      types.float64, types.float64, types.float64, types.float64, types.float64,
+                      types.int64, _F, _F)
 
 
 @njit(UKF_SIG, cache=True)
-def ukf_kernel(f, h, theta, noise, y, prior_mean, prior_var, Q, R, alpha, beta, kappa, augmented,
-               xhat, pvar):
+def ukf_kernel(f, h, theta, noise, y, prior_mean, prior_var, q_mean, Q, R, alpha, beta, kappa,
+               augmented, xhat, pvar):
     """Run the UKF over y (T+1,), filling the posterior mean xhat and variance pvar (T+1,).
 
-    Q, R : the Gaussian process and measurement noise variances the filter assumes.
+    q_mean, Q, R : the Gaussian process noise (mean, variance) and measurement noise variance the
+    filter assumes.
     Returns the number of steps whose posterior variance came out non-positive (then floored at
     1e-300 so the filter goes on; a well-posed model never does this).
     """
@@ -66,9 +69,10 @@ def ukf_kernel(f, h, theta, noise, y, prior_mean, prior_var, Q, R, alpha, beta, 
     pvar[0] = P
     events = 0
     sq = math.sqrt(c)
+    wn[:] = q_mean
     if augmented:
-        wn[2] = sq * math.sqrt(Q)
-        wn[5] = -wn[2]
+        wn[2] += sq * math.sqrt(Q)
+        wn[5] -= sq * math.sqrt(Q)
         vn[3] = sq * math.sqrt(R)
         vn[6] = -vn[3]
     for t in range(1, T + 1):
@@ -77,7 +81,7 @@ def ukf_kernel(f, h, theta, noise, y, prior_mean, prior_var, Q, R, alpha, beta, 
         chi[:] = m
         chi[1] = m + d
         chi[1 + L] = m - d
-        mp, Pp = _transform(f, chi, tt, theta, wn, augmented, Wm, Wc, fx)
+        mp, Pp = _transform(f, chi, tt, theta, wn, 1, Wm, Wc, fx)
         if augmented:
             xs = fx
         else:
@@ -109,9 +113,10 @@ def run(model, y, params, particles, state, diag=True):
     T1 = y.size
     out = {"xhat": np.empty(T1), "pvar": np.empty(T1)}
     aug = bool(params["augmented"])
+    q_mean, Q, R = noise_moments(model, params)
     out["variance_floor_steps"] = ukf_kernel(
         model.transition, model.observe, model.theta, model.noise, y, model.prior_mean,
-        model.prior_var, model.process_var, model.measurement_var, params["alpha"], params["beta"],
-        params["kappa"], int(aug), out["xhat"], out["pvar"])
+        model.prior_var, q_mean, Q, R, params["alpha"], params["beta"], params["kappa"], int(aug),
+        out["xhat"], out["pvar"])
     out["lik_evals_per_step"] = 7.0 if aug else 3.0
     return out

@@ -5,7 +5,9 @@
 Model functions are module-level ``@njit`` functions with the signature ``MODEL_SIG``: they take an
 array of states and fill ``out`` (one call per step for the whole particle set; a per-particle call
 through a function pointer costs several times more). Their parameters travel in ``theta``. The
-process noise w_t is described by ``noise``: float64[4] = [kind, a, b, R], kind 0 = N(0, a).
+process noise w_t is described by ``noise``: float64[4] = [kind, a, b, R] with kind 0 = N(0, a) and
+kind 1 = Gamma(shape a, rate b). Gaussian filters (EKF, UKF, the UPF's proposals) use the Gaussian
+with the noise's mean and variance (``gaussian_noise``) unless their config overrides it.
 """
 from __future__ import annotations
 
@@ -16,12 +18,13 @@ from typing import Any
 import numpy as np
 from numba import njit, types
 
-from ..rng import STATE, add_normal, normal
+from ..rng import STATE, add_normal, normal, standard_gamma
 
 MODEL_SIG = types.void(types.float64[::1], types.float64, types.float64[::1], types.float64[::1])
 ModelFn = types.FunctionType(MODEL_SIG)
 
 NOISE_GAUSSIAN = 0
+NOISE_GAMMA = 1
 
 
 @dataclass(frozen=True)
@@ -33,6 +36,8 @@ class ScalarModel:
     noise : (4,) float64 [kind, a, b, R]
     x0 : true initial state; prior_mean, prior_var : the filters' Gaussian prior for x_0
     steps : T
+    transition_jac, observe_jac : @njit functions with ``MODEL_SIG`` filling df/dx and dh/dx
+        (needed by the EKF; None where the scenario has none)
     """
 
     transition: Any
@@ -43,10 +48,20 @@ class ScalarModel:
     prior_mean: float
     prior_var: float
     steps: int
+    transition_jac: Any = None
+    observe_jac: Any = None
+
+    @property
+    def process_mean(self) -> float:
+        """Mean of the process noise w_t."""
+        kind, a, b = self.noise[0], self.noise[1], self.noise[2]
+        return 0.0 if kind == NOISE_GAUSSIAN else float(a / b)
 
     @property
     def process_var(self) -> float:
-        return float(self.noise[1])
+        """Variance of the process noise w_t."""
+        kind, a, b = self.noise[0], self.noise[1], self.noise[2]
+        return float(a) if kind == NOISE_GAUSSIAN else float(a / (b * b))
 
     @property
     def measurement_var(self) -> float:
@@ -56,7 +71,25 @@ class ScalarModel:
 @njit(types.void(STATE, types.float64[::1], types.float64[::1]), cache=True)
 def add_process_noise(s, noise, x):
     """x += w with w drawn from the process noise described by ``noise``."""
-    add_normal(s, math.sqrt(noise[1]), x)
+    if noise[0] == NOISE_GAUSSIAN:
+        add_normal(s, math.sqrt(noise[1]), x)
+    else:
+        scale = 1.0 / noise[2]
+        for i in range(x.size):
+            x[i] += scale * standard_gamma(s, noise[1])
+
+
+@njit(types.float64(types.float64[::1], types.float64), cache=True)
+def process_logpdf(noise, w):
+    """log density of the process noise at w (the transition density p(x_t | x_{t-1}) at
+    w = x_t - f(x_{t-1}))."""
+    a = noise[1]
+    if noise[0] == NOISE_GAUSSIAN:
+        return -0.5 * w * w / a - 0.5 * math.log(2.0 * math.pi * a)
+    if not (w > 0.0):
+        return -np.inf
+    b = noise[2]
+    return (a - 1.0) * math.log(w) - b * w + a * math.log(b) - math.lgamma(a)
 
 
 @njit(types.void(ModelFn, ModelFn, types.float64[::1], types.float64[::1], types.float64, STATE,

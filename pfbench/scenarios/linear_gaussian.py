@@ -37,6 +37,18 @@ def transition(x, t, theta, out):
 
 
 @njit(MODEL_SIG, cache=True)
+def transition_jac(x, t, theta, out):
+    for i in range(x.size):
+        out[i] = theta[0]
+
+
+@njit(MODEL_SIG, cache=True)
+def observe_jac(x, t, theta, out):
+    for i in range(x.size):
+        out[i] = theta[1]
+
+
+@njit(MODEL_SIG, cache=True)
 def observe(x, t, theta, out):
     """h(x) = c x."""
     for i in range(x.size):
@@ -49,4 +61,4 @@ def build(p) -> ScalarModel:
     noise = np.array([NOISE_GAUSSIAN, p["process_noise_var"], 0.0, p["measurement_noise_var"]])
     prior_mean = p["x0"] if p["prior_mean"] is None else p["prior_mean"]
     return ScalarModel(transition, observe, theta, noise, float(p["x0"]), float(prior_mean),
-                       float(p["prior_var"]), int(p["steps"]))
+                       float(p["prior_var"]), int(p["steps"]), transition_jac, observe_jac)

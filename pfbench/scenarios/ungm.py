@@ -47,10 +47,27 @@ def transition(x, t, theta, out):
 
 
 @njit(MODEL_SIG, cache=True)
+def transition_jac(x, t, theta, out):
+    """df/dx = 0.5 + 25 (1 - sign x^2) / (1 + sign x^2)^2."""
+    sign = theta[0]
+    for i in range(x.size):
+        x2 = x[i] * x[i]
+        d = 1.0 + sign * x2
+        out[i] = 0.5 + 25.0 * (1.0 - sign * x2) / (d * d)
+
+
+@njit(MODEL_SIG, cache=True)
 def observe(x, t, theta, out):
     """h(x) = x^2 / 20."""
     for i in range(x.size):
         out[i] = x[i] * x[i] / 20.0
+
+
+@njit(MODEL_SIG, cache=True)
+def observe_jac(x, t, theta, out):
+    """dh/dx = x / 10."""
+    for i in range(x.size):
+        out[i] = x[i] / 10.0
 
 
 def build(p) -> ScalarModel:
@@ -60,4 +77,4 @@ def build(p) -> ScalarModel:
     noise = np.array([NOISE_GAUSSIAN, p["process_noise_var"], 0.0, p["measurement_noise_var"]])
     prior_mean = p["x0"] if p["prior_mean"] is None else p["prior_mean"]
     return ScalarModel(transition, observe, theta, noise, float(p["x0"]), float(prior_mean),
-                       float(p["prior_var"]), int(p["steps"]))
+                       float(p["prior_var"]), int(p["steps"]), transition_jac, observe_jac)

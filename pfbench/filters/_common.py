@@ -1,0 +1,115 @@
+"""Steps shared by the particle-filter kernels: weight normalisation, the MH move, diagnostics."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, types
+
+from ..rng import STATE, uniform
+from ..scenarios.base import ModelFn, add_process_noise
+
+_F = types.float64[::1]
+
+
+@njit(types.float64(types.float64, types.float64), cache=True, inline="always")
+def floored(l, log_floor):
+    """log(exp(l) + exp(log_floor)): a log-likelihood with an additive floor on the likelihood.
+
+    The reference implementation of the Gamma-noise benchmark adds 1e-99 to R^(-1/2)
+    exp(-d^2 / 2R) "to deal with ill-conditioning"; log_floor = -inf leaves l unchanged.
+    """
+    if log_floor == -np.inf:
+        return l
+    hi = max(l, log_floor)
+    return hi + math.log1p(math.exp(-abs(l - log_floor)))
+
+
+@njit(types.UniTuple(types.float64, 4)(_F, _F, _F, types.float64), cache=True)
+def normalise(lw, w, x, m):
+    """Max-shifted weights from log-weights.
+
+    lw : (N,) log-weights, shifted in place by m (all -inf/NaN: reset to 0)
+    m : max(lw) over the non-NaN entries, as the caller found it while computing lw (kernels fold
+        it into their likelihood loop; ``max(m, l)`` skips NaN)
+    w : (N,) output, exp(lw); a NaN log-weight gives weight 0
+    x : (N,) particles, for the weighted sum
+    Returns (S, S2, sx, underflow): sum of w, sum of w^2, sum of w x, and 1.0 when every
+    log-weight was -inf or NaN (the weights were reset to uniform), else 0.0.
+    """
+    N = lw.size
+    underflow = 0.0
+    if not (m > -np.inf):
+        underflow = 1.0
+        for i in range(N):
+            lw[i] = 0.0
+        m = 0.0
+    S = 0.0
+    S2 = 0.0
+    sx = 0.0
+    for i in range(N):
+        l = lw[i] - m
+        lw[i] = l
+        e = math.exp(l)
+        e = e if e == e else 0.0
+        w[i] = e
+        S += e
+        S2 += e * e
+        sx += e * x[i]
+    if not math.isfinite(sx):  # rare: a zero-weight particle at +-inf or NaN (0 * inf)
+        sx = 0.0
+        for i in range(N):
+            if w[i] > 0.0:
+                sx += w[i] * x[i]
+    return S, S2, sx, underflow
+
+
+@njit(types.UniTuple(types.float64, 2)(_F), cache=True)
+def diversity(x):
+    """(mean pairwise |x_i - x_j| over pairs i < j, fraction of distinct values) of particles x."""
+    N = x.size
+    if N < 2:
+        return 0.0, 1.0
+    z = np.sort(x)
+    acc = 0.0
+    distinct = 1
+    for i in range(N):
+        acc += (2.0 * i - N + 1.0) * z[i]
+        if i > 0 and z[i] != z[i - 1]:
+            distinct += 1
+    return 2.0 * acc / (N * (N - 1.0)), distinct / N
+
+
+@njit(types.float64(_F), cache=True)
+def mean_abs_pairwise(x):
+    """Mean over pairs i < j of |x_i - x_j| (O(N log N) through the sorted values)."""
+    return diversity(x)[0]
+
+
+@njit(types.int64(ModelFn, ModelFn, _F, _F, _F, _F, _F, types.float64, types.float64,
+                  types.float64, STATE, _F, _F), cache=True)
+def mh_move(f, h, theta, noise, xprev, x, hx, yt, tt, log_floor, s, prop, hprop):
+    """One Metropolis-Hastings move per particle toward p(x_t | x_{t-1}, y_t) (resample-move).
+
+    xprev : (N,) each particle's previous state (its ancestor's x_{t-1})
+    x, hx : (N,) current particles and h(x), updated in place where a move is accepted
+    The proposal is the transition prior x* ~ p(. | xprev), so the acceptance ratio is the
+    likelihood ratio p(y_t | x*) / p(y_t | x) (with the likelihood floor, see ``floored``).
+    prop, hprop : (N,) scratch. Returns the number of accepted moves.
+    """
+    f(xprev, tt, theta, prop)
+    add_process_noise(s, noise, prop)
+    h(prop, tt, theta, hprop)
+    half_inv_R = 0.5 / noise[3]
+    c0 = -0.5 * math.log(noise[3])
+    accepted = 0
+    for i in range(x.size):
+        d0 = yt - hx[i]
+        d1 = yt - hprop[i]
+        log_a = (floored(c0 - half_inv_R * d1 * d1, log_floor)
+                 - floored(c0 - half_inv_R * d0 * d0, log_floor))
+        if log_a >= 0.0 or math.log(uniform(s)) < log_a:
+            x[i] = prop[i]
+            hx[i] = hprop[i]
+            accepted += 1
+    return accepted

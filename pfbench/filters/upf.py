@@ -1,0 +1,259 @@
+"""Unscented particle filter (UPF) and SSPF (sspf2008) on a scalar model.
+
+UPF (van der Merwe et al. 2000): each particle i carries a mean x_i and variance P_i; per step an
+augmented UKF (L = 3: state, process and measurement noise) run from (x_i, P_i) with the proposal's
+Gaussian noise gives N(m_i, Pn_i), the particle is drawn from it, and the weight is multiplied by
+p(y | x) p(x | x_prev) / q(x | x_prev, y), with the true (e.g. Gamma) transition density.
+All particles' 7 sigma points go through f and h in one call each.
+
+SSPF (sspf2008) adds: resampling triggered when the weight change
+K = sum_i W_k^i (W_k^i - W_{k-1}^i)^2 exceeds sigma (normalised weights; W_{k-1} are the weights
+after the last step, uniform after a resampling), and after each resampling one independence
+Metropolis-Hastings move per particle with the particle's own UKF proposal.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, types
+
+from ..resampling import SCHEME_CODES, resample
+from ..rng import STATE, fill_normal, normal, uniform
+from ..scenarios.base import ModelFn, process_logpdf
+from ._common import diversity, floored, normalise
+from .ekf import noise_moments
+from .pf import log_floor
+
+_F = types.float64[::1]
+_I = types.int64[::1]
+LOG_2PI = math.log(2.0 * math.pi)
+
+TRIGGER_ESS = 0
+TRIGGER_WEIGHT_CHANGE = 1
+
+UPF_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64, types.int64,
+                      types.float64, types.float64, types.float64, types.float64, types.float64,
+                      types.float64, types.int64, types.int64, types.float64, types.int64,
+                      types.int64, types.float64, types.int64, types.int64, STATE, _F, _F, _I,
+                      _F, _F)
+
+
+@njit(types.float64(types.float64, types.float64, types.float64), cache=True, inline="always")
+def _log_normal(x, m, v):
+    d = x - m
+    return -0.5 * d * d / v - 0.5 * (LOG_2PI + math.log(v))
+
+
+@njit(types.float64(_F, types.float64), cache=True)
+def increment_logprior(noise, w):
+    """log of the reference implementation's transition "prior" at the increment w = x_t - x_{t-1}:
+    w^(a-1) exp(-b w) for Gamma noise, evaluated for every real w as MATLAB does for the benchmark's
+    even power a - 1 = 2 (so a decrease of the state is not impossible there); the Gaussian
+    density for Gaussian noise. A transcription of that code, not a density of the model."""
+    if noise[0] == 0:
+        return process_logpdf(noise, w)
+    if w == 0.0:
+        return -np.inf
+    return (noise[1] - 1.0) * math.log(abs(w)) - noise[2] * w
+
+
+@njit(UPF_SIG, cache=True)
+def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, q_mean, Qp, Rp, alpha, beta,
+               kappa, scheme, trigger, threshold, estimate_after, mh_steps, log_floor, increment,
+               diag, s, xhat, ess, resampled, div_l1, distinct):
+    """Run the UPF/SSPF over y (T+1,); fill the (T+1,) traces; return the underflow count.
+
+    q_mean, Qp, Rp : Gaussian noise of the proposal's UKF (process mean and variance, measurement
+        variance); the weights use the model's true noise (``noise``).
+    trigger : TRIGGER_ESS (resample when ESS < threshold) or TRIGGER_WEIGHT_CHANGE (K > threshold)
+    mh_steps : independence MH moves per particle after each resampling.
+    log_floor : log of an additive floor on the likelihood (-inf: none; see ``floored``)
+    increment : 1 = evaluate the transition density at x_t - x_{t-1} instead of x_t - f(x_{t-1})
+        (what the benchmark's reference implementation does); 0 = the model's density.
+    """
+    T = y.size - 1
+    R = noise[3]
+    c0 = -0.5 * math.log(R)  # the likelihood's scale R^(-1/2), which a floor compares with
+    L = 3
+    n = 7
+    lam = alpha * alpha * (L + kappa) - L
+    c = L + lam
+    sq = math.sqrt(c)
+    Wm = np.full(n, 0.5 / c)
+    Wc = np.full(n, 0.5 / c)
+    Wm[0] = lam / c
+    Wc[0] = lam / c + 1.0 - alpha * alpha + beta
+    wn = np.full(n, q_mean)
+    wn[2] += sq * math.sqrt(Qp)
+    wn[5] -= sq * math.sqrt(Qp)
+    vn = np.zeros(n)
+    vn[3] = sq * math.sqrt(Rp)
+    vn[6] = -vn[3]
+
+    x = np.empty(N)
+    fill_normal(s, x)
+    sd0 = math.sqrt(prior_var)
+    for i in range(N):
+        x[i] = prior_mean + sd0 * x[i]
+    P = np.full(N, prior_var)
+    chi = np.empty(n * N)
+    fx = np.empty(n * N)
+    hz = np.empty(n * N)
+    fprev = np.empty(N)     # f(x_prev) of each particle
+    pm = np.empty(N)        # proposal mean and variance of each particle
+    pv = np.empty(N)
+    xn = np.empty(N)
+    hx = np.empty(N)
+    lw = np.zeros(N)
+    w = np.empty(N)
+    Wprev = np.full(N, 1.0 / N)
+    idx = np.empty(N, dtype=np.int64)
+    am = np.empty(N)        # after resampling: the ancestor's proposal mean, f(x_prev), h(x)
+    fa = np.empty(N)
+    ha = np.empty(N)
+    prop = np.empty(N)
+    hprop = np.empty(N)
+    events = 0
+    xhat[0] = prior_mean
+    ess[0] = N
+    resampled[0] = 0
+    div_l1[0] = np.nan
+    distinct[0] = np.nan
+    for t in range(1, T + 1):
+        tt = float(t)
+        yt = y[t]
+        # the proposal: an augmented UKF step per particle, all sigma points in one call each
+        for i in range(N):
+            d = sq * math.sqrt(P[i])
+            b = i * n
+            for j in range(n):
+                chi[b + j] = x[i]
+            chi[b + 1] += d
+            chi[b + 4] -= d
+        f(chi, tt, theta, fx)
+        for i in range(N):
+            b = i * n
+            # the prior density's anchor: f(x_prev) (the centre sigma point, before noise), or
+            # x_prev itself in the reference implementation's form
+            fprev[i] = x[i] if increment else fx[b]
+            mp = 0.0
+            for j in range(n):
+                fx[b + j] += wn[j]
+                mp += Wm[j] * fx[b + j]
+            pm[i] = mp
+        h(fx, tt, theta, hz)
+        for i in range(N):
+            b = i * n
+            mp = pm[i]
+            zm = 0.0
+            for j in range(n):
+                hz[b + j] += vn[j]
+                zm += Wm[j] * hz[b + j]
+            Pp = 0.0
+            S = 0.0
+            C = 0.0
+            for j in range(n):
+                dx = fx[b + j] - mp
+                dz = hz[b + j] - zm
+                Pp += Wc[j] * dx * dx
+                S += Wc[j] * dz * dz
+                C += Wc[j] * dx * dz
+            K = C / S
+            pm[i] = mp + K * (yt - zm)
+            v = Pp - K * K * S
+            pv[i] = v if v > 1e-300 else 1e-300
+            xn[i] = pm[i] + math.sqrt(pv[i]) * normal(s)
+        h(xn, tt, theta, hx)
+        mx = -np.inf
+        for i in range(N):
+            d = yt - hx[i]
+            lp = (increment_logprior(noise, xn[i] - fprev[i]) if increment
+                  else process_logpdf(noise, xn[i] - fprev[i]))
+            l = lw[i] + (floored(c0 - 0.5 * d * d / R, log_floor) + lp
+                         - _log_normal(xn[i], pm[i], pv[i]))
+            lw[i] = l
+            mx = max(mx, l)
+        Ssum, S2, sx, under = normalise(lw, w, xn, mx)
+        events += int(under)
+        ess[t] = Ssum * Ssum / S2
+        est = sx / Ssum
+        if trigger == TRIGGER_ESS:
+            go = ess[t] < threshold
+        else:
+            Kc = 0.0
+            for i in range(N):
+                Wi = w[i] / Ssum
+                Kc += Wi * (Wi - Wprev[i]) ** 2
+            go = Kc > threshold
+        div_l1[t] = np.nan
+        distinct[t] = np.nan
+        resampled[t] = 0
+        if go:
+            resample(scheme, w, Ssum, s, idx)
+            for i in range(N):            # each particle takes its ancestor's state and proposal
+                j = idx[i]
+                x[i] = xn[j]
+                P[i] = pv[j]
+                am[i] = pm[j]
+                fa[i] = fprev[j]
+                ha[i] = hx[j]
+                lw[i] = 0.0
+                Wprev[i] = 1.0 / N
+            for _ in range(mh_steps):     # independence MH with the ancestor's proposal
+                for i in range(N):
+                    prop[i] = am[i] + math.sqrt(P[i]) * normal(s)
+                h(prop, tt, theta, hprop)
+                for i in range(N):
+                    d0 = yt - ha[i]
+                    d1 = yt - hprop[i]
+                    if increment:
+                        dp = (increment_logprior(noise, prop[i] - fa[i])
+                              - increment_logprior(noise, x[i] - fa[i]))
+                    else:
+                        dp = (process_logpdf(noise, prop[i] - fa[i])
+                              - process_logpdf(noise, x[i] - fa[i]))
+                    log_a = (floored(c0 - 0.5 * d1 * d1 / R, log_floor)
+                             - floored(c0 - 0.5 * d0 * d0 / R, log_floor) + dp
+                             - _log_normal(prop[i], am[i], P[i])
+                             + _log_normal(x[i], am[i], P[i]))
+                    if log_a >= 0.0 or math.log(uniform(s)) < log_a:
+                        x[i] = prop[i]
+                        ha[i] = hprop[i]
+            resampled[t] = 1
+            if estimate_after:
+                est = x.sum() / N
+            if diag:
+                div_l1[t], distinct[t] = diversity(x)
+        else:
+            for i in range(N):
+                x[i] = xn[i]
+                P[i] = pv[i]
+                Wprev[i] = w[i] / Ssum
+        xhat[t] = est
+    return events
+
+
+def run(model, y, params, particles, state, diag=True):
+    """Run the UPF (or SSPF, by its parameters); return a dict of traces."""
+    T1 = y.size
+    out = {"xhat": np.empty(T1), "ess": np.empty(T1), "resampled": np.empty(T1, dtype=np.int64),
+           "div_l1": np.empty(T1), "distinct": np.empty(T1)}
+    q_mean, Qp, Rp = noise_moments(model, params)
+    if params["resample"] == "weight_change":
+        trigger, threshold = TRIGGER_WEIGHT_CHANGE, params["sigma"] / particles ** 2
+    elif params["resample"] == "neff":
+        trigger, threshold = TRIGGER_ESS, params["neff_ratio"] * particles
+    else:
+        trigger, threshold = TRIGGER_ESS, np.inf
+    mh = int(params["mh_steps"])
+    out["underflow_steps"] = upf_kernel(
+        model.transition, model.observe, model.theta, model.noise, y, model.prior_mean,
+        model.prior_var, particles, q_mean, Qp, Rp, params["alpha"], params["beta"],
+        params["kappa"], SCHEME_CODES[params["resampling"]], trigger, threshold,
+        int(params["estimate"] == "after_resampling"), mh, log_floor(params),
+        int(params["prior_argument"] == "increment"), int(diag), state,
+        out["xhat"], out["ess"], out["resampled"], out["div_l1"], out["distinct"])
+    # 7 sigma points through h per particle, plus the particle itself; an MH sweep adds one more
+    out["lik_evals_per_step"] = particles * (8.0 + mh * float(np.mean(out["resampled"][1:])))
+    return out
