@@ -162,6 +162,7 @@ def filter_costs(Y, min_time: float, reps: int, N: int = BATCH_N) -> list[dict]:
         sec, _ = _best(once, min_time, reps)
         out.append({"workload": "ungm-filters", "impl": "pfbench", "filter": name,
                     "particles": n or 0, "trials": 1, "steps": T, "seconds": sec,
+                    "grows_as": ftype.cost,
                     "seconds_per_step": sec / T,
                     "particle_steps_per_s": (n or 1) * T / sec})
     return out
@@ -241,11 +242,11 @@ def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None):
     records += costs
     base = next(c["seconds_per_step"] for c in costs if c["filter"] == "pf")
     tab = Table(title=f"cost per step of each filter at N = {BATCH_N} (one thread, default settings)")
-    for h in ("filter", "N", "us / step", "x bootstrap PF"):
+    for h in ("filter", "N", "cost grows as", "us / step", "x bootstrap PF"):
         tab.add_column(h, justify="right")
     for c in costs:
-        tab.add_row(c["filter"], str(c["particles"] or "-"), f"{1e6 * c['seconds_per_step']:.2f}",
-                    f"{c['seconds_per_step'] / base:.2f}x")
+        tab.add_row(c["filter"], str(c["particles"] or "-"), c["grows_as"],
+                    f"{1e6 * c['seconds_per_step']:.2f}", f"{c['seconds_per_step'] / base:.2f}x")
     if console:
         console.print(tab)
     say("per-step costs include each run's fixed cost (about 65 us for handing the model functions "

@@ -150,3 +150,52 @@ def ancestors(weights, scheme: str, state: np.ndarray) -> np.ndarray:
     idx = np.empty(w.size, dtype=np.int64)
     resample(SCHEME_CODES[scheme], w, float(w.sum()), state, idx)
     return idx
+
+
+@njit(types.int64(_W, types.float64, _IDX, types.int8[::1]), cache=True)
+def stepwise_ewa_plan(W, beta, src, mutant):
+    """Stepwise EWA resampling (ifa2021 section 1.2), the deterministic part.
+
+    W : (N,) normalised weights. Fills src (N,) with the particle each new particle comes from and
+    mutant (N,) with 1 where it is a mutant of that particle (x' = x + x mu z, applied by the
+    caller); returns the number of kept particles.
+    1. sort the weights in descending order;
+    2. bias-corrected exponentially weighted average along them: v_i = beta v_{i-1} +
+       (1 - beta) W_i, delta_i = v_i / (1 - beta^i), i = 1..N (the paper prints the correction
+       inside the recursion; this is the standard form);
+    3. delta = mean(delta_i); keep the particles with W_i >= delta (at least the heaviest);
+    4. copy each kept particle ceil(W_i / delta) times, heaviest first, at most N in all;
+    5. fill the rest with mutants of the kept particles in descending weight order, cycling.
+    Both comparisons with delta carry a relative round-off guard of 1e-12 (the average of equal
+    weights must equal them: uniform weights keep every particle once).
+    """
+    N = W.size
+    order = np.argsort(-W, kind="mergesort")   # stable: ties keep index order
+    v = 0.0
+    bk = 1.0
+    acc = 0.0
+    for i in range(N):
+        v = beta * v + (1.0 - beta) * W[order[i]]
+        bk *= beta
+        acc += v / (1.0 - bk)
+    delta = acc / N
+    lim = delta * (1.0 - 1e-12)
+    kept = 1
+    while kept < N and W[order[kept]] >= lim:
+        kept += 1
+    k = 0
+    for i in range(kept):
+        c = int(math.ceil(W[order[i]] / delta - 1e-12)) if delta > 0 else N
+        for _ in range(c):
+            if k >= N:
+                break
+            src[k] = order[i]
+            mutant[k] = 0
+            k += 1
+    j = 0
+    while k < N:
+        src[k] = order[j % kept]
+        mutant[k] = 1
+        k += 1
+        j += 1
+    return kept

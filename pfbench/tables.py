@@ -55,6 +55,43 @@ def _stat(s: dict, q: Quantity, paper_runs: int | None = None) -> tuple[float, f
     return v, lo, hi
 
 
+def _metric_values(metric: str, g: pd.DataFrame, base: pd.DataFrame | None):
+    """Per-trial values of ``metric`` for one filter run (g); 'time_ratio' is the wall time over the
+    baseline run's on the same trial (NaN without a baseline)."""
+    if metric != "time_ratio":
+        return g[metric]
+    if base is None:
+        return pd.Series([math.nan] * len(g))
+    a = g.set_index("trial")["wall_s"]
+    return a / base.set_index("trial")["wall_s"].reindex(a.index)
+
+
+def rankings(exp: Experiment, tab: pd.DataFrame) -> list[str]:
+    """For a table whose paper claims an order of its rows: the paper's order and ours at each
+    particle count, and whether they agree."""
+    table = reported(exp.paper, exp.table)
+    if table is None or table.ranking is None:
+        return []
+    q = next(q for q in table.quantities if q.key == table.ranking)
+    lines = []
+    counts = sorted({n for (_, n) in table.values if n is not None})
+    for n in counts:
+        labels = [lab for (lab, m) in table.values if m == n and q.key in table.values[(lab, m)]]
+        ours = {}
+        for lab in labels:
+            r = tab[(tab["label"] == lab) & (tab["particles"] == n)]
+            if len(r):
+                ours[lab] = float(r.iloc[0][f"{q.metric}_{q.stat}"])
+        if len(ours) < 2:
+            continue
+        paper_order = sorted(ours, key=lambda lab: table.values[(lab, n)][q.key])
+        our_order = sorted(ours, key=lambda lab: ours[lab])
+        same = "same order" if paper_order == our_order else "differs"
+        lines.append(f"Ranking by {q.title} at N = {n}: paper {' < '.join(paper_order)}; ours "
+                     f"{' < '.join(our_order)}: {same}.")
+    return lines
+
+
 def baseline_runs(exp: Experiment) -> dict[str, str]:
     """For each filter run, the key of the baseline run it is paired with (the baseline filter at the
     same particle count, or its only run); empty without compare.baseline."""
@@ -104,13 +141,15 @@ def summary(exp: Experiment, rows: list[dict] | pd.DataFrame) -> pd.DataFrame:
             values = table.values.get((run.label, run.particles), {})
             for q in table.quantities:
                 paper = values.get(q.key)
-                s = summarize(g[q.metric])
+                s = summarize(_metric_values(q.metric, g, by_key.get(pairs.get(run.key))))
+                r[f"ours_{q.key}"], r[f"ours_lo_{q.key}"], r[f"ours_hi_{q.key}"] = _stat(s, q)
                 ours, lo, hi = _stat(s, q, exp.compare["paper_runs"])
                 r[f"paper_{q.key}"] = paper
                 r[f"ratio_{q.key}"] = ours / paper if paper else math.nan
+                floored_q = q.metric == "rmse" and q.stat == "mean"  # the floor is an RMSE level
                 r[f"verdict_{q.key}"] = verdict(
-                    paper, ours, lo, hi, rel_tol=exp.compare["rel_tol"],
-                    floor=floor if run.key != exp.compare["floor"] else None,
+                    paper, ours, lo, hi, rel_tol=exp.compare["rel_tol"] if floored_q else 0.0,
+                    floor=floor if floored_q and run.key != exp.compare["floor"] else None,
                     not_comparable=table.not_comparable)
         out.append(r)
     return pd.DataFrame(out)
@@ -143,7 +182,8 @@ def display_columns(exp: Experiment, tab: pd.DataFrame) -> tuple[list[str], list
     quantities = table.quantities if table else ()
     head = ["Filter", "N", "Trials", "RMSE mean [95% CI]", "RMSE var [95% CI]"]
     for q in quantities:
-        head += [f"Paper {q.title}", "Ratio", "Verdict"]
+        head += ([] if q.metric == "rmse" else [_ours_head(q)]) + [f"Paper {q.title}", "Ratio",
+                                                                   "Verdict"]
     head += _paired_head(exp) + ["Mean ESS", "Distinct", "Evals/step", "ms/trial"]
     cells = []
     for _, r in tab.iterrows():
@@ -152,12 +192,26 @@ def display_columns(exp: Experiment, tab: pd.DataFrame) -> tuple[list[str], list
                f"{_fmt(r['rmse_mean'])} [{_fmt(r['rmse_ci_lo'])}, {_fmt(r['rmse_ci_hi'])}]",
                f"{_fmt(r['rmse_var'])} [{_fmt(r['rmse_var_ci_lo'])}, {_fmt(r['rmse_var_ci_hi'])}]"]
         for q in quantities:
-            row += [_fmt(r[f"paper_{q.key}"], 6), _fmt(r[f"ratio_{q.key}"], 3),
-                    r[f"verdict_{q.key}"] or "-"]
-        row += (_paired_cells(exp, r) if exp.compare["baseline"] else []) + [_fmt(r["mean_ess"]), _fmt(r["distinct_frac"], 3), _fmt(r["lik_evals_per_step"]),
+            row += (([] if q.metric == "rmse" else [_ours_cell(r, q)])
+                    + [_fmt(r[f"paper_{q.key}"], 6), _fmt(r[f"ratio_{q.key}"], 3),
+                       r[f"verdict_{q.key}"] or "-"])
+        row += (_paired_cells(exp, r) if exp.compare["baseline"] else [])
+        row += [_fmt(r["mean_ess"]), _fmt(r["distinct_frac"], 3), _fmt(r["lik_evals_per_step"]),
                 _fmt(r["wall_ms_per_trial"], 3)]
         cells.append(row)
     return head, cells
+
+
+def _ours_head(q: Quantity) -> str:
+    what = "time / PF" if q.metric == "time_ratio" else f"{q.metric.upper()} {q.stat}"
+    return f"{what} [95% CI]"
+
+
+def _ours_cell(r, q: Quantity) -> str:
+    v = r.get(f"ours_{q.key}", math.nan)
+    if v != v:
+        return "-"
+    return f"{_fmt(v)} [{_fmt(r[f'ours_lo_{q.key}'])}, {_fmt(r[f'ours_hi_{q.key}'])}]"
 
 
 def console_tables(exp: Experiment, tab: pd.DataFrame) -> list[tuple[str, list[str], list[list[str]]]]:
@@ -168,7 +222,7 @@ def console_tables(exp: Experiment, tab: pd.DataFrame) -> list[tuple[str, list[s
     if not quantities:
         comp_head.append("RMSE mean [95% CI]")
     for q in quantities:
-        comp_head += [f"{q.metric.upper()} {q.stat} [95% CI]", f"Paper {q.title}", "Verdict"]
+        comp_head += [_ours_head(q), f"Paper {q.title}", "Verdict"]
     diag_head = (["Filter", "N", "RMSE var"] + _paired_head(exp)
                  + ["Mean ESS", "Distinct", "Evals/step", "ms/trial"])
     comp, diag = [], []
@@ -179,10 +233,7 @@ def console_tables(exp: Experiment, tab: pd.DataFrame) -> list[tuple[str, list[s
         if not quantities:
             row.append(f"{_fmt(r['rmse_mean'])} [{_fmt(r['rmse_ci_lo'])}, {_fmt(r['rmse_ci_hi'])}]")
         for q in quantities:
-            pre = f"{q.metric}_{'' if q.stat == 'mean' else 'var_'}"
-            point = r[f"{q.metric}_{q.stat}"]
-            row += [f"{_fmt(point)} [{_fmt(r[pre + 'ci_lo'])}, {_fmt(r[pre + 'ci_hi'])}]",
-                    _fmt(r[f"paper_{q.key}"], 6), r[f"verdict_{q.key}"] or "-"]
+            row += [_ours_cell(r, q), _fmt(r[f"paper_{q.key}"], 6), r[f"verdict_{q.key}"] or "-"]
         comp.append(row)
         diag.append(who + [_fmt(r["rmse_var"])]
                     + (_paired_cells(exp, r) if exp.compare["baseline"] else [])
@@ -193,7 +244,7 @@ def console_tables(exp: Experiment, tab: pd.DataFrame) -> list[tuple[str, list[s
 
 def footnotes(exp: Experiment, tab: pd.DataFrame) -> list[str]:
     """Lines that explain the table: the floor row, underflow events."""
-    notes = []
+    notes = rankings(exp, tab)
     if exp.compare["paper_runs"]:
         notes.append(f"The paper's values come from {exp.compare['paper_runs']} runs: a verdict's "
                      "interval adds the sampling error of a batch that size to ours (half-width "

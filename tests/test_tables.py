@@ -1,5 +1,6 @@
 import math
 
+
 import numpy as np
 import pytest
 
@@ -83,3 +84,29 @@ def test_paired_difference_and_win_rate():
     assert p["diff_mean"] == pytest.approx(np.mean(a - b))
     assert p["win_rate"] == pytest.approx((1 + 0.5 + 0 + 1) / 4)
     assert p["diff_ci_lo"] < p["diff_mean"] < p["diff_ci_hi"]
+
+
+def test_ranking_lines_compare_orders(write_config):
+    import pandas as pd
+
+    from pfbench.config import load
+    from pfbench.tables import rankings
+    cfg = write_config("paper: ifa2021\ntable: table1\nscenario: {name: ungm}\nfilters:\n"
+                       "  pf: {label: PF, particles: 50}\n  fa: {label: FA-PF, particles: 50}\n")
+    exp = load(cfg)
+    tab = pd.DataFrame({"label": ["PF", "FA-PF"], "particles": [50, 50],
+                        "rmse_mean": [4.0, 3.0]})
+    assert rankings(exp, tab) == ["Ranking by RMSE at N = 50: paper FA-PF < PF; ours FA-PF < PF: "
+                                  "same order."]
+    tab["rmse_mean"] = [3.0, 4.0]
+    assert rankings(exp, tab)[0].endswith("ours PF < FA-PF: differs.")
+
+
+def test_time_ratio_is_per_trial_against_the_baseline():
+    import pandas as pd
+
+    from pfbench.tables import _metric_values
+    g = pd.DataFrame({"trial": [0, 1, 2], "wall_s": [2.0, 3.0, 4.0]})
+    base = pd.DataFrame({"trial": [2, 0, 1], "wall_s": [2.0, 1.0, 1.0]})
+    assert list(_metric_values("time_ratio", g, base)) == [2.0, 3.0, 2.0]
+    assert list(_metric_values("time_ratio", g, None).isna()) == [True] * 3

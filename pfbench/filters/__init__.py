@@ -10,7 +10,7 @@ from typing import Callable
 
 from ..resampling import SCHEMES
 from ..schema import Key
-from . import ekf, kalman, pf, ukf, upf
+from . import ekf, kalman, pf, swarm_pf, ukf, upf
 
 # Seconds spent importing the kernels: numba compiles them here (first run) or loads them from the
 # disk cache. Reported in meta.json as kernel_load_s, apart from the trials' wall time.
@@ -32,6 +32,7 @@ class FilterType:
     run: Callable
     particles: bool = True
     scenarios: tuple | None = None
+    cost: str = "N"       # how the cost of a step grows with the particle count
 
 
 def _floor_key():
@@ -100,6 +101,35 @@ def _upf_schema(resample: str, mh_steps: int):
     }
 
 
+def _swarm_schema(resampling: str, **own):
+    pf_keys = _pf_schema()
+    return {
+        "iterations": Key("int", 1, "swarm iterations per step (each evaluates the likelihood of "
+                          "every moved particle)", min=0),
+        **own,
+        "resampling": Key("choice", resampling, "resampling scheme; 'stepwise_ewa' is ifa2021's "
+                          "stepwise EWA resampling", choices=tuple(SCHEMES) + ("stepwise_ewa",)),
+        "resample": pf_keys["resample"],
+        "neff_ratio": pf_keys["neff_ratio"],
+        "estimate": pf_keys["estimate"],
+        "ewa_beta": Key("float", 0.8, "stepwise EWA: weight of the running average (ifa2021: 0.8)",
+                        min=0.0, max=1.0, min_exclusive=True),
+        "ewa_mu": Key("float", 0.01, "stepwise EWA: mutation scale, x' = x + x mu N(0, 1) "
+                      "(ifa2021: 0.01)", min=0.0),
+    }
+
+
+def _firefly_keys(with_alpha: bool):
+    keys = {
+        "beta0": Key("float", 1.0, "maximum attractiveness (ifa2021: 1)", min=0.0),
+        "gamma": Key("float", 1.0, "light absorption, per squared state unit (ifa2021: 1)", min=0.0),
+    }
+    if with_alpha:
+        keys["alpha"] = Key("float", 0.2, "fixed random-step size (FA-PF's reference gives none; "
+                            "our default)", min=0.0)
+    return keys
+
+
 def _ukf_schema():
     return {
         **_sigma_schema(),
@@ -113,7 +143,7 @@ FILTERS = {
     for f in (
         FilterType("pf", "bootstrap particle filter (SIR)", _pf_schema(), pf.run),
         FilterType("ukf", "unscented Kalman filter (scaled sigma points, optional noise "
-                   "augmentation)", _ukf_schema(), ukf.run, particles=False),
+                   "augmentation)", _ukf_schema(), ukf.run, particles=False, cost="1"),
         FilterType("pfmh", "bootstrap PF with Metropolis-Hastings moves after resampling (PF+MH)",
                    {**_pf_schema(), "mh_steps": Key("int", 1, "MH moves per particle after each "
                                                     "resampling (proposal: the transition prior)",
@@ -122,9 +152,44 @@ FILTERS = {
                    _upf_schema("always", 0), upf.run),
         FilterType("sspf", "SSPF (sspf2008): UPF + weight-change-triggered residual resampling + "
                    "MH move", _upf_schema("weight_change", 1), upf.run),
+        FilterType("fa", "firefly-algorithm PF (FA-PF): fireflies toward brighter (likelier) "
+                   "particles; O(N^2) per iteration",
+                   _swarm_schema("systematic", **_firefly_keys(True)), swarm_pf.make_run("fa"),
+                   cost="N^2"),
+        FilterType("ifa", "improved firefly PF (IFA-PF, ifa2021): distance brightness, adaptive "
+                   "step, stepwise EWA resampling; O(N^2) per iteration",
+                   _swarm_schema("stepwise_ewa", **_firefly_keys(False)),
+                   swarm_pf.make_run("ifa"), cost="N^2"),
+        FilterType("ba", "bat-algorithm PF (BA-PF): frequency-tuned velocities, loudness and pulse "
+                   "rate", _swarm_schema("systematic", **{
+                       "freq_min": Key("float", 0.0, "lowest frequency"),
+                       "freq_max": Key("float", 1.0, "highest frequency"),
+                       "loudness": Key("float", 1.0, "initial loudness A0 (acceptance probability)",
+                                       min=0.0),
+                       "pulse_rate": Key("float", 0.5, "pulse rate r0 (1 - r: chance of a local "
+                                         "walk around the best bat)", min=0.0, max=1.0),
+                       "loudness_decay": Key("float", 0.9, "A <- decay A on acceptance", min=0.0,
+                                             max=1.0),
+                       "pulse_growth": Key("float", 0.9, "r <- r0 (1 - exp(-growth k)) at iteration "
+                                           "k on acceptance", min=0.0)}), swarm_pf.make_run("ba")),
+        FilterType("pso", "particle-swarm PF (PSO-PF): moves toward personal and global best "
+                   "likelihood", _swarm_schema("systematic", **{
+                       "inertia": Key("float", 0.7, "velocity inertia w", min=0.0),
+                       "c1": Key("float", 1.5, "pull toward the particle's own best", min=0.0),
+                       "c2": Key("float", 1.5, "pull toward the swarm's best", min=0.0)}),
+                   swarm_pf.make_run("pso")),
+        FilterType("afsa", "artificial-fish-swarm PF (AFSA-PF): prey, swarm and follow behaviours; "
+                   "O(N^2) per iteration", _swarm_schema("systematic", **{
+                       "visual": Key("float", 1.0, "visual range (state units)", min=0.0,
+                                     min_exclusive=True),
+                       "step": Key("float", 0.5, "largest move per behaviour", min=0.0),
+                       "crowding": Key("float", 0.618, "crowding factor delta", min=0.0),
+                       "tries": Key("int", 5, "prey: neighbours tried before a random step", min=1),
+                       "greedy": Key("bool", True, "keep a fish where it is when no behaviour "
+                                     "improves it")}), swarm_pf.make_run("afsa"), cost="N^2"),
         FilterType("ekf", "extended Kalman filter", _gaussian_noise_schema("the EKF"), ekf.run,
-                   particles=False),
+                   particles=False, cost="1"),
         FilterType("kf", "exact Kalman filter (linear_gaussian scenario only)", {}, kalman.run,
-                   particles=False, scenarios=("linear_gaussian",)),
+                   particles=False, scenarios=("linear_gaussian",), cost="1"),
     )
 }
