@@ -152,8 +152,8 @@ def ancestors(weights, scheme: str, state: np.ndarray) -> np.ndarray:
     return idx
 
 
-@njit(types.int64(_W, types.float64, _IDX, types.int8[::1]), cache=True)
-def stepwise_ewa_plan(W, beta, src, mutant):
+@njit(types.int64(_W, types.float64, types.int64, _IDX, types.int8[::1]), cache=True)
+def stepwise_ewa_plan(W, beta, printed, src, mutant):
     """Stepwise EWA resampling (ifa2021 section 1.2), the deterministic part.
 
     W : (N,) normalised weights. Fills src (N,) with the particle each new particle comes from and
@@ -161,8 +161,8 @@ def stepwise_ewa_plan(W, beta, src, mutant):
     caller); returns the number of kept particles.
     1. sort the weights in descending order;
     2. bias-corrected exponentially weighted average along them: v_i = beta v_{i-1} +
-       (1 - beta) W_i, delta_i = v_i / (1 - beta^i), i = 1..N (the paper prints the correction
-       inside the recursion; this is the standard form);
+       (1 - beta) W_i, delta_i = v_i / (1 - beta^i), i = 1..N (the standard form); with
+       ``printed`` = 1 the corrected value feeds the recursion, v_i = delta_i, as ifa2021 prints it;
     3. delta = mean(delta_i); keep the particles with W_i >= delta (at least the heaviest);
     4. copy each kept particle ceil(W_i / delta) times, heaviest first, at most N in all;
     5. fill the rest with mutants of the kept particles in descending weight order, cycling.
@@ -177,7 +177,10 @@ def stepwise_ewa_plan(W, beta, src, mutant):
     for i in range(N):
         v = beta * v + (1.0 - beta) * W[order[i]]
         bk *= beta
-        acc += v / (1.0 - bk)
+        d = v / (1.0 - bk)
+        if printed:
+            v = d
+        acc += d
     delta = acc / N
     lim = delta * (1.0 - 1e-12)
     kept = 1

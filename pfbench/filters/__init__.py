@@ -116,6 +116,9 @@ def _swarm_schema(resampling: str, **own):
                         min=0.0, max=1.0, min_exclusive=True),
         "ewa_mu": Key("float", 0.01, "stepwise EWA: mutation scale, x' = x + x mu N(0, 1) "
                       "(ifa2021: 0.01)", min=0.0),
+        "ewa_correction": Key("choice", "standard", "stepwise EWA: 'standard' bias correction "
+                              "delta_i = v_i / (1 - beta^i), or 'as_printed' (ifa2021 puts it "
+                              "inside the recursion)", choices=("standard", "as_printed")),
     }
 
 
@@ -158,7 +161,11 @@ FILTERS = {
                    cost="N^2"),
         FilterType("ifa", "improved firefly PF (IFA-PF, ifa2021): distance brightness, adaptive "
                    "step, stepwise EWA resampling; O(N^2) per iteration",
-                   _swarm_schema("stepwise_ewa", **_firefly_keys(False)),
+                   _swarm_schema("stepwise_ewa", **_firefly_keys(False), brightness=Key(
+                       "choice", "gaussian", "how the distance d (measurement and predicted state, "
+                       "each in units of its noise standard deviation) becomes a brightness: "
+                       "'gaussian' exp(-d^2 / 2) or 'inverse' 1 / (1 + d); ifa2021 leaves it open",
+                       choices=("gaussian", "inverse"))),
                    swarm_pf.make_run("ifa"), cost="N^2"),
         FilterType("ba", "bat-algorithm PF (BA-PF): frequency-tuned velocities, loudness and pulse "
                    "rate", _swarm_schema("systematic", **{

@@ -29,7 +29,8 @@ EWA = len(SCHEME_CODES)          # the stepwise EWA scheme's code, after the sta
 
 SWARM_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64, types.int64,
                         types.int64, _F, types.int64, types.int64, types.float64, types.int64,
-                        types.float64, types.float64, types.int64, STATE, _F, _F, _I, _F, _F, _F)
+                        types.float64, types.float64, types.int64, types.int64, STATE, _F, _F, _I,
+                        _F, _F, _F)
 
 
 @njit(types.void(ModelFn, _F, types.float64, types.float64, types.float64, _F, _F, _F),
@@ -50,14 +51,16 @@ def _shifted_exp(ll, M, out):
 
 @njit(SWARM_SIG, cache=True)
 def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, algo, p, iters, scheme,
-                    threshold, estimate_after, ewa_beta, ewa_mu, diag, s,
+                    threshold, estimate_after, ewa_beta, ewa_mu, ewa_printed, diag, s,
                     xhat, ess, resampled, div_l1, distinct, evals):
     """Run a swarm-optimised PF over y (T+1,); fill the (T+1,) traces; return the underflow count.
 
     algo : a value of ALGORITHMS; p : its parameters
-        fa [beta0, gamma, alpha]; ifa [beta0, gamma]; ba [fmin, fmax, A0, r0, alpha, gamma];
+        fa [beta0, gamma, alpha]; ifa [beta0, gamma, brightness (0: exp(-d^2/2), 1: 1/(1+d))];
+        ba [fmin, fmax, A0, r0, alpha, gamma];
         pso [w, c1, c2]; afsa [visual, step, delta, tries, greedy]
-    scheme : a resampling scheme code, or EWA (stepwise EWA with ewa_beta, mutation ewa_mu)
+    scheme : a resampling scheme code, or EWA (stepwise EWA with ewa_beta, mutation ewa_mu, the
+        bias correction inside the recursion when ewa_printed)
     evals : (T+1,) filled with the likelihood evaluations of each step
     """
     T = y.size - 1
@@ -112,12 +115,17 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, algo, p, it
                 _shifted_exp(ll, M, fit)
                 fa_move(xn, fit, 1, p[0], p[1], p[2], s)
             elif algo == 1:                                 # IFA: distance brightness
+                # d_i: distance of (h(x_i), x_i) to (y_t, f(xhat_{t-1}) + noise mean), each
+                # coordinate in units of its noise standard deviation; -2 ll = (y - h)^2 / R
                 one[0] = xhat[t - 1]
                 f(one, tt, theta, onef)
                 xbar = onef[0] + qmean
                 for i in range(N):
                     e = xn[i] - xbar
-                    fit[i] = math.exp(ll[i] - M - 0.5 * e * e / Qv)
+                    if p[2] == 0.0:   # exp(-d^2/2), scaled by exp(-M): ratios and order unchanged
+                        fit[i] = math.exp(ll[i] - M - 0.5 * e * e / Qv)
+                    else:
+                        fit[i] = 1.0 / (1.0 + math.sqrt(-2.0 * ll[i] + e * e / Qv))
                 ifa_move(xn, fit, 1, p[0], p[1], R, s)
             elif algo == 2:                                 # BA
                 if it == 0:
@@ -173,7 +181,7 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, algo, p, it
             if scheme == EWA:
                 for i in range(N):
                     w[i] /= S
-                stepwise_ewa_plan(w, ewa_beta, idx, mutant)
+                stepwise_ewa_plan(w, ewa_beta, ewa_printed, idx, mutant)
                 for i in range(N):
                     v = xn[idx[i]]
                     x[i] = v + v * ewa_mu * normal(s) if mutant[i] else v
@@ -199,7 +207,7 @@ def params_vector(kind: str, params) -> np.ndarray:
     if kind == "fa":
         vals = (params["beta0"], params["gamma"], params["alpha"])
     elif kind == "ifa":
-        vals = (params["beta0"], params["gamma"])
+        vals = (params["beta0"], params["gamma"], 0.0 if params["brightness"] == "gaussian" else 1.0)
     elif kind == "ba":
         vals = (params["freq_min"], params["freq_max"], params["loudness"], params["pulse_rate"],
                 params["loudness_decay"], params["pulse_growth"])
@@ -227,7 +235,7 @@ def make_run(kind: str):
             model.prior_var, particles, ALGORITHMS[kind], params_vector(kind, params),
             params["iterations"], scheme, threshold,
             int(params["estimate"] == "after_resampling"), params["ewa_beta"], params["ewa_mu"],
-            int(diag), state, out["xhat"], out["ess"], out["resampled"], out["div_l1"],
+            int(params["ewa_correction"] == "as_printed"), int(diag), state, out["xhat"], out["ess"], out["resampled"], out["div_l1"],
             out["distinct"], evals)
         out["lik_evals_per_step"] = float(np.mean(evals[1:]))
         return out
