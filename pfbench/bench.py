@@ -147,7 +147,7 @@ def filter_costs(Y, min_time: float, reps: int, N: int = BATCH_N) -> list[dict]:
     model = bench_model()
     out = []
     for name, ftype in FILTERS.items():
-        if ftype.scenarios is not None:          # the exact Kalman filter needs a linear model
+        if ftype.scenarios is not None or ftype.kind != "scalar":   # kf: linear only; SLAM: poses
             continue
         params = Params({k: key.default for k, key in ftype.schema.items()})
         n = N if ftype.particles else None

@@ -229,6 +229,7 @@ FILTER_COMMON = {
 
 
 def _validate_filters(raw: Any, scenario: str) -> tuple[FilterRun, ...]:
+    kind = getattr(SCENARIOS[scenario], "KIND", "scalar")
     raw = check_mapping("filters", raw)
     if not raw:
         raise ConfigError("filters", "expected at least one filter")
@@ -244,6 +245,11 @@ def _validate_filters(raw: Any, scenario: str) -> tuple[FilterRun, ...]:
                               + f"; valid types: {', '.join(FILTERS)}"
                               + ("" if "type" in spec else " (set 'type' when the key is not one)"))
         ftype = FILTERS[ftype_name]
+        if ftype.kind != kind:
+            fits = [n for n, f in FILTERS.items() if f.kind == kind and f.scenarios is None]
+            raise ConfigError(path, f"filter type '{ftype_name}' runs on {ftype.kind} scenarios, "
+                              f"and '{scenario}' is a {kind} scenario; its filters: "
+                              + ", ".join(fits))
         if ftype.scenarios is not None and scenario not in ftype.scenarios:
             raise ConfigError(path, f"filter type '{ftype_name}' runs only on scenario "
                               + ", ".join(ftype.scenarios))
@@ -292,6 +298,9 @@ def validate(raw: Any, source: str = "config") -> Experiment:
         raise ConfigError("scenario.name", f"{msg}; valid scenarios: {', '.join(SCENARIOS)}")
     scen_params = check_section({k: v for k, v in scen_raw.items() if k != "name"},
                                 SCENARIOS[scen_name].SCHEMA, "scenario")
+    resolve = getattr(SCENARIOS[scen_name], "resolve", None)
+    if resolve is not None:  # files the scenario names, relative to the experiment file
+        scen_params = resolve(scen_params, Path(source).resolve().parent)
     if "filters" not in raw:
         raise ConfigError("filters", "missing required section (a mapping of filter name -> "
                           "settings)")

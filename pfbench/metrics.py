@@ -7,8 +7,11 @@ import numpy as np
 
 # Per-trial metric columns, in the order trials.csv shows them.
 METRICS = {
-    "rmse": "root mean squared error of the estimate over t = 1..T",
+    "rmse": "root mean squared error of the estimate over t = 1..T (SLAM: of the position)",
     "mse": "mean squared error over t = 1..T (rmse squared)",
+    "heading_rmse": "SLAM: root mean squared heading error over t = 1..T (wrapped, rad)",
+    "landmark_error": "SLAM: mean distance between each landmark the filter has mapped and the "
+                      "true one, at the end of the trial (m)",
     "mean_ess": "mean effective sample size 1 / sum W^2 over t = 1..T (particle filters)",
     "resample_count": "number of steps that resampled",
     "diversity_l1": "mean pairwise |x_i - x_j| of the particles right after resampling, averaged "
@@ -30,7 +33,8 @@ def trial_metrics(x: np.ndarray, out: dict) -> dict:
     """Metrics of one filter run: truth ``x`` (T+1,), filter output ``out`` (traces (T+1,))."""
     err = out["xhat"][1:] - x[1:]
     mse = float(np.mean(err * err))
-    row = {"rmse": math.sqrt(mse), "mse": mse, "mean_ess": math.nan, "resample_count": math.nan,
+    row = {"rmse": math.sqrt(mse), "mse": mse, "heading_rmse": math.nan,
+           "landmark_error": math.nan, "mean_ess": math.nan, "resample_count": math.nan,
            "diversity_l1": math.nan, "distinct_frac": math.nan,
            "underflow_steps": float(out.get("underflow_steps", 0)),
            "lik_evals_per_step": float(out["lik_evals_per_step"])}
@@ -40,6 +44,24 @@ def trial_metrics(x: np.ndarray, out: dict) -> dict:
         row["diversity_l1"] = _nanmean(out["div_l1"][1:])
         row["distinct_frac"] = _nanmean(out["distinct"][1:])
     return row
+
+
+def slam_metrics(pose: np.ndarray, landmarks: np.ndarray, out: dict) -> dict:
+    """Metrics of one SLAM run: true poses (T+1, 3), true landmarks (M, 2), filter output with
+    'pose' (T+1, 3), 'lm_est' (M, 2), 'lm_seen' (M,), 'ess' and 'resampled' per observation."""
+    est = out["pose"]
+    d = est[1:, :2] - pose[1:, :2]
+    mse = float(np.mean(np.sum(d * d, axis=1)))
+    dth = (est[1:, 2] - pose[1:, 2] + math.pi) % (2 * math.pi) - math.pi
+    seen = out["lm_seen"].astype(bool)
+    lm_err = (float(np.mean(np.hypot(*(out["lm_est"][seen] - landmarks[seen]).T)))
+              if seen.any() else math.nan)
+    return {"rmse": math.sqrt(mse), "mse": mse,
+            "heading_rmse": float(np.sqrt(np.mean(dth * dth))), "landmark_error": lm_err,
+            "mean_ess": float(np.mean(out["ess"])) if out["ess"].size else math.nan,
+            "resample_count": float(np.sum(out["resampled"])), "diversity_l1": math.nan,
+            "distinct_frac": math.nan, "underflow_steps": float(out.get("underflow_steps", 0)),
+            "lik_evals_per_step": float(out["lik_evals_per_step"])}
 
 
 _T975 = (12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179,

@@ -31,10 +31,9 @@ from . import __version__
 from .config import FORMAT_VERSION, Experiment
 from .errors import UserError
 from .filters import FILTERS, LOAD_SECONDS
-from .metrics import METRICS, trial_metrics
+from .metrics import METRICS, slam_metrics, trial_metrics
 from .rng import state_from_seed
 from .scenarios import SCENARIOS
-from .scenarios.base import simulate
 
 TRIAL_COLUMNS = ("trial", "filter", "label", "particles", *METRICS, "wall_s")
 # Columns that may differ between two runs of the same experiment (timings).
@@ -60,10 +59,18 @@ def build_model(exp: Experiment):
 
 
 def trial_data(exp: Experiment, trial: int):
-    """(model, x, y): the truth and measurements of trial ``trial``, shared by every filter."""
+    """(model, truth, data): the truth and measurements of trial ``trial``, shared by every
+    filter."""
     model = build_model(exp)
-    x, y = simulate(model, state_from_seed(data_seed(exp.seed, trial)))
-    return model, x, y
+    truth, data = SCENARIOS[exp.scenario].simulate(model, state_from_seed(data_seed(exp.seed, trial)))
+    return model, truth, data
+
+
+def metrics_of(exp: Experiment, model, truth, out) -> dict:
+    """A filter run's metrics for the experiment's kind of scenario."""
+    if getattr(SCENARIOS[exp.scenario], "KIND", "scalar") == "slam":
+        return slam_metrics(truth.pose, model.landmarks, out)
+    return trial_metrics(truth, out)
 
 
 def run_filter(exp: Experiment, trial: int, run, model, y, diag: bool = True) -> tuple[dict, float]:
@@ -76,12 +83,12 @@ def run_filter(exp: Experiment, trial: int, run, model, y, diag: bool = True) ->
 
 def run_trial(exp: Experiment, trial: int) -> list[dict]:
     """One trial: simulate once, run every filter on the same data, one row of metrics each."""
-    model, x, y = trial_data(exp, trial)
+    model, truth, data = trial_data(exp, trial)
     rows = []
     for run in exp.filters:
-        out, wall = run_filter(exp, trial, run, model, y)
+        out, wall = run_filter(exp, trial, run, model, data)
         row = {"trial": trial, "filter": run.key, "label": run.label, "particles": run.particles}
-        row.update(trial_metrics(x, out))
+        row.update(metrics_of(exp, model, truth, out))
         row["wall_s"] = wall
         rows.append(row)
     return rows

@@ -34,11 +34,11 @@ def _run_move(kind, X, D, s, iters=3):
     fit = fitness(X, D)
     if kind == "fa":
         for _ in range(iters):
-            swarm.fa_move(X, fit, D, 1.0, 0.5, 0.05, s)
+            swarm.fa_move(X, fit, D, 1.0, 0.5, 0.05, np.ones(D), s)
             fit = fitness(X, D)
     elif kind == "ifa":
         for _ in range(iters):
-            swarm.ifa_move(X, fit, D, 1.0, 0.5, 0.05, s)
+            swarm.ifa_move(X, fit, D, 1.0, 0.5, 0.05, np.ones(D), s)
             fit = fitness(X, D)
     elif kind == "pso":
         V, P, Pfit = np.zeros_like(X), X.copy(), fit.copy()
@@ -49,7 +49,7 @@ def _run_move(kind, X, D, s, iters=3):
     elif kind == "ba":
         V, A, r, C = np.zeros_like(X), np.ones(N), np.full(N, 0.5), np.empty_like(X)
         for it in range(iters):
-            swarm.ba_propose(X, V, A, r, C, D, swarm.argmax(fit), 0.0, 1.0, s)
+            swarm.ba_propose(X, V, A, r, C, D, swarm.argmax(fit), 0.0, 1.0, np.ones(D), s)
             swarm.ba_accept(X, fit, C, fitness(C, D), A, r, D, 0.9, 0.9, 0.5, it + 1, s)
     else:
         Xc, nf, C = np.empty_like(X), np.empty(N), np.empty(3 * X.size)

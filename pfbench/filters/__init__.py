@@ -10,7 +10,7 @@ from typing import Callable
 
 from ..resampling import SCHEMES
 from ..schema import Key
-from . import ekf, kalman, pf, swarm_pf, ukf, upf
+from . import ekf, fastslam, kalman, pf, swarm_pf, ukf, upf
 
 # Seconds spent importing the kernels: numba compiles them here (first run) or loads them from the
 # disk cache. Reported in meta.json as kernel_load_s, apart from the trials' wall time.
@@ -33,6 +33,7 @@ class FilterType:
     particles: bool = True
     scenarios: tuple | None = None
     cost: str = "N"       # how the cost of a step grows with the particle count
+    kind: str = "scalar"  # the scenario kind it runs on ('scalar' or 'slam')
 
 
 def _floor_key():
@@ -133,6 +134,38 @@ def _firefly_keys(with_alpha: bool):
     return keys
 
 
+def _fastslam_schema():
+    pf_keys = _pf_schema()
+    swarm = {k: v for k, v in FILTERS_SWARM_KEYS.items()}
+    return {
+        "refine": Key("choice", "none", "swarm refinement of the predicted poses at each "
+                      "observation (ifa2021: BA-, FA-, IFA-FastSLAM)",
+                      choices=("none", "fa", "ifa", "ba", "pso")),
+        "iterations": Key("int", 1, "swarm iterations per observation", min=0),
+        **swarm,
+        "predict_noise": Key("bool", True, "each particle draws its own noisy controls (FastSLAM "
+                             "1.0 needs it; the classic simulator's default turns it off)"),
+        "speed_noise_mps": Key("float", None, "speed noise the particles draw (default: the "
+                               "scenario's)", min=0.0, nullable=True),
+        "steer_noise_deg": Key("float", None, "steering noise the particles draw (default: the "
+                               "scenario's)", min=0.0, nullable=True),
+        "range_noise_m": Key("float", None, "range noise the filter assumes (default: the "
+                             "scenario's)", min=0.0, min_exclusive=True, nullable=True),
+        "bearing_noise_deg": Key("float", None, "bearing noise the filter assumes (default: the "
+                                 "scenario's)", min=0.0, min_exclusive=True, nullable=True),
+        "update": Key("choice", "joseph", "landmark covariance update: 'joseph' form or "
+                      "'symmetric' ((I - KH) P, symmetrised)", choices=("joseph", "symmetric")),
+        "resampling": Key("choice", "systematic", "resampling scheme ('stepwise_ewa': ifa2021's)",
+                          choices=tuple(SCHEMES) + ("stepwise_ewa",)),
+        "resample": Key("choice", "neff", "'neff': when ESS < neff_ratio * N; 'always'",
+                        choices=("neff", "always")),
+        "neff_ratio": pf_keys["neff_ratio"],
+        "ewa_beta": _swarm_schema("systematic")["ewa_beta"],
+        "ewa_mu": _swarm_schema("systematic")["ewa_mu"],
+        "ewa_correction": _swarm_schema("systematic")["ewa_correction"],
+    }
+
+
 def _ukf_schema():
     return {
         **_sigma_schema(),
@@ -140,6 +173,20 @@ def _ukf_schema():
         **_gaussian_noise_schema("the UKF"),
     }
 
+
+# The swarm parameters FastSLAM's refinement takes (the same names as the scalar swarm filters).
+FILTERS_SWARM_KEYS = {
+    **_firefly_keys(True),
+    "freq_min": Key("float", 0.0, "BA: lowest frequency"),
+    "freq_max": Key("float", 1.0, "BA: highest frequency"),
+    "loudness": Key("float", 1.0, "BA: initial loudness", min=0.0),
+    "pulse_rate": Key("float", 0.5, "BA: pulse rate r0", min=0.0, max=1.0),
+    "loudness_decay": Key("float", 0.9, "BA: loudness decay", min=0.0, max=1.0),
+    "pulse_growth": Key("float", 0.9, "BA: pulse-rate growth", min=0.0),
+    "inertia": Key("float", 0.7, "PSO: velocity inertia", min=0.0),
+    "c1": Key("float", 1.5, "PSO: pull toward the particle's best", min=0.0),
+    "c2": Key("float", 1.5, "PSO: pull toward the swarm's best", min=0.0),
+}
 
 FILTERS = {
     f.name: f
@@ -194,6 +241,8 @@ FILTERS = {
                        "tries": Key("int", 5, "prey: neighbours tried before a random step", min=1),
                        "greedy": Key("bool", True, "keep a fish where it is when no behaviour "
                                      "improves it")}), swarm_pf.make_run("afsa"), cost="N^2"),
+        FilterType("fastslam", "FastSLAM 1.0 with per-landmark EKFs, optional swarm pose "
+                   "refinement (FA, IFA, BA, PSO)", _fastslam_schema(), fastslam.run, kind="slam"),
         FilterType("ekf", "extended Kalman filter", _gaussian_noise_schema("the EKF"), ekf.run,
                    particles=False, cost="1"),
         FilterType("kf", "exact Kalman filter (linear_gaussian scenario only)", {}, kalman.run,

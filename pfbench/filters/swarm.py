@@ -6,7 +6,9 @@ and never call a model: a move either uses the fitness values it is given, or pr
 positions that the caller evaluates before the matching ``*_accept``. So the same moves serve the
 scalar filters here (D = 1, fitness = likelihood of the measurement) and robot poses in FastSLAM.
 Fitness is positive and larger is better (the filters use the max-shifted likelihood in (0, 1]).
-Distances are Euclidean over the D coordinates (a caller with angles must wrap them itself).
+Distances are Euclidean over the D coordinates (a caller with angles must wrap them itself); the
+random steps take a per-coordinate unit ``scale`` (1 for a scalar state; FastSLAM passes the
+spread of the predicted poses, so a heading is not stepped in metres).
 
 Cost: the firefly moves compare every pair, O(N^2) per iteration; BA, PSO and AFSA's behaviours
 are O(N) per iteration except AFSA's neighbourhoods, which are O(N^2) as well.
@@ -33,24 +35,25 @@ def _dist2(X, i, j, D):
     return acc
 
 
-@njit(types.void(_F, _F, types.int64, types.float64, types.float64, types.float64, STATE),
+@njit(types.void(_F, _F, types.int64, types.float64, types.float64, types.float64, _F, STATE),
       cache=True)
-def fa_move(X, bright, D, beta0, gamma, alpha, s):
+def fa_move(X, bright, D, beta0, gamma, alpha, scale, s):
     """Firefly move (Yang 2008), in place: each i moves toward every brighter j,
-    x_i += beta0 exp(-gamma r_ij^2) (x_j - x_i) + alpha (u - 0.5), u ~ U(0, 1) per coordinate.
-    O(N^2)."""
+    x_i += beta0 exp(-gamma r_ij^2) (x_j - x_i) + alpha scale (u - 0.5), u ~ U(0, 1) per
+    coordinate; scale (D,) gives each coordinate's unit for the random step. O(N^2)."""
     N = bright.size
     for i in range(N):
         for j in range(N):
             if bright[j] > bright[i]:
                 b = beta0 * math.exp(-gamma * _dist2(X, i, j, D))
                 for d in range(D):
-                    X[i * D + d] += b * (X[j * D + d] - X[i * D + d]) + alpha * (uniform(s) - 0.5)
+                    X[i * D + d] += (b * (X[j * D + d] - X[i * D + d])
+                                     + alpha * scale[d] * (uniform(s) - 0.5))
 
 
-@njit(types.void(_F, _F, types.int64, types.float64, types.float64, types.float64, STATE),
+@njit(types.void(_F, _F, types.int64, types.float64, types.float64, types.float64, _F, STATE),
       cache=True)
-def ifa_move(X, bright, D, beta0, gamma, R, s):
+def ifa_move(X, bright, D, beta0, gamma, R, scale, s):
     """Improved firefly move (ifa2021): like ``fa_move`` with the adaptive step
     alpha_i = exp(-R I_i / I_j) toward the brighter firefly j. O(N^2)."""
     N = bright.size
@@ -60,7 +63,8 @@ def ifa_move(X, bright, D, beta0, gamma, R, s):
                 b = beta0 * math.exp(-gamma * _dist2(X, i, j, D))
                 a = math.exp(-R * bright[i] / bright[j])
                 for d in range(D):
-                    X[i * D + d] += b * (X[j * D + d] - X[i * D + d]) + a * (uniform(s) - 0.5)
+                    X[i * D + d] += (b * (X[j * D + d] - X[i * D + d])
+                                     + a * scale[d] * (uniform(s) - 0.5))
 
 
 @njit(types.int64(_F), cache=True)
@@ -99,11 +103,12 @@ def pso_accept(X, fit, P, Pfit, D):
 
 
 @njit(types.void(_F, _F, _F, _F, _F, types.int64, types.int64, types.float64, types.float64,
-                 STATE), cache=True)
-def ba_propose(X, V, A, r, C, D, g, fmin, fmax, s):
+                 _F, STATE), cache=True)
+def ba_propose(X, V, A, r, C, D, g, fmin, fmax, scale, s):
     """Bat algorithm (Yang 2010) candidates C (N*D,): frequency f = fmin + (fmax - fmin) u,
-    v += (x - x_best) f, c = x + v; with probability 1 - r_i a local walk c = x_best + e mean(A),
-    e ~ N(0, 1) per coordinate, instead. The caller evaluates C and calls ``ba_accept``."""
+    v += (x - x_best) f, c = x + v; with probability 1 - r_i a local walk
+    c = x_best + e mean(A) scale, e ~ N(0, 1) per coordinate, instead. The caller evaluates C and
+    calls ``ba_accept``."""
     N = A.size
     meanA = A.sum() / N
     for i in range(N):
@@ -112,7 +117,7 @@ def ba_propose(X, V, A, r, C, D, g, fmin, fmax, s):
         for d in range(D):
             k = i * D + d
             V[k] += (X[k] - X[g * D + d]) * fr
-            C[k] = X[g * D + d] + meanA * normal(s) if local else X[k] + V[k]
+            C[k] = X[g * D + d] + meanA * scale[d] * normal(s) if local else X[k] + V[k]
 
 
 @njit(types.int64(_F, _F, _F, _F, _F, _F, types.int64, types.float64, types.float64,

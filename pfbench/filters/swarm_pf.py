@@ -95,6 +95,7 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, algo, p, it
     nf = np.empty(N)
     one = np.empty(1)
     onef = np.empty(1)
+    unit = np.ones(1)
     events = 0
     xhat[0] = prior_mean
     ess[0] = N
@@ -113,7 +114,7 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, algo, p, it
             M = ll.max()
             if algo == 0:                                   # FA: brightness = likelihood
                 _shifted_exp(ll, M, fit)
-                fa_move(xn, fit, 1, p[0], p[1], p[2], s)
+                fa_move(xn, fit, 1, p[0], p[1], p[2], unit, s)
             elif algo == 1:                                 # IFA: distance brightness
                 # d_i: distance of (h(x_i), x_i) to (y_t, f(xhat_{t-1}) + noise mean), each
                 # coordinate in units of its noise standard deviation; -2 ll = (y - h)^2 / R
@@ -126,14 +127,14 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, algo, p, it
                         fit[i] = math.exp(ll[i] - M - 0.5 * e * e / Qv)
                     else:
                         fit[i] = 1.0 / (1.0 + math.sqrt(-2.0 * ll[i] + e * e / Qv))
-                ifa_move(xn, fit, 1, p[0], p[1], R, s)
+                ifa_move(xn, fit, 1, p[0], p[1], R, unit, s)
             elif algo == 2:                                 # BA
                 if it == 0:
                     V[:] = 0.0
                     A[:] = p[2]
                     r[:] = p[3]
                 g = argmax(ll)
-                ba_propose(xn, V, A, r, C[:N], 1, g, p[0], p[1], s)
+                ba_propose(xn, V, A, r, C[:N], 1, g, p[0], p[1], unit, s)
                 _loglik(h, theta, tt, yt, half_inv_R, C[:N], hx[:N], llC[:N])
                 nev += N
                 ba_accept(xn, ll, C[:N], llC[:N], A, r, 1, p[4], p[5], p[3], it + 1, s)

@@ -1,4 +1,6 @@
-"""Scenario registry: name -> module with NAME, DESCRIPTION, SCHEMA and build(params)."""
-from . import linear_gaussian, ungm, upf_gamma
+"""Scenario registry: name -> module with NAME, KIND ('scalar' or 'slam'), DESCRIPTION, SCHEMA,
+build(params) -> model, simulate(model, state) -> (truth, data), and optionally
+resolve(params, base_dir) -> params (load files the scenario names, at validation)."""
+from . import linear_gaussian, ungm, upf_gamma, waypoint_course
 
-SCENARIOS = {m.NAME: m for m in (ungm, upf_gamma, linear_gaussian)}
+SCENARIOS = {m.NAME: m for m in (ungm, upf_gamma, linear_gaussian, waypoint_course)}

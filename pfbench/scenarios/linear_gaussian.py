@@ -10,9 +10,10 @@ import numpy as np
 from numba import njit
 
 from ..schema import Key
-from .base import MODEL_SIG, NOISE_GAUSSIAN, ScalarModel
+from .base import MODEL_SIG, simulate, NOISE_GAUSSIAN, ScalarModel
 
 NAME = "linear_gaussian"
+KIND = "scalar"
 DESCRIPTION = "scalar linear-Gaussian model; the exact Kalman filter ('kf') is the reference"
 
 SCHEMA = {
@@ -27,6 +28,9 @@ SCHEMA = {
     "prior_var": Key("float", 1.0, "variance of the filters' prior for x_0", min=0.0,
                      min_exclusive=True),
 }
+
+
+__all__ = ["NAME", "KIND", "DESCRIPTION", "SCHEMA", "build", "simulate"]
 
 
 @njit(MODEL_SIG, cache=True)

@@ -15,9 +15,10 @@ import numpy as np
 from numba import njit
 
 from ..schema import Key
-from .base import MODEL_SIG, NOISE_GAUSSIAN, ScalarModel
+from .base import MODEL_SIG, simulate, NOISE_GAUSSIAN, ScalarModel
 
 NAME = "ungm"
+KIND = "scalar"
 DESCRIPTION = "univariate nonlinear growth model (ifa2021, sspf2008 Table 1)"
 
 SCHEMA = {
@@ -34,6 +35,9 @@ SCHEMA = {
     "prior_var": Key("float", 1.0, "variance of the filters' prior for x_0 (not stated by either "
                      "paper)", min=0.0, min_exclusive=True),
 }
+
+
+__all__ = ["NAME", "KIND", "DESCRIPTION", "SCHEMA", "build", "simulate"]
 
 
 @njit(MODEL_SIG, cache=True)

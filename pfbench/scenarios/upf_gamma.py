@@ -15,9 +15,10 @@ import numpy as np
 from numba import njit
 
 from ..schema import Key
-from .base import MODEL_SIG, NOISE_GAMMA, ScalarModel
+from .base import MODEL_SIG, simulate, NOISE_GAMMA, ScalarModel
 
 NAME = "upf_gamma"
+KIND = "scalar"
 DESCRIPTION = "van der Merwe et al. (2000) Gamma-noise benchmark (sspf2008 Table 1's source)"
 
 SCHEMA = {
@@ -37,6 +38,9 @@ SCHEMA = {
     "prior_var": Key("float", 0.75, "variance of the filters' prior (the benchmark's P0 = 3/4)",
                      min=0.0, min_exclusive=True),
 }
+
+
+__all__ = ["NAME", "KIND", "DESCRIPTION", "SCHEMA", "build", "simulate"]
 
 
 @njit(MODEL_SIG, cache=True)

@@ -1,0 +1,420 @@
+"""FastSLAM 1.0 (Montemerlo et al. 2002) on the waypoint course, with optional swarm refinement of
+the predicted poses (FA, IFA, BA, PSO: ifa2021 Table 3). The whole trial runs in numba.
+
+Particles carry a pose (x, y, theta) and, per landmark, an EKF: mean (2) and covariance (3 unique
+entries of the symmetric 2x2). Known data association (the sensor reports landmark identities).
+Per control step each particle is moved with its own noisy copy of the controls (``predict_noise``;
+without it every particle moves alike, the trap of the classic simulator's default). At an
+observation: optional swarm moves of the poses (fitness: likelihood of the observations of already
+mapped landmarks under the particle's own map), then per particle and observation either a new
+landmark (initialised by the inverse measurement model, weight unchanged) or a weight update by the
+innovation likelihood and an EKF update (Joseph form, or the symmetrised simple form); then
+resampling when ESS < threshold, maps copied with their particles.
+Memory: two buffers of N x M x 5 floats (means and covariances), 80 N M bytes.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, types
+
+from ..angles import wrap
+from ..resampling import SCHEME_CODES, resample, stepwise_ewa_plan
+from ..rng import STATE, normal
+from ._common import normalise
+from .swarm import argmax, ba_accept, ba_propose, fa_move, ifa_move, pso_accept, pso_propose
+
+_F = types.float64[::1]
+_F2 = types.float64[:, ::1]
+_F3 = types.float64[:, :, ::1]
+_I = types.int64[::1]
+_I2 = types.int64[:, ::1]
+_B2 = types.int8[:, ::1]
+
+REFINE = {"none": 0, "fa": 1, "ifa": 2, "ba": 3, "pso": 4}
+EWA = len(SCHEME_CODES)
+LOG_2PI = math.log(2.0 * math.pi)
+
+
+@njit(types.UniTuple(types.float64, 7)(types.float64, types.float64, types.float64,
+                                       types.float64, types.float64), cache=True)
+def observe_landmark(px, py, pth, lx, ly):
+    """Predicted [range, bearing] of landmark (lx, ly) from pose (px, py, pth) and the Jacobian H
+    with respect to the landmark: returns (r, b, h11, h12, h21, h22, ok)."""
+    dx = lx - px
+    dy = ly - py
+    q = dx * dx + dy * dy
+    r = math.sqrt(q)
+    if r < 1e-9:
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    return r, wrap(math.atan2(dy, dx) - pth), dx / r, dy / r, -dy / q, dx / q, 1.0
+
+
+@njit(types.float64(types.float64, types.float64, types.float64, _F, _F, types.float64,
+                    types.float64, types.float64, types.float64, types.int64), cache=True)
+def ekf_landmark_update(px, py, pth, mu, sig, zr, zb, Rr, Rb, joseph):
+    """Update one landmark's EKF (mean mu (2,), covariance sig (3,) = [s11, s12, s22]) with the
+    observation [zr, zb] from pose (px, py, pth); return the log-likelihood of the innovation,
+    log N(v; 0, S). joseph: 1 = Joseph form, 0 = (I - KH) P symmetrised."""
+    r, b, h11, h12, h21, h22, ok = observe_landmark(px, py, pth, mu[0], mu[1])
+    if ok == 0.0:
+        return 0.0
+    a, c, d = sig[0], sig[1], sig[2]
+    # S = H P H^T + R
+    p11 = h11 * a + h12 * c
+    p12 = h11 * c + h12 * d
+    p21 = h21 * a + h22 * c
+    p22 = h21 * c + h22 * d
+    S11 = p11 * h11 + p12 * h12 + Rr
+    S12 = p11 * h21 + p12 * h22
+    S22 = p21 * h21 + p22 * h22 + Rb
+    det = S11 * S22 - S12 * S12
+    v1 = zr - r
+    v2 = wrap(zb - b)
+    i11, i12, i22 = S22 / det, -S12 / det, S11 / det
+    maha = v1 * (i11 * v1 + i12 * v2) + v2 * (i12 * v1 + i22 * v2)
+    # K = P H^T S^-1 (2 x 2)
+    q11 = a * h11 + c * h12
+    q12 = a * h21 + c * h22
+    q21 = c * h11 + d * h12
+    q22 = c * h21 + d * h22
+    k11 = q11 * i11 + q12 * i12
+    k12 = q11 * i12 + q12 * i22
+    k21 = q21 * i11 + q22 * i12
+    k22 = q21 * i12 + q22 * i22
+    mu[0] += k11 * v1 + k12 * v2
+    mu[1] += k21 * v1 + k22 * v2
+    # A = I - K H
+    a11 = 1.0 - (k11 * h11 + k12 * h21)
+    a12 = -(k11 * h12 + k12 * h22)
+    a21 = -(k21 * h11 + k22 * h21)
+    a22 = 1.0 - (k21 * h12 + k22 * h22)
+    if joseph:
+        # A P A^T + K R K^T
+        t11 = a11 * a + a12 * c
+        t12 = a11 * c + a12 * d
+        t21 = a21 * a + a22 * c
+        t22 = a21 * c + a22 * d
+        n11 = t11 * a11 + t12 * a12 + k11 * k11 * Rr + k12 * k12 * Rb
+        n12 = t11 * a21 + t12 * a22 + k11 * k21 * Rr + k12 * k22 * Rb
+        n22 = t21 * a21 + t22 * a22 + k21 * k21 * Rr + k22 * k22 * Rb
+    else:
+        n11 = a11 * a + a12 * c
+        n12 = 0.5 * ((a11 * c + a12 * d) + (a21 * a + a22 * c))
+        n22 = a21 * c + a22 * d
+    sig[0], sig[1], sig[2] = n11, n12, n22
+    return -0.5 * maha - 0.5 * (2.0 * LOG_2PI + math.log(det))
+
+
+@njit(types.void(types.float64, types.float64, types.float64, types.float64, types.float64,
+                 types.float64, types.float64, _F, _F), cache=True)
+def init_landmark(px, py, pth, zr, zb, Rr, Rb, mu, sig):
+    """New landmark from the observation [zr, zb]: mean by the inverse model, covariance
+    G R G^T with G its Jacobian with respect to the measurement."""
+    ang = pth + zb
+    cs, sn = math.cos(ang), math.sin(ang)
+    mu[0] = px + zr * cs
+    mu[1] = py + zr * sn
+    # G = [[cs, -zr sn], [sn, zr cs]]
+    sig[0] = cs * cs * Rr + zr * zr * sn * sn * Rb
+    sig[1] = cs * sn * Rr - zr * zr * sn * cs * Rb
+    sig[2] = sn * sn * Rr + zr * zr * cs * cs * Rb
+
+
+@njit(types.float64(types.float64, types.float64, types.float64, types.int64, _F3, _F3, _B2, _I,
+                    _F2, types.int64, types.float64, types.float64), cache=True)
+def pose_loglik(px, py, pth, i, mu, sig, seen, ids, zs, n, Rr, Rb):
+    """Log-likelihood of the n observations (ids, zs) of landmarks already in particle i's map,
+    for a candidate pose of that particle (its map is not changed)."""
+    acc = 0.0
+    for j in range(n):
+        m = ids[j]
+        if not seen[i, m]:
+            continue
+        r, b, h11, h12, h21, h22, ok = observe_landmark(px, py, pth, mu[i, m, 0], mu[i, m, 1])
+        if ok == 0.0:
+            continue
+        a, c, d = sig[i, m, 0], sig[i, m, 1], sig[i, m, 2]
+        p11 = h11 * a + h12 * c
+        p12 = h11 * c + h12 * d
+        p21 = h21 * a + h22 * c
+        p22 = h21 * c + h22 * d
+        S11 = p11 * h11 + p12 * h12 + Rr
+        S12 = p11 * h21 + p12 * h22
+        S22 = p21 * h21 + p22 * h22 + Rb
+        det = S11 * S22 - S12 * S12
+        v1 = zs[j, 0] - r
+        v2 = wrap(zs[j, 1] - b)
+        acc += (-0.5 * (v1 * (S22 * v1 - S12 * v2) + v2 * (S11 * v2 - S12 * v1)) / det
+                - 0.5 * (2.0 * LOG_2PI + math.log(det)))
+    return acc
+
+
+@njit(types.void(_F2, _F3, _F3, _B2, _I, _F2, types.int64, types.float64, types.float64, _F),
+      cache=True)
+def _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, out):
+    for i in range(P.shape[0]):
+        out[i] = pose_loglik(P[i, 0], P[i, 1], P[i, 2], i, mu, sig, seen, ids, zs, n, Rr, Rb)
+
+
+FASTSLAM_SIG = types.int64(
+    _F2, _I, _I2, _F3, _F, types.int64, _F, _F, _F, types.int64, types.int64, types.int64,
+    types.int64, types.int64, types.float64, types.int64, _F, types.int64, types.float64,
+    types.float64, types.int64, STATE, _F2, _F, _I, _F2, _I, _F)
+
+
+@njit(FASTSLAM_SIG, cache=True)
+def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, N, predict_noise,
+                    joseph, scheme, threshold, refine, sp, iters, ewa_beta, ewa_mu, ewa_printed,
+                    s, est, ess, resampled, lm_est, lm_seen, evals):
+    """Run FastSLAM over one trial; fill est (T+1, 3) the weighted pose estimate at every control
+    step, ess / resampled / evals (K,) per observation, lm_est (M, 2) and lm_seen (M,) the final
+    weighted map. Returns the number of observation steps whose weights all underflowed.
+
+    veh : [V, dt, L, ...] (the vehicle's constants); qctrl : [sigma_V, sigma_G] the filter samples
+    its controls with; R : [sigma_r^2, sigma_b^2]; refine : a value of REFINE with its parameters
+    sp (fa [beta0, gamma, alpha]; ifa [beta0, gamma]; ba [fmin, fmax, A0, r0, alpha, gamma];
+    pso [w, c1, c2]); scheme : a resampling code or EWA.
+    """
+    T = ctrl.shape[0]
+    K = obs_n.shape[0]
+    dt, L = veh[1], veh[2]
+    Rr, Rb = R[0], R[1]
+    P = np.empty((N, 3))
+    for i in range(N):
+        P[i, 0], P[i, 1], P[i, 2] = start[0], start[1], start[2]
+    mu = np.zeros((N, M, 2))
+    sig = np.zeros((N, M, 3))
+    seen = np.zeros((N, M), dtype=np.int8)
+    mu2 = np.zeros((N, M, 2))
+    sig2 = np.zeros((N, M, 3))
+    seen2 = np.zeros((N, M), dtype=np.int8)
+    P2 = np.empty((N, 3))
+    lw = np.zeros(N)
+    w = np.full(N, 1.0)
+    Wn = np.full(N, 1.0 / N)
+    idx = np.empty(N, dtype=np.int64)
+    mutant = np.empty(N, dtype=np.int8)
+    ll = np.empty(N)
+    llc = np.empty(N)
+    fit = np.empty(N)
+    V = np.empty(3 * N)
+    Pb = np.empty(3 * N)
+    Pfit = np.empty(N)
+    A = np.empty(N)
+    rr = np.empty(N)
+    C = np.empty(3 * N)
+    scale = np.ones(3)
+    events = 0
+    est[0, 0], est[0, 1], est[0, 2] = start[0], start[1], start[2]
+    k = 0
+    for t in range(T):
+        Vc, Gc = ctrl[t, 0], ctrl[t, 1]
+        for i in range(N):
+            v, g = Vc, Gc
+            if predict_noise:
+                v += qctrl[0] * normal(s)
+                g += qctrl[1] * normal(s)
+            P[i, 0] += v * dt * math.cos(P[i, 2] + g)
+            P[i, 1] += v * dt * math.sin(P[i, 2] + g)
+            P[i, 2] = wrap(P[i, 2] + v * dt * math.sin(g) / L)
+        if (t + 1) % every == 0 and k < K:
+            n = obs_n[k]
+            ids = obs_id[k]
+            zs = obs_z[k]
+            nev = 0
+            if refine > 0 and iters > 0:
+                # headings as continuous values around the cloud's circular mean
+                cs = 0.0
+                sn = 0.0
+                for i in range(N):
+                    cs += math.cos(P[i, 2])
+                    sn += math.sin(P[i, 2])
+                th0 = math.atan2(sn, cs)
+                for i in range(N):
+                    P[i, 2] = th0 + wrap(P[i, 2] - th0)
+                X = P.reshape(3 * N)
+                # the unit of each coordinate's random step: the predicted cloud's spread
+                for d in range(3):
+                    m1 = 0.0
+                    m2 = 0.0
+                    for i in range(N):
+                        m1 += P[i, d]
+                        m2 += P[i, d] * P[i, d]
+                    m1 /= N
+                    scale[d] = math.sqrt(max(m2 / N - m1 * m1, 1e-12))
+                _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll)
+                nev += N
+                for it in range(iters):
+                    M0 = ll.max()
+                    if refine == 1 or refine == 2:
+                        if refine == 1:
+                            for i in range(N):
+                                fit[i] = math.exp(ll[i] - M0)
+                            fa_move(X, fit, 3, sp[0], sp[1], sp[2], scale, s)
+                        else:
+                            # IFA brightness: innovations' Mahalanobis sum and the pose's
+                            # distance from the predicted cloud in units of its spread
+                            mx = 0.0
+                            my = 0.0
+                            mt = 0.0
+                            for i in range(N):
+                                mx += P[i, 0]
+                                my += P[i, 1]
+                                mt += P[i, 2]
+                            mx /= N
+                            my /= N
+                            mt /= N
+                            vx = 1e-12
+                            vy = 1e-12
+                            vt = 1e-12
+                            for i in range(N):
+                                vx += (P[i, 0] - mx) ** 2 / N
+                                vy += (P[i, 1] - my) ** 2 / N
+                                vt += (P[i, 2] - mt) ** 2 / N
+                            for i in range(N):
+                                d2 = ((P[i, 0] - mx) ** 2 / vx + (P[i, 1] - my) ** 2 / vy
+                                      + (P[i, 2] - mt) ** 2 / vt)
+                                fit[i] = math.exp(ll[i] - M0 - 0.5 * d2)
+                            ifa_move(X, fit, 3, sp[0], sp[1], Rr, scale, s)
+                        _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll)
+                        nev += N
+                    elif refine == 3:
+                        if it == 0:
+                            V[:] = 0.0
+                            A[:] = sp[2]
+                            rr[:] = sp[3]
+                        g = argmax(ll)
+                        ba_propose(X, V, A, rr, C, 3, g, sp[0], sp[1], scale, s)
+                        Cp = C.reshape((N, 3))
+                        _fitness(Cp, mu, sig, seen, ids, zs, n, Rr, Rb, llc)
+                        nev += N
+                        ba_accept(X, ll, C, llc, A, rr, 3, sp[4], sp[5], sp[3], it + 1, s)
+                    else:
+                        if it == 0:
+                            V[:] = 0.0
+                            Pb[:] = X
+                            Pfit[:] = ll
+                        g = argmax(Pfit)
+                        pso_propose(X, V, Pb, Pfit, 3, g, sp[0], sp[1], sp[2], s)
+                        _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll)
+                        nev += N
+                        pso_accept(X, ll, Pb, Pfit, 3)
+                for i in range(N):
+                    P[i, 2] = wrap(P[i, 2])
+            # weights and map updates
+            mx = -np.inf
+            for i in range(N):
+                px, py, pth = P[i, 0], P[i, 1], P[i, 2]
+                for j in range(n):
+                    m = ids[j]
+                    if seen[i, m]:
+                        lw[i] += ekf_landmark_update(px, py, pth, mu[i, m], sig[i, m], zs[j, 0],
+                                                     zs[j, 1], Rr, Rb, joseph)
+                    else:
+                        init_landmark(px, py, pth, zs[j, 0], zs[j, 1], Rr, Rb, mu[i, m],
+                                      sig[i, m])
+                        seen[i, m] = 1
+                mx = max(mx, lw[i])
+            nev += N
+            evals[k] = nev
+            Ssum, S2, sx, under = normalise(lw, w, P[:, 0].copy(), mx)
+            events += int(under)
+            ess[k] = Ssum * Ssum / S2
+            for i in range(N):
+                Wn[i] = w[i] / Ssum
+            resampled[k] = 0
+            if ess[k] < threshold:
+                if scheme == EWA:
+                    stepwise_ewa_plan(Wn, ewa_beta, ewa_printed, idx, mutant)
+                else:
+                    resample(scheme, w, Ssum, s, idx)
+                    mutant[:] = 0
+                for i in range(N):
+                    j = idx[i]
+                    for d in range(3):
+                        P2[i, d] = P[j, d]
+                    if mutant[i]:
+                        for d in range(3):
+                            P2[i, d] += P2[i, d] * ewa_mu * normal(s)
+                        P2[i, 2] = wrap(P2[i, 2])
+                    mu2[i] = mu[j]
+                    sig2[i] = sig[j]
+                    seen2[i] = seen[j]
+                P, P2 = P2, P
+                mu, mu2 = mu2, mu
+                sig, sig2 = sig2, sig
+                seen, seen2 = seen2, seen
+                lw[:] = 0.0
+                Wn[:] = 1.0 / N
+                resampled[k] = 1
+            k += 1
+        # the weighted pose estimate (circular mean for the heading)
+        ex = 0.0
+        ey = 0.0
+        ec = 0.0
+        es = 0.0
+        for i in range(N):
+            ex += Wn[i] * P[i, 0]
+            ey += Wn[i] * P[i, 1]
+            ec += Wn[i] * math.cos(P[i, 2])
+            es += Wn[i] * math.sin(P[i, 2])
+        est[t + 1, 0], est[t + 1, 1], est[t + 1, 2] = ex, ey, math.atan2(es, ec)
+    # the final map: per landmark, the weighted mean over the particles that have it
+    for m in range(M):
+        wsum = 0.0
+        ax = 0.0
+        ay = 0.0
+        for i in range(N):
+            if seen[i, m]:
+                wsum += Wn[i]
+                ax += Wn[i] * mu[i, m, 0]
+                ay += Wn[i] * mu[i, m, 1]
+        lm_seen[m] = 1 if wsum > 0.0 else 0
+        lm_est[m, 0] = ax / wsum if wsum > 0.0 else np.nan
+        lm_est[m, 1] = ay / wsum if wsum > 0.0 else np.nan
+    return events
+
+
+def run(model, data, params, particles, state, diag=True):
+    """Run FastSLAM (with the configured refinement) on a course trial; return the traces."""
+    T = data.ctrl.shape[0]
+    K = data.obs_n.shape[0]
+    M = model.landmarks.shape[0]
+    deg = math.pi / 180.0
+
+    def pick(key, default):
+        v = params.get(key)
+        return float(default if v is None else v)
+
+    qctrl = np.array([pick("speed_noise_mps", model.noise[0]),
+                      pick("steer_noise_deg", model.noise[1] / deg) * deg])
+    R = np.array([pick("range_noise_m", model.noise[2]) ** 2,
+                  (pick("bearing_noise_deg", model.noise[3] / deg) * deg) ** 2])
+    refine = params["refine"]
+    if refine == "fa":
+        sp = (params["beta0"], params["gamma"], params["alpha"])
+    elif refine == "ifa":
+        sp = (params["beta0"], params["gamma"])
+    elif refine == "ba":
+        sp = (params["freq_min"], params["freq_max"], params["loudness"], params["pulse_rate"],
+              params["loudness_decay"], params["pulse_growth"])
+    elif refine == "pso":
+        sp = (params["inertia"], params["c1"], params["c2"])
+    else:
+        sp = (0.0,)
+    scheme = EWA if params["resampling"] == "stepwise_ewa" else SCHEME_CODES[params["resampling"]]
+    threshold = np.inf if params["resample"] == "always" else params["neff_ratio"] * particles
+    out = {"pose": np.empty((T + 1, 3)), "ess": np.empty(K),
+           "resampled": np.zeros(K, dtype=np.int64), "lm_est": np.empty((M, 2)),
+           "lm_seen": np.zeros(M, dtype=np.int64)}
+    evals = np.zeros(K)
+    out["underflow_steps"] = fastslam_kernel(
+        data.ctrl, data.obs_n, data.obs_id, data.obs_z, model.vehicle, int(model.sensor[2]), qctrl,
+        R, model.start, M, particles, int(params["predict_noise"]), int(params["update"] == "joseph"),
+        scheme, threshold, REFINE[refine], np.array(sp, dtype=np.float64), params["iterations"],
+        params["ewa_beta"], params["ewa_mu"], int(params["ewa_correction"] == "as_printed"), state,
+        out["pose"], out["ess"], out["resampled"], out["lm_est"], out["lm_seen"], evals)
+    out["lik_evals_per_step"] = float(evals.mean()) if K else 0.0
+    return out

@@ -1,0 +1,167 @@
+"""FastSLAM on the waypoint course: the landmark EKF, exact limits, the course, determinism."""
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from pfbench.angles import wrap
+from pfbench.config import Params, load
+from pfbench.filters import FILTERS
+from pfbench.filters.fastslam import ekf_landmark_update, init_landmark
+from pfbench.rng import state_from_seed
+from pfbench.runner import TIMING_COLUMNS, run_experiment
+from pfbench.scenarios import waypoint_course as wc
+
+from .conftest import ROOT
+
+
+def _model(**over):
+    p = {k: v.default for k, v in wc.SCHEMA.items()}
+    p.update(over)
+    return wc.build(wc.resolve(p, ROOT / "configs"))
+
+
+def _run(model, data, N, seed=0, **over):
+    ft = FILTERS["fastslam"]
+    p = {k: v.default for k, v in ft.schema.items()}
+    p.update(over)
+    return ft.run(model, data, Params(p), N, state_from_seed(np.random.SeedSequence(seed)))
+
+
+def test_wrap_at_plus_minus_pi():
+    assert wrap(math.pi) == -math.pi
+    assert wrap(-math.pi) == -math.pi
+    assert wrap(3 * math.pi) == pytest.approx(-math.pi)
+    assert wrap(math.pi - 1e-9) == pytest.approx(math.pi - 1e-9)
+    assert wrap(-7.0) == pytest.approx(-7.0 + 2 * math.pi)
+
+
+@pytest.mark.parametrize("pose,lm,z", [((1.0, 2.0, 0.3), (7.0, 5.0), (6.9, 0.15)),
+                                       ((0.0, 0.0, 3.1), (-5.0, 0.1), (5.05, -3.1)),
+                                       ((3.0, -1.0, -2.0), (2.0, -9.0), (8.2, -0.5))])
+def test_landmark_ekf_update_matches_numpy(pose, lm, z):
+    px, py, pth = pose
+    Rr, Rb = 0.09, (math.pi / 180) ** 2
+    mu = np.array(lm, dtype=float)
+    P = np.array([[0.5, 0.1], [0.1, 0.3]])
+    sig = np.array([P[0, 0], P[0, 1], P[1, 1]])
+    # reference: plain matrix algebra
+    dx, dy = mu - [px, py]
+    q = dx * dx + dy * dy
+    zhat = np.array([math.sqrt(q), math.atan2(dy, dx) - pth])
+    H = np.array([[dx / math.sqrt(q), dy / math.sqrt(q)], [-dy / q, dx / q]])
+    R = np.diag([Rr, Rb])
+    S = H @ P @ H.T + R
+    v = np.array(z) - zhat
+    v[1] = (v[1] + math.pi) % (2 * math.pi) - math.pi
+    K = P @ H.T @ np.linalg.inv(S)
+    mu_ref = mu + K @ v
+    A = np.eye(2) - K @ H
+    P_ref = A @ P @ A.T + K @ R @ K.T
+    ll_ref = -0.5 * v @ np.linalg.solve(S, v) - 0.5 * math.log(np.linalg.det(2 * math.pi * S))
+    ll = ekf_landmark_update(px, py, pth, mu, sig, z[0], z[1], Rr, Rb, 1)
+    assert np.allclose(mu, mu_ref, atol=1e-12)
+    assert np.allclose(sig, [P_ref[0, 0], P_ref[0, 1], P_ref[1, 1]], atol=1e-12)
+    assert ll == pytest.approx(ll_ref, abs=1e-10)
+    # the simple form gives the same update up to round-off when the gain is optimal
+    mu2 = np.array(lm, dtype=float)
+    sig2 = np.array([P[0, 0], P[0, 1], P[1, 1]])
+    ekf_landmark_update(px, py, pth, mu2, sig2, z[0], z[1], Rr, Rb, 0)
+    assert np.allclose(sig2, sig, atol=1e-12)
+
+
+def test_new_landmark_sits_where_it_was_seen():
+    mu, sig = np.empty(2), np.empty(3)
+    init_landmark(1.0, 2.0, 0.5, 10.0, -0.2, 0.09, 1e-4, mu, sig)
+    assert mu == pytest.approx([1 + 10 * math.cos(0.3), 2 + 10 * math.sin(0.3)])
+    assert sig[0] > 0 and sig[2] > 0 and sig[0] * sig[2] > sig[1] ** 2
+
+
+def test_course_lap_takes_its_length_over_the_speed():
+    model = _model(laps=1, steps=20000, speed_noise_mps=0.0, steer_noise_deg=0.0)
+    truth, data = wc.simulate(model, state_from_seed(np.random.SeedSequence(0)))
+    wp = model.waypoints
+    lap = np.sum(np.hypot(*np.diff(np.r_[wp, wp[:1]], axis=0).T)) + np.hypot(*wp[0])
+    expected = lap / (model.vehicle[0] * model.vehicle[1])
+    assert data.steps < 20000                       # the lap ended the run
+    assert abs(data.steps / expected - 1) < 0.1     # corners cut within the 1 m radius
+    assert set(np.unique(data.waypoint)) == set(range(len(wp)))
+
+
+def test_without_noise_fastslam_follows_the_truth():
+    model = _model(steps=2000, speed_noise_mps=0.0, steer_noise_deg=0.0, range_noise_m=1e-9,
+                   bearing_noise_deg=1e-9)
+    truth, data = wc.simulate(model, state_from_seed(np.random.SeedSequence(1)))
+    out = _run(model, data, 5, predict_noise=False)
+    assert np.max(np.abs(out["pose"] - truth.pose)) < 1e-9
+    seen = out["lm_seen"].astype(bool)
+    assert seen.sum() >= 5
+    assert np.max(np.abs(out["lm_est"][seen] - model.landmarks[seen])) < 1e-6
+
+
+def test_one_particle_without_prediction_noise_is_dead_reckoning():
+    model = _model(steps=1500)
+    truth, data = wc.simulate(model, state_from_seed(np.random.SeedSequence(2)))
+    out = _run(model, data, 1, predict_noise=False)
+    dt, L = model.vehicle[1], model.vehicle[2]
+    x, y, th = model.start
+    ref = [(x, y, th)]
+    for V, G in data.ctrl:
+        x += V * dt * math.cos(th + G)
+        y += V * dt * math.sin(th + G)
+        th = wrap(th + V * dt * math.sin(G) / L)
+        ref.append((x, y, th))
+    assert np.allclose(out["pose"], np.array(ref), atol=1e-9)
+    # sanity bound: dead reckoning with 0.5 m/s and 5 deg control noise drifts, but not wildly
+    err = np.hypot(*(out["pose"][:, :2] - truth.pose[:, :2]).T)
+    assert 0.0 < err[-1] < 50.0
+
+
+def test_a_particle_with_no_landmark_in_range_keeps_its_weight():
+    model = _model(steps=800)
+    model = replace(model, sensor=np.array([1e-3, math.pi, 8.0]))   # a sensor that sees nothing
+    truth, data = wc.simulate(model, state_from_seed(np.random.SeedSequence(3)))
+    assert data.obs_n.sum() == 0
+    out = _run(model, data, 50)
+    assert np.allclose(out["ess"], 50.0)
+    assert out["resampled"].sum() == 0
+
+
+def test_slam_trials_are_bit_identical_across_workers(tmp_path):
+    cfg = tmp_path / "fs.yaml"
+    cfg.write_text(f"""seed: 4
+trials: 4
+scenario: {{name: waypoint_course, world: {ROOT / 'configs/worlds/ifa_course.yaml'}, steps: 400}}
+filters:
+  fastslam: {{label: FastSLAM, particles: 20}}
+  ifa: {{type: fastslam, label: IFA-FastSLAM, particles: 20, refine: ifa}}
+""")
+    exp = load(cfg)
+    run_experiment(exp, tmp_path / "a", workers=1)
+    run_experiment(exp, tmp_path / "b", workers=2)
+    a = pd.read_csv(tmp_path / "a/trials.csv").drop(columns=list(TIMING_COLUMNS))
+    b = pd.read_csv(tmp_path / "b/trials.csv").drop(columns=list(TIMING_COLUMNS))
+    pd.testing.assert_frame_equal(a, b, check_exact=True)
+    assert np.isfinite(a["rmse"]).all() and np.isfinite(a["landmark_error"]).all()
+
+
+def test_world_file_errors_name_the_problem(tmp_path, write_config):
+    bad = tmp_path / "w.yaml"
+    bad.write_text("area: [10, 10]\nstart: [0, 0, 0]\nwaypoints: [[0, 1], [20, 1]]\n"
+                   "landmarks: [[1, 1]]\n")
+    cfg = write_config(f"scenario: {{name: waypoint_course, world: {bad}}}\n"
+                       "filters: {fastslam: {particles: 10}}\n")
+    from pfbench.schema import ConfigError
+    with pytest.raises(ConfigError, match=r"waypoints\[1\].*outside"):
+        load(cfg)
+    world = ROOT / "configs/worlds/ifa_course.yaml"
+    cfg = write_config(f"scenario: {{name: waypoint_course, world: {world}}}\n"
+                       "filters: {pf: {particles: 10}}\n")
+    with pytest.raises(ConfigError, match="slam scenario"):
+        load(Path(cfg))
+    cfg = write_config("scenario: {name: waypoint_course}\nfilters: {fastslam: {particles: 10}}\n")
+    with pytest.raises(ConfigError, match="cannot read the course file"):
+        load(Path(cfg))
