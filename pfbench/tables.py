@@ -55,6 +55,33 @@ def _stat(s: dict, q: Quantity, paper_runs: int | None = None) -> tuple[float, f
     return v, lo, hi
 
 
+def _quantity(q: Quantity, g: pd.DataFrame, base: pd.DataFrame | None,
+              paper_runs: int | None) -> tuple[float, float, float, float, float]:
+    """(ours, verdict interval lo, hi, our own interval lo, hi) of quantity q for one filter run
+    (g: its trials; base: its baseline run's trials, or None)."""
+    nan = math.nan
+    if q.metric in ("gain_mean", "gain_var"):
+        if base is None:
+            return nan, nan, nan, nan, nan
+        a = g.set_index("trial")["rmse"]
+        b = base.set_index("trial")["rmse"].reindex(a.index)
+        if q.metric == "gain_mean":
+            p = paired(a.values, b.values)
+            mb = float(b.mean())
+            v, lo, hi = (-100 * p["diff_mean"] / mb, -100 * p["diff_ci_hi"] / mb,
+                         -100 * p["diff_ci_lo"] / mb)
+        else:
+            sa, sb = summarize(a.values), summarize(b.values)
+            v = 100 * (1 - sa["var"] / sb["var"])
+            lo = 100 * (1 - sa["var_ci_hi"] / sb["var_ci_lo"]) if sb["var_ci_lo"] > 0 else -math.inf
+            hi = 100 * (1 - sa["var_ci_lo"] / sb["var_ci_hi"])
+        return v, lo, hi, lo, hi
+    s = summarize(_metric_values(q.metric, g, base))
+    v, lo, hi = _stat(s, q)
+    _, vlo, vhi = _stat(s, q, paper_runs)
+    return v, vlo, vhi, lo, hi
+
+
 def _metric_values(metric: str, g: pd.DataFrame, base: pd.DataFrame | None):
     """Per-trial values of ``metric`` for one filter run (g); 'time_ratio' is the wall time over the
     baseline run's on the same trial (NaN without a baseline)."""
@@ -74,12 +101,13 @@ def rankings(exp: Experiment, tab: pd.DataFrame) -> list[str]:
         return []
     q = next(q for q in table.quantities if q.key == table.ranking)
     lines = []
-    counts = sorted({n for (_, n) in table.values if n is not None})
+    counts = sorted({n for (_, n) in table.values}, key=lambda v: (v is None, v or 0))
     for n in counts:
         labels = [lab for (lab, m) in table.values if m == n and q.key in table.values[(lab, m)]]
         ours = {}
         for lab in labels:
-            r = tab[(tab["label"] == lab) & (tab["particles"] == n)]
+            # a paper that gives no particle count (n None) is matched by label alone
+            r = tab[(tab["label"] == lab) & ((tab["particles"] == n) if n is not None else True)]
             if len(r):
                 ours[lab] = float(r.iloc[0][f"{q.metric}_{q.stat}"])
         if len(ours) < 2:
@@ -87,7 +115,8 @@ def rankings(exp: Experiment, tab: pd.DataFrame) -> list[str]:
         paper_order = sorted(ours, key=lambda lab: table.values[(lab, n)][q.key])
         our_order = sorted(ours, key=lambda lab: ours[lab])
         same = "same order" if paper_order == our_order else "differs"
-        lines.append(f"Ranking by {q.title} at N = {n}: paper {' < '.join(paper_order)}; ours "
+        at = f" at N = {n}" if n is not None else ""
+        lines.append(f"Ranking by {q.title}{at}: paper {' < '.join(paper_order)}; ours "
                      f"{' < '.join(our_order)}: {same}.")
     return lines
 
@@ -138,19 +167,20 @@ def summary(exp: Experiment, rows: list[dict] | pd.DataFrame) -> pd.DataFrame:
             r.update(rmse_diff_mean=math.nan, rmse_diff_ci_lo=math.nan, rmse_diff_ci_hi=math.nan,
                      rmse_win_rate=math.nan)
         if table is not None:
-            values = table.values.get((run.label, run.particles), {})
+            values = (table.values.get((run.label, run.particles))
+                      or table.values.get((run.label, None), {}))
             for q in table.quantities:
                 paper = values.get(q.key)
-                s = summarize(_metric_values(q.metric, g, by_key.get(pairs.get(run.key))))
-                r[f"ours_{q.key}"], r[f"ours_lo_{q.key}"], r[f"ours_hi_{q.key}"] = _stat(s, q)
-                ours, lo, hi = _stat(s, q, exp.compare["paper_runs"])
+                ours, lo, hi, r[f"ours_lo_{q.key}"], r[f"ours_hi_{q.key}"] = _quantity(
+                    q, g, by_key.get(pairs.get(run.key)), exp.compare["paper_runs"])
+                r[f"ours_{q.key}"] = ours
                 r[f"paper_{q.key}"] = paper
                 r[f"ratio_{q.key}"] = ours / paper if paper else math.nan
                 floored_q = q.metric == "rmse" and q.stat == "mean"  # the floor is an RMSE level
                 r[f"verdict_{q.key}"] = verdict(
                     paper, ours, lo, hi, rel_tol=exp.compare["rel_tol"] if floored_q else 0.0,
                     floor=floor if floored_q and run.key != exp.compare["floor"] else None,
-                    not_comparable=table.not_comparable)
+                    not_comparable=q.not_comparable or table.not_comparable)
         out.append(r)
     return pd.DataFrame(out)
 
@@ -203,7 +233,8 @@ def display_columns(exp: Experiment, tab: pd.DataFrame) -> tuple[list[str], list
 
 
 def _ours_head(q: Quantity) -> str:
-    what = "time / PF" if q.metric == "time_ratio" else f"{q.metric.upper()} {q.stat}"
+    what = q.title if q.metric in ("time_ratio", "gain_mean", "gain_var") else \
+        f"{q.metric.upper()} {q.stat}"
     return f"{what} [95% CI]"
 
 
