@@ -92,6 +92,7 @@ def run(
                                 "run of the same experiment in the results folder."),
     set_: List[str] = typer.Option([], "--set", help="Override a config key: KEY.PATH=VALUE "
                                    "(YAML value; '*' matches every key), repeatable."),
+    no_figures: bool = typer.Option(False, "--no-figures", help="Skip the figures."),
 ):
     """Run an experiment: Monte Carlo trials, then the table beside the paper's values."""
     with _guard():
@@ -119,9 +120,14 @@ def run(
         tab = tables.summary(exp, res.rows)
         tables.write(exp, tab, folder, res.meta)
         _print_table(exp, tab)
+        figures = []
+        if not no_figures:
+            from .plots import write_figures
+            figures = write_figures(exp, res.rows, folder)
         note = f" ({exp.trials - res.ran} resumed)" if res.ran < exp.trials else ""
         err.print(f"{res.ran} trials in {res.wall_s:.1f} s{note}; wrote {folder}/trials.csv, "
-                  "table.csv, table.md, meta.json", markup=False)
+                  "table.csv, table.md, meta.json"
+                  + (f" and {len(figures)} figures" if figures else ""), markup=False)
 
 
 @app.command()

@@ -63,3 +63,26 @@ def test_bench_quick_writes_records(tmp_path):
     batch = {r["impl"]: r["mean_rmse"] for r in recs if r.get("mode") == "batch"}
     # same filter on the same data: mean RMSEs agree within Monte Carlo error (spread ~1 / sqrt(100))
     assert abs(batch["pfbench"] - batch["numpy"]) < 0.5
+
+
+def test_run_writes_figures_unless_told_not_to(tmp_path, write_config):
+    out = tmp_path / "f"
+    res = runner.invoke(app, ["run", str(write_config(SMALL)), "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    png = (out / "figures" / "rmse.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 5000
+    res = runner.invoke(app, ["run", str(write_config(SMALL)), "--out", str(tmp_path / "g"),
+                              "--no-figures"])
+    assert res.exit_code == 0 and not (tmp_path / "g" / "figures").exists()
+
+
+def test_slam_run_draws_the_course_and_the_error_over_time(tmp_path):
+    world = ROOT / "configs/worlds/ifa_course.yaml"
+    cfg = tmp_path / "fs.yaml"
+    cfg.write_text(f"seed: 1\ntrials: 2\nscenario: {{name: waypoint_course, world: {world}, "
+                   "steps: 300}\nfilters: {fastslam: {label: FastSLAM, particles: 10}}\n")
+    out = tmp_path / "fs"
+    res = runner.invoke(app, ["run", str(cfg), "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    for name in ("rmse.png", "course.png", "position_error.png"):
+        assert (out / "figures" / name).read_bytes()[:4] == b"\x89PNG"
