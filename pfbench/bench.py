@@ -168,6 +168,109 @@ def filter_costs(Y, min_time: float, reps: int, N: int = BATCH_N) -> list[dict]:
     return out
 
 
+def numpy_fastslam(model, data, N: int, steps: int, rng: np.random.Generator) -> np.ndarray:
+    """FastSLAM 1.0 written the straightforward way: vectorised prediction, then a Python loop over
+    particles and observations with 2 x 2 numpy matrices, systematic resampling when ESS < N / 2.
+    Returns the weighted position estimates (steps + 1, 2)."""
+    V_, dt, L = model.vehicle[0], model.vehicle[1], model.vehicle[2]
+    sV, sG = model.noise[0], model.noise[1]
+    R = np.diag([model.noise[2] ** 2, model.noise[3] ** 2])
+    M = model.landmarks.shape[0]
+    every = int(model.sensor[2])
+    P = np.tile(model.start, (N, 1))
+    mu = np.zeros((N, M, 2))
+    sig = np.zeros((N, M, 2, 2))
+    seen = np.zeros((N, M), dtype=bool)
+    w = np.full(N, 1.0 / N)
+    est = np.zeros((steps + 1, 2))
+    est[0] = model.start[:2]
+    for t in range(steps):
+        v = data.ctrl[t, 0] + sV * rng.standard_normal(N)
+        g = data.ctrl[t, 1] + sG * rng.standard_normal(N)
+        P[:, 0] += v * dt * np.cos(P[:, 2] + g)
+        P[:, 1] += v * dt * np.sin(P[:, 2] + g)
+        P[:, 2] = (P[:, 2] + v * dt * np.sin(g) / L + np.pi) % (2 * np.pi) - np.pi
+        k = (t + 1) // every - 1
+        if (t + 1) % every == 0 and k < len(data.obs_n):
+            for i in range(N):
+                x, y, th = P[i]
+                for j in range(data.obs_n[k]):
+                    m = data.obs_id[k, j]
+                    z = data.obs_z[k, j]
+                    if not seen[i, m]:
+                        c, s_ = np.cos(th + z[1]), np.sin(th + z[1])
+                        mu[i, m] = [x + z[0] * c, y + z[0] * s_]
+                        Gz = np.array([[c, -z[0] * s_], [s_, z[0] * c]])
+                        sig[i, m] = Gz @ R @ Gz.T
+                        seen[i, m] = True
+                        continue
+                    d = mu[i, m] - [x, y]
+                    q = d @ d
+                    zhat = np.array([np.sqrt(q), np.arctan2(d[1], d[0]) - th])
+                    H = np.array([[d[0], d[1]], [-d[1] / np.sqrt(q), d[0] / np.sqrt(q)]]) / np.sqrt(q)
+                    S = H @ sig[i, m] @ H.T + R
+                    Si = np.linalg.inv(S)
+                    inn = z - zhat
+                    inn[1] = (inn[1] + np.pi) % (2 * np.pi) - np.pi
+                    K = sig[i, m] @ H.T @ Si
+                    mu[i, m] += K @ inn
+                    A = np.eye(2) - K @ H
+                    sig[i, m] = A @ sig[i, m] @ A.T + K @ R @ K.T
+                    w[i] *= np.exp(-0.5 * inn @ Si @ inn) / (2 * np.pi * np.sqrt(np.linalg.det(S)))
+            w /= w.sum()
+            if 1.0 / np.sum(w * w) < 0.5 * N:
+                idx = np.minimum(np.searchsorted(np.cumsum(w), (rng.random() + np.arange(N)) / N),
+                                 N - 1)
+                P, mu, sig, seen = P[idx].copy(), mu[idx].copy(), sig[idx].copy(), seen[idx].copy()
+                w = np.full(N, 1.0 / N)
+        est[t + 1] = w @ P[:, :2]
+    return est
+
+
+def fastslam_bench(quick: bool, min_time: float, reps: int, say) -> list[dict]:
+    """Control steps per second of FastSLAM at N = 100 on the ifa2021 course: the pfbench kernel
+    over a whole trial, the numpy implementation over a shorter stretch of the same data."""
+    from .config import Params
+    from .filters import FILTERS
+    from .scenarios import waypoint_course as wc
+    world = Path("configs/worlds/ifa_course.yaml")
+    if not world.exists():
+        say("FastSLAM: skipped (configs/worlds/ifa_course.yaml not found; run from the repository "
+            "root)")
+        return []
+    p = {k: key.default for k, key in wc.SCHEMA.items()}
+    p["world"] = str(world.resolve())
+    model = wc.build(wc.resolve(p, Path(".")))
+    truth, data = wc.simulate(model, state_from_seed(np.random.SeedSequence(21)))
+    N = 100
+    ft = FILTERS["fastslam"]
+    params = Params({k: key.default for k, key in ft.schema.items()})
+    state = state_from_seed(np.random.SeedSequence(22))
+    out = ft.run(model, data, params, N, state, False)
+    T = data.ctrl.shape[0]
+    sec, _ = _best(lambda: ft.run(model, data, params, N, state, False), min_time, reps)
+    steps_np = 160 if quick else 800
+    rng = np.random.default_rng(23)
+    t0 = time.perf_counter()
+    est_np = numpy_fastslam(model, data, N, steps_np, rng)
+    sec_np = time.perf_counter() - t0
+    err_pf = float(np.sqrt(np.mean(np.sum((out["pose"][1:steps_np + 1, :2]
+                                           - truth.pose[1:steps_np + 1, :2]) ** 2, axis=1))))
+    err_np = float(np.sqrt(np.mean(np.sum((est_np[1:] - truth.pose[1:steps_np + 1, :2]) ** 2,
+                                          axis=1))))
+    recs = [{"workload": "fastslam-course", "impl": "pfbench", "particles": N, "trials": 1,
+             "steps": T, "seconds": sec, "steps_per_s": T / sec,
+             "particle_steps_per_s": N * T / sec},
+            {"workload": "fastslam-course", "impl": "numpy", "particles": N, "trials": 1,
+             "steps": steps_np, "seconds": sec_np, "steps_per_s": steps_np / sec_np,
+             "particle_steps_per_s": N * steps_np / sec_np}]
+    say(f"FastSLAM on the ifa2021 course, N = {N}, one thread: pfbench {T / sec:,.0f} control "
+        f"steps/s ({T} steps), numpy per-particle {steps_np / sec_np:,.0f} steps/s ({steps_np} "
+        f"steps): {(T / sec) / (steps_np / sec_np):.0f}x. Check, the same filter: position RMSE "
+        f"over the first {steps_np} steps: pfbench {err_pf:.3f} m, numpy {err_np:.3f} m")
+    return recs
+
+
 def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None):
     """Time every implementation, print a table of throughputs and ratios, optionally write JSON."""
     from rich.table import Table
@@ -240,6 +343,7 @@ def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None):
         "one core")
     costs = filter_costs(Y, min_time, reps)
     records += costs
+    records += fastslam_bench(quick, min_time, reps, say)
     base = next(c["seconds_per_step"] for c in costs if c["filter"] == "pf")
     tab = Table(title=f"cost per step of each filter at N = {BATCH_N} (one thread, default settings)")
     for h in ("filter", "N", "cost grows as", "us / step", "x bootstrap PF"):

@@ -46,7 +46,8 @@ def test_end_to_end_paper_config_with_few_trials(tmp_path):
     assert "Paper: `ifa2021`" in (out / "table.md").read_text()
 
 
-def test_bench_quick_writes_records(tmp_path):
+def test_bench_quick_writes_records(tmp_path, monkeypatch):
+    monkeypatch.chdir(ROOT)          # the FastSLAM row reads configs/worlds/ifa_course.yaml
     path = tmp_path / "b.json"
     res = runner.invoke(app, ["bench", "--quick", "--json", str(path)])
     assert res.exit_code == 0, res.output
@@ -54,7 +55,9 @@ def test_bench_quick_writes_records(tmp_path):
     keys = {"workload", "impl", "particles", "trials", "steps", "particle_steps_per_s"}
     assert all(keys <= set(r) for r in recs)
     assert {r["impl"] for r in recs} == {"pfbench", "numpy"}
-    assert {r["workload"] for r in recs} == {"ungm", "ungm-filters"}
+    assert {r["workload"] for r in recs} == {"ungm", "ungm-filters", "fastslam-course"}
+    fs = {r["impl"]: r["steps_per_s"] for r in recs if r["workload"] == "fastslam-course"}
+    assert set(fs) == {"pfbench", "numpy"} and min(fs.values()) > 0
     assert all(r["particle_steps_per_s"] > 0 for r in recs)
     from pfbench.filters import FILTERS
     costs = {r["filter"] for r in recs if r["workload"] == "ungm-filters"}
