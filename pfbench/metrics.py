@@ -12,6 +12,8 @@ METRICS = {
     "heading_rmse": "SLAM: root mean squared heading error over t = 1..T (wrapped, rad)",
     "landmark_error": "SLAM: mean distance between each landmark the filter has mapped and the "
                       "true one, at the end of the trial (m)",
+    "association_errors": "SLAM with nearest-neighbour association: fraction of associations "
+                          "that joined an observation to a landmark started from another one",
     "mean_ess": "mean effective sample size 1 / sum W^2 over t = 1..T (particle filters)",
     "resample_count": "number of steps that resampled",
     "diversity_l1": "mean pairwise |x_i - x_j| of the particles right after resampling, averaged "
@@ -34,7 +36,8 @@ def trial_metrics(x: np.ndarray, out: dict) -> dict:
     err = out["xhat"][1:] - x[1:]
     mse = float(np.mean(err * err))
     row = {"rmse": math.sqrt(mse), "mse": mse, "heading_rmse": math.nan,
-           "landmark_error": math.nan, "mean_ess": math.nan, "resample_count": math.nan,
+           "landmark_error": math.nan, "association_errors": math.nan, "mean_ess": math.nan,
+           "resample_count": math.nan,
            "diversity_l1": math.nan, "distinct_frac": math.nan,
            "underflow_steps": float(out.get("underflow_steps", 0)),
            "lik_evals_per_step": float(out["lik_evals_per_step"])}
@@ -58,6 +61,7 @@ def slam_metrics(pose: np.ndarray, landmarks: np.ndarray, out: dict) -> dict:
               if seen.any() else math.nan)
     return {"rmse": math.sqrt(mse), "mse": mse,
             "heading_rmse": float(np.sqrt(np.mean(dth * dth))), "landmark_error": lm_err,
+            "association_errors": float(out.get("association_errors", math.nan)),
             "mean_ess": float(np.mean(out["ess"])) if out["ess"].size else math.nan,
             "resample_count": float(np.sum(out["resampled"])), "diversity_l1": math.nan,
             "distinct_frac": math.nan, "underflow_steps": float(out.get("underflow_steps", 0)),

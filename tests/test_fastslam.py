@@ -165,3 +165,42 @@ def test_world_file_errors_name_the_problem(tmp_path, write_config):
     cfg = write_config("scenario: {name: waypoint_course}\nfilters: {fastslam: {particles: 10}}\n")
     with pytest.raises(ConfigError, match="cannot read the course file"):
         load(Path(cfg))
+
+
+def test_nearest_neighbour_matches_known_association_on_well_separated_landmarks():
+    # Poses known exactly (no control noise), small sensor noise and gates that separate a
+    # correct match (squared distance ~ 2) from any other landmark (~ 1e4): every observation
+    # joins its true landmark and new landmarks start exactly when known association starts
+    # them, so the estimates are identical.
+    model = _model(steps=1200, speed_noise_mps=0.0, steer_noise_deg=0.0, range_noise_m=0.05,
+                   bearing_noise_deg=0.2)
+    truth, data = wc.simulate(model, state_from_seed(np.random.SeedSequence(5)))
+    known = _run(model, data, 5, seed=1, predict_noise=False)
+    near = _run(model, data, 5, seed=1, predict_noise=False, association="nearest",
+                gate_reject=50.0, gate_augment=100.0)
+    assert near["association_errors"] == 0.0
+    assert np.array_equal(near["pose"], known["pose"])
+    assert np.array_equal(near["lm_seen"], known["lm_seen"])
+    seen = near["lm_seen"].astype(bool)
+    assert np.max(np.abs(near["lm_est"][seen] - model.landmarks[seen])) < 0.5
+
+
+def test_landmarks_closer_than_the_noise_get_confused(tmp_path):
+    world = tmp_path / "twins.yaml"
+    lm = [[10.0, 5.0], [10.0, 5.3], [-10.0, -5.0], [-10.0, -5.3], [0.0, 12.0]]
+    world.write_text("area: [60, 40]\nstart: [0, 0, 0]\nwaypoints: [[15, 0], [0, 10], [-15, 0], "
+                     f"[0, -10]]\nlandmarks: {lm}\n")
+    p = {k: v.default for k, v in wc.SCHEMA.items()}
+    p.update(world=str(world), steps=3000, speed_mps=2.0, range_noise_m=0.5, bearing_noise_deg=3.0)
+    model = wc.build(wc.resolve(p, tmp_path))
+    truth, data = wc.simulate(model, state_from_seed(np.random.SeedSequence(6)))
+    near = _run(model, data, 20, association="nearest")
+    assert near["association_errors"] > 0.0
+
+
+def test_a_full_map_drops_new_landmarks_instead_of_overflowing():
+    model = _model(steps=1200)
+    truth, data = wc.simulate(model, state_from_seed(np.random.SeedSequence(7)))
+    out = _run(model, data, 10, association="nearest", max_landmarks=2)
+    assert out["lm_seen"].sum() <= 2
+    assert np.isfinite(out["pose"]).all()

@@ -153,6 +153,17 @@ def _fastslam_schema():
                              "scenario's)", min=0.0, min_exclusive=True, nullable=True),
         "bearing_noise_deg": Key("float", None, "bearing noise the filter assumes (default: the "
                                  "scenario's)", min=0.0, min_exclusive=True, nullable=True),
+        "association": Key("choice", "known", "data association: 'known' (the sensor reports "
+                           "landmark identities) or 'nearest' (nearest neighbour in Mahalanobis "
+                           "distance, with the two gates)", choices=("known", "nearest")),
+        "gate_reject": Key("float", 4.0, "nearest: squared Mahalanobis distance up to which an "
+                           "observation joins a landmark (the classic simulator's 4)", min=0.0,
+                           min_exclusive=True),
+        "gate_augment": Key("float", 25.0, "nearest: squared distance beyond which it starts a new "
+                            "landmark; in between it is dropped (the classic simulator's 25)",
+                            min=0.0, min_exclusive=True),
+        "max_landmarks": Key("int", 0, "nearest: map capacity per particle (0: three times the "
+                             "world's landmarks)", min=0),
         "update": Key("choice", "joseph", "landmark covariance update: 'joseph' form or "
                       "'symmetric' ((I - KH) P, symmetrised)", choices=("joseph", "symmetric")),
         "resampling": Key("choice", "systematic", "resampling scheme ('stepwise_ewa': ifa2021's)",

@@ -107,6 +107,47 @@ def ekf_landmark_update(px, py, pth, mu, sig, zr, zb, Rr, Rb, joseph):
     return -0.5 * maha - 0.5 * (2.0 * LOG_2PI + math.log(det))
 
 
+@njit(types.float64(types.float64, types.float64, types.float64, _F, _F, types.float64,
+                    types.float64, types.float64, types.float64), cache=True)
+def mahalanobis2(px, py, pth, mu, sig, zr, zb, Rr, Rb):
+    """Squared Mahalanobis distance of the observation [zr, zb] to the landmark (mu, sig) seen
+    from the pose (inf where the landmark sits on the pose)."""
+    r, b, h11, h12, h21, h22, ok = observe_landmark(px, py, pth, mu[0], mu[1])
+    if ok == 0.0:
+        return np.inf
+    a, c, d = sig[0], sig[1], sig[2]
+    p11 = h11 * a + h12 * c
+    p12 = h11 * c + h12 * d
+    p21 = h21 * a + h22 * c
+    p22 = h21 * c + h22 * d
+    S11 = p11 * h11 + p12 * h12 + Rr
+    S12 = p11 * h21 + p12 * h22
+    S22 = p21 * h21 + p22 * h22 + Rb
+    det = S11 * S22 - S12 * S12
+    v1 = zr - r
+    v2 = wrap(zb - b)
+    return (v1 * (S22 * v1 - S12 * v2) + v2 * (S11 * v2 - S12 * v1)) / det
+
+
+@njit(types.int64(types.float64, types.float64, types.float64, types.int64, _F3, _F3,
+                  types.int64, types.float64, types.float64, types.float64, types.float64,
+                  types.float64), cache=True)
+def nearest_landmark(px, py, pth, i, mu, sig, nl, zr, zb, Rr, Rb, gate):
+    """Index of particle i's landmark nearest (Mahalanobis) to the observation among its nl
+    landmarks, if within ``gate`` (squared distance); -1 when none is, -2 - k when the nearest,
+    k, lies beyond the gate (so the caller can tell 'ambiguous' from 'new')."""
+    best = -1
+    bd = np.inf
+    for m in range(nl):
+        d2 = mahalanobis2(px, py, pth, mu[i, m], sig[i, m], zr, zb, Rr, Rb)
+        if d2 < bd:
+            bd = d2
+            best = m
+    if best < 0:
+        return -1
+    return best if bd <= gate else -2 - best
+
+
 @njit(types.void(types.float64, types.float64, types.float64, types.float64, types.float64,
                  types.float64, types.float64, _F, _F), cache=True)
 def init_landmark(px, py, pth, zr, zb, Rr, Rb, mu, sig):
@@ -123,15 +164,22 @@ def init_landmark(px, py, pth, zr, zb, Rr, Rb, mu, sig):
 
 
 @njit(types.float64(types.float64, types.float64, types.float64, types.int64, _F3, _F3, _B2, _I,
-                    _F2, types.int64, types.float64, types.float64), cache=True)
-def pose_loglik(px, py, pth, i, mu, sig, seen, ids, zs, n, Rr, Rb):
+                    _F2, types.int64, types.float64, types.float64, types.int64, types.int64,
+                    types.float64), cache=True)
+def pose_loglik(px, py, pth, i, mu, sig, seen, ids, zs, n, Rr, Rb, assoc, nl, gate):
     """Log-likelihood of the n observations (ids, zs) of landmarks already in particle i's map,
-    for a candidate pose of that particle (its map is not changed)."""
+    for a candidate pose of that particle (its map is not changed). assoc 0: by identity;
+    1: each observation with its nearest landmark among the particle's nl, within ``gate``."""
     acc = 0.0
     for j in range(n):
-        m = ids[j]
-        if not seen[i, m]:
-            continue
+        if assoc:
+            m = nearest_landmark(px, py, pth, i, mu, sig, nl, zs[j, 0], zs[j, 1], Rr, Rb, gate)
+            if m < 0:
+                continue
+        else:
+            m = ids[j]
+            if not seen[i, m]:
+                continue
         r, b, h11, h12, h21, h22, ok = observe_landmark(px, py, pth, mu[i, m, 0], mu[i, m, 1])
         if ok == 0.0:
             continue
@@ -151,23 +199,26 @@ def pose_loglik(px, py, pth, i, mu, sig, seen, ids, zs, n, Rr, Rb):
     return acc
 
 
-@njit(types.void(_F2, _F3, _F3, _B2, _I, _F2, types.int64, types.float64, types.float64, _F),
-      cache=True)
-def _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, out):
+@njit(types.void(_F2, _F3, _F3, _B2, _I, _F2, types.int64, types.float64, types.float64, _F,
+                 types.int64, _I, types.float64), cache=True)
+def _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, out, assoc, nl, gate):
     for i in range(P.shape[0]):
-        out[i] = pose_loglik(P[i, 0], P[i, 1], P[i, 2], i, mu, sig, seen, ids, zs, n, Rr, Rb)
+        out[i] = pose_loglik(P[i, 0], P[i, 1], P[i, 2], i, mu, sig, seen, ids, zs, n, Rr, Rb,
+                             assoc, nl[i], gate)
 
 
 FASTSLAM_SIG = types.int64(
     _F2, _I, _I2, _F3, _F, types.int64, _F, _F, _F, types.int64, types.int64, types.int64,
     types.int64, types.int64, types.float64, types.int64, _F, types.int64, types.float64,
-    types.float64, types.int64, STATE, _F2, _F, _I, _F2, _I, _F)
+    types.float64, types.int64, types.int64, types.float64, types.float64, STATE, _F2, _F, _I,
+    _F2, _I, _F, _F)
 
 
 @njit(FASTSLAM_SIG, cache=True)
 def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, N, predict_noise,
                     joseph, scheme, threshold, refine, sp, iters, ewa_beta, ewa_mu, ewa_printed,
-                    s, est, ess, resampled, lm_est, lm_seen, evals):
+                    assoc, gate_reject, gate_augment, s, est, ess, resampled, lm_est, lm_seen,
+                    evals, assoc_stats):
     """Run FastSLAM over one trial; fill est (T+1, 3) the weighted pose estimate at every control
     step, ess / resampled / evals (K,) per observation, lm_est (M, 2) and lm_seen (M,) the final
     weighted map. Returns the number of observation steps whose weights all underflowed.
@@ -176,6 +227,12 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
     its controls with; R : [sigma_r^2, sigma_b^2]; refine : a value of REFINE with its parameters
     sp (fa [beta0, gamma, alpha]; ifa [beta0, gamma]; ba [fmin, fmax, A0, r0, alpha, gamma];
     pso [w, c1, c2]); scheme : a resampling code or EWA.
+    assoc : 0 = known identities (M = the number of landmarks, slot = identity); 1 = nearest
+        neighbour (M = the map capacity): an observation joins the landmark nearest in Mahalanobis
+        distance if its squared distance is <= gate_reject, starts a new landmark if every one
+        is > gate_augment, and is dropped in between. assoc_stats (3,) gets [associations,
+        wrong associations (the slot was started from another true landmark), observations
+        dropped as ambiguous], summed over particles and observations.
     """
     T = ctrl.shape[0]
     K = obs_n.shape[0]
@@ -190,6 +247,13 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
     mu2 = np.zeros((N, M, 2))
     sig2 = np.zeros((N, M, 3))
     seen2 = np.zeros((N, M), dtype=np.int8)
+    nl = np.zeros(N, dtype=np.int64)          # landmarks in each particle's map (nearest mode)
+    nl2 = np.zeros(N, dtype=np.int64)
+    src = np.full((N, M), -1, dtype=np.int64)  # the true landmark each slot was started from
+    src2 = np.full((N, M), -1, dtype=np.int64)
+    n_assoc = 0.0
+    n_wrong = 0.0
+    n_drop = 0.0
     P2 = np.empty((N, 3))
     lw = np.zeros(N)
     w = np.full(N, 1.0)
@@ -244,7 +308,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                         m2 += P[i, d] * P[i, d]
                     m1 /= N
                     scale[d] = math.sqrt(max(m2 / N - m1 * m1, 1e-12))
-                _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll)
+                _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll, assoc, nl, gate_reject)
                 nev += N
                 for it in range(iters):
                     M0 = ll.max()
@@ -278,7 +342,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                                       + (P[i, 2] - mt) ** 2 / vt)
                                 fit[i] = math.exp(ll[i] - M0 - 0.5 * d2)
                             ifa_move(X, fit, 3, sp[0], sp[1], Rr, scale, s)
-                        _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll)
+                        _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll, assoc, nl, gate_reject)
                         nev += N
                     elif refine == 3:
                         if it == 0:
@@ -288,7 +352,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                         g = argmax(ll)
                         ba_propose(X, V, A, rr, C, 3, g, sp[0], sp[1], scale, s)
                         Cp = C.reshape((N, 3))
-                        _fitness(Cp, mu, sig, seen, ids, zs, n, Rr, Rb, llc)
+                        _fitness(Cp, mu, sig, seen, ids, zs, n, Rr, Rb, llc, assoc, nl, gate_reject)
                         nev += N
                         ba_accept(X, ll, C, llc, A, rr, 3, sp[4], sp[5], sp[3], it + 1, s)
                     else:
@@ -298,7 +362,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                             Pfit[:] = ll
                         g = argmax(Pfit)
                         pso_propose(X, V, Pb, Pfit, 3, g, sp[0], sp[1], sp[2], s)
-                        _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll)
+                        _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll, assoc, nl, gate_reject)
                         nev += N
                         pso_accept(X, ll, Pb, Pfit, 3)
                 for i in range(N):
@@ -308,6 +372,32 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
             for i in range(N):
                 px, py, pth = P[i, 0], P[i, 1], P[i, 2]
                 for j in range(n):
+                    if assoc:
+                        m = nearest_landmark(px, py, pth, i, mu, sig, nl[i], zs[j, 0], zs[j, 1],
+                                             Rr, Rb, gate_reject)
+                        if m >= 0:
+                            n_assoc += 1.0
+                            if src[i, m] != ids[j]:
+                                n_wrong += 1.0
+                            lw[i] += ekf_landmark_update(px, py, pth, mu[i, m], sig[i, m],
+                                                         zs[j, 0], zs[j, 1], Rr, Rb, joseph)
+                            continue
+                        if m <= -2:   # a nearest landmark beyond the first gate
+                            far = mahalanobis2(px, py, pth, mu[i, -2 - m], sig[i, -2 - m],
+                                               zs[j, 0], zs[j, 1], Rr, Rb)
+                            if far <= gate_augment:
+                                n_drop += 1.0
+                                continue
+                        if nl[i] >= M:          # the map is full: the observation is dropped
+                            n_drop += 1.0
+                            continue
+                        m = nl[i]
+                        nl[i] += 1
+                        src[i, m] = ids[j]
+                        init_landmark(px, py, pth, zs[j, 0], zs[j, 1], Rr, Rb, mu[i, m],
+                                      sig[i, m])
+                        seen[i, m] = 1
+                        continue
                     m = ids[j]
                     if seen[i, m]:
                         lw[i] += ekf_landmark_update(px, py, pth, mu[i, m], sig[i, m], zs[j, 0],
@@ -342,10 +432,14 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                     mu2[i] = mu[j]
                     sig2[i] = sig[j]
                     seen2[i] = seen[j]
+                    nl2[i] = nl[j]
+                    src2[i] = src[j]
                 P, P2 = P2, P
                 mu, mu2 = mu2, mu
                 sig, sig2 = sig2, sig
                 seen, seen2 = seen2, seen
+                nl, nl2 = nl2, nl
+                src, src2 = src2, src
                 lw[:] = 0.0
                 Wn[:] = 1.0 / N
                 resampled[k] = 1
@@ -361,6 +455,23 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
             ec += Wn[i] * math.cos(P[i, 2])
             es += Wn[i] * math.sin(P[i, 2])
         est[t + 1, 0], est[t + 1, 1], est[t + 1, 2] = ex, ey, math.atan2(es, ec)
+    assoc_stats[0], assoc_stats[1], assoc_stats[2] = n_assoc, n_wrong, n_drop
+    if assoc:
+        # the final map: the highest-weight particle's, each slot compared with the true landmark
+        # it was started from (lm_est has a row per true landmark)
+        b = 0
+        for i in range(N):
+            if Wn[i] > Wn[b]:
+                b = i
+        lm_seen[:] = 0
+        lm_est[:] = np.nan
+        for m in range(nl[b]):
+            t_id = src[b, m]
+            if lm_seen[t_id] == 0:      # the first slot started from it
+                lm_seen[t_id] = 1
+                lm_est[t_id, 0] = mu[b, m, 0]
+                lm_est[t_id, 1] = mu[b, m, 1]
+        return events
     # the final map: per landmark, the weighted mean over the particles that have it
     for m in range(M):
         wsum = 0.0
@@ -381,7 +492,9 @@ def run(model, data, params, particles, state, diag=True):
     """Run FastSLAM (with the configured refinement) on a course trial; return the traces."""
     T = data.ctrl.shape[0]
     K = data.obs_n.shape[0]
-    M = model.landmarks.shape[0]
+    M_true = model.landmarks.shape[0]
+    nearest = params["association"] == "nearest"
+    M = (params["max_landmarks"] or 3 * M_true) if nearest else M_true
     deg = math.pi / 180.0
 
     def pick(key, default):
@@ -407,14 +520,18 @@ def run(model, data, params, particles, state, diag=True):
     scheme = EWA if params["resampling"] == "stepwise_ewa" else SCHEME_CODES[params["resampling"]]
     threshold = np.inf if params["resample"] == "always" else params["neff_ratio"] * particles
     out = {"pose": np.empty((T + 1, 3)), "ess": np.empty(K),
-           "resampled": np.zeros(K, dtype=np.int64), "lm_est": np.empty((M, 2)),
-           "lm_seen": np.zeros(M, dtype=np.int64)}
+           "resampled": np.zeros(K, dtype=np.int64), "lm_est": np.empty((M_true, 2)),
+           "lm_seen": np.zeros(M_true, dtype=np.int64)}
     evals = np.zeros(K)
+    stats = np.zeros(3)
     out["underflow_steps"] = fastslam_kernel(
         data.ctrl, data.obs_n, data.obs_id, data.obs_z, model.vehicle, int(model.sensor[2]), qctrl,
         R, model.start, M, particles, int(params["predict_noise"]), int(params["update"] == "joseph"),
         scheme, threshold, REFINE[refine], np.array(sp, dtype=np.float64), params["iterations"],
-        params["ewa_beta"], params["ewa_mu"], int(params["ewa_correction"] == "as_printed"), state,
-        out["pose"], out["ess"], out["resampled"], out["lm_est"], out["lm_seen"], evals)
+        params["ewa_beta"], params["ewa_mu"], int(params["ewa_correction"] == "as_printed"),
+        int(nearest), params["gate_reject"], params["gate_augment"], state,
+        out["pose"], out["ess"], out["resampled"], out["lm_est"], out["lm_seen"], evals, stats)
     out["lik_evals_per_step"] = float(evals.mean()) if K else 0.0
+    if nearest:
+        out["association_errors"] = stats[1] / stats[0] if stats[0] else 0.0
     return out
