@@ -131,10 +131,79 @@ def run(
 
 
 @app.command()
+def sweep(
+    config: Path = typer.Argument(..., help="Experiment YAML file (its 'sweep:' section, if any, "
+                                  "gives the values)."),
+    set_: List[str] = typer.Option([], "--set", help="KEY.PATH=V1,V2,... values to sweep (YAML "
+                                   "each; '*' matches every key), repeatable: the cartesian "
+                                   "product is run."),
+    trials: Optional[int] = typer.Option(None, "--trials", min=1, help="Trials per cell."),
+    seed: Optional[int] = typer.Option(None, "--seed", min=0, help="Override the base seed."),
+    workers: int = typer.Option(1, "--workers", "-w", min=1, help="Local worker processes."),
+    out_dir: Optional[Path] = typer.Option(None, "--out", help="Results folder (default: "
+                                           "results/<experiment>)."),
+    resume: bool = typer.Option(False, "--resume", help="Keep the finished trials of every cell."),
+    yes: bool = typer.Option(False, "--yes", help="Run even when there are many cells."),
+):
+    """Run an experiment over the cartesian product of values of some of its keys."""
+    with _guard():
+        from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
+                                   TimeElapsedColumn, TimeRemainingColumn)
+
+        from . import sweep as sw
+        from .runner import Interrupted
+        name, cells = sw.expand(config, sw.parse_sets(set_), {"trials": trials, "seed": seed})
+        folder = out_dir or Path("results") / name
+        keys = list(cells[0].values)
+        total = sum(c.exp.trials for c in cells)
+        err.print(f"{name}: {len(cells)} cells ({', '.join(keys)}) x {cells[0].exp.trials} trials "
+                  f"= {total} trials -> {folder}", markup=False)
+        if len(cells) > sw.CONFIRM_ABOVE and not yes:
+            raise UserError(f"{len(cells)} cells is more than {sw.CONFIRM_ABOVE}: add --yes to run "
+                            "them")
+        with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                      TimeElapsedColumn(), TimeRemainingColumn(), console=err,
+                      transient=True) as bar:
+            task = bar.add_task("trials", total=total)
+            try:
+                trials_df = sw.run_sweep(cells, folder, workers=workers, resume=resume,
+                                         progress=lambda d, n: bar.update(task, completed=d))
+            except Interrupted as exc:
+                bar.stop()
+                err.print(f"pfbench: interrupted in a cell: {exc}", markup=False)
+                raise typer.Exit(130) from None
+        summ = sw.summary(trials_df, keys)
+        from .runner import atomic_write
+        atomic_write(folder / "summary.csv", summ.to_csv(index=False, lineterminator="\n"))
+        figs = sw.figures(summ, keys, folder, name)
+        t = RichTable(title=f"{name}: sweep over {', '.join(keys)}", title_justify="left")
+        for h in keys + ["Filter", "N", "Trials", "RMSE mean [95% CI]", "ms/trial"]:
+            t.add_column(h, overflow="fold")
+        for _, r in summ.iterrows():
+            n = r["particles"]
+            t.add_row(*[str(r[k]) for k in keys], str(r["label"]),
+                      "-" if n != n or n is None else str(int(n)), str(int(r["trials"])),
+                      f"{r['rmse_mean']:.4g} [{r['rmse_ci_lo']:.4g}, {r['rmse_ci_hi']:.4g}]",
+                      f"{1e3 * r['wall_s_mean']:.3g}")
+        out.print(t)
+        err.print(f"wrote {folder}/trials.csv, summary.csv, {len(figs)} figures and a results "
+                  "folder per cell under cells/", markup=False)
+
+
+@app.command()
 def validate(config: Path = typer.Argument(..., help="Experiment YAML file."),
              set_: List[str] = typer.Option([], "--set", help="KEY.PATH=VALUE override.")):
     """Check a config against the schema; run nothing."""
     with _guard():
+        from .config import read_yaml
+        raw, _ = read_yaml(config)
+        if isinstance(raw, dict) and "sweep" in raw:
+            from . import sweep as sw
+            name, cells = sw.expand(config, {}, {})
+            out.print(f"{config}: ok: sweep {name}: {len(cells)} cells over "
+                      f"{', '.join(cells[0].values)}, {cells[0].exp.trials} trials each",
+                      markup=False)
+            return
         exp = _load(config, sets=set_)
         runs = ", ".join(f.key for f in exp.filters)
         out.print(f"{config}: ok: {exp.name}: scenario {exp.scenario}, {exp.trials} trials, "

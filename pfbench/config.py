@@ -285,6 +285,8 @@ def _validate_filters(raw: Any, scenario: str) -> tuple[FilterRun, ...]:
 def validate(raw: Any, source: str = "config") -> Experiment:
     """Validate the raw mapping of a config file into an :class:`Experiment`."""
     raw = check_mapping("", raw if raw is not None else {})
+    if "sweep" in raw:
+        raise ConfigError("sweep", "this file describes a sweep: run it with 'pfbench sweep'")
     top = check_section({k: v for k, v in raw.items() if k not in ("scenario", "filters", "compare")},
                         TOP_SCHEMA, "")
     if "scenario" not in raw:

@@ -116,7 +116,11 @@ def test_shipped_configs_validate():
     assert paths
     # the issues' minimums: 500 trials for the UNGM and Gamma tables, the paper's 20 for FastSLAM
     minimum = {"ifa_pf_ungm": 500, "sspf_upf_gamma": 500, "sspf_ungm": 500, "ifa_fastslam": 20}
+    from pfbench.config import read_yaml
+    from pfbench.sweep import expand
     for p in paths:
-        exp = load(p)
-        assert exp.paper is not None and exp.trials >= minimum.get(p.stem, 20)
-        assert all(f.label for f in exp.filters)
+        raw, _ = read_yaml(p)
+        exps = [c.exp for c in expand(p, {}, {})[1]] if "sweep" in raw else [load(p)]
+        for exp in exps:
+            assert exp.paper is not None and exp.trials >= minimum.get(p.stem, 20)
+            assert all(f.label for f in exp.filters)

@@ -1,0 +1,198 @@
+"""Sweeps: one experiment run over the cartesian product of values of some of its keys.
+
+Each cell is an ordinary experiment (same base seed, so cells differ only in the swept values,
+with common random numbers) written to ``<out>/cells/<cell>/`` and resumable like ``run``; the
+sweep folder gets a long-form ``trials.csv`` with a column per swept key, ``summary.csv`` (mean
+and 95% interval of each metric per cell and filter run) and a figure per metric against the
+first swept key, one line per filter run with its 95% band.
+"""
+from __future__ import annotations
+
+import copy
+import itertools
+import json
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+import pandas as pd
+import yaml
+
+from .config import Experiment, apply_override, read_yaml, validate
+from .errors import UserError
+from .metrics import summarize
+from .runner import atomic_write, run_experiment
+from .schema import ConfigError
+
+CONFIRM_ABOVE = 50       # cells; more need --yes
+SWEEP_METRICS = ("rmse", "wall_s")
+
+
+def split_values(text: str) -> list[str]:
+    """'1,2,[3, 4]' -> ['1', '2', '[3, 4]']: commas inside brackets or quotes do not split."""
+    out, depth, cur, quote = [], 0, "", None
+    for ch in text:
+        if quote:
+            cur += ch
+            if ch == quote:
+                quote = None
+            continue
+        if ch in "'\"":
+            quote = ch
+        elif ch in "[{":
+            depth += 1
+        elif ch in "]}":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            out.append(cur.strip())
+            cur = ""
+            continue
+        cur += ch
+    out.append(cur.strip())
+    return [v for v in out if v]
+
+
+def parse_sets(sets: list[str] | tuple[str, ...]) -> dict[str, list[Any]]:
+    """--set KEY=V1,V2 ... -> {KEY: [values as YAML]} (keys in order)."""
+    out: dict[str, list[Any]] = {}
+    for s in sets:
+        key, sep, text = s.partition("=")
+        if not sep or not key.strip() or not text.strip():
+            raise ConfigError(f"--set {s}", "expected KEY=V1,V2,..., e.g. scenario.speed_mps=1,2,3")
+        try:
+            values = [yaml.safe_load(v) for v in split_values(text)]
+        except yaml.YAMLError:
+            raise ConfigError(f"--set {key}", f"cannot read the values {text!r}") from None
+        out[key.strip()] = values
+    return out
+
+
+@dataclass
+class Cell:
+    values: dict[str, Any]
+    exp: Experiment
+    name: str
+
+
+def _cell_name(values: dict[str, Any]) -> str:
+    parts = [f"{k.split('.')[-1].replace('*', 'all')}={v}" for k, v in values.items()]
+    return re.sub(r"[^A-Za-z0-9_.=,-]+", "_", ",".join(parts))
+
+
+def expand(config: Path, sets: dict[str, list[Any]], overrides: dict[str, Any]) -> tuple[
+        str, list[Cell]]:
+    """The sweep's name and cells: the config's own ``sweep:`` section, then --set (which wins)."""
+    raw, lines = read_yaml(config)
+    if not isinstance(raw, dict):
+        raise ConfigError("", "expected a mapping of keys at the top", source=str(config))
+    spec = raw.pop("sweep", None) or {}
+    if not isinstance(spec, dict) or not all(isinstance(v, list) and v for v in spec.values()):
+        raise ConfigError("sweep", "expected a mapping of key path -> non-empty list of values",
+                          source=str(config), line=lines.get("sweep"))
+    spec = {**spec, **sets}
+    if not spec:
+        raise UserError(f"{config}: nothing to sweep: give --set KEY=V1,V2,... or a 'sweep:' "
+                        "section")
+    keys = list(spec)
+    cells = []
+    for combo in itertools.product(*(spec[k] for k in keys)):
+        values = dict(zip(keys, combo))
+        cell_raw = copy.deepcopy(raw)
+        try:
+            for k, v in values.items():
+                apply_override(cell_raw, f"{k}={json.dumps(v)}")
+            for k, v in overrides.items():
+                if v is not None:
+                    cell_raw[k] = v
+            exp = validate(cell_raw, str(config))
+        except ConfigError as err:
+            where = ", ".join(f"{k}={v}" for k, v in values.items())
+            raise ConfigError(err.path, f"{err.message} (sweep cell {where})", source=str(config),
+                              line=lines.get(err.path)) from None
+        cells.append(Cell(values, exp, _cell_name(values)))
+    return (cells[0].exp.name if cells else config.stem), cells
+
+
+def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: bool = False,
+              progress: Callable[[int, int], None] | None = None) -> pd.DataFrame:
+    """Run every cell (resumable), then write the combined trials, summary and figures."""
+    total = sum(c.exp.trials for c in cells)
+    done = 0
+    frames = []
+    for cell in cells:
+        folder = out_dir / "cells" / cell.name
+
+        def cell_progress(d, n, base=done):
+            if progress:
+                progress(base + d, total)
+
+        res = run_experiment(cell.exp, folder, workers=workers, resume=resume,
+                             progress=cell_progress)
+        done += cell.exp.trials
+        df = pd.DataFrame(res.rows)
+        for k, v in cell.values.items():
+            df.insert(0, k, json.dumps(v) if isinstance(v, (list, dict)) else v)
+        frames.append(df)
+    trials = pd.concat(frames, ignore_index=True)
+    atomic_write(out_dir / "trials.csv", trials.to_csv(index=False, lineterminator="\n"))
+    return trials
+
+
+def summary(trials: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
+    """Mean and 95% interval of each metric per cell and filter run."""
+    out = []
+    for vals, g in trials.groupby(keys + ["filter", "label"], sort=False, dropna=False):
+        r = dict(zip(keys + ["filter", "label"], vals))
+        r["particles"] = g["particles"].iloc[0]
+        r["trials"] = len(g)
+        for m in SWEEP_METRICS + ("heading_rmse", "landmark_error", "lik_evals_per_step"):
+            if m in g and g[m].notna().any():
+                s = summarize(g[m])
+                r[f"{m}_mean"], r[f"{m}_ci_lo"], r[f"{m}_ci_hi"] = s["mean"], s["ci_lo"], s["ci_hi"]
+        out.append(r)
+    return pd.DataFrame(out)
+
+
+def figures(summ: pd.DataFrame, keys: list[str], out_dir: Path, title: str) -> list[Path]:
+    """One figure per metric against the first swept key; a line per filter run (and per value
+    of the other swept keys) with its 95% band; a log axis where the values span decades."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .plots import _save
+    folder = out_dir / "figures"
+    folder.mkdir(parents=True, exist_ok=True)
+    x = keys[0]
+    others = keys[1:]
+    paths = []
+    numeric = pd.to_numeric(summ[x], errors="coerce")
+    for m, ylabel in (("rmse", "RMSE per trial"), ("wall_s", "wall time per trial (s)"),
+                      ("heading_rmse", "heading RMSE (rad)"),
+                      ("landmark_error", "landmark error (m)")):
+        if f"{m}_mean" not in summ or summ[f"{m}_mean"].isna().all():
+            continue
+        fig, ax = plt.subplots(figsize=(7.2, 4.2))
+        for vals, g in summ.groupby(others + ["label", "particles"], sort=False, dropna=False):
+            vals = vals if isinstance(vals, tuple) else (vals,)
+            g = g.assign(_x=pd.to_numeric(g[x], errors="coerce")).sort_values("_x")
+            name = " ".join([f"{k.split('.')[-1]}={v}" for k, v in zip(others, vals)]
+                            + [str(vals[len(others)])]
+                            + ([f"N={int(vals[-1])}"] if vals[-1] == vals[-1] else []))
+            line, = ax.plot(g["_x"], g[f"{m}_mean"], "o-", ms=4, label=name)
+            ax.fill_between(g["_x"], g[f"{m}_ci_lo"], g[f"{m}_ci_hi"], color=line.get_color(),
+                            alpha=0.18)
+        pos = numeric[numeric > 0]
+        if len(pos) and pos.max() / pos.min() >= 100:
+            ax.set_xscale("log")
+        ax.set_xlabel(x)
+        ax.set_ylabel(ylabel)
+        ax.set_title(f"{title}: {ylabel} (mean and 95% band)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        path = folder / f"{m}.png"
+        _save(fig, path)
+        paths.append(path)
+    return paths
