@@ -3,6 +3,8 @@ from pathlib import Path
 
 import pytest
 
+from pfbench.config import Params
+
 ROOT = Path(__file__).resolve().parents[1]
 os.environ.setdefault("COLUMNS", "200")
 
@@ -31,3 +33,10 @@ filters:
   ukf:
     label: UKF
 """
+
+
+def default_params(schema: dict, **over) -> Params:
+    """A schema's defaults with some keys overridden, as validated parameters."""
+    p = {k: key.default for k, key in schema.items()}
+    p.update(over)
+    return Params(p)

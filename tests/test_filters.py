@@ -10,11 +10,9 @@ from pfbench.rng import state_from_seed
 from pfbench.scenarios import linear_gaussian, ungm
 from pfbench.scenarios.base import simulate
 
+from .conftest import default_params
 
-def _params(schema, **over):
-    p = {k: key.default for k, key in schema.items()}
-    p.update(over)
-    return Params(p)
+_params = default_params
 
 
 def _linear(**over):

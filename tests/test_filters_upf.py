@@ -11,11 +11,9 @@ from pfbench.rng import standard_gamma, state_from_seed
 from pfbench.scenarios import linear_gaussian, upf_gamma
 from pfbench.scenarios.base import process_logpdf, simulate
 
+from .conftest import default_params
 
-def _params(schema, **over):
-    p = {k: key.default for k, key in schema.items()}
-    p.update(over)
-    return Params(p)
+_params = default_params
 
 
 def _linear(**over):

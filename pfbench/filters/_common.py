@@ -6,10 +6,25 @@ import math
 import numpy as np
 from numba import njit, types
 
-from ..rng import STATE, uniform
+from ..rng import STATE, fill_normal, uniform
 from ..scenarios.base import ModelFn, add_process_noise
 
 _F = types.float64[::1]
+_I = types.int64[::1]
+
+
+@njit(types.void(STATE, types.float64, types.float64, _F, _F, _F, _I, _F, _F), cache=True)
+def start(s, prior_mean, prior_var, x, xhat, ess, resampled, div_l1, distinct):
+    """Draw the particles x (N,) from the Gaussian prior and fill the traces' entry for t = 0."""
+    fill_normal(s, x)
+    sd0 = math.sqrt(prior_var)
+    for i in range(x.size):
+        x[i] = prior_mean + sd0 * x[i]
+    xhat[0] = prior_mean
+    ess[0] = x.size
+    resampled[0] = 0
+    div_l1[0] = np.nan
+    distinct[0] = np.nan
 
 
 @njit(types.float64(types.float64, types.float64), cache=True, inline="always")
@@ -64,6 +79,19 @@ def normalise(lw, w, x, m):
     return S, S2, sx, underflow
 
 
+@njit(types.UniTuple(types.float64, 3)(_F, _F, _F, types.float64, types.int64, _F, _I, _F, _F),
+      cache=True)
+def weigh(lw, w, x, m, t, ess, resampled, div_l1, distinct):
+    """One step's weights (see ``normalise``), ESS and weighted mean; the step's resampling
+    entries start as 'not resampled'. Returns (S, the weighted mean, underflow)."""
+    S, S2, sx, under = normalise(lw, w, x, m)
+    ess[t] = S * S / S2
+    resampled[t] = 0
+    div_l1[t] = np.nan
+    distinct[t] = np.nan
+    return S, sx / S, under
+
+
 @njit(types.UniTuple(types.float64, 2)(_F), cache=True)
 def diversity(x):
     """(mean pairwise |x_i - x_j| over pairs i < j, fraction of distinct values) of particles x."""
@@ -78,6 +106,17 @@ def diversity(x):
         if i > 0 and z[i] != z[i - 1]:
             distinct += 1
     return 2.0 * acc / (N * (N - 1.0)), distinct / N
+
+
+@njit(types.float64(_F, types.int64, types.float64, types.int64, types.int64, _I, _F, _F),
+      cache=True)
+def resampled_step(x, t, est, estimate_after, diag, resampled, div_l1, distinct):
+    """Record that step t resampled into x (N,): its diversity when ``diag``; returns the estimate,
+    the plain mean of x when ``estimate_after``, else ``est`` unchanged."""
+    resampled[t] = 1
+    if diag:
+        div_l1[t], distinct[t] = diversity(x)
+    return x.sum() / x.size if estimate_after else est
 
 
 @njit(types.float64(_F), cache=True)

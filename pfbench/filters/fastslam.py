@@ -51,17 +51,18 @@ def observe_landmark(px, py, pth, lx, ly):
     return r, wrap(math.atan2(dy, dx) - pth), dx / r, dy / r, -dy / q, dx / q, 1.0
 
 
-@njit(types.float64(types.float64, types.float64, types.float64, _F, _F, types.float64,
-                    types.float64, types.float64, types.float64, types.int64), cache=True)
-def ekf_landmark_update(px, py, pth, mu, sig, zr, zb, Rr, Rb, joseph):
-    """Update one landmark's EKF (mean mu (2,), covariance sig (3,) = [s11, s12, s22]) with the
-    observation [zr, zb] from pose (px, py, pth); return the log-likelihood of the innovation,
-    log N(v; 0, S). joseph: 1 = Joseph form, 0 = (I - KH) P symmetrised."""
-    r, b, h11, h12, h21, h22, ok = observe_landmark(px, py, pth, mu[0], mu[1])
+@njit(types.UniTuple(types.float64, 11)(types.float64, types.float64, types.float64, types.float64,
+                                        types.float64, types.float64, types.float64, types.float64,
+                                        types.float64, types.float64, types.float64, types.float64),
+      cache=True)
+def innovation(px, py, pth, lx, ly, a, c, d, zr, zb, Rr, Rb):
+    """Innovation of the observation [zr, zb] of landmark (lx, ly) with covariance [[a, c], [c, d]]
+    from pose (px, py, pth): returns (v1, v2, S11, S12, S22, det S, h11, h12, h21, h22, ok), with
+    v the wrapped innovation, S = H P H^T + R and H the Jacobian with respect to the landmark; ok
+    is 0 when the landmark sits on the pose."""
+    r, b, h11, h12, h21, h22, ok = observe_landmark(px, py, pth, lx, ly)
     if ok == 0.0:
-        return 0.0
-    a, c, d = sig[0], sig[1], sig[2]
-    # S = H P H^T + R
+        return 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0
     p11 = h11 * a + h12 * c
     p12 = h11 * c + h12 * d
     p21 = h21 * a + h22 * c
@@ -69,11 +70,27 @@ def ekf_landmark_update(px, py, pth, mu, sig, zr, zb, Rr, Rb, joseph):
     S11 = p11 * h11 + p12 * h12 + Rr
     S12 = p11 * h21 + p12 * h22
     S22 = p21 * h21 + p22 * h22 + Rb
-    det = S11 * S22 - S12 * S12
-    v1 = zr - r
-    v2 = wrap(zb - b)
+    return (zr - r, wrap(zb - b), S11, S12, S22, S11 * S22 - S12 * S12, h11, h12, h21, h22, 1.0)
+
+
+@njit(types.float64(types.float64, types.float64, types.float64, types.float64, types.float64,
+                    types.float64), cache=True, inline="always")
+def _maha(v1, v2, S11, S12, S22, det):
+    return (v1 * (S22 * v1 - S12 * v2) + v2 * (S11 * v2 - S12 * v1)) / det
+
+
+@njit(types.float64(types.float64, types.float64, types.float64, _F, _F, types.float64,
+                    types.float64, types.float64, types.float64, types.int64), cache=True)
+def ekf_landmark_update(px, py, pth, mu, sig, zr, zb, Rr, Rb, joseph):
+    """Update one landmark's EKF (mean mu (2,), covariance sig (3,) = [s11, s12, s22]) with the
+    observation [zr, zb] from pose (px, py, pth); return the log-likelihood of the innovation,
+    log N(v; 0, S). joseph: 1 = Joseph form, 0 = (I - KH) P symmetrised."""
+    a, c, d = sig[0], sig[1], sig[2]
+    v1, v2, S11, S12, S22, det, h11, h12, h21, h22, ok = innovation(
+        px, py, pth, mu[0], mu[1], a, c, d, zr, zb, Rr, Rb)
+    if ok == 0.0:
+        return 0.0
     i11, i12, i22 = S22 / det, -S12 / det, S11 / det
-    maha = v1 * (i11 * v1 + i12 * v2) + v2 * (i12 * v1 + i22 * v2)
     # K = P H^T S^-1 (2 x 2)
     q11 = a * h11 + c * h12
     q12 = a * h21 + c * h22
@@ -104,7 +121,7 @@ def ekf_landmark_update(px, py, pth, mu, sig, zr, zb, Rr, Rb, joseph):
         n12 = 0.5 * ((a11 * c + a12 * d) + (a21 * a + a22 * c))
         n22 = a21 * c + a22 * d
     sig[0], sig[1], sig[2] = n11, n12, n22
-    return -0.5 * maha - 0.5 * (2.0 * LOG_2PI + math.log(det))
+    return -0.5 * _maha(v1, v2, S11, S12, S22, det) - 0.5 * (2.0 * LOG_2PI + math.log(det))
 
 
 @njit(types.float64(types.float64, types.float64, types.float64, _F, _F, types.float64,
@@ -112,21 +129,9 @@ def ekf_landmark_update(px, py, pth, mu, sig, zr, zb, Rr, Rb, joseph):
 def mahalanobis2(px, py, pth, mu, sig, zr, zb, Rr, Rb):
     """Squared Mahalanobis distance of the observation [zr, zb] to the landmark (mu, sig) seen
     from the pose (inf where the landmark sits on the pose)."""
-    r, b, h11, h12, h21, h22, ok = observe_landmark(px, py, pth, mu[0], mu[1])
-    if ok == 0.0:
-        return np.inf
-    a, c, d = sig[0], sig[1], sig[2]
-    p11 = h11 * a + h12 * c
-    p12 = h11 * c + h12 * d
-    p21 = h21 * a + h22 * c
-    p22 = h21 * c + h22 * d
-    S11 = p11 * h11 + p12 * h12 + Rr
-    S12 = p11 * h21 + p12 * h22
-    S22 = p21 * h21 + p22 * h22 + Rb
-    det = S11 * S22 - S12 * S12
-    v1 = zr - r
-    v2 = wrap(zb - b)
-    return (v1 * (S22 * v1 - S12 * v2) + v2 * (S11 * v2 - S12 * v1)) / det
+    v1, v2, S11, S12, S22, det, _, _, _, _, ok = innovation(
+        px, py, pth, mu[0], mu[1], sig[0], sig[1], sig[2], zr, zb, Rr, Rb)
+    return _maha(v1, v2, S11, S12, S22, det) if ok != 0.0 else np.inf
 
 
 @njit(types.int64(types.float64, types.float64, types.float64, types.int64, _F3, _F3,
@@ -180,22 +185,12 @@ def pose_loglik(px, py, pth, i, mu, sig, seen, ids, zs, n, Rr, Rb, assoc, nl, ga
             m = ids[j]
             if not seen[i, m]:
                 continue
-        r, b, h11, h12, h21, h22, ok = observe_landmark(px, py, pth, mu[i, m, 0], mu[i, m, 1])
-        if ok == 0.0:
-            continue
-        a, c, d = sig[i, m, 0], sig[i, m, 1], sig[i, m, 2]
-        p11 = h11 * a + h12 * c
-        p12 = h11 * c + h12 * d
-        p21 = h21 * a + h22 * c
-        p22 = h21 * c + h22 * d
-        S11 = p11 * h11 + p12 * h12 + Rr
-        S12 = p11 * h21 + p12 * h22
-        S22 = p21 * h21 + p22 * h22 + Rb
-        det = S11 * S22 - S12 * S12
-        v1 = zs[j, 0] - r
-        v2 = wrap(zs[j, 1] - b)
-        acc += (-0.5 * (v1 * (S22 * v1 - S12 * v2) + v2 * (S11 * v2 - S12 * v1)) / det
-                - 0.5 * (2.0 * LOG_2PI + math.log(det)))
+        v1, v2, S11, S12, S22, det, _, _, _, _, ok = innovation(
+            px, py, pth, mu[i, m, 0], mu[i, m, 1], sig[i, m, 0], sig[i, m, 1], sig[i, m, 2],
+            zs[j, 0], zs[j, 1], Rr, Rb)
+        if ok != 0.0:
+            acc += (-0.5 * _maha(v1, v2, S11, S12, S22, det)
+                    - 0.5 * (2.0 * LOG_2PI + math.log(det)))
     return acc
 
 

@@ -11,9 +11,9 @@ import numpy as np
 from numba import njit, types
 
 from ..resampling import SCHEME_CODES, resample
-from ..rng import STATE, fill_normal
+from ..rng import STATE
 from ..scenarios.base import ModelFn, add_process_noise
-from ._common import diversity, floored, mh_move, normalise
+from ._common import floored, mh_move, resampled_step, start, weigh
 
 _F = types.float64[::1]
 _I = types.int64[::1]
@@ -42,10 +42,7 @@ def pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, scheme, threshold
     half_inv_R = 0.5 / noise[3]
     c0 = -0.5 * math.log(noise[3])  # the likelihood's scale R^(-1/2), which a floor compares with
     x = np.empty(N)
-    fill_normal(s, x)
-    sd0 = math.sqrt(prior_var)
-    for i in range(N):
-        x[i] = prior_mean + sd0 * x[i]
+    start(s, prior_mean, prior_var, x, xhat, ess, resampled, div_l1, distinct)
     xn = np.empty(N)
     hx = np.empty(N)
     w = np.empty(N)
@@ -57,11 +54,6 @@ def pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, scheme, threshold
     prop = np.empty(N if m else 0)
     hprop = np.empty(N if m else 0)
     events = 0
-    xhat[0] = prior_mean
-    ess[0] = N
-    resampled[0] = 0
-    div_l1[0] = np.nan
-    distinct[0] = np.nan
     for t in range(1, T + 1):
         tt = float(t)
         f(x, tt, theta, xn)
@@ -81,13 +73,8 @@ def pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, scheme, threshold
                 l = lw[i] + floored(c0 - half_inv_R * d * d, log_floor)
                 lw[i] = l
                 mx = max(mx, l)
-        S, S2, sx, under = normalise(lw, w, xn, mx)
+        S, est, under = weigh(lw, w, xn, mx, t, ess, resampled, div_l1, distinct)
         events += int(under)
-        ess[t] = S * S / S2
-        est = sx / S
-        div_l1[t] = np.nan
-        distinct[t] = np.nan
-        resampled[t] = 0
         if ess[t] < threshold:
             resample(scheme, w, S, s, idx)
             if m:
@@ -99,11 +86,7 @@ def pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, scheme, threshold
                 lw[i] = 0.0
             for _ in range(mh_steps):
                 mh_move(f, h, theta, noise, xprev, x, hcur, yt, tt, log_floor, s, prop, hprop)
-            resampled[t] = 1
-            if estimate_after:
-                est = x.sum() / N
-            if diag:
-                div_l1[t], distinct[t] = diversity(x)
+            est = resampled_step(x, t, est, estimate_after, diag, resampled, div_l1, distinct)
         else:
             x, xn = xn, x
         xhat[t] = est

@@ -155,19 +155,19 @@ def afsa_centres(X, fit, D, visual, Xc, nf):
         nf[i] = cnt
 
 
-@njit(types.void(_F, types.int64, types.int64, types.int64, types.float64, types.float64, _F),
-      cache=True, inline="always")
-def _toward(X, i, D, tgt_row, step, u, C):
-    """C[i] = X[i] + u step (target - X[i]) / ||target - X[i]|| (target: row tgt_row of C's
-    scratch copy in X-space, given as an absolute index into X)."""
+@njit(types.void(_F, types.int64, types.int64, _F, types.int64, types.float64, types.float64, _F,
+                 types.int64), cache=True, inline="always")
+def _toward(X, i, D, tgt, toff, step, u, C, coff):
+    """C[coff:coff+D] = x_i + u step (t - x_i) / ||t - x_i||, t = tgt[toff:toff+D] (x_i itself when
+    t = x_i)."""
     n2 = 0.0
     for d in range(D):
-        e = X[tgt_row + d] - X[i * D + d]
+        e = tgt[toff + d] - X[i * D + d]
         n2 += e * e
     n = math.sqrt(n2)
     for d in range(D):
-        C[i * D + d] = X[i * D + d] + (u * step * (X[tgt_row + d] - X[i * D + d]) / n
-                                       if n > 0 else 0.0)
+        C[coff + d] = X[i * D + d] + (u * step * (tgt[toff + d] - X[i * D + d]) / n
+                                      if n > 0 else 0.0)
 
 
 @njit(types.void(_F, _F, _F, _F, _F, types.int64, types.float64, types.float64, types.float64,
@@ -191,7 +191,7 @@ def afsa_propose(X, fit, Xc, fitc, nf, D, visual, step, delta, tries, s, C):
         for _ in range(tries):
             j = int(uniform(s) * N)
             if j != i and _dist2(X, i, j, D) <= v2 and fit[j] > fit[i]:
-                _toward(X, i, D, j * D, step, uniform(s), C)
+                _toward(X, i, D, X, j * D, step, uniform(s), C, i * D)
                 done = True
                 break
         if not done:
@@ -207,15 +207,7 @@ def afsa_propose(X, fit, Xc, fitc, nf, D, visual, step, delta, tries, s, C):
         # swarm
         b = (N + i) * D
         if nf[i] > 1 and fitc[i] / nf[i] > delta * fit[i]:
-            n2 = 0.0
-            for d in range(D):
-                e = Xc[i * D + d] - X[i * D + d]
-                n2 += e * e
-            n = math.sqrt(n2)
-            u = uniform(s)
-            for d in range(D):
-                C[b + d] = X[i * D + d] + (u * step * (Xc[i * D + d] - X[i * D + d]) / n
-                                           if n > 0 else 0.0)
+            _toward(X, i, D, Xc, i * D, step, uniform(s), C, b)
         else:
             for d in range(D):
                 C[b + d] = C[prey_row + d]
@@ -226,15 +218,7 @@ def afsa_propose(X, fit, Xc, fitc, nf, D, visual, step, delta, tries, s, C):
             if j != i and _dist2(X, i, j, D) <= v2 and (best < 0 or fit[j] > fit[best]):
                 best = j
         if best >= 0 and fit[best] / nf[i] > delta * fit[i]:
-            n2 = 0.0
-            for d in range(D):
-                e = X[best * D + d] - X[i * D + d]
-                n2 += e * e
-            n = math.sqrt(n2)
-            u = uniform(s)
-            for d in range(D):
-                C[b + d] = X[i * D + d] + (u * step * (X[best * D + d] - X[i * D + d]) / n
-                                           if n > 0 else 0.0)
+            _toward(X, i, D, X, best * D, step, uniform(s), C, b)
         else:
             for d in range(D):
                 C[b + d] = C[prey_row + d]

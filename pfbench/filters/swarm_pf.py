@@ -15,9 +15,9 @@ import numpy as np
 from numba import njit, types
 
 from ..resampling import SCHEME_CODES, resample, stepwise_ewa_plan
-from ..rng import STATE, fill_normal, normal
+from ..rng import STATE, normal
 from ..scenarios.base import NOISE_GAUSSIAN, ModelFn, add_process_noise
-from ._common import diversity, normalise
+from ._common import resampled_step, start, weigh
 from .swarm import (afsa_centres, afsa_propose, afsa_select, argmax, ba_accept, ba_propose,
                     fa_move, ifa_move, pso_accept, pso_propose)
 
@@ -69,10 +69,7 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, algo, p, it
     Qv = noise[1] if noise[0] == NOISE_GAUSSIAN else noise[1] / (noise[2] * noise[2])
     qmean = 0.0 if noise[0] == NOISE_GAUSSIAN else noise[1] / noise[2]
     x = np.empty(N)
-    fill_normal(s, x)
-    sd0 = math.sqrt(prior_var)
-    for i in range(N):
-        x[i] = prior_mean + sd0 * x[i]
+    start(s, prior_mean, prior_var, x, xhat, ess, resampled, div_l1, distinct)
     xn = np.empty(N)
     hx = np.empty(3 * N)
     ll = np.empty(N)
@@ -97,11 +94,6 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, algo, p, it
     onef = np.empty(1)
     unit = np.ones(1)
     events = 0
-    xhat[0] = prior_mean
-    ess[0] = N
-    resampled[0] = 0
-    div_l1[0] = np.nan
-    distinct[0] = np.nan
     evals[0] = 0.0
     for t in range(1, T + 1):
         tt = float(t)
@@ -171,13 +163,8 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, algo, p, it
             l = lw[i] + ll[i]
             lw[i] = l
             mx = max(mx, l)
-        S, S2, sx, under = normalise(lw, w, xn, mx)
+        S, est, under = weigh(lw, w, xn, mx, t, ess, resampled, div_l1, distinct)
         events += int(under)
-        ess[t] = S * S / S2
-        est = sx / S
-        div_l1[t] = np.nan
-        distinct[t] = np.nan
-        resampled[t] = 0
         if ess[t] < threshold:
             if scheme == EWA:
                 for i in range(N):
@@ -192,11 +179,7 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, algo, p, it
                     x[i] = xn[idx[i]]
             for i in range(N):
                 lw[i] = 0.0
-            resampled[t] = 1
-            if estimate_after:
-                est = x.sum() / N
-            if diag:
-                div_l1[t], distinct[t] = diversity(x)
+            est = resampled_step(x, t, est, estimate_after, diag, resampled, div_l1, distinct)
         else:
             x[:] = xn
         xhat[t] = est

@@ -19,9 +19,9 @@ import numpy as np
 from numba import njit, types
 
 from ..resampling import SCHEME_CODES, resample
-from ..rng import STATE, fill_normal, normal, uniform
+from ..rng import STATE, normal, uniform
 from ..scenarios.base import ModelFn, process_logpdf
-from ._common import diversity, floored, normalise
+from ._common import floored, resampled_step, start, weigh
 from .ekf import noise_moments
 from .pf import log_floor
 
@@ -92,10 +92,7 @@ def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, q_mean, Qp, Rp, 
     vn[6] = -vn[3]
 
     x = np.empty(N)
-    fill_normal(s, x)
-    sd0 = math.sqrt(prior_var)
-    for i in range(N):
-        x[i] = prior_mean + sd0 * x[i]
+    start(s, prior_mean, prior_var, x, xhat, ess, resampled, div_l1, distinct)
     P = np.full(N, prior_var)
     chi = np.empty(n * N)
     fx = np.empty(n * N)
@@ -115,11 +112,6 @@ def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, q_mean, Qp, Rp, 
     prop = np.empty(N)
     hprop = np.empty(N)
     events = 0
-    xhat[0] = prior_mean
-    ess[0] = N
-    resampled[0] = 0
-    div_l1[0] = np.nan
-    distinct[0] = np.nan
     for t in range(1, T + 1):
         tt = float(t)
         yt = y[t]
@@ -174,10 +166,8 @@ def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, q_mean, Qp, Rp, 
                          - _log_normal(xn[i], pm[i], pv[i]))
             lw[i] = l
             mx = max(mx, l)
-        Ssum, S2, sx, under = normalise(lw, w, xn, mx)
+        Ssum, est, under = weigh(lw, w, xn, mx, t, ess, resampled, div_l1, distinct)
         events += int(under)
-        ess[t] = Ssum * Ssum / S2
-        est = sx / Ssum
         if trigger == TRIGGER_ESS:
             go = ess[t] < threshold
         else:
@@ -186,9 +176,6 @@ def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, q_mean, Qp, Rp, 
                 Wi = w[i] / Ssum
                 Kc += Wi * (Wi - Wprev[i]) ** 2
             go = Kc > threshold
-        div_l1[t] = np.nan
-        distinct[t] = np.nan
-        resampled[t] = 0
         if go:
             resample(scheme, w, Ssum, s, idx)
             for i in range(N):            # each particle takes its ancestor's state and proposal
@@ -220,11 +207,7 @@ def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, q_mean, Qp, Rp, 
                     if log_a >= 0.0 or math.log(uniform(s)) < log_a:
                         x[i] = prop[i]
                         ha[i] = hprop[i]
-            resampled[t] = 1
-            if estimate_after:
-                est = x.sum() / N
-            if diag:
-                div_l1[t], distinct[t] = diversity(x)
+            est = resampled_step(x, t, est, estimate_after, diag, resampled, div_l1, distinct)
         else:
             for i in range(N):
                 x[i] = xn[i]
