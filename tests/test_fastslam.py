@@ -204,3 +204,65 @@ def test_a_full_map_drops_new_landmarks_instead_of_overflowing():
     out = _run(model, data, 10, association="nearest", max_landmarks=2)
     assert out["lm_seen"].sum() <= 2
     assert np.isfinite(out["pose"]).all()
+
+
+def test_directional_resampling_copies_the_board_into_the_lower_half():
+    from pfbench.filters.fastslam import directional_resample
+    rng = np.random.default_rng(0)
+    N, M = 10, 4
+    W = rng.gamma(1.0, size=N)
+    W /= W.sum()
+    P = rng.normal(size=(N, 3))
+    mu = rng.normal(size=(N, M, 2))
+    sig = np.abs(rng.normal(size=(N, M, 3)))
+    seen = np.ones((N, M), dtype=np.int8)
+    nl = np.full(N, M, dtype=np.int64)
+    src = np.tile(np.arange(M), (N, 1))
+    bP = np.array([5.0, -3.0, 0.2])
+    bmu = np.full((M, 2), 7.0)
+    bsig = np.full((M, 3), 0.5)
+    bseen = np.ones(M, dtype=np.int8)
+    bsrc = np.arange(M)
+    shift = np.array([1.0, 2.0, 0.1])
+    noise = np.array([0.01, 0.01, 0.001])
+    out = [np.empty_like(a) for a in (P, mu, sig, seen, nl, src)]
+    directional_resample(W, P, mu, sig, seen, nl, src, bP, bmu, bsig, bseen, M, bsrc, shift, noise,
+                         1, state_from_seed(np.random.SeedSequence(1)), *out)
+    P2, mu2, sig2, seen2, nl2, src2 = out
+    assert P2.shape == (N, 3)
+    upper = set(np.argsort(-W, kind="stable")[: N - N // 2])
+    lower_rows = range(N - N // 2, N)
+    # the lower half: the board's pose moved by the shift (within the noise), with its map
+    for i in lower_rows:
+        assert np.all(np.abs(P2[i] - (bP + shift)) <= 5 * noise)   # 5 standard deviations
+        assert np.array_equal(mu2[i], bmu) and np.array_equal(sig2[i], bsig)
+    # the upper half: particles of the heavier half, maps and all
+    for i in range(N - N // 2):
+        j = next(j for j in upper if np.array_equal(P2[i], P[j]))
+        assert np.array_equal(mu2[i], mu[j])
+    # deep copies: changing one particle's map changes no other
+    mu2[N - 1, 0, 0] = -99.0
+    assert mu2[N - 2, 0, 0] == 7.0 and bmu[0, 0] == 7.0
+
+
+def test_directional_resampling_in_a_trial_leaves_uniform_weights():
+    model = _model(steps=1600)
+    truth, data = wc.simulate(model, state_from_seed(np.random.SeedSequence(8)))
+    out = _run(model, data, 30, resampling="directional", resample="always")
+    assert out["resampled"].all()
+    assert np.isfinite(out["pose"]).all()
+    err = np.hypot(*(out["pose"][:, :2] - truth.pose[:, :2]).T)
+    assert err.max() < 5.0       # it tracks the course
+
+
+def test_afsa_refinement_tracks_the_course_and_counts_its_evaluations():
+    model = _model(steps=1600)
+    truth, data = wc.simulate(model, state_from_seed(np.random.SeedSequence(9)))
+    plain = _run(model, data, 30)
+    afsa = _run(model, data, 30, refine="afsa", resampling="directional")
+    # per observation: N to find the fitness, 4 N for the centres and the three behaviours, N to
+    # weigh the particles
+    assert afsa["lik_evals_per_step"] == 6 * 30 and plain["lik_evals_per_step"] == 30
+    assert not np.array_equal(afsa["pose"], plain["pose"])
+    err = np.hypot(*(afsa["pose"][:, :2] - truth.pose[:, :2]).T)
+    assert err.max() < 5.0

@@ -139,8 +139,8 @@ def _fastslam_schema():
     swarm = {k: v for k, v in FILTERS_SWARM_KEYS.items()}
     return {
         "refine": Key("choice", "none", "swarm refinement of the predicted poses at each "
-                      "observation (ifa2021: BA-, FA-, IFA-FastSLAM)",
-                      choices=("none", "fa", "ifa", "ba", "pso")),
+                      "observation (ifa2021: BA-, FA-, IFA-FastSLAM; afsa2014: PSO-, AFSA-FastSLAM)",
+                      choices=("none", "fa", "ifa", "ba", "pso", "afsa")),
         "iterations": Key("int", 1, "swarm iterations per observation", min=0),
         **swarm,
         "predict_noise": Key("bool", True, "each particle draws its own noisy controls (FastSLAM "
@@ -166,8 +166,13 @@ def _fastslam_schema():
                              "world's landmarks)", min=0),
         "update": Key("choice", "joseph", "landmark covariance update: 'joseph' form or "
                       "'symmetric' ((I - KH) P, symmetrised)", choices=("joseph", "symmetric")),
-        "resampling": Key("choice", "systematic", "resampling scheme ('stepwise_ewa': ifa2021's)",
-                          choices=tuple(SCHEMES) + ("stepwise_ewa",)),
+        "resampling": Key("choice", "systematic", "resampling scheme ('stepwise_ewa': ifa2021's; "
+                          "'directional': afsa2014's bulletin-board resampling)",
+                          choices=tuple(SCHEMES) + ("stepwise_ewa", "directional")),
+        "directional_noise_m": Key("float", 0.05, "directional resampling: position noise of the "
+                                   "board's copies (afsa2014 gives none; our default)", min=0.0),
+        "directional_noise_deg": Key("float", 0.5, "directional resampling: heading noise of the "
+                                     "board's copies", min=0.0),
         "resample": Key("choice", "neff", "'neff': when ESS < neff_ratio * N; 'always'",
                         choices=("neff", "always")),
         "neff_ratio": pf_keys["neff_ratio"],
@@ -194,6 +199,12 @@ FILTERS_SWARM_KEYS = {
     "pulse_rate": Key("float", 0.5, "BA: pulse rate r0", min=0.0, max=1.0),
     "loudness_decay": Key("float", 0.9, "BA: loudness decay", min=0.0, max=1.0),
     "pulse_growth": Key("float", 0.9, "BA: pulse-rate growth", min=0.0),
+    "visual": Key("float", 1.0, "AFSA: visual range, in units of the predicted cloud's spread",
+                  min=0.0, min_exclusive=True),
+    "step": Key("float", 0.5, "AFSA: largest move per behaviour, in the same units", min=0.0),
+    "crowding": Key("float", 0.618, "AFSA: crowding factor delta", min=0.0),
+    "tries": Key("int", 5, "AFSA: neighbours tried by prey before a random step", min=1),
+    "greedy": Key("bool", True, "AFSA: keep a fish where it is when no behaviour improves it"),
     "inertia": Key("float", 0.7, "PSO: velocity inertia", min=0.0),
     "c1": Key("float", 1.5, "PSO: pull toward the particle's best", min=0.0),
     "c2": Key("float", 1.5, "PSO: pull toward the swarm's best", min=0.0),

@@ -23,7 +23,8 @@ from ..angles import wrap
 from ..resampling import SCHEME_CODES, resample, stepwise_ewa_plan
 from ..rng import STATE, normal
 from ._common import normalise
-from .swarm import argmax, ba_accept, ba_propose, fa_move, ifa_move, pso_accept, pso_propose
+from .swarm import (afsa_centres, afsa_propose, afsa_select, argmax, ba_accept, ba_propose, fa_move,
+                    ifa_move, pso_accept, pso_propose)
 
 _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
@@ -32,8 +33,10 @@ _I = types.int64[::1]
 _I2 = types.int64[:, ::1]
 _B2 = types.int8[:, ::1]
 
-REFINE = {"none": 0, "fa": 1, "ifa": 2, "ba": 3, "pso": 4}
+REFINE = {"none": 0, "fa": 1, "ifa": 2, "ba": 3, "pso": 4, "afsa": 5}
 EWA = len(SCHEME_CODES)
+DIRECTIONAL = EWA + 1
+_SYSTEMATIC = SCHEME_CODES["systematic"]
 LOG_2PI = math.log(2.0 * math.pi)
 
 
@@ -202,18 +205,70 @@ def _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, out, assoc, nl, gate):
                              assoc, nl[i], gate)
 
 
+@njit(types.void(_F, _F2, _F3, _F3, _B2, _I, _I2, _F, _F2, _F2, types.int8[::1], types.int64,
+                 _I, _F, _F, types.int64, STATE, _F2, _F3, _F3, _B2, _I, _I2), cache=True)
+def directional_resample(W, P, mu, sig, seen, nl, src, bP, bmu, bsig, bseen, bnl, bsrc, shift,
+                         noise, scheme, s, P2, mu2, sig2, seen2, nl2, src2):
+    """Directional resampling (afsa2014): the lower-weight half of the particles is replaced by
+    copies of the bulletin-board particle (pose bP with its map bmu, bsig, bseen, bnl, bsrc: the
+    best particle of the previous observation) moved by ``shift`` (the change of the weighted pose
+    estimate since then) plus Gaussian noise (standard deviations ``noise`` (3,)); the upper half
+    is resampled by weight (``scheme``) among itself. Writes the new set into the *2 arrays (every
+    map a copy, none shared). W (N,) normalised weights."""
+    N = W.size
+    order = np.argsort(-W, kind="mergesort")
+    n_keep = N - N // 2
+    wk = np.empty(n_keep)
+    S = 0.0
+    for i in range(n_keep):
+        wk[i] = W[order[i]]
+        S += wk[i]
+    idx = np.empty(n_keep, dtype=np.int64)
+    resample(scheme, wk, S, s, idx)
+    for i in range(n_keep):
+        j = order[idx[i]]
+        P2[i] = P[j]
+        mu2[i] = mu[j]
+        sig2[i] = sig[j]
+        seen2[i] = seen[j]
+        nl2[i] = nl[j]
+        src2[i] = src[j]
+    for i in range(n_keep, N):
+        for d in range(3):
+            P2[i, d] = bP[d] + shift[d] + noise[d] * normal(s)
+        P2[i, 2] = wrap(P2[i, 2])
+        mu2[i] = bmu
+        sig2[i] = bsig
+        seen2[i] = bseen
+        nl2[i] = bnl
+        src2[i] = bsrc
+
+
+@njit(types.void(_F, _F, _F, _F3, _F3, _B2, _I, _F2, types.int64, types.float64, types.float64,
+                 _F, types.int64, _I, types.float64), cache=True)
+def _fitness_scaled(Xn, mean, scale, mu, sig, seen, ids, zs, n, Rr, Rb, out, assoc, nl, gate):
+    """Fitness of poses given in scaled coordinates (pose = mean + scale * x), row r of Xn (flat,
+    3 per row) belonging to particle r mod N (its map)."""
+    N = mu.shape[0]
+    for r in range(out.size):
+        i = r % N
+        out[r] = pose_loglik(mean[0] + scale[0] * Xn[3 * r], mean[1] + scale[1] * Xn[3 * r + 1],
+                             mean[2] + scale[2] * Xn[3 * r + 2], i, mu, sig, seen, ids, zs, n,
+                             Rr, Rb, assoc, nl[i], gate)
+
+
 FASTSLAM_SIG = types.int64(
     _F2, _I, _I2, _F3, _F, types.int64, _F, _F, _F, types.int64, types.int64, types.int64,
     types.int64, types.int64, types.float64, types.int64, _F, types.int64, types.float64,
-    types.float64, types.int64, types.int64, types.float64, types.float64, STATE, _F2, _F, _I,
+    types.float64, types.int64, _F, types.int64, types.float64, types.float64, STATE, _F2, _F, _I,
     _F2, _I, _F, _F)
 
 
 @njit(FASTSLAM_SIG, cache=True)
 def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, N, predict_noise,
                     joseph, scheme, threshold, refine, sp, iters, ewa_beta, ewa_mu, ewa_printed,
-                    assoc, gate_reject, gate_augment, s, est, ess, resampled, lm_est, lm_seen,
-                    evals, assoc_stats):
+                    dnoise, assoc, gate_reject, gate_augment, s, est, ess, resampled, lm_est,
+                    lm_seen, evals, assoc_stats):
     """Run FastSLAM over one trial; fill est (T+1, 3) the weighted pose estimate at every control
     step, ess / resampled / evals (K,) per observation, lm_est (M, 2) and lm_seen (M,) the final
     weighted map. Returns the number of observation steps whose weights all underflowed.
@@ -221,7 +276,8 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
     veh : [V, dt, L, ...] (the vehicle's constants); qctrl : [sigma_V, sigma_G] the filter samples
     its controls with; R : [sigma_r^2, sigma_b^2]; refine : a value of REFINE with its parameters
     sp (fa [beta0, gamma, alpha]; ifa [beta0, gamma]; ba [fmin, fmax, A0, r0, alpha, gamma];
-    pso [w, c1, c2]); scheme : a resampling code or EWA.
+    pso [w, c1, c2]); scheme : a resampling code, EWA, or DIRECTIONAL (afsa2014's directional
+    resampling with the bulletin board, copies' noise dnoise (3,); see ``directional_resample``).
     assoc : 0 = known identities (M = the number of landmarks, slot = identity); 1 = nearest
         neighbour (M = the map capacity): an observation joins the landmark nearest in Mahalanobis
         distance if its squared distance is <= gate_reject, starts a new landmark if every one
@@ -249,6 +305,24 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
     n_assoc = 0.0
     n_wrong = 0.0
     n_drop = 0.0
+    # bulletin boards (directional resampling): the best particle of the last observation, in
+    # use, and of this one, for the next
+    bP = np.zeros(3)
+    bmu = np.zeros((M, 2))
+    bsig = np.zeros((M, 3))
+    bseen = np.zeros(M, dtype=np.int8)
+    bsrc = np.full(M, -1, dtype=np.int64)
+    nP = np.zeros(3)
+    nmu = np.zeros((M, 2))
+    nsig = np.zeros((M, 3))
+    nseen = np.zeros(M, dtype=np.int8)
+    nsrc = np.full(M, -1, dtype=np.int64)
+    bnl = 0
+    nnl = 0
+    have_board = False
+    xbar_prev = np.zeros(3)
+    xbar = np.zeros(3)
+    shift = np.zeros(3)
     P2 = np.empty((N, 3))
     lw = np.zeros(N)
     w = np.full(N, 1.0)
@@ -265,6 +339,14 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
     rr = np.empty(N)
     C = np.empty(3 * N)
     scale = np.ones(3)
+    mean = np.zeros(3)
+    Xs = np.empty(3 * N)          # AFSA: poses in units of the cloud's spread
+    Xc = np.empty(3 * N)
+    nf = np.empty(N)
+    fitc = np.empty(N)
+    C3 = np.empty(9 * N)
+    ll3 = np.empty(3 * N)
+    fit3 = np.empty(3 * N)
     events = 0
     est[0, 0], est[0, 1], est[0, 2] = start[0], start[1], start[2]
     k = 0
@@ -302,6 +384,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                         m1 += P[i, d]
                         m2 += P[i, d] * P[i, d]
                     m1 /= N
+                    mean[d] = m1
                     scale[d] = math.sqrt(max(m2 / N - m1 * m1, 1e-12))
                 _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll, assoc, nl, gate_reject)
                 nev += N
@@ -350,6 +433,29 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                         _fitness(Cp, mu, sig, seen, ids, zs, n, Rr, Rb, llc, assoc, nl, gate_reject)
                         nev += N
                         ba_accept(X, ll, C, llc, A, rr, 3, sp[4], sp[5], sp[3], it + 1, s)
+                    elif refine == 5:
+                        # AFSA in units of the predicted cloud's spread (visual and step too)
+                        for i in range(N):
+                            for d in range(3):
+                                Xs[3 * i + d] = (P[i, d] - mean[d]) / scale[d]
+                            fit[i] = math.exp(ll[i] - M0)
+                        afsa_centres(Xs, fit, 3, sp[0], Xc, nf)
+                        _fitness_scaled(Xc, mean, scale, mu, sig, seen, ids, zs, n, Rr, Rb, llc,
+                                        assoc, nl, gate_reject)
+                        for i in range(N):
+                            fitc[i] = math.exp(llc[i] - M0)
+                        afsa_propose(Xs, fit, Xc, fitc, nf, 3, sp[0], sp[1], sp[2], int(sp[3]), s,
+                                     C3)
+                        _fitness_scaled(C3, mean, scale, mu, sig, seen, ids, zs, n, Rr, Rb, ll3,
+                                        assoc, nl, gate_reject)
+                        for r in range(3 * N):
+                            fit3[r] = math.exp(ll3[r] - M0)
+                        afsa_select(Xs, fit, C3, fit3, 3, int(sp[4]))
+                        for i in range(N):
+                            for d in range(3):
+                                P[i, d] = mean[d] + scale[d] * Xs[3 * i + d]
+                            ll[i] = math.log(fit[i]) + M0 if fit[i] > 0.0 else -np.inf
+                        nev += 4 * N
                     else:
                         if it == 0:
                             V[:] = 0.0
@@ -410,34 +516,86 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
             for i in range(N):
                 Wn[i] = w[i] / Ssum
             resampled[k] = 0
-            if ess[k] < threshold:
-                if scheme == EWA:
-                    stepwise_ewa_plan(Wn, ewa_beta, ewa_printed, idx, mutant)
-                else:
-                    resample(scheme, w, Ssum, s, idx)
-                    mutant[:] = 0
+            if scheme == DIRECTIONAL:
+                # this observation's weighted estimate and best particle (the next board)
+                xbar[0] = 0.0
+                xbar[1] = 0.0
+                cs = 0.0
+                sn = 0.0
+                b = 0
                 for i in range(N):
-                    j = idx[i]
-                    for d in range(3):
-                        P2[i, d] = P[j, d]
-                    if mutant[i]:
+                    xbar[0] += Wn[i] * P[i, 0]
+                    xbar[1] += Wn[i] * P[i, 1]
+                    cs += Wn[i] * math.cos(P[i, 2])
+                    sn += Wn[i] * math.sin(P[i, 2])
+                    if Wn[i] > Wn[b]:
+                        b = i
+                xbar[2] = math.atan2(sn, cs)
+                nP[:] = P[b]
+                nmu[:] = mu[b]
+                nsig[:] = sig[b]
+                nseen[:] = seen[b]
+                nsrc[:] = src[b]
+                nnl = nl[b]
+                if not have_board:
+                    bP[:] = nP
+                    bmu[:] = nmu
+                    bsig[:] = nsig
+                    bseen[:] = nseen
+                    bsrc[:] = nsrc
+                    bnl = nnl
+                    xbar_prev[:] = xbar
+                    have_board = True
+            if ess[k] < threshold:
+                if scheme == DIRECTIONAL:
+                    shift[0] = xbar[0] - xbar_prev[0]
+                    shift[1] = xbar[1] - xbar_prev[1]
+                    shift[2] = wrap(xbar[2] - xbar_prev[2])
+                    directional_resample(Wn, P, mu, sig, seen, nl, src, bP, bmu, bsig, bseen, bnl,
+                                         bsrc, shift, dnoise, _SYSTEMATIC, s, P2,
+                                         mu2, sig2, seen2, nl2, src2)
+                    P, P2 = P2, P
+                    mu, mu2 = mu2, mu
+                    sig, sig2 = sig2, sig
+                    seen, seen2 = seen2, seen
+                    nl, nl2 = nl2, nl
+                    src, src2 = src2, src
+                else:
+                    if scheme == EWA:
+                        stepwise_ewa_plan(Wn, ewa_beta, ewa_printed, idx, mutant)
+                    else:
+                        resample(scheme, w, Ssum, s, idx)
+                        mutant[:] = 0
+                    for i in range(N):
+                        j = idx[i]
                         for d in range(3):
-                            P2[i, d] += P2[i, d] * ewa_mu * normal(s)
-                        P2[i, 2] = wrap(P2[i, 2])
-                    mu2[i] = mu[j]
-                    sig2[i] = sig[j]
-                    seen2[i] = seen[j]
-                    nl2[i] = nl[j]
-                    src2[i] = src[j]
-                P, P2 = P2, P
-                mu, mu2 = mu2, mu
-                sig, sig2 = sig2, sig
-                seen, seen2 = seen2, seen
-                nl, nl2 = nl2, nl
-                src, src2 = src2, src
+                            P2[i, d] = P[j, d]
+                        if mutant[i]:
+                            for d in range(3):
+                                P2[i, d] += P2[i, d] * ewa_mu * normal(s)
+                            P2[i, 2] = wrap(P2[i, 2])
+                        mu2[i] = mu[j]
+                        sig2[i] = sig[j]
+                        seen2[i] = seen[j]
+                        nl2[i] = nl[j]
+                        src2[i] = src[j]
+                    P, P2 = P2, P
+                    mu, mu2 = mu2, mu
+                    sig, sig2 = sig2, sig
+                    seen, seen2 = seen2, seen
+                    nl, nl2 = nl2, nl
+                    src, src2 = src2, src
                 lw[:] = 0.0
                 Wn[:] = 1.0 / N
                 resampled[k] = 1
+            if scheme == DIRECTIONAL:     # the board for the next observation
+                bP, nP = nP, bP
+                bmu, nmu = nmu, bmu
+                bsig, nsig = nsig, bsig
+                bseen, nseen = nseen, bseen
+                bsrc, nsrc = nsrc, bsrc
+                bnl = nnl
+                xbar_prev[:] = xbar
             k += 1
         # the weighted pose estimate (circular mean for the heading)
         ex = 0.0
@@ -510,10 +668,15 @@ def run(model, data, params, particles, state, diag=True):
               params["loudness_decay"], params["pulse_growth"])
     elif refine == "pso":
         sp = (params["inertia"], params["c1"], params["c2"])
+    elif refine == "afsa":
+        sp = (params["visual"], params["step"], params["crowding"], float(params["tries"]),
+              float(params["greedy"]))
     else:
         sp = (0.0,)
-    scheme = EWA if params["resampling"] == "stepwise_ewa" else SCHEME_CODES[params["resampling"]]
+    scheme = {"stepwise_ewa": EWA, "directional": DIRECTIONAL, **SCHEME_CODES}[params["resampling"]]
     threshold = np.inf if params["resample"] == "always" else params["neff_ratio"] * particles
+    dnoise = np.array([params["directional_noise_m"], params["directional_noise_m"],
+                       params["directional_noise_deg"] * deg])
     out = {"pose": np.empty((T + 1, 3)), "ess": np.empty(K),
            "resampled": np.zeros(K, dtype=np.int64), "lm_est": np.empty((M_true, 2)),
            "lm_seen": np.zeros(M_true, dtype=np.int64)}
@@ -524,7 +687,7 @@ def run(model, data, params, particles, state, diag=True):
         R, model.start, M, particles, int(params["predict_noise"]), int(params["update"] == "joseph"),
         scheme, threshold, REFINE[refine], np.array(sp, dtype=np.float64), params["iterations"],
         params["ewa_beta"], params["ewa_mu"], int(params["ewa_correction"] == "as_printed"),
-        int(nearest), params["gate_reject"], params["gate_augment"], state,
+        dnoise, int(nearest), params["gate_reject"], params["gate_augment"], state,
         out["pose"], out["ess"], out["resampled"], out["lm_est"], out["lm_seen"], evals, stats)
     out["lik_evals_per_step"] = float(evals.mean()) if K else 0.0
     if nearest:
