@@ -260,21 +260,23 @@ def _fitness_scaled(Xn, mean, scale, mu, sig, seen, ids, zs, n, Rr, Rb, out, ass
 FASTSLAM_SIG = types.int64(
     _F2, _I, _I2, _F3, _F, types.int64, _F, _F, _F, types.int64, types.int64, types.int64,
     types.int64, types.int64, types.float64, types.int64, _F, types.int64, types.float64,
-    types.float64, types.int64, _F, types.int64, types.float64, types.float64, STATE, _F2, _F, _I,
-    _F2, _I, _F, _F)
+    types.float64, types.int64, _F, types.int64, types.float64, types.float64, types.int64, STATE,
+    _F2, _F, _I, _F2, _I, _F, _F)
 
 
 @njit(FASTSLAM_SIG, cache=True)
 def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, N, predict_noise,
                     joseph, scheme, threshold, refine, sp, iters, ewa_beta, ewa_mu, ewa_printed,
-                    dnoise, assoc, gate_reject, gate_augment, s, est, ess, resampled, lm_est,
-                    lm_seen, evals, assoc_stats):
+                    dnoise, assoc, gate_reject, gate_augment, motion, s, est, ess, resampled,
+                    lm_est, lm_seen, evals, assoc_stats):
     """Run FastSLAM over one trial; fill est (T+1, 3) the weighted pose estimate at every control
     step, ess / resampled / evals (K,) per observation, lm_est (M, 2) and lm_seen (M,) the final
     weighted map. Returns the number of observation steps whose weights all underflowed.
 
-    veh : [V, dt, L, ...] (the vehicle's constants); qctrl : [sigma_V, sigma_G] the filter samples
-    its controls with; R : [sigma_r^2, sigma_b^2]; refine : a value of REFINE with its parameters
+    motion : 0 = the steered vehicle, ctrl = [V, G], qctrl = [sigma_V, sigma_G] the noise each
+    particle draws on its controls (veh : [V, dt, L, ...]); 1 = odometry form, ctrl = [ds, dtheta]
+    per step, theta += dtheta, x += ds cos(theta), y += ds sin(theta), each particle adding pose
+    noise qctrl = [sigma_xy, sigma_theta]. R : [sigma_r^2, sigma_b^2]; refine : a value of REFINE with its parameters
     sp (fa [beta0, gamma, alpha]; ifa [beta0, gamma]; ba [fmin, fmax, A0, r0, alpha, gamma];
     pso [w, c1, c2]); scheme : a resampling code, EWA, or DIRECTIONAL (afsa2014's directional
     resampling with the bulletin board, copies' noise dnoise (3,); see ``directional_resample``).
@@ -352,14 +354,25 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
     k = 0
     for t in range(T):
         Vc, Gc = ctrl[t, 0], ctrl[t, 1]
-        for i in range(N):
-            v, g = Vc, Gc
-            if predict_noise:
-                v += qctrl[0] * normal(s)
-                g += qctrl[1] * normal(s)
-            P[i, 0] += v * dt * math.cos(P[i, 2] + g)
-            P[i, 1] += v * dt * math.sin(P[i, 2] + g)
-            P[i, 2] = wrap(P[i, 2] + v * dt * math.sin(g) / L)
+        if motion == 1:
+            for i in range(N):
+                th = P[i, 2] + Gc
+                P[i, 0] += Vc * math.cos(th)
+                P[i, 1] += Vc * math.sin(th)
+                if predict_noise:
+                    th += qctrl[1] * normal(s)
+                    P[i, 0] += qctrl[0] * normal(s)
+                    P[i, 1] += qctrl[0] * normal(s)
+                P[i, 2] = wrap(th)
+        else:
+            for i in range(N):
+                v, g = Vc, Gc
+                if predict_noise:
+                    v += qctrl[0] * normal(s)
+                    g += qctrl[1] * normal(s)
+                P[i, 0] += v * dt * math.cos(P[i, 2] + g)
+                P[i, 1] += v * dt * math.sin(P[i, 2] + g)
+                P[i, 2] = wrap(P[i, 2] + v * dt * math.sin(g) / L)
         if (t + 1) % every == 0 and k < K:
             n = obs_n[k]
             ids = obs_id[k]
@@ -654,8 +667,12 @@ def run(model, data, params, particles, state, diag=True):
         v = params.get(key)
         return float(default if v is None else v)
 
-    qctrl = np.array([pick("speed_noise_mps", model.noise[0]),
-                      pick("steer_noise_deg", model.noise[1] / deg) * deg])
+    motion = getattr(model, "motion", 0)
+    if motion == 1:     # odometry form: the pose noise of the scenario
+        qctrl = np.array([model.noise[0], model.noise[1]])
+    else:
+        qctrl = np.array([pick("speed_noise_mps", model.noise[0]),
+                          pick("steer_noise_deg", model.noise[1] / deg) * deg])
     R = np.array([pick("range_noise_m", model.noise[2]) ** 2,
                   (pick("bearing_noise_deg", model.noise[3] / deg) * deg) ** 2])
     refine = params["refine"]
@@ -687,7 +704,7 @@ def run(model, data, params, particles, state, diag=True):
         R, model.start, M, particles, int(params["predict_noise"]), int(params["update"] == "joseph"),
         scheme, threshold, REFINE[refine], np.array(sp, dtype=np.float64), params["iterations"],
         params["ewa_beta"], params["ewa_mu"], int(params["ewa_correction"] == "as_printed"),
-        dnoise, int(nearest), params["gate_reject"], params["gate_augment"], state,
+        dnoise, int(nearest), params["gate_reject"], params["gate_augment"], motion, state,
         out["pose"], out["ess"], out["resampled"], out["lm_est"], out["lm_seen"], evals, stats)
     out["lik_evals_per_step"] = float(evals.mean()) if K else 0.0
     if nearest:

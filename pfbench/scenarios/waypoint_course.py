@@ -69,6 +69,8 @@ class SlamModel:
     noise : [sigma_V, sigma_G, sigma_r, sigma_b]  (what the data carry)
     sensor : [max_range, half_fov, obs_every]
     steps : control steps
+    motion : 0 = the steered vehicle (noise [sigma_V, sigma_G, ...]); 1 = odometry form (noise
+        [sigma_xy, sigma_theta, ...], see scenarios/landmark_world.py)
     """
 
     waypoints: np.ndarray
@@ -78,6 +80,7 @@ class SlamModel:
     noise: np.ndarray
     sensor: np.ndarray
     steps: int
+    motion: int = 0
 
 
 def load_world(path: Path, where: str = "scenario.world") -> dict:

@@ -1,0 +1,165 @@
+"""The 50 m x 60 m landmark world of afsa2014 (PAPERS.md section 2): FastSLAM with unknown data
+association, odometry-form motion.
+
+Motion: per step the odometry reports [ds, dtheta], the robot turns by dtheta and moves ds,
+    theta += dtheta,  x += ds cos(theta),  y += ds sin(theta),
+and the truth also receives Gaussian noise on x, y (``process_noise_xy_m``) and heading
+(``process_noise_heading_deg``), which each particle draws too. The robot heads for the next
+waypoint at ``speed_mps`` (the paper's top speed, 0.3 m/s), turning at most ``max_turn_dps``.
+Sensor: range and bearing to every landmark within ``max_range_m`` (15 m) every ``obs_every``
+steps, with the paper's noise. afsa2014 calls its noise values "variance"; they are read as
+standard deviations unless ``noise_values`` is 'variance'.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, types
+
+from ..angles import wrap
+from ..rng import STATE, normal
+from ..schema import Key
+from .waypoint_course import CourseData, SlamModel, load_world, resolve as _resolve
+
+NAME = "landmark_world"
+KIND = "slam"
+DESCRIPTION = "odometry-driven robot in a 50 m x 60 m landmark world (afsa2014)"
+
+SCHEMA = {
+    "world": Key("str", "worlds/afsa_world.yaml", "world file (area, start, waypoints of the closed "
+                 "path, landmarks), relative to the experiment file"),
+    "steps": Key("int", 2000, "steps per trial (afsa2014 does not say; 2000 x 0.5 s is about "
+                 "2.5 laps of our path)", min=1),
+    "laps": Key("int", 0, "stop after this many laps (0: until the steps run out)", min=0),
+    "speed_mps": Key("float", 0.3, "speed (afsa2014: top speed 0.3 m/s)", min=0.0,
+                     min_exclusive=True),
+    "dt_s": Key("float", 0.5, "time per step (not given; our choice)", min=0.0, min_exclusive=True),
+    "max_turn_dps": Key("float", 20.0, "turn-rate limit toward the next waypoint (not given)",
+                        min=0.0, min_exclusive=True),
+    "waypoint_radius_m": Key("float", 0.5, "distance at which a waypoint counts as reached",
+                             min=0.0, min_exclusive=True),
+    "noise_values": Key("choice", "std", "how to read the noise values below: 'std' (standard "
+                        "deviations, the default) or 'variance' (as afsa2014 calls them)",
+                        choices=("std", "variance")),
+    "process_noise_xy_m": Key("float", 0.01, "process noise on x and y per step (afsa2014: 0.01)",
+                              min=0.0),
+    "process_noise_heading_deg": Key("float", 0.2, "process noise on the heading per step "
+                                     "(afsa2014: 0.2 deg)", min=0.0),
+    "range_noise_m": Key("float", 0.01, "range noise (afsa2014: 0.01 m)", min=0.0,
+                         min_exclusive=True),
+    "bearing_noise_deg": Key("float", 0.1, "bearing noise (afsa2014: 0.1 deg)", min=0.0,
+                             min_exclusive=True),
+    "max_range_m": Key("float", 15.0, "sensor range (afsa2014: 15 m)", min=0.0,
+                       min_exclusive=True),
+    "obs_every": Key("int", 1, "steps between observations (not given: every step)", min=1),
+    "field_of_view_deg": Key("float", 360.0, "sensor field of view centred on the heading (not "
+                             "given: all around)", min=0.0, max=360.0, min_exclusive=True),
+}
+
+
+def resolve(params: dict, base_dir):
+    """Load and check the world file (see waypoint_course.resolve)."""
+    return _resolve(params, base_dir)
+
+
+def build(p) -> SlamModel:
+    deg = math.pi / 180.0
+    noise = np.array([p["process_noise_xy_m"], p["process_noise_heading_deg"] * deg,
+                      p["range_noise_m"], p["bearing_noise_deg"] * deg])
+    if p["noise_values"] == "variance":
+        # the values are variances in their units: deg^2 for the angles
+        noise = np.array([math.sqrt(p["process_noise_xy_m"]),
+                          math.sqrt(p["process_noise_heading_deg"]) * deg,
+                          math.sqrt(p["range_noise_m"]), math.sqrt(p["bearing_noise_deg"]) * deg])
+    return SlamModel(
+        np.asarray(p["waypoints"], dtype=np.float64), np.asarray(p["landmarks"], dtype=np.float64),
+        np.asarray(p["start"], dtype=np.float64),
+        np.array([p["speed_mps"], p["dt_s"], 1.0, p["max_turn_dps"] * deg, 0.0,
+                  p["waypoint_radius_m"], float(p["laps"])]),
+        noise, np.array([p["max_range_m"], 0.5 * p["field_of_view_deg"] * deg,
+                         float(p["obs_every"])]), int(p["steps"]), motion=1)
+
+
+_F = types.float64[::1]
+_F2 = types.float64[:, ::1]
+_F3 = types.float64[:, :, ::1]
+_I = types.int64[::1]
+_I2 = types.int64[:, ::1]
+
+
+@njit(types.int64(_F2, _F2, _F, _F, _F, _F, types.int64, STATE, _F2, _F2, _I, _I2, _F3, _I),
+      cache=True)
+def simulate_odometry(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, obs_n, obs_id,
+                      obs_z, wp_idx):
+    """Drive the closed path; fill the true poses, the odometry [ds, dtheta] and the observations
+    (as waypoint_course.simulate_course); return the steps driven."""
+    V, dt, maxturn, radius, laps = veh[0], veh[1], veh[3], veh[5], veh[6]
+    rmax, half_fov, every = sensor[0], sensor[1], int(sensor[2])
+    K = wp.shape[0]
+    M = lm.shape[0]
+    x, y, th = start[0], start[1], start[2]
+    pose[0, 0], pose[0, 1], pose[0, 2] = x, y, th
+    iw = 0
+    lap = 0
+    wp_idx[0] = 0
+    k = 0
+    for t in range(steps):
+        dx, dy = wp[iw, 0] - x, wp[iw, 1] - y
+        if dx * dx + dy * dy < radius * radius:
+            iw += 1
+            if iw == K:
+                iw = 0
+                lap += 1
+                if laps > 0 and lap >= laps:
+                    return t
+            dx, dy = wp[iw, 0] - x, wp[iw, 1] - y
+        lim = maxturn * dt
+        dth = max(-lim, min(lim, wrap(math.atan2(dy, dx) - th)))
+        ds = V * dt
+        ctrl[t, 0] = ds
+        ctrl[t, 1] = dth
+        th = th + dth + noise[1] * normal(s)
+        x += ds * math.cos(th) + noise[0] * normal(s)
+        y += ds * math.sin(th) + noise[0] * normal(s)
+        th = wrap(th)
+        pose[t + 1, 0], pose[t + 1, 1], pose[t + 1, 2] = x, y, th
+        wp_idx[t + 1] = iw
+        if (t + 1) % every == 0:
+            n = 0
+            for j in range(M):
+                ex, ey = lm[j, 0] - x, lm[j, 1] - y
+                r = math.sqrt(ex * ex + ey * ey)
+                b = wrap(math.atan2(ey, ex) - th)
+                if r <= rmax and abs(b) <= half_fov:
+                    obs_id[k, n] = j
+                    obs_z[k, n, 0] = r + noise[2] * normal(s)
+                    obs_z[k, n, 1] = wrap(b + noise[3] * normal(s))
+                    n += 1
+            obs_n[k] = n
+            k += 1
+    return steps
+
+
+def simulate(model: SlamModel, state: np.ndarray) -> tuple[CourseData, CourseData]:
+    """Simulate one trial; returns (truth, data), the same object (see waypoint_course)."""
+    T = model.steps
+    every = int(model.sensor[2])
+    K = T // every
+    M = model.landmarks.shape[0]
+    pose = np.zeros((T + 1, 3))
+    ctrl = np.zeros((T, 2))
+    obs_n = np.zeros(K, dtype=np.int64)
+    obs_id = np.zeros((K, M), dtype=np.int64)
+    obs_z = np.zeros((K, M, 2))
+    wp_idx = np.zeros(T + 1, dtype=np.int64)
+    driven = simulate_odometry(model.waypoints, model.landmarks, model.start, model.vehicle,
+                               model.noise, model.sensor, T, state, pose, ctrl, obs_n, obs_id,
+                               obs_z, wp_idx)
+    k = driven // every
+    data = CourseData(pose[:driven + 1], ctrl[:driven], obs_n[:k], obs_id[:k], obs_z[:k],
+                      wp_idx[:driven + 1], driven)
+    return data, data
+
+
+__all__ = ["NAME", "KIND", "DESCRIPTION", "SCHEMA", "build", "simulate", "resolve", "load_world"]
