@@ -567,12 +567,6 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                     directional_resample(Wn, P, mu, sig, seen, nl, src, bP, bmu, bsig, bseen, bnl,
                                          bsrc, shift, dnoise, _SYSTEMATIC, s, P2,
                                          mu2, sig2, seen2, nl2, src2)
-                    P, P2 = P2, P
-                    mu, mu2 = mu2, mu
-                    sig, sig2 = sig2, sig
-                    seen, seen2 = seen2, seen
-                    nl, nl2 = nl2, nl
-                    src, src2 = src2, src
                 else:
                     if scheme == EWA:
                         stepwise_ewa_plan(Wn, ewa_beta, ewa_printed, idx, mutant)
@@ -592,12 +586,12 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                         seen2[i] = seen[j]
                         nl2[i] = nl[j]
                         src2[i] = src[j]
-                    P, P2 = P2, P
-                    mu, mu2 = mu2, mu
-                    sig, sig2 = sig2, sig
-                    seen, seen2 = seen2, seen
-                    nl, nl2 = nl2, nl
-                    src, src2 = src2, src
+                P, P2 = P2, P           # the new set becomes the current one
+                mu, mu2 = mu2, mu
+                sig, sig2 = sig2, sig
+                seen, seen2 = seen2, seen
+                nl, nl2 = nl2, nl
+                src, src2 = src2, src
                 lw[:] = 0.0
                 Wn[:] = 1.0 / N
                 resampled[k] = 1

@@ -20,7 +20,8 @@ from numba import njit, types
 from ..angles import wrap
 from ..rng import STATE, normal
 from ..schema import Key
-from .waypoint_course import CourseData, SlamModel, load_world, resolve as _resolve
+from .waypoint_course import CourseData, SlamModel, load_world, run_simulator, sense
+from .waypoint_course import resolve as _resolve
 
 NAME = "landmark_world"
 KIND = "slam"
@@ -97,7 +98,6 @@ def simulate_odometry(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, o
     V, dt, maxturn, radius, laps = veh[0], veh[1], veh[3], veh[5], veh[6]
     rmax, half_fov, every = sensor[0], sensor[1], int(sensor[2])
     K = wp.shape[0]
-    M = lm.shape[0]
     x, y, th = start[0], start[1], start[2]
     pose[0, 0], pose[0, 1], pose[0, 2] = x, y, th
     iw = 0
@@ -126,40 +126,14 @@ def simulate_odometry(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, o
         pose[t + 1, 0], pose[t + 1, 1], pose[t + 1, 2] = x, y, th
         wp_idx[t + 1] = iw
         if (t + 1) % every == 0:
-            n = 0
-            for j in range(M):
-                ex, ey = lm[j, 0] - x, lm[j, 1] - y
-                r = math.sqrt(ex * ex + ey * ey)
-                b = wrap(math.atan2(ey, ex) - th)
-                if r <= rmax and abs(b) <= half_fov:
-                    obs_id[k, n] = j
-                    obs_z[k, n, 0] = r + noise[2] * normal(s)
-                    obs_z[k, n, 1] = wrap(b + noise[3] * normal(s))
-                    n += 1
-            obs_n[k] = n
+            obs_n[k] = sense(lm, x, y, th, rmax, half_fov, noise, s, obs_id[k], obs_z[k])
             k += 1
     return steps
 
 
 def simulate(model: SlamModel, state: np.ndarray) -> tuple[CourseData, CourseData]:
     """Simulate one trial; returns (truth, data), the same object (see waypoint_course)."""
-    T = model.steps
-    every = int(model.sensor[2])
-    K = T // every
-    M = model.landmarks.shape[0]
-    pose = np.zeros((T + 1, 3))
-    ctrl = np.zeros((T, 2))
-    obs_n = np.zeros(K, dtype=np.int64)
-    obs_id = np.zeros((K, M), dtype=np.int64)
-    obs_z = np.zeros((K, M, 2))
-    wp_idx = np.zeros(T + 1, dtype=np.int64)
-    driven = simulate_odometry(model.waypoints, model.landmarks, model.start, model.vehicle,
-                               model.noise, model.sensor, T, state, pose, ctrl, obs_n, obs_id,
-                               obs_z, wp_idx)
-    k = driven // every
-    data = CourseData(pose[:driven + 1], ctrl[:driven], obs_n[:k], obs_id[:k], obs_z[:k],
-                      wp_idx[:driven + 1], driven)
-    return data, data
+    return run_simulator(simulate_odometry, model, state)
 
 
 __all__ = ["NAME", "KIND", "DESCRIPTION", "SCHEMA", "build", "simulate", "resolve", "load_world"]

@@ -167,6 +167,24 @@ _I = types.int64[::1]
 _I2 = types.int64[:, ::1]
 
 
+@njit(types.int64(_F2, types.float64, types.float64, types.float64, types.float64, types.float64,
+                  _F, STATE, _I, _F2), cache=True)
+def sense(lm, x, y, th, rmax, half_fov, noise, s, ids, zs):
+    """Observe every landmark of lm within rmax and the field of view from pose (x, y, th): fill
+    ids (M,) and zs (M, 2) with their indices and noisy [range, bearing]; return how many."""
+    n = 0
+    for j in range(lm.shape[0]):
+        ex, ey = lm[j, 0] - x, lm[j, 1] - y
+        r = math.sqrt(ex * ex + ey * ey)
+        b = wrap(math.atan2(ey, ex) - th)
+        if r <= rmax and abs(b) <= half_fov:
+            ids[n] = j
+            zs[n, 0] = r + noise[2] * normal(s)
+            zs[n, 1] = wrap(b + noise[3] * normal(s))
+            n += 1
+    return n
+
+
 @njit(types.int64(_F2, _F2, _F, _F, _F, _F, types.int64, STATE, _F2, _F2, _I, _I2, _F3, _I),
       cache=True)
 def simulate_course(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, obs_n, obs_id, obs_z,
@@ -182,7 +200,6 @@ def simulate_course(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, obs
     V, dt, L, maxG, rate, radius, laps = veh[0], veh[1], veh[2], veh[3], veh[4], veh[5], veh[6]
     rmax, half_fov, every = sensor[0], sensor[1], int(sensor[2])
     K = wp.shape[0]
-    M = lm.shape[0]
     x, y, th = start[0], start[1], start[2]
     pose[0, 0], pose[0, 1], pose[0, 2] = x, y, th
     G = 0.0
@@ -213,17 +230,7 @@ def simulate_course(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, obs
         ctrl[t, 0] = V + noise[0] * normal(s)
         ctrl[t, 1] = G + noise[1] * normal(s)
         if (t + 1) % every == 0:
-            n = 0
-            for j in range(M):
-                ex, ey = lm[j, 0] - x, lm[j, 1] - y
-                r = math.sqrt(ex * ex + ey * ey)
-                b = wrap(math.atan2(ey, ex) - th)
-                if r <= rmax and abs(b) <= half_fov:
-                    obs_id[k, n] = j
-                    obs_z[k, n, 0] = r + noise[2] * normal(s)
-                    obs_z[k, n, 1] = wrap(b + noise[3] * normal(s))
-                    n += 1
-            obs_n[k] = n
+            obs_n[k] = sense(lm, x, y, th, rmax, half_fov, noise, s, obs_id[k], obs_z[k])
             k += 1
     return steps
 
@@ -244,6 +251,12 @@ class CourseData:
 def simulate(model: SlamModel, state: np.ndarray) -> tuple[CourseData, CourseData]:
     """Simulate one trial; returns (truth, data), here the same object (filters use only ctrl and
     the observations; metrics use pose and the landmarks)."""
+    return run_simulator(simulate_course, model, state)
+
+
+def run_simulator(simulator, model: SlamModel, state: np.ndarray) -> tuple[CourseData, CourseData]:
+    """Allocate a trial's arrays, run a numba ``simulator`` with simulate_course's signature, and
+    trim them to the steps driven."""
     T = model.steps
     every = int(model.sensor[2])
     K = T // every
@@ -254,9 +267,8 @@ def simulate(model: SlamModel, state: np.ndarray) -> tuple[CourseData, CourseDat
     obs_id = np.zeros((K, M), dtype=np.int64)
     obs_z = np.zeros((K, M, 2))
     wp_idx = np.zeros(T + 1, dtype=np.int64)
-    driven = simulate_course(model.waypoints, model.landmarks, model.start, model.vehicle,
-                             model.noise, model.sensor, T, state, pose, ctrl, obs_n, obs_id, obs_z,
-                             wp_idx)
+    driven = simulator(model.waypoints, model.landmarks, model.start, model.vehicle, model.noise,
+                       model.sensor, T, state, pose, ctrl, obs_n, obs_id, obs_z, wp_idx)
     k = driven // every
     data = CourseData(pose[:driven + 1], ctrl[:driven], obs_n[:k], obs_id[:k], obs_z[:k],
                       wp_idx[:driven + 1], driven)
