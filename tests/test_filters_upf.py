@@ -4,7 +4,6 @@ import math
 import numpy as np
 import pytest
 
-from pfbench.config import Params
 from pfbench.filters import FILTERS
 from pfbench.filters._common import mh_move
 from pfbench.rng import standard_gamma, state_from_seed

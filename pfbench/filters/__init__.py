@@ -60,7 +60,7 @@ def _gaussian_noise_schema(what: str):
     return {
         "process_noise_mean": Key("float", None, f"mean of the Gaussian process noise {what} "
                                   "assumes (default: the scenario's noise mean)", nullable=True),
-        "process_noise_var": Key("float", None, f"variance of that noise (default: the scenario's "
+        "process_noise_var": Key("float", None, "variance of that noise (default: the scenario's "
                                  "noise variance)", min=0.0, min_exclusive=True, nullable=True),
         "measurement_noise_var": Key("float", None, f"measurement noise variance {what} assumes "
                                      "(default: the scenario's)", min=0.0, min_exclusive=True,

@@ -20,7 +20,7 @@ from numba import njit, types
 from ..angles import wrap
 from ..rng import STATE, normal
 from ..schema import Key
-from .waypoint_course import CourseData, SlamModel, load_world, run_simulator, sense
+from .waypoint_course import CourseData, SlamModel, next_waypoint, run_simulator, sense
 from .waypoint_course import resolve as _resolve
 
 NAME = "landmark_world"
@@ -97,7 +97,6 @@ def simulate_odometry(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, o
     (as waypoint_course.simulate_course); return the steps driven."""
     V, dt, maxturn, radius, laps = veh[0], veh[1], veh[3], veh[5], veh[6]
     rmax, half_fov, every = sensor[0], sensor[1], int(sensor[2])
-    K = wp.shape[0]
     x, y, th = start[0], start[1], start[2]
     pose[0, 0], pose[0, 1], pose[0, 2] = x, y, th
     iw = 0
@@ -105,15 +104,10 @@ def simulate_odometry(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, o
     wp_idx[0] = 0
     k = 0
     for t in range(steps):
+        iw, lap = next_waypoint(wp, iw, lap, x, y, radius)
+        if laps > 0 and lap >= laps:
+            return t
         dx, dy = wp[iw, 0] - x, wp[iw, 1] - y
-        if dx * dx + dy * dy < radius * radius:
-            iw += 1
-            if iw == K:
-                iw = 0
-                lap += 1
-                if laps > 0 and lap >= laps:
-                    return t
-            dx, dy = wp[iw, 0] - x, wp[iw, 1] - y
         lim = maxturn * dt
         dth = max(-lim, min(lim, wrap(math.atan2(dy, dx) - th)))
         ds = V * dt
@@ -136,4 +130,4 @@ def simulate(model: SlamModel, state: np.ndarray) -> tuple[CourseData, CourseDat
     return run_simulator(simulate_odometry, model, state)
 
 
-__all__ = ["NAME", "KIND", "DESCRIPTION", "SCHEMA", "build", "simulate", "resolve", "load_world"]
+__all__ = ["NAME", "KIND", "DESCRIPTION", "SCHEMA", "build", "simulate", "resolve"]

@@ -185,6 +185,20 @@ def sense(lm, x, y, th, rmax, half_fov, noise, s, ids, zs):
     return n
 
 
+@njit(types.UniTuple(types.int64, 2)(_F2, types.int64, types.int64, types.float64, types.float64,
+                                     types.float64), cache=True)
+def next_waypoint(wp, iw, lap, x, y, radius):
+    """(waypoint to drive to, laps completed) from (x, y): the next waypoint once the current one
+    is within ``radius``, the lap count growing when the path closes."""
+    dx, dy = wp[iw, 0] - x, wp[iw, 1] - y
+    if dx * dx + dy * dy < radius * radius:
+        iw += 1
+        if iw == wp.shape[0]:
+            iw = 0
+            lap += 1
+    return iw, lap
+
+
 @njit(types.int64(_F2, _F2, _F, _F, _F, _F, types.int64, STATE, _F2, _F2, _I, _I2, _F3, _I),
       cache=True)
 def simulate_course(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, obs_n, obs_id, obs_z,
@@ -199,7 +213,6 @@ def simulate_course(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, obs
     """
     V, dt, L, maxG, rate, radius, laps = veh[0], veh[1], veh[2], veh[3], veh[4], veh[5], veh[6]
     rmax, half_fov, every = sensor[0], sensor[1], int(sensor[2])
-    K = wp.shape[0]
     x, y, th = start[0], start[1], start[2]
     pose[0, 0], pose[0, 1], pose[0, 2] = x, y, th
     G = 0.0
@@ -209,15 +222,10 @@ def simulate_course(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, obs
     k = 0
     for t in range(steps):
         # steer toward the current waypoint (the next one once this is reached)
+        iw, lap = next_waypoint(wp, iw, lap, x, y, radius)
+        if laps > 0 and lap >= laps:
+            return t
         dx, dy = wp[iw, 0] - x, wp[iw, 1] - y
-        if dx * dx + dy * dy < radius * radius:
-            iw += 1
-            if iw == K:
-                iw = 0
-                lap += 1
-                if laps > 0 and lap >= laps:
-                    return t
-            dx, dy = wp[iw, 0] - x, wp[iw, 1] - y
         dG = wrap(math.atan2(dy, dx) - th - G)
         lim = rate * dt
         G += max(-lim, min(lim, dG))
