@@ -126,8 +126,11 @@ def test_ctrl_c_keeps_finished_trials_and_resume_completes_them(tmp_path, write_
     cfg = write_config(text)
     out = tmp_path / "run"
     cmd = [sys.executable, "-m", "pfbench.cli", "run", str(cfg), "--workers", "2", "--out", str(out)]
+    # a shell's background job (`pytest &`, some CI runners) starts with SIGINT ignored, which
+    # Python then keeps; give the run the default disposition a terminal would
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                            start_new_session=True)
+                            start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     partial = out / "trials.partial.csv"
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and proc.poll() is None:
