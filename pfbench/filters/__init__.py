@@ -162,6 +162,10 @@ def _fastslam_schema():
         "gate_augment": Key("float", 25.0, "nearest: squared distance beyond which it starts a new "
                             "landmark; in between it is dropped (the classic simulator's 25)",
                             min=0.0, min_exclusive=True),
+        "gate_pose": Key("bool", True, "nearest: the gates' distance includes the pose "
+                         "uncertainty each particle gained since its last update (motion noise, "
+                         "a resampled copy's noise); false: the plain FastSLAM 1.0 distance, "
+                         "which rejects true matches when the motion noise exceeds the sensor's"),
         "max_landmarks": Key("int", 0, "nearest: map capacity per particle (0: three times the "
                              "world's landmarks)", min=0),
         "update": Key("choice", "joseph", "landmark covariance update: 'joseph' form or "

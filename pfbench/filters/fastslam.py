@@ -128,26 +128,57 @@ def ekf_landmark_update(px, py, pth, mu, sig, zr, zb, Rr, Rb, joseph):
 
 
 @njit(types.float64(types.float64, types.float64, types.float64, _F, _F, types.float64,
-                    types.float64, types.float64, types.float64), cache=True)
-def mahalanobis2(px, py, pth, mu, sig, zr, zb, Rr, Rb):
+                    types.float64, types.float64, types.float64, _F), cache=True)
+def mahalanobis2(px, py, pth, mu, sig, zr, zb, Rr, Rb, pc):
     """Squared Mahalanobis distance of the observation [zr, zb] to the landmark (mu, sig) seen
-    from the pose (inf where the landmark sits on the pose)."""
-    v1, v2, S11, S12, S22, det, _, _, _, _, ok = innovation(
+    from the pose (inf where the landmark sits on the pose), with the pose's own uncertainty pc
+    (6,) = [xx, xy, xt, yy, yt, tt] added to the innovation covariance: S + Hx C Hx^T, Hx the
+    Jacobian with respect to the pose (all zeros: the plain FastSLAM 1.0 distance)."""
+    v1, v2, S11, S12, S22, det, h11, h12, h21, h22, ok = innovation(
         px, py, pth, mu[0], mu[1], sig[0], sig[1], sig[2], zr, zb, Rr, Rb)
-    return _maha(v1, v2, S11, S12, S22, det) if ok != 0.0 else np.inf
+    if ok == 0.0:
+        return np.inf
+    # Hx = [[a], [b]] = [[-h11, -h12, 0], [-h21, -h22, -1]]; S += [[aCa, aCb], [aCb, bCb]]
+    cax = -(h11 * pc[0] + h12 * pc[1])
+    cay = -(h11 * pc[1] + h12 * pc[3])
+    cbx = -(h21 * pc[0] + h22 * pc[1] + pc[2])
+    cby = -(h21 * pc[1] + h22 * pc[3] + pc[4])
+    cbt = -(h21 * pc[2] + h22 * pc[4] + pc[5])
+    S11 -= h11 * cax + h12 * cay
+    S12 -= h11 * cbx + h12 * cby
+    S22 -= h21 * cbx + h22 * cby + cbt
+    return _maha(v1, v2, S11, S12, S22, S11 * S22 - S12 * S12)
+
+
+@njit(types.void(_F, types.float64, types.float64, types.float64, types.float64, types.float64,
+                 types.float64, types.float64, types.float64, types.float64, types.float64,
+                 types.float64), cache=True)
+def propagate_pose_cov(c, fx, fy, g1x, g1y, g1t, q1, g2x, g2y, g2t, q2, qxy):
+    """One motion step of a pose covariance c (6,) = [xx, xy, xt, yy, yt, tt], in place:
+    c <- F c F^T + q1 g1 g1^T + q2 g2 g2^T + diag(qxy, qxy, 0), with F the identity plus
+    (fx, fy, 0) in its heading column (the move's dependence on the heading) and g1, g2 the
+    Jacobian columns of two independent noises of variances q1, q2."""
+    xx, xy, xt, yy, yt, tt = c[0], c[1], c[2], c[3], c[4], c[5]
+    c[0] = xx + 2.0 * fx * xt + fx * fx * tt + q1 * g1x * g1x + q2 * g2x * g2x + qxy
+    c[1] = xy + fx * yt + fy * xt + fx * fy * tt + q1 * g1x * g1y + q2 * g2x * g2y
+    c[2] = xt + fx * tt + q1 * g1x * g1t + q2 * g2x * g2t
+    c[3] = yy + 2.0 * fy * yt + fy * fy * tt + q1 * g1y * g1y + q2 * g2y * g2y + qxy
+    c[4] = yt + fy * tt + q1 * g1y * g1t + q2 * g2y * g2t
+    c[5] = tt + q1 * g1t * g1t + q2 * g2t * g2t
 
 
 @njit(types.int64(types.float64, types.float64, types.float64, types.int64, _F3, _F3,
                   types.int64, types.float64, types.float64, types.float64, types.float64,
-                  types.float64), cache=True)
-def nearest_landmark(px, py, pth, i, mu, sig, nl, zr, zb, Rr, Rb, gate):
-    """Index of particle i's landmark nearest (Mahalanobis) to the observation among its nl
-    landmarks, if within ``gate`` (squared distance); -1 when none is, -2 - k when the nearest,
-    k, lies beyond the gate (so the caller can tell 'ambiguous' from 'new')."""
+                  types.float64, _F), cache=True)
+def nearest_landmark(px, py, pth, i, mu, sig, nl, zr, zb, Rr, Rb, gate, pc):
+    """Index of particle i's landmark nearest (Mahalanobis, with the pose uncertainty pc, see
+    ``mahalanobis2``) to the observation among its nl landmarks, if within ``gate`` (squared
+    distance); -1 when none is, -2 - k when the nearest, k, lies beyond the gate (so the caller
+    can tell 'ambiguous' from 'new')."""
     best = -1
     bd = np.inf
     for m in range(nl):
-        d2 = mahalanobis2(px, py, pth, mu[i, m], sig[i, m], zr, zb, Rr, Rb)
+        d2 = mahalanobis2(px, py, pth, mu[i, m], sig[i, m], zr, zb, Rr, Rb, pc)
         if d2 < bd:
             bd = d2
             best = m
@@ -173,15 +204,17 @@ def init_landmark(px, py, pth, zr, zb, Rr, Rb, mu, sig):
 
 @njit(types.float64(types.float64, types.float64, types.float64, types.int64, _F3, _F3, _B2, _I,
                     _F2, types.int64, types.float64, types.float64, types.int64, types.int64,
-                    types.float64), cache=True)
-def pose_loglik(px, py, pth, i, mu, sig, seen, ids, zs, n, Rr, Rb, assoc, nl, gate):
+                    types.float64, _F2), cache=True)
+def pose_loglik(px, py, pth, i, mu, sig, seen, ids, zs, n, Rr, Rb, assoc, nl, gate, pc):
     """Log-likelihood of the n observations (ids, zs) of landmarks already in particle i's map,
     for a candidate pose of that particle (its map is not changed). assoc 0: by identity;
-    1: each observation with its nearest landmark among the particle's nl, within ``gate``."""
+    1: each observation with its nearest landmark among the particle's nl, within ``gate``
+    (pc (N, 6): the particles' pose uncertainties for the gate)."""
     acc = 0.0
     for j in range(n):
         if assoc:
-            m = nearest_landmark(px, py, pth, i, mu, sig, nl, zs[j, 0], zs[j, 1], Rr, Rb, gate)
+            m = nearest_landmark(px, py, pth, i, mu, sig, nl, zs[j, 0], zs[j, 1], Rr, Rb, gate,
+                                 pc[i])
             if m < 0:
                 continue
         else:
@@ -198,11 +231,11 @@ def pose_loglik(px, py, pth, i, mu, sig, seen, ids, zs, n, Rr, Rb, assoc, nl, ga
 
 
 @njit(types.void(_F2, _F3, _F3, _B2, _I, _F2, types.int64, types.float64, types.float64, _F,
-                 types.int64, _I, types.float64), cache=True)
-def _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, out, assoc, nl, gate):
+                 types.int64, _I, types.float64, _F2), cache=True)
+def _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, out, assoc, nl, gate, pc):
     for i in range(P.shape[0]):
         out[i] = pose_loglik(P[i, 0], P[i, 1], P[i, 2], i, mu, sig, seen, ids, zs, n, Rr, Rb,
-                             assoc, nl[i], gate)
+                             assoc, nl[i], gate, pc)
 
 
 @njit(types.void(_F, _F2, _F3, _F3, _B2, _I, _I2, _F, _F2, _F2, types.int8[::1], types.int64,
@@ -245,8 +278,8 @@ def directional_resample(W, P, mu, sig, seen, nl, src, bP, bmu, bsig, bseen, bnl
 
 
 @njit(types.void(_F, _F, _F, _F3, _F3, _B2, _I, _F2, types.int64, types.float64, types.float64,
-                 _F, types.int64, _I, types.float64), cache=True)
-def _fitness_scaled(Xn, mean, scale, mu, sig, seen, ids, zs, n, Rr, Rb, out, assoc, nl, gate):
+                 _F, types.int64, _I, types.float64, _F2), cache=True)
+def _fitness_scaled(Xn, mean, scale, mu, sig, seen, ids, zs, n, Rr, Rb, out, assoc, nl, gate, pc):
     """Fitness of poses given in scaled coordinates (pose = mean + scale * x), row r of Xn (flat,
     3 per row) belonging to particle r mod N (its map)."""
     N = mu.shape[0]
@@ -254,21 +287,21 @@ def _fitness_scaled(Xn, mean, scale, mu, sig, seen, ids, zs, n, Rr, Rb, out, ass
         i = r % N
         out[r] = pose_loglik(mean[0] + scale[0] * Xn[3 * r], mean[1] + scale[1] * Xn[3 * r + 1],
                              mean[2] + scale[2] * Xn[3 * r + 2], i, mu, sig, seen, ids, zs, n,
-                             Rr, Rb, assoc, nl[i], gate)
+                             Rr, Rb, assoc, nl[i], gate, pc)
 
 
 FASTSLAM_SIG = types.int64(
     _F2, _I, _I2, _F3, _F, types.int64, _F, _F, _F, types.int64, types.int64, types.int64,
     types.int64, types.int64, types.float64, types.int64, _F, types.int64, types.float64,
-    types.float64, types.int64, _F, types.int64, types.float64, types.float64, types.int64, STATE,
-    _F2, _F, _I, _F2, _I, _F, _F)
+    types.float64, types.int64, _F, types.int64, types.float64, types.float64, types.int64,
+    types.int64, STATE, _F2, _F, _I, _F2, _I, _F, _F)
 
 
 @njit(FASTSLAM_SIG, cache=True)
 def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, N, predict_noise,
                     joseph, scheme, threshold, refine, sp, iters, ewa_beta, ewa_mu, ewa_printed,
-                    dnoise, assoc, gate_reject, gate_augment, motion, s, est, ess, resampled,
-                    lm_est, lm_seen, evals, assoc_stats):
+                    dnoise, assoc, gate_reject, gate_augment, gate_pose, motion, s, est, ess,
+                    resampled, lm_est, lm_seen, evals, assoc_stats):
     """Run FastSLAM over one trial; fill est (T+1, 3) the weighted pose estimate at every control
     step, ess / resampled / evals (K,) per observation, lm_est (M, 2) and lm_seen (M,) the final
     weighted map. Returns the number of observation steps whose weights all underflowed.
@@ -283,9 +316,12 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
     assoc : 0 = known identities (M = the number of landmarks, slot = identity); 1 = nearest
         neighbour (M = the map capacity): an observation joins the landmark nearest in Mahalanobis
         distance if its squared distance is <= gate_reject, starts a new landmark if every one
-        is > gate_augment, and is dropped in between. assoc_stats (3,) gets [associations,
+        is > gate_augment, and is dropped in between. assoc_stats (4,) gets [associations,
         wrong associations (the slot was started from another true landmark), observations
-        dropped as ambiguous], summed over particles and observations.
+        dropped as ambiguous, landmarks started], summed over particles and observations.
+    gate_pose : 1 = the gates' distance includes each particle's pose uncertainty since its last
+        observation update (see ``mahalanobis2``): the motion noise it drew since then, plus the
+        noise of a directional or mutated copy; 0 = the plain FastSLAM 1.0 distance.
     """
     T = ctrl.shape[0]
     K = obs_n.shape[0]
@@ -304,9 +340,12 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
     nl2 = np.zeros(N, dtype=np.int64)
     src = np.full((N, M), -1, dtype=np.int64)  # the true landmark each slot was started from
     src2 = np.full((N, M), -1, dtype=np.int64)
+    pc = np.zeros((N, 6))     # pose uncertainty since the last update: [xx, xy, xt, yy, yt, tt]
+    pcm = np.zeros(6)         # the cloud's mean of it at the last observation
     n_assoc = 0.0
     n_wrong = 0.0
     n_drop = 0.0
+    n_new = 0.0
     # bulletin boards (directional resampling): the best particle of the last observation, in
     # use, and of this one, for the next
     bP = np.zeros(3)
@@ -355,15 +394,25 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
     for t in range(T):
         Vc, Gc = ctrl[t, 0], ctrl[t, 1]
         if motion == 1:
+            # the simulator's order: the heading noise turns this step's move
             for i in range(N):
                 th = P[i, 2] + Gc
+                if predict_noise:
+                    th += qctrl[1] * normal(s)
                 P[i, 0] += Vc * math.cos(th)
                 P[i, 1] += Vc * math.sin(th)
                 if predict_noise:
-                    th += qctrl[1] * normal(s)
                     P[i, 0] += qctrl[0] * normal(s)
                     P[i, 1] += qctrl[0] * normal(s)
                 P[i, 2] = wrap(th)
+            if gate_pose:
+                # C <- F C F^T + G Q G^T, F = d(pose)/d(pose), G Q G^T of the heading noise
+                # turning the move and the additive position noise
+                for i in range(N):
+                    c, sn_ = math.cos(P[i, 2]), math.sin(P[i, 2])
+                    fx, fy = -Vc * sn_, Vc * c
+                    propagate_pose_cov(pc[i], fx, fy, fx, fy, 1.0, qctrl[1] ** 2, 0.0, 0.0, 0.0,
+                                       0.0, qctrl[0] ** 2)
         else:
             for i in range(N):
                 v, g = Vc, Gc
@@ -373,6 +422,14 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                 P[i, 0] += v * dt * math.cos(P[i, 2] + g)
                 P[i, 1] += v * dt * math.sin(P[i, 2] + g)
                 P[i, 2] = wrap(P[i, 2] + v * dt * math.sin(g) / L)
+            if gate_pose:
+                # the control noise (sigma_V, sigma_G) through the steered model's Jacobian
+                cg, sg = math.cos(Gc), math.sin(Gc)
+                for i in range(N):
+                    ca, sa = math.cos(P[i, 2] + Gc), math.sin(P[i, 2] + Gc)
+                    propagate_pose_cov(pc[i], -Vc * dt * sa, Vc * dt * ca, dt * ca, dt * sa,
+                                       dt * sg / L, qctrl[0] ** 2, -Vc * dt * sa, Vc * dt * ca,
+                                       Vc * dt * cg / L, qctrl[1] ** 2, 0.0)
         if (t + 1) % every == 0 and k < K:
             n = obs_n[k]
             ids = obs_id[k]
@@ -399,7 +456,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                     m1 /= N
                     mean[d] = m1
                     scale[d] = math.sqrt(max(m2 / N - m1 * m1, 1e-12))
-                _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll, assoc, nl, gate_reject)
+                _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll, assoc, nl, gate_reject, pc)
                 nev += N
                 for it in range(iters):
                     M0 = ll.max()
@@ -433,7 +490,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                                       + (P[i, 2] - mt) ** 2 / vt)
                                 fit[i] = math.exp(ll[i] - M0 - 0.5 * d2)
                             ifa_move(X, fit, 3, sp[0], sp[1], Rr, scale, s)
-                        _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll, assoc, nl, gate_reject)
+                        _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll, assoc, nl, gate_reject, pc)
                         nev += N
                     elif refine == 3:
                         if it == 0:
@@ -443,7 +500,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                         g = argmax(ll)
                         ba_propose(X, V, A, rr, C, 3, g, sp[0], sp[1], scale, s)
                         Cp = C.reshape((N, 3))
-                        _fitness(Cp, mu, sig, seen, ids, zs, n, Rr, Rb, llc, assoc, nl, gate_reject)
+                        _fitness(Cp, mu, sig, seen, ids, zs, n, Rr, Rb, llc, assoc, nl, gate_reject, pc)
                         nev += N
                         ba_accept(X, ll, C, llc, A, rr, 3, sp[4], sp[5], sp[3], it + 1, s)
                     elif refine == 5:
@@ -454,13 +511,13 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                             fit[i] = math.exp(ll[i] - M0)
                         afsa_centres(Xs, fit, 3, sp[0], Xc, nf)
                         _fitness_scaled(Xc, mean, scale, mu, sig, seen, ids, zs, n, Rr, Rb, llc,
-                                        assoc, nl, gate_reject)
+                                        assoc, nl, gate_reject, pc)
                         for i in range(N):
                             fitc[i] = math.exp(llc[i] - M0)
                         afsa_propose(Xs, fit, Xc, fitc, nf, 3, sp[0], sp[1], sp[2], int(sp[3]), s,
                                      C3)
                         _fitness_scaled(C3, mean, scale, mu, sig, seen, ids, zs, n, Rr, Rb, ll3,
-                                        assoc, nl, gate_reject)
+                                        assoc, nl, gate_reject, pc)
                         for r in range(3 * N):
                             fit3[r] = math.exp(ll3[r] - M0)
                         afsa_select(Xs, fit, C3, fit3, 3, int(sp[4]))
@@ -476,7 +533,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                             Pfit[:] = ll
                         g = argmax(Pfit)
                         pso_propose(X, V, Pb, Pfit, 3, g, sp[0], sp[1], sp[2], s)
-                        _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll, assoc, nl, gate_reject)
+                        _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll, assoc, nl, gate_reject, pc)
                         nev += N
                         pso_accept(X, ll, Pb, Pfit, 3)
                 for i in range(N):
@@ -488,7 +545,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                 for j in range(n):
                     if assoc:
                         m = nearest_landmark(px, py, pth, i, mu, sig, nl[i], zs[j, 0], zs[j, 1],
-                                             Rr, Rb, gate_reject)
+                                             Rr, Rb, gate_reject, pc[i])
                         if m >= 0:
                             n_assoc += 1.0
                             if src[i, m] != ids[j]:
@@ -498,7 +555,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                             continue
                         if m <= -2:   # a nearest landmark beyond the first gate
                             far = mahalanobis2(px, py, pth, mu[i, -2 - m], sig[i, -2 - m],
-                                               zs[j, 0], zs[j, 1], Rr, Rb)
+                                               zs[j, 0], zs[j, 1], Rr, Rb, pc[i])
                             if far <= gate_augment:
                                 n_drop += 1.0
                                 continue
@@ -507,6 +564,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                             continue
                         m = nl[i]
                         nl[i] += 1
+                        n_new += 1.0
                         src[i, m] = ids[j]
                         init_landmark(px, py, pth, zs[j, 0], zs[j, 1], Rr, Rb, mu[i, m],
                                       sig[i, m])
@@ -523,6 +581,10 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                 mx = max(mx, lw[i])
             nev += N
             evals[k] = nev
+            if gate_pose:
+                for d in range(6):
+                    pcm[d] = pc[:, d].mean()
+            pc[:] = 0.0         # the poses are now tied to their maps again
             Ssum, S2, sx, under = normalise(lw, w, P[:, 0].copy(), mx)
             events += int(under)
             ess[k] = Ssum * Ssum / S2
@@ -567,6 +629,14 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                     directional_resample(Wn, P, mu, sig, seen, nl, src, bP, bmu, bsig, bseen, bnl,
                                          bsrc, shift, dnoise, _SYSTEMATIC, s, P2,
                                          mu2, sig2, seen2, nl2, src2)
+                    if gate_pose:
+                        # a copy sits off the board's map by the board's motion since its
+                        # update and by the copy's noise
+                        for i in range(N - N // 2, N):
+                            pc[i] = pcm
+                            pc[i, 0] += dnoise[0] ** 2
+                            pc[i, 3] += dnoise[1] ** 2
+                            pc[i, 5] += dnoise[2] ** 2
                 else:
                     if scheme == EWA:
                         stepwise_ewa_plan(Wn, ewa_beta, ewa_printed, idx, mutant)
@@ -581,6 +651,9 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                             for d in range(3):
                                 P2[i, d] += P2[i, d] * ewa_mu * normal(s)
                             P2[i, 2] = wrap(P2[i, 2])
+                            if gate_pose:
+                                for d in range(3):
+                                    pc[i, (0, 3, 5)[d]] = (P[j, d] * ewa_mu) ** 2
                         mu2[i] = mu[j]
                         sig2[i] = sig[j]
                         seen2[i] = seen[j]
@@ -615,7 +688,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
             ec += Wn[i] * math.cos(P[i, 2])
             es += Wn[i] * math.sin(P[i, 2])
         est[t + 1, 0], est[t + 1, 1], est[t + 1, 2] = ex, ey, math.atan2(es, ec)
-    assoc_stats[0], assoc_stats[1], assoc_stats[2] = n_assoc, n_wrong, n_drop
+    assoc_stats[0], assoc_stats[1], assoc_stats[2], assoc_stats[3] = n_assoc, n_wrong, n_drop, n_new
     if assoc:
         # the final map: the highest-weight particle's, each slot compared with the true landmark
         # it was started from (lm_est has a row per true landmark)
@@ -692,15 +765,19 @@ def run(model, data, params, particles, state, diag=True):
            "resampled": np.zeros(K, dtype=np.int64), "lm_est": np.empty((M_true, 2)),
            "lm_seen": np.zeros(M_true, dtype=np.int64)}
     evals = np.zeros(K)
-    stats = np.zeros(3)
+    stats = np.zeros(4)
     out["underflow_steps"] = fastslam_kernel(
         data.ctrl, data.obs_n, data.obs_id, data.obs_z, model.vehicle, int(model.sensor[2]), qctrl,
         R, model.start, M, particles, int(params["predict_noise"]), int(params["update"] == "joseph"),
         scheme, threshold, REFINE[refine], np.array(sp, dtype=np.float64), params["iterations"],
         params["ewa_beta"], params["ewa_mu"], int(params["ewa_correction"] == "as_printed"),
-        dnoise, int(nearest), params["gate_reject"], params["gate_augment"], motion, state,
+        dnoise, int(nearest), params["gate_reject"], params["gate_augment"],
+        int(params["gate_pose"]), motion, state,
         out["pose"], out["ess"], out["resampled"], out["lm_est"], out["lm_seen"], evals, stats)
     out["lik_evals_per_step"] = float(evals.mean()) if K else 0.0
     if nearest:
         out["association_errors"] = stats[1] / stats[0] if stats[0] else 0.0
+        total = stats[0] + stats[2] + stats[3]
+        out["dropped_frac"] = stats[2] / total if total else 0.0
+        out["started_per_particle"] = stats[3] / particles
     return out
