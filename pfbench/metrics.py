@@ -10,14 +10,21 @@ METRICS = {
     "rmse": "root mean squared error of the estimate over t = 1..T (SLAM: of the position)",
     "mse": "mean squared error over t = 1..T (rmse squared)",
     "heading_rmse": "SLAM: root mean squared heading error over t = 1..T (wrapped, rad)",
+    "position_error": "SLAM: mean distance between the estimated and the true position over "
+                      "t = 1..T (m)",
+    "heading_error": "SLAM: mean absolute heading error over t = 1..T (wrapped, rad)",
     "landmark_error": "SLAM: mean distance between each landmark the filter has mapped and the "
                       "true one, at the end of the trial (m)",
     "association_errors": "SLAM with nearest-neighbour association: fraction of associations "
                           "that joined an observation to a landmark started from another one",
+    "dropped_frac": "SLAM with nearest-neighbour association: fraction of observations dropped "
+                    "between the two gates (or because the map was full), over particles",
+    "map_duplicates": "SLAM with nearest-neighbour association: landmarks of the final map "
+                      "started from a true landmark the map already had",
     "mean_ess": "mean effective sample size 1 / sum W^2 over t = 1..T (particle filters)",
     "resample_count": "number of steps that resampled",
     "diversity_l1": "mean pairwise |x_i - x_j| of the particles right after resampling, averaged "
-                    "over the steps that resampled",
+                    "over the steps that resampled (SLAM: L1 on poses, |dx| + |dy| + |dtheta|)",
     "distinct_frac": "fraction of distinct particles right after resampling, averaged likewise",
     "underflow_steps": "steps where every log-weight was -inf or NaN (weights reset to uniform)",
     "lik_evals_per_step": "measurement-model evaluations per step (N for a PF, sigma points for "
@@ -36,8 +43,9 @@ def trial_metrics(x: np.ndarray, out: dict) -> dict:
     err = out["xhat"][1:] - x[1:]
     mse = float(np.mean(err * err))
     row = {"rmse": math.sqrt(mse), "mse": mse, "heading_rmse": math.nan,
-           "landmark_error": math.nan, "association_errors": math.nan, "mean_ess": math.nan,
-           "resample_count": math.nan,
+           "position_error": math.nan, "heading_error": math.nan,
+           "landmark_error": math.nan, "association_errors": math.nan, "dropped_frac": math.nan,
+           "map_duplicates": math.nan, "mean_ess": math.nan, "resample_count": math.nan,
            "diversity_l1": math.nan, "distinct_frac": math.nan,
            "underflow_steps": float(out.get("underflow_steps", 0)),
            "lik_evals_per_step": float(out["lik_evals_per_step"])}
@@ -60,11 +68,17 @@ def slam_metrics(pose: np.ndarray, landmarks: np.ndarray, out: dict) -> dict:
     lm_err = (float(np.mean(np.hypot(*(out["lm_est"][seen] - landmarks[seen]).T)))
               if seen.any() else math.nan)
     return {"rmse": math.sqrt(mse), "mse": mse,
-            "heading_rmse": float(np.sqrt(np.mean(dth * dth))), "landmark_error": lm_err,
+            "heading_rmse": float(np.sqrt(np.mean(dth * dth))),
+            "position_error": float(np.mean(np.hypot(d[:, 0], d[:, 1]))),
+            "heading_error": float(np.mean(np.abs(dth))), "landmark_error": lm_err,
             "association_errors": float(out.get("association_errors", math.nan)),
+            "dropped_frac": float(out.get("dropped_frac", math.nan)),
+            "map_duplicates": float(out.get("map_duplicates", math.nan)),
             "mean_ess": float(np.mean(out["ess"])) if out["ess"].size else math.nan,
-            "resample_count": float(np.sum(out["resampled"])), "diversity_l1": math.nan,
-            "distinct_frac": math.nan, "underflow_steps": float(out.get("underflow_steps", 0)),
+            "resample_count": float(np.sum(out["resampled"])),
+            "diversity_l1": _nanmean(out["div_l1"]) if "div_l1" in out else math.nan,
+            "distinct_frac": _nanmean(out["distinct"]) if "distinct" in out else math.nan,
+            "underflow_steps": float(out.get("underflow_steps", 0)),
             "lik_evals_per_step": float(out["lik_evals_per_step"])}
 
 

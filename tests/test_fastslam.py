@@ -328,3 +328,46 @@ def test_the_pose_aware_gate_keeps_true_matches_the_plain_gate_rejects():
     assert pose["dropped_frac"] < 0.001
     assert pose["started_per_particle"] == pytest.approx(seen, abs=0.5)
     assert plain["dropped_frac"] > 0.05 or plain["started_per_particle"] > seen + 5
+
+
+def test_pose_diversity_is_the_mean_pairwise_l1_distance_and_the_distinct_fraction():
+    from pfbench.filters.fastslam import pose_diversity
+    rng = np.random.default_rng(4)
+    P = rng.normal(size=(7, 3))
+    P[:, 2] = rng.uniform(-math.pi, math.pi, 7)
+    P[5] = P[1]
+    P[6] = P[1]                                  # three copies of one particle
+    d = [abs(P[i, 0] - P[j, 0]) + abs(P[i, 1] - P[j, 1]) + abs(wrap(P[i, 2] - P[j, 2]))
+         for i in range(7) for j in range(i + 1, 7)]
+    l1, distinct = pose_diversity(P)
+    assert l1 == pytest.approx(np.mean(d), rel=1e-12)
+    assert distinct == pytest.approx(5 / 7)
+    assert pose_diversity(np.repeat(P[:1], 4, axis=0)) == (0.0, 0.25)
+
+
+def test_slam_diversity_is_measured_after_resampling_only():
+    model = _model(steps=800)
+    truth, data = wc.simulate(model, state_from_seed(np.random.SeedSequence(12)))
+    out = _run(model, data, 20, resample="neff", neff_ratio=0.5)
+    r = out["resampled"].astype(bool)
+    assert 0 < r.sum() < r.size
+    assert np.isnan(out["div_l1"][~r]).all() and np.isfinite(out["div_l1"][r]).all()
+    assert ((out["distinct"][r] > 0) & (out["distinct"][r] <= 1)).all()
+    # the landmark error trace of the best particle ends near the final map's error
+    assert np.isfinite(out["lm_trace"][-1]) and out["lm_trace"][-1] < 2.0
+
+
+def test_nearest_fitness_never_rewards_pushing_an_observation_out_of_the_gates():
+    from pfbench.filters.fastslam import pose_loglik
+    mu = np.array([[[5.0, 0.0], [0.0, 5.0]]])
+    sig = np.full((1, 2, 3), 0.0)
+    sig[0, :, 0] = sig[0, :, 2] = 0.01
+    zs = np.array([[5.0, 0.0], [5.0, math.pi / 2]])      # both seen from the origin
+    args = (0, mu, sig, np.ones((1, 2), dtype=np.int8), np.arange(2), zs, 2, 0.01, 1e-4, 1, 2,
+            100.0, np.zeros((1, 6)))
+    at_truth = pose_loglik(0.0, 0.0, 0.0, *args)
+    slightly_off = pose_loglik(0.05, 0.0, 0.01, *args)
+    far = pose_loglik(3.0, -2.0, 1.0, *args)
+    assert at_truth == pytest.approx(0.0, abs=1e-9)
+    assert far == pytest.approx(-0.5 * 100.0 * 2)            # both capped at the gate
+    assert at_truth > slightly_off > far

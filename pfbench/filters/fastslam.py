@@ -206,21 +206,25 @@ def init_landmark(px, py, pth, zr, zb, Rr, Rb, mu, sig):
                     _F2, types.int64, types.float64, types.float64, types.int64, types.int64,
                     types.float64, _F2), cache=True)
 def pose_loglik(px, py, pth, i, mu, sig, seen, ids, zs, n, Rr, Rb, assoc, nl, gate, pc):
-    """Log-likelihood of the n observations (ids, zs) of landmarks already in particle i's map,
-    for a candidate pose of that particle (its map is not changed). assoc 0: by identity;
-    1: each observation with its nearest landmark among the particle's nl, within ``gate``
-    (pc (N, 6): the particles' pose uncertainties for the gate)."""
+    """Fitness of a candidate pose of particle i for the swarm moves (its map is not changed).
+    assoc 0: the log-likelihood of the n observations (ids, zs) of landmarks already in its map.
+    assoc 1: -1/2 sum_j min(d2_j, gate), d2_j the squared distance (with the pose uncertainty
+    pc[i], see ``mahalanobis2``) of observation j to its nearest landmark among the particle's nl
+    (inf without one), gate = the new-landmark gate: every observation counts, so a pose cannot
+    gain by pushing an observation out of the gates (afsa2014's fitness, the Gaussian kernel
+    without its normalising constant)."""
     acc = 0.0
     for j in range(n):
         if assoc:
-            m = nearest_landmark(px, py, pth, i, mu, sig, nl, zs[j, 0], zs[j, 1], Rr, Rb, gate,
-                                 pc[i])
-            if m < 0:
-                continue
-        else:
-            m = ids[j]
-            if not seen[i, m]:
-                continue
+            bd = gate
+            for m in range(nl):
+                bd = min(bd, mahalanobis2(px, py, pth, mu[i, m], sig[i, m], zs[j, 0], zs[j, 1],
+                                          Rr, Rb, pc[i]))
+            acc -= 0.5 * bd
+            continue
+        m = ids[j]
+        if not seen[i, m]:
+            continue
         v1, v2, S11, S12, S22, det, _, _, _, _, ok = innovation(
             px, py, pth, mu[i, m, 0], mu[i, m, 1], sig[i, m, 0], sig[i, m, 1], sig[i, m, 2],
             zs[j, 0], zs[j, 1], Rr, Rb)
@@ -290,18 +294,67 @@ def _fitness_scaled(Xn, mean, scale, mu, sig, seen, ids, zs, n, Rr, Rb, out, ass
                              Rr, Rb, assoc, nl[i], gate, pc)
 
 
+@njit(types.UniTuple(types.float64, 2)(_F2,), cache=True)
+def pose_diversity(P):
+    """(mean pairwise L1 distance |dx| + |dy| + |wrapped dtheta| of the poses P (N, 3), fraction
+    of distinct poses): afsa2014's 'mean Hamming distance', read as L1 on poses."""
+    N = P.shape[0]
+    if N < 2:
+        return 0.0, 1.0
+    acc = 0.0
+    distinct = 0
+    for i in range(N):
+        unique = True
+        for j in range(N):
+            if j == i:
+                continue
+            d = abs(P[i, 0] - P[j, 0]) + abs(P[i, 1] - P[j, 1]) + abs(wrap(P[i, 2] - P[j, 2]))
+            if j > i:
+                acc += d
+            elif d == 0.0:
+                unique = False
+        distinct += unique
+    return acc / (N * (N - 1) / 2), distinct / N
+
+
+@njit(types.float64(_F, _F3, _B2, _I, _I2, types.int64, _F2, types.int8[::1]), cache=True)
+def map_error(W, mu, seen, nl, src, assoc, lm_true, first):
+    """Mean distance of the highest-weight particle's landmarks to the true ones (NaN before any
+    is mapped): by identity, or (nearest) each true landmark by the first slot started from it."""
+    b = 0
+    for i in range(W.size):
+        if W[i] > W[b]:
+            b = i
+    acc = 0.0
+    cnt = 0
+    if assoc:
+        first[:] = 0
+        for m in range(nl[b]):
+            t_id = src[b, m]
+            if first[t_id] == 0:
+                first[t_id] = 1
+                acc += math.hypot(mu[b, m, 0] - lm_true[t_id, 0], mu[b, m, 1] - lm_true[t_id, 1])
+                cnt += 1
+    else:
+        for m in range(lm_true.shape[0]):
+            if seen[b, m]:
+                acc += math.hypot(mu[b, m, 0] - lm_true[m, 0], mu[b, m, 1] - lm_true[m, 1])
+                cnt += 1
+    return acc / cnt if cnt else np.nan
+
+
 FASTSLAM_SIG = types.int64(
     _F2, _I, _I2, _F3, _F, types.int64, _F, _F, _F, types.int64, types.int64, types.int64,
     types.int64, types.int64, types.float64, types.int64, _F, types.int64, types.float64,
     types.float64, types.int64, _F, types.int64, types.float64, types.float64, types.int64,
-    types.int64, STATE, _F2, _F, _I, _F2, _I, _F, _F)
+    types.int64, STATE, _F2, _F, _I, _F2, _I, _F, _F, _F2, _F2, _F)
 
 
 @njit(FASTSLAM_SIG, cache=True)
 def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, N, predict_noise,
                     joseph, scheme, threshold, refine, sp, iters, ewa_beta, ewa_mu, ewa_printed,
                     dnoise, assoc, gate_reject, gate_augment, gate_pose, motion, s, est, ess,
-                    resampled, lm_est, lm_seen, evals, assoc_stats):
+                    resampled, lm_est, lm_seen, evals, assoc_stats, lm_true, div, lm_trace):
     """Run FastSLAM over one trial; fill est (T+1, 3) the weighted pose estimate at every control
     step, ess / resampled / evals (K,) per observation, lm_est (M, 2) and lm_seen (M,) the final
     weighted map. Returns the number of observation steps whose weights all underflowed.
@@ -309,16 +362,25 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
     motion : 0 = the steered vehicle, ctrl = [V, G], qctrl = [sigma_V, sigma_G] the noise each
     particle draws on its controls (veh : [V, dt, L, ...]); 1 = odometry form, ctrl = [ds, dtheta]
     per step, theta += dtheta, x += ds cos(theta), y += ds sin(theta), each particle adding pose
-    noise qctrl = [sigma_xy, sigma_theta]. R : [sigma_r^2, sigma_b^2]; refine : a value of REFINE with its parameters
+    noise qctrl = [sigma_xy, sigma_theta]. R : [sigma_r^2, sigma_b^2]; refine : a value of REFINE
+    with its parameters
     sp (fa [beta0, gamma, alpha]; ifa [beta0, gamma]; ba [fmin, fmax, A0, r0, alpha, gamma];
     pso [w, c1, c2]); scheme : a resampling code, EWA, or DIRECTIONAL (afsa2014's directional
     resampling with the bulletin board, copies' noise dnoise (3,); see ``directional_resample``).
     assoc : 0 = known identities (M = the number of landmarks, slot = identity); 1 = nearest
         neighbour (M = the map capacity): an observation joins the landmark nearest in Mahalanobis
         distance if its squared distance is <= gate_reject, starts a new landmark if every one
-        is > gate_augment, and is dropped in between. assoc_stats (4,) gets [associations,
+        is > gate_augment, and is dropped in between. assoc_stats (5,) gets [associations,
         wrong associations (the slot was started from another true landmark), observations
-        dropped as ambiguous, landmarks started], summed over particles and observations.
+        dropped as ambiguous, landmarks started] summed over particles and observations, and
+        the final map's duplicates (see lm_true).
+    lm_true (M_true, 2): the true landmarks, for lm_trace (K,): the mean distance of the
+        highest-weight particle's mapped landmarks to the true ones after each observation's update
+        (nearest: each true landmark by the first slot started from it), and for assoc_stats[4]:
+        the slots of the final map started from a true landmark that already had one (duplicates).
+    div (K, 2): after each observation that resampled, the particles' mean pairwise L1 pose
+        distance (|dx| + |dy| + |wrapped dtheta|) and the fraction of distinct poses (NaN where it
+        did not resample).
     gate_pose : 1 = the gates' distance includes each particle's pose uncertainty since its last
         observation update (see ``mahalanobis2``): the motion noise it drew since then, plus the
         noise of a directional or mutated copy; 0 = the plain FastSLAM 1.0 distance.
@@ -342,6 +404,8 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
     src2 = np.full((N, M), -1, dtype=np.int64)
     pc = np.zeros((N, 6))     # pose uncertainty since the last update: [xx, xy, xt, yy, yt, tt]
     pcm = np.zeros(6)         # the cloud's mean of it at the last observation
+    M_true = lm_true.shape[0]
+    first = np.zeros(M_true, dtype=np.int8)
     n_assoc = 0.0
     n_wrong = 0.0
     n_drop = 0.0
@@ -456,7 +520,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                     m1 /= N
                     mean[d] = m1
                     scale[d] = math.sqrt(max(m2 / N - m1 * m1, 1e-12))
-                _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll, assoc, nl, gate_reject, pc)
+                _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll, assoc, nl, gate_augment, pc)
                 nev += N
                 for it in range(iters):
                     M0 = ll.max()
@@ -490,7 +554,8 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                                       + (P[i, 2] - mt) ** 2 / vt)
                                 fit[i] = math.exp(ll[i] - M0 - 0.5 * d2)
                             ifa_move(X, fit, 3, sp[0], sp[1], Rr, scale, s)
-                        _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll, assoc, nl, gate_reject, pc)
+                        _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll, assoc, nl, gate_augment,
+                                 pc)
                         nev += N
                     elif refine == 3:
                         if it == 0:
@@ -500,7 +565,8 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                         g = argmax(ll)
                         ba_propose(X, V, A, rr, C, 3, g, sp[0], sp[1], scale, s)
                         Cp = C.reshape((N, 3))
-                        _fitness(Cp, mu, sig, seen, ids, zs, n, Rr, Rb, llc, assoc, nl, gate_reject, pc)
+                        _fitness(Cp, mu, sig, seen, ids, zs, n, Rr, Rb, llc, assoc, nl,
+                                 gate_augment, pc)
                         nev += N
                         ba_accept(X, ll, C, llc, A, rr, 3, sp[4], sp[5], sp[3], it + 1, s)
                     elif refine == 5:
@@ -511,13 +577,13 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                             fit[i] = math.exp(ll[i] - M0)
                         afsa_centres(Xs, fit, 3, sp[0], Xc, nf)
                         _fitness_scaled(Xc, mean, scale, mu, sig, seen, ids, zs, n, Rr, Rb, llc,
-                                        assoc, nl, gate_reject, pc)
+                                        assoc, nl, gate_augment, pc)
                         for i in range(N):
                             fitc[i] = math.exp(llc[i] - M0)
                         afsa_propose(Xs, fit, Xc, fitc, nf, 3, sp[0], sp[1], sp[2], int(sp[3]), s,
                                      C3)
                         _fitness_scaled(C3, mean, scale, mu, sig, seen, ids, zs, n, Rr, Rb, ll3,
-                                        assoc, nl, gate_reject, pc)
+                                        assoc, nl, gate_augment, pc)
                         for r in range(3 * N):
                             fit3[r] = math.exp(ll3[r] - M0)
                         afsa_select(Xs, fit, C3, fit3, 3, int(sp[4]))
@@ -533,7 +599,8 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                             Pfit[:] = ll
                         g = argmax(Pfit)
                         pso_propose(X, V, Pb, Pfit, 3, g, sp[0], sp[1], sp[2], s)
-                        _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll, assoc, nl, gate_reject, pc)
+                        _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll, assoc, nl, gate_augment,
+                                 pc)
                         nev += N
                         pso_accept(X, ll, Pb, Pfit, 3)
                 for i in range(N):
@@ -590,6 +657,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
             ess[k] = Ssum * Ssum / S2
             for i in range(N):
                 Wn[i] = w[i] / Ssum
+            lm_trace[k] = map_error(Wn, mu, seen, nl, src, assoc, lm_true, first)
             resampled[k] = 0
             if scheme == DIRECTIONAL:
                 # this observation's weighted estimate and best particle (the next board)
@@ -668,6 +736,9 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                 lw[:] = 0.0
                 Wn[:] = 1.0 / N
                 resampled[k] = 1
+                div[k, 0], div[k, 1] = pose_diversity(P)
+            else:
+                div[k, 0], div[k, 1] = np.nan, np.nan
             if scheme == DIRECTIONAL:     # the board for the next observation
                 bP, nP = nP, bP
                 bmu, nmu = nmu, bmu
@@ -698,12 +769,16 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                 b = i
         lm_seen[:] = 0
         lm_est[:] = np.nan
+        dup = 0
         for m in range(nl[b]):
             t_id = src[b, m]
             if lm_seen[t_id] == 0:      # the first slot started from it
                 lm_seen[t_id] = 1
                 lm_est[t_id, 0] = mu[b, m, 0]
                 lm_est[t_id, 1] = mu[b, m, 1]
+            else:
+                dup += 1
+        assoc_stats[4] = dup
         return events
     # the final map: per landmark, the weighted mean over the particles that have it
     for m in range(M):
@@ -765,19 +840,24 @@ def run(model, data, params, particles, state, diag=True):
            "resampled": np.zeros(K, dtype=np.int64), "lm_est": np.empty((M_true, 2)),
            "lm_seen": np.zeros(M_true, dtype=np.int64)}
     evals = np.zeros(K)
-    stats = np.zeros(4)
+    stats = np.zeros(5)
+    div = np.empty((K, 2))
+    out["lm_trace"] = np.empty(K)
     out["underflow_steps"] = fastslam_kernel(
         data.ctrl, data.obs_n, data.obs_id, data.obs_z, model.vehicle, int(model.sensor[2]), qctrl,
-        R, model.start, M, particles, int(params["predict_noise"]), int(params["update"] == "joseph"),
-        scheme, threshold, REFINE[refine], np.array(sp, dtype=np.float64), params["iterations"],
+        R, model.start, M, particles, int(params["predict_noise"]),
+        int(params["update"] == "joseph"), scheme, threshold, REFINE[refine], np.array(sp, dtype=np.float64), params["iterations"],
         params["ewa_beta"], params["ewa_mu"], int(params["ewa_correction"] == "as_printed"),
         dnoise, int(nearest), params["gate_reject"], params["gate_augment"],
         int(params["gate_pose"]), motion, state,
-        out["pose"], out["ess"], out["resampled"], out["lm_est"], out["lm_seen"], evals, stats)
+        out["pose"], out["ess"], out["resampled"], out["lm_est"], out["lm_seen"], evals, stats,
+        np.ascontiguousarray(model.landmarks, dtype=np.float64), div, out["lm_trace"])
+    out["div_l1"], out["distinct"] = div[:, 0], div[:, 1]
     out["lik_evals_per_step"] = float(evals.mean()) if K else 0.0
     if nearest:
         out["association_errors"] = stats[1] / stats[0] if stats[0] else 0.0
         total = stats[0] + stats[2] + stats[3]
         out["dropped_frac"] = stats[2] / total if total else 0.0
         out["started_per_particle"] = stats[3] / particles
+        out["map_duplicates"] = stats[4]
     return out
