@@ -104,6 +104,8 @@ class _StrictLoader(yaml.SafeLoader):
 def _construct_mapping(loader, node, deep=False):
     seen = {}
     for key_node, _ in node.value:
+        if key_node.tag == "tag:yaml.org,2002:merge":
+            continue        # `<<: *anchor`: the keys given here override the merged ones
         key = loader.construct_object(key_node, deep=True)
         if key in seen:
             raise ConfigError(str(key), f"duplicate key (first given on line {seen[key]})",

@@ -1,8 +1,9 @@
 """Figures of an experiment (matplotlib, PNG under ``<results>/figures/``).
 
-Every experiment: the per-trial RMSE of each filter run (box plot). SLAM experiments also: the
-course with the true and estimated paths and the mapped landmarks for one trial, and the position
-error over time of that trial (ifa2021 Fig. 6). One trial's traces are recomputed by running that
+Every experiment: the per-trial RMSE of each filter run (box plot). SLAM experiments also, for one
+trial: the course with the true and estimated paths and the mapped landmarks, the position, heading
+and landmark errors over time (ifa2021 Fig. 6, afsa2014 Fig. 3), and the effective sample size over
+time (afsa2014 Fig. 5). One trial's traces are recomputed by running that
 trial again: it is a pure function of the experiment and the trial index.
 """
 from __future__ import annotations
@@ -55,8 +56,8 @@ def _kind(exp: Experiment) -> str:
 
 
 def slam_trial_figures(exp: Experiment, folder: Path, trial: int = 0) -> list[Path]:
-    """The course with true and estimated paths and maps, and the position error over time, for
-    one trial of a SLAM experiment."""
+    """The course with true and estimated paths and maps, the errors over time and the effective
+    sample size over time, for one trial of a SLAM experiment."""
     model, truth, data = trial_data(exp, trial)
     runs = [(r, run_filter(exp, trial, r, model, data)[0]) for r in exp.filters]
     colors = plt.cm.tab10(np.linspace(0, 1, 10))
@@ -82,19 +83,43 @@ def slam_trial_figures(exp: Experiment, folder: Path, trial: int = 0) -> list[Pa
 
     dt = float(model.vehicle[1])
     t = np.arange(truth.pose.shape[0]) * dt
+    every = int(model.sensor[2])
+    t_obs = (np.arange(1, data.obs_n.shape[0] + 1) * every) * dt
+    fig, axes = plt.subplots(3, 1, figsize=(8.0, 8.4), sharex=True)
+    for i, (r, out) in enumerate(runs):
+        c = colors[i % 10]
+        err = np.hypot(*(out["pose"][:, :2] - truth.pose[:, :2]).T)
+        dth = np.abs((out["pose"][:, 2] - truth.pose[:, 2] + np.pi) % (2 * np.pi) - np.pi)
+        axes[0].plot(t, err, lw=0.9, color=c, label=_run_name(r))
+        axes[1].plot(t, dth, lw=0.9, color=c)
+        axes[2].plot(t_obs, out["lm_trace"], lw=0.9, color=c)
+    axes[0].set_ylabel("position error (m)")
+    axes[1].set_ylabel("heading error (rad)")
+    axes[2].set_ylabel("landmark error (m)")
+    axes[2].set_xlabel("time (s)")
+    axes[0].set_title(f"{exp.name}, trial {trial}: errors over time (landmarks: the "
+                      "highest-weight particle's map)", fontsize=9)
+    axes[0].legend(fontsize=7)
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    errors = folder / "errors.png"
+    _save(fig, errors)
+
     fig, ax = plt.subplots(figsize=(8.0, 3.8))
     for i, (r, out) in enumerate(runs):
-        err = np.hypot(*(out["pose"][:, :2] - truth.pose[:, :2]).T)
-        ax.plot(t, err, lw=0.9, color=colors[i % 10], label=_run_name(r))
+        if r.particles is not None and out["ess"].size:
+            ax.plot(t_obs, out["ess"], lw=0.8, color=colors[i % 10],
+                    label=f"{_run_name(r)}: mean {np.mean(out['ess']):.2f}")
     ax.set_xlabel("time (s)")
-    ax.set_ylabel("position error (m)")
-    ax.set_title(f"{exp.name}, trial {trial}: position error over time")
+    ax.set_ylabel("Neff = 1 / sum W^2")
+    ax.set_title(f"{exp.name}, trial {trial}: effective sample size before resampling")
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    error = folder / "position_error.png"
-    _save(fig, error)
-    return [course, error]
+    ess = folder / "ess.png"
+    _save(fig, ess)
+    return [course, errors, ess]
 
 
 def write_figures(exp: Experiment, rows: list[dict] | pd.DataFrame, out_dir: Path) -> list[Path]:

@@ -4,10 +4,11 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from .config import Experiment
-from .metrics import Z975, paired, summarize
+from .metrics import Z975, paired, summarize, t975
 from .papers import PAPERS, Quantity, Table, reported
 from .runner import atomic_write
 
@@ -180,9 +181,77 @@ def summary(exp: Experiment, rows: list[dict] | pd.DataFrame) -> pd.DataFrame:
                 r[f"verdict_{q.key}"] = verdict(
                     paper, ours, lo, hi, rel_tol=exp.compare["rel_tol"] if floored_q else 0.0,
                     floor=floor if floored_q and run.key != exp.compare["floor"] else None,
-                    not_comparable=q.not_comparable or table.not_comparable)
+                    not_comparable=(table.cell_notes.get((run.label, run.particles, q.key))
+                                    or q.not_comparable or table.not_comparable))
         out.append(r)
-    return pd.DataFrame(out)
+    tab = pd.DataFrame(out)
+    if table is not None:
+        # what needs the trials themselves, kept with the summary for the printed tables
+        tab.attrs["factors"] = factors(exp, table, by_key)
+        tab.attrs["per_trial"] = per_trial(exp, table, by_key)
+    return tab
+
+
+def _run_by_label(exp: Experiment, label: str):
+    return next((f for f in exp.filters if f.label == label), None)
+
+
+def factors(exp: Experiment, table: Table, by_key: dict) -> list[dict]:
+    """The paper's factor between two of its rows for a quantity (e.g. AFSA's error over PSO's)
+    beside ours: the ratio of the means over paired trials, with a 95% interval by the delta
+    method on the paired per-trial values."""
+    rows = []
+    for key, a_label, b_label in table.factors:
+        q = next(q for q in table.quantities if q.key == key)
+        a_run, b_run = _run_by_label(exp, a_label), _run_by_label(exp, b_label)
+        if a_run is None or b_run is None:
+            continue
+        pa = table.values.get((a_label, a_run.particles), {}).get(key)
+        pb = table.values.get((b_label, b_run.particles), {}).get(key)
+        a = by_key[a_run.key].set_index("trial")[q.metric]
+        b = by_key[b_run.key].set_index("trial")[q.metric].reindex(a.index)
+        ok = a.notna() & b.notna()
+        a, b = a[ok].to_numpy(float), b[ok].to_numpy(float)
+        n = a.size
+        if n < 2 or a.mean() == 0:
+            continue
+        ma, mb = a.mean(), b.mean()
+        ratio = mb / ma
+        cov = np.cov(np.vstack([a, b])) / n          # of the two means
+        var = (cov[1, 1] - 2 * ratio * cov[0, 1] + ratio * ratio * cov[0, 0]) / (ma * ma)
+        half = t975(n - 1) * math.sqrt(max(var, 0.0))
+        paper = pb / pa if pa and pb is not None else math.nan
+        rows.append({"quantity": q.title, "from": a_label, "to": b_label, "paper_from": pa,
+                     "paper_to": pb, "paper": paper, "ours": ratio, "lo": ratio - half,
+                     "hi": ratio + half,
+                     "verdict": verdict(paper, ratio, ratio - half, ratio + half)})
+    return rows
+
+
+def per_trial(exp: Experiment, table: Table, by_key: dict) -> tuple[str, list[str],
+                                                                     list[list[str]]] | None:
+    """The paper's per-run table (runs as columns) beside our first trials and our mean over all."""
+    spec = table.per_trial
+    if spec is None:
+        return None
+    R = spec.runs
+    head = ["row"] + [str(i + 1) for i in range(R)] + ["mean [95% CI]"]
+    cells = []
+    for name, label, vals in spec.rows:
+        run = _run_by_label(exp, label)
+        cells.append([f"paper: {name}"] + [_fmt(v, 3) for v in vals]
+                     + [""] * (R - len(vals)) + [_fmt(float(np.mean(vals)), 3)])
+        if run is None:
+            continue
+        g = by_key[run.key].sort_values("trial")
+        for metric in (spec.metric, *spec.also):
+            v = g[metric].to_numpy(float)
+            s = summarize(v)
+            what = f"ours: {label}" + ("" if metric == spec.metric else f", {metric}")
+            cells.append([what] + [_fmt(x, 3) for x in v[:R]] + ["-"] * (R - min(R, v.size))
+                         + [f"{_fmt(s['mean'], 3)} [{_fmt(s['ci_lo'], 3)}, "
+                            f"{_fmt(s['ci_hi'], 3)}]"])
+    return spec.title, head, cells
 
 
 def _fmt(v, digits=4) -> str:
@@ -233,8 +302,7 @@ def display_columns(exp: Experiment, tab: pd.DataFrame) -> tuple[list[str], list
 
 
 def _ours_head(q: Quantity) -> str:
-    what = q.title if q.metric in ("time_ratio", "gain_mean", "gain_var") else \
-        f"{q.metric.upper()} {q.stat}"
+    what = f"{q.metric.upper()} {q.stat}" if q.metric in ("rmse", "mse") else q.title
     return f"{what} [95% CI]"
 
 
@@ -256,7 +324,19 @@ def console_tables(exp: Experiment, tab: pd.DataFrame) -> list[tuple[str, list[s
         comp_head += [_ours_head(q), f"Paper {q.title}", "Verdict"]
     diag_head = (["Filter", "N", "RMSE var"] + _paired_head(exp)
                  + ["Mean ESS", "Distinct", "Evals/step", "ms/trial"])
+    long = len(quantities) > 2      # one row per filter run and quantity, or the table gets too wide
+    if long:
+        comp_head = ["Quantity", "Filter", "N", "Trials", "Ours [95% CI]", "Paper", "Verdict"]
     comp, diag = [], []
+    if long:
+        for q in quantities:
+            for _, r in tab.iterrows():
+                n = r["particles"]
+                v = r[f"verdict_{q.key}"] or "-"
+                comp.append([q.title, r["label"], "-" if n is None or n != n else str(int(n)),
+                             str(int(r["trials"])), _ours_cell(r, q),
+                             _fmt(r[f"paper_{q.key}"], 6),
+                             "not comparable (table.md)" if v.startswith("not comparable") else v])
     for _, r in tab.iterrows():
         n = r["particles"]
         who = [r["label"], "-" if n is None or n != n else str(int(n))]
@@ -265,17 +345,27 @@ def console_tables(exp: Experiment, tab: pd.DataFrame) -> list[tuple[str, list[s
             row.append(f"{_fmt(r['rmse_mean'])} [{_fmt(r['rmse_ci_lo'])}, {_fmt(r['rmse_ci_hi'])}]")
         for q in quantities:
             row += [_ours_cell(r, q), _fmt(r[f"paper_{q.key}"], 6), r[f"verdict_{q.key}"] or "-"]
-        comp.append(row)
+        if not long:
+            comp.append(row)
         diag.append(who + [_fmt(r["rmse_var"])]
                     + (_paired_cells(exp, r) if exp.compare["baseline"] else [])
                     + [_fmt(r["mean_ess"]), _fmt(r["distinct_frac"], 3),
                            _fmt(r["lik_evals_per_step"]), _fmt(r["wall_ms_per_trial"], 3)])
-    return [("", comp_head, comp), ("diagnostics", diag_head, diag)]
+    out = [("", comp_head, comp), ("diagnostics", diag_head, diag)]
+    if tab.attrs.get("per_trial"):
+        title, head, cells = tab.attrs["per_trial"]
+        out.append((title, head, cells))
+    return out
 
 
 def footnotes(exp: Experiment, tab: pd.DataFrame) -> list[str]:
     """Lines that explain the table: the floor row, underflow events."""
     notes = rankings(exp, tab)
+    for f in tab.attrs.get("factors", []):
+        notes.append(f"{f['quantity']}, {f['to']} / {f['from']}: paper {_fmt(f['paper'], 3)} "
+                     f"({_fmt(f['paper_from'], 4)} -> {_fmt(f['paper_to'], 4)}); ours "
+                     f"{_fmt(f['ours'], 3)} [{_fmt(f['lo'], 3)}, {_fmt(f['hi'], 3)}] (paired "
+                     f"trials): {f['verdict'] or '-'}.")
     if exp.compare["paper_runs"]:
         notes.append(f"The paper's values come from {exp.compare['paper_runs']} runs: a verdict's "
                      "interval adds the sampling error of a batch that size to ours (half-width "
@@ -319,6 +409,11 @@ def markdown(exp: Experiment, tab: pd.DataFrame, meta: dict | None = None) -> st
     lines.append("|" + "|".join(" --- " for _ in head) + "|")
     for row in cells:
         lines.append("| " + " | ".join(c.replace("|", "/") for c in row) + " |")
+    if tab.attrs.get("per_trial"):
+        title, head, cells = tab.attrs["per_trial"]
+        lines += ["", f"{title}:", "", "| " + " | ".join(head) + " |",
+                  "|" + "|".join(" --- " for _ in head) + "|"]
+        lines += ["| " + " | ".join(row) + " |" for row in cells]
     notes = footnotes(exp, tab) + list(table.notes if table is not None else ())
     if notes:
         lines += ["", "Notes:", ""] + [f"- {n}" for n in notes]

@@ -87,5 +87,5 @@ def test_slam_run_draws_the_course_and_the_error_over_time(tmp_path):
     out = tmp_path / "fs"
     res = runner.invoke(app, ["run", str(cfg), "--out", str(out)])
     assert res.exit_code == 0, res.output
-    for name in ("rmse.png", "course.png", "position_error.png"):
+    for name in ("rmse.png", "course.png", "errors.png", "ess.png"):
         assert (out / "figures" / name).read_bytes()[:4] == b"\x89PNG"

@@ -4,6 +4,7 @@ from typer.testing import CliRunner
 
 from pfbench.cli import app
 from pfbench.config import load
+from pfbench.schema import ConfigError
 
 from .conftest import SMALL
 
@@ -124,3 +125,18 @@ def test_shipped_configs_validate():
         for exp in exps:
             assert exp.paper is not None and exp.trials >= minimum.get(p.stem, 20)
             assert all(f.label for f in exp.filters)
+
+
+def test_yaml_merge_keys_share_settings_and_explicit_keys_override(write_config):
+    cfg = write_config("trials: 2\nscenario: {name: ungm, steps: 10}\nfilters:\n"
+                       "  pf: &base\n    particles: 30\n    resampling: stratified\n"
+                       "  pf_sys:\n    <<: *base\n    type: pf\n    resampling: systematic\n")
+    exp = load(cfg)
+    a, b = exp.filters
+    assert (a.particles, a.params["resampling"]) == (30, "stratified")
+    assert (b.particles, b.params["resampling"]) == (30, "systematic")
+    dup = write_config("trials: 2\nscenario: {name: ungm, steps: 10}\nfilters:\n"
+                       "  pf: &base\n    particles: 30\n"
+                       "  pf2:\n    <<: *base\n    type: pf\n    type: pf\n", name="dup.yaml")
+    with pytest.raises(ConfigError, match="duplicate key"):
+        load(dup)

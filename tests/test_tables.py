@@ -110,3 +110,90 @@ def test_time_ratio_is_per_trial_against_the_baseline():
     base = pd.DataFrame({"trial": [2, 0, 1], "wall_s": [2.0, 1.0, 1.0]})
     assert list(_metric_values("time_ratio", g, base)) == [2.0, 3.0, 2.0]
     assert list(_metric_values("time_ratio", g, None).isna()) == [True] * 3
+
+
+AFSA_CFG = """\
+paper: afsa2014
+table: table1
+trials: 12
+scenario: {name: landmark_world, steps: 50, world: WORLD}
+filters:
+  pso: {type: fastslam, label: PSO-FastSLAM, particles: 10, refine: pso}
+  afsa_std: {type: fastslam, label: AFSA-FastSLAM (standard resampling), particles: 10}
+  afsa: {type: fastslam, label: AFSA-FastSLAM, particles: 10}
+"""
+
+
+def _afsa_cfg(write_config, trials=12):
+    from .conftest import ROOT
+    world = ROOT / "configs" / "worlds" / "afsa_world.yaml"
+    return write_config(AFSA_CFG.replace("WORLD", str(world)).replace("trials: 12",
+                                                                      f"trials: {trials}"))
+
+
+def _afsa_rows(exp, values):
+    """Trials rows for the filter runs of exp: values[key] -> {metric: per-trial array}."""
+    import pandas as pd
+
+    from pfbench.metrics import METRICS
+    rows = []
+    for f in exp.filters:
+        for k in range(exp.trials):
+            r = {"trial": k, "filter": f.key, "label": f.label, "particles": f.particles,
+                 "wall_s": 1.0}
+            r.update({m: float(values[f.name].get(m, np.full(exp.trials, 0.5))[k])
+                      for m in METRICS})
+            rows.append(r)
+    return pd.DataFrame(rows)
+
+
+def test_paper_factors_and_the_per_trial_table(write_config):
+    from pfbench.config import load
+    from pfbench.tables import markdown, summary
+    exp = load(_afsa_cfg(write_config))
+    rng = np.random.default_rng(5)
+    pso = rng.uniform(0.3, 0.5, exp.trials)
+    div = rng.uniform(0.01, 0.02, exp.trials)
+    tab = summary(exp, _afsa_rows(exp, {
+        "pso": {"position_error": pso},
+        "afsa": {"position_error": 0.1 * pso, "diversity_l1": 3 * div},
+        "afsa_std": {"diversity_l1": div, "mean_ess": np.full(exp.trials, 1.5)}}))
+    f = {x["quantity"]: x for x in tab.attrs["factors"]}
+    pos = f["position error (m)"]
+    assert pos["ours"] == pytest.approx(0.1) and pos["hi"] - pos["lo"] == pytest.approx(0, abs=1e-9)
+    assert pos["paper"] == pytest.approx(0.034 / 0.41)
+    assert pos["verdict"].startswith("differs")
+    assert f["diversity"]["ours"] == pytest.approx(3.0)
+    # the impossible Neff is shown, never judged
+    std = tab[tab["label"] == "AFSA-FastSLAM (standard resampling)"].iloc[0]
+    assert std["paper_neff_mean"] == 0.336 and std["verdict_neff_mean"].startswith("not comparable")
+    title, head, cells = tab.attrs["per_trial"]
+    assert head[1:11] == [str(i) for i in range(1, 11)]
+    ours = next(c for c in cells if c[0] == "ours: AFSA-FastSLAM")
+    assert ours[1:11] == [f"{v:.3g}" for v in 3 * div[:10]]
+    assert ours[11].startswith(f"{np.mean(3 * div):.3g} [")
+    paper = next(c for c in cells if c[0] == "paper: directional")
+    assert paper[-1] == "0.978"
+    md = markdown(exp, tab)
+    assert "paper: traditional | 0.42 | 0.29" in md and "AFSA-FastSLAM / PSO-FastSLAM" in md
+
+
+def test_factor_interval_covers_the_true_ratio_about_95_percent(write_config):
+    # paired trials with correlated noise; the delta-method interval on the ratio of the means
+    from pfbench.config import load
+    from pfbench.papers import PAPERS
+    from pfbench.tables import factors
+    exp = load(_afsa_cfg(write_config, 60))
+    table = PAPERS["afsa2014"].tables["table1"]
+    rng = np.random.default_rng(6)
+    hits, reps = 0, 1000
+    for _ in range(reps):
+        common = rng.normal(0.0, 0.05, exp.trials)
+        a = 0.4 + common + rng.normal(0.0, 0.05, exp.trials)
+        b = 0.2 + 0.5 * common + rng.normal(0.0, 0.03, exp.trials)
+        df = _afsa_rows(exp, {"pso": {"position_error": a}, "afsa": {"position_error": b},
+                              "afsa_std": {}})
+        by_key = {f.key: df[df["filter"] == f.key] for f in exp.filters}
+        pos = next(x for x in factors(exp, table, by_key) if x["quantity"].startswith("position"))
+        hits += pos["lo"] <= 0.5 <= pos["hi"]
+    assert abs(hits / reps - 0.95) < 0.025
