@@ -280,6 +280,54 @@ def fastslam_bench(quick: bool, min_time: float, reps: int, say) -> list[dict]:
     return recs
 
 
+def afsa_bench(quick: bool, min_time: float, reps: int, say, console=None) -> list[dict]:
+    """Control steps per second and likelihood evaluations per step of every filter of
+    configs/afsa_fastslam.yaml (FastSLAM, PSO- and AFSA-FastSLAM, either resampling) at 10 and 100
+    particles on one trial of its landmark world, one thread, relative to plain FastSLAM."""
+    from rich.table import Table
+
+    from .config import load
+    from .filters import FILTERS
+    from .runner import trial_data
+    cfg = Path("configs/afsa_fastslam.yaml")
+    if not cfg.exists():
+        say("AFSA-FastSLAM: skipped (configs/afsa_fastslam.yaml not found; run from the "
+            "repository root)")
+        return []
+    steps = 100 if quick else 500
+    exp = load(cfg, sets=[f"scenario.steps={steps}"])
+    model, truth, data = trial_data(exp, 0)
+    state = state_from_seed(np.random.SeedSequence(24))
+    recs = []
+    for N in (10, 100):
+        for run in exp.filters:
+            ft = FILTERS[run.type]
+            sec, _ = _best(lambda: ft.run(model, data, run.params, N, state, False), min_time,
+                           reps)
+            out = ft.run(model, data, run.params, N, state, False)
+            recs.append({"workload": "afsa-world", "impl": "pfbench", "filter": run.label,
+                         "particles": N, "trials": 1, "steps": steps, "seconds": sec,
+                         "steps_per_s": steps / sec, "particle_steps_per_s": N * steps / sec,
+                         "evals_per_step": out["lik_evals_per_step"]})
+    tab = Table(title=f"FastSLAM variants of configs/afsa_fastslam.yaml, one trial of {steps} "
+                      "steps (an observation each), one thread")
+    for h in ("filter", "N", "steps/s", "x FastSLAM", "evals/step"):
+        tab.add_column(h, justify="right")
+    for r in recs:
+        base = next(b for b in recs if b["particles"] == r["particles"]
+                    and b["filter"] == exp.filters[0].label)
+        r["relative_to_fastslam"] = r["steps_per_s"] / base["steps_per_s"]
+        tab.add_row(r["filter"], str(r["particles"]), f"{r['steps_per_s']:,.0f}",
+                    f"{r['relative_to_fastslam']:.2f}x", f"{r['evals_per_step']:.0f}")
+    if console:
+        console.print(tab)
+    else:
+        for r in recs:
+            say(f"{r['filter']} N={r['particles']}: {r['steps_per_s']:,.0f} steps/s "
+                f"({r['relative_to_fastslam']:.2f}x FastSLAM), {r['evals_per_step']:.0f} evals/step")
+    return recs
+
+
 def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None):
     """Time every implementation, print a table of throughputs and ratios, optionally write JSON."""
     from rich.table import Table
@@ -353,6 +401,7 @@ def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None):
     costs = filter_costs(Y, min_time, reps)
     records += costs
     records += fastslam_bench(quick, min_time, reps, say)
+    records += afsa_bench(quick, min_time, reps, say, console)
     base = next(c["seconds_per_step"] for c in costs if c["filter"] == "pf")
     tab = Table(title=f"cost per step of each filter at N = {BATCH_N} (one thread, default settings)")
     for h in ("filter", "N", "cost grows as", "us / step", "x bootstrap PF"):

@@ -107,13 +107,17 @@ def slam_trial_figures(exp: Experiment, folder: Path, trial: int = 0) -> list[Pa
     _save(fig, errors)
 
     fig, ax = plt.subplots(figsize=(8.0, 3.8))
+    K = data.obs_n.shape[0]
+    win = max(1, K // 50)           # a moving mean, or thousands of jumps hide each other
     for i, (r, out) in enumerate(runs):
         if r.particles is not None and out["ess"].size:
-            ax.plot(t_obs, out["ess"], lw=0.8, color=colors[i % 10],
+            smooth = np.convolve(out["ess"], np.ones(win) / win, mode="valid")
+            ax.plot(t_obs[win - 1:], smooth, lw=1.0, color=colors[i % 10],
                     label=f"{_run_name(r)}: mean {np.mean(out['ess']):.2f}")
     ax.set_xlabel("time (s)")
     ax.set_ylabel("Neff = 1 / sum W^2")
-    ax.set_title(f"{exp.name}, trial {trial}: effective sample size before resampling")
+    ax.set_title(f"{exp.name}, trial {trial}: effective sample size before resampling"
+                 + (f" (moving mean of {win} observations)" if win > 1 else ""), fontsize=9)
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
     fig.tight_layout()

@@ -55,7 +55,14 @@ def test_bench_quick_writes_records(tmp_path, monkeypatch):
     keys = {"workload", "impl", "particles", "trials", "steps", "particle_steps_per_s"}
     assert all(keys <= set(r) for r in recs)
     assert {r["impl"] for r in recs} == {"pfbench", "numpy"}
-    assert {r["workload"] for r in recs} == {"ungm", "ungm-filters", "fastslam-course"}
+    assert {r["workload"] for r in recs} == {"ungm", "ungm-filters", "fastslam-course",
+                                             "afsa-world"}
+    afsa = [r for r in recs if r["workload"] == "afsa-world"]
+    assert {r["particles"] for r in afsa} == {10, 100}
+    by = {(r["filter"], r["particles"]): r for r in afsa}
+    assert by[("FastSLAM", 10)]["relative_to_fastslam"] == 1.0
+    assert by[("AFSA-FastSLAM", 10)]["evals_per_step"] == 6 * 10     # N + 4N + N
+    assert by[("PSO-FastSLAM", 100)]["evals_per_step"] == 3 * 100
     fs = {r["impl"]: r["steps_per_s"] for r in recs if r["workload"] == "fastslam-course"}
     assert set(fs) == {"pfbench", "numpy"} and min(fs.values()) > 0
     assert all(r["particle_steps_per_s"] > 0 for r in recs)
