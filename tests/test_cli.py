@@ -96,3 +96,17 @@ def test_slam_run_draws_the_course_and_the_error_over_time(tmp_path):
     assert res.exit_code == 0, res.output
     for name in ("rmse.png", "course.png", "errors.png", "ess.png"):
         assert (out / "figures" / name).read_bytes()[:4] == b"\x89PNG"
+
+
+def test_the_shipped_afsa_config_runs_small_and_prints_its_tables(tmp_path):
+    out = tmp_path / "afsa"
+    res = runner.invoke(app, ["run", str(ROOT / "configs/afsa_fastslam.yaml"), "--trials", "2",
+                              "--set", "scenario.steps=150", "--out", str(out), "--no-figures"])
+    assert res.exit_code == 0, res.output
+    assert "AFSA-FastSLAM / PSO-FastSLAM: paper 0.0829" in res.output
+    assert "paper: directional" in res.output
+    md = (out / "table.md").read_text()
+    assert "| paper: traditional | 0.42 |" in md and "not comparable: 0.336 as printed" in md
+    trials = pd.read_csv(out / "trials.csv")
+    fs = trials[trials["filter"].str.startswith("afsa@")]
+    assert (fs["lik_evals_per_step"] == 60).all() and fs["distinct_frac"].notna().all()

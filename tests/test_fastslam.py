@@ -334,7 +334,7 @@ def test_pose_diversity_is_the_mean_pairwise_l1_distance_and_the_distinct_fracti
     from pfbench.filters.fastslam import pose_diversity
     rng = np.random.default_rng(4)
     P = rng.normal(size=(7, 3))
-    P[:, 2] = rng.uniform(-math.pi, math.pi, 7)
+    P[:, 2] = (rng.normal(0.0, 0.5, 7) + 2 * math.pi) % (2 * math.pi) - math.pi   # across +-pi
     P[5] = P[1]
     P[6] = P[1]                                  # three copies of one particle
     d = [abs(P[i, 0] - P[j, 0]) + abs(P[i, 1] - P[j, 1]) + abs(wrap(P[i, 2] - P[j, 2]))
@@ -343,6 +343,14 @@ def test_pose_diversity_is_the_mean_pairwise_l1_distance_and_the_distinct_fracti
     assert l1 == pytest.approx(np.mean(d), rel=1e-12)
     assert distinct == pytest.approx(5 / 7)
     assert pose_diversity(np.repeat(P[:1], 4, axis=0)) == (0.0, 0.25)
+    big = rng.normal(size=(300, 3))
+    big[:, 2] *= 0.4                             # a cloud spanning less than pi
+    big[::3] = big[1::3]                         # many copies, several sharing x with others
+    ref = np.mean([abs(big[i, 0] - big[j, 0]) + abs(big[i, 1] - big[j, 1])
+                   + abs(wrap(big[i, 2] - big[j, 2])) for i in range(300) for j in range(i)])
+    l1, distinct = pose_diversity(big)
+    assert l1 == pytest.approx(ref, rel=1e-9)
+    assert distinct == pytest.approx(len({tuple(r) for r in big}) / 300)
 
 
 def test_slam_diversity_is_measured_after_resampling_only():

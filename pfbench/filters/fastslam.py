@@ -294,26 +294,54 @@ def _fitness_scaled(Xn, mean, scale, mu, sig, seen, ids, zs, n, Rr, Rb, out, ass
                              Rr, Rb, assoc, nl[i], gate, pc)
 
 
+@njit(types.float64(_F), cache=True)
+def _pairwise_abs_sum(v):
+    """sum_{i<j} |v_i - v_j| in O(n log n): over the sorted values, v_(k) (2k - n + 1)."""
+    u = np.sort(v)
+    n = u.size
+    acc = 0.0
+    for k in range(n):
+        acc += u[k] * (2 * k - n + 1)
+    return acc
+
+
 @njit(types.UniTuple(types.float64, 2)(_F2,), cache=True)
 def pose_diversity(P):
-    """(mean pairwise L1 distance |dx| + |dy| + |wrapped dtheta| of the poses P (N, 3), fraction
-    of distinct poses): afsa2014's 'mean Hamming distance', read as L1 on poses."""
+    """(mean pairwise L1 distance |dx| + |dy| + |dtheta| of the poses P (N, 3), fraction of
+    distinct poses): afsa2014's 'mean Hamming distance', read as L1 on poses. Headings are taken
+    relative to the cloud's circular mean (exact while the cloud spans less than pi); O(N log N)."""
     N = P.shape[0]
     if N < 2:
         return 0.0, 1.0
-    acc = 0.0
-    distinct = 0
+    cs = 0.0
+    sn = 0.0
     for i in range(N):
-        unique = True
-        for j in range(N):
-            if j == i:
-                continue
-            d = abs(P[i, 0] - P[j, 0]) + abs(P[i, 1] - P[j, 1]) + abs(wrap(P[i, 2] - P[j, 2]))
-            if j > i:
-                acc += d
-            elif d == 0.0:
-                unique = False
-        distinct += unique
+        cs += math.cos(P[i, 2])
+        sn += math.sin(P[i, 2])
+    th0 = math.atan2(sn, cs)
+    h = np.empty(N)
+    for i in range(N):
+        h[i] = wrap(P[i, 2] - th0)
+    acc = (_pairwise_abs_sum(np.ascontiguousarray(P[:, 0]))
+           + _pairwise_abs_sum(np.ascontiguousarray(P[:, 1])) + _pairwise_abs_sum(h))
+    # distinct poses: sorted by x, then pairwise within runs of equal x
+    order = np.argsort(P[:, 0], kind="mergesort")
+    distinct = 0
+    a = 0
+    while a < N:
+        b = a + 1
+        while b < N and P[order[b], 0] == P[order[a], 0]:
+            b += 1
+        for u in range(a, b):
+            i = order[u]
+            dup = False
+            for w in range(a, u):
+                j = order[w]
+                if P[i, 1] == P[j, 1] and P[i, 2] == P[j, 2]:
+                    dup = True
+                    break
+            distinct += not dup
+        a = b
     return acc / (N * (N - 1) / 2), distinct / N
 
 
@@ -347,14 +375,15 @@ FASTSLAM_SIG = types.int64(
     _F2, _I, _I2, _F3, _F, types.int64, _F, _F, _F, types.int64, types.int64, types.int64,
     types.int64, types.int64, types.float64, types.int64, _F, types.int64, types.float64,
     types.float64, types.int64, _F, types.int64, types.float64, types.float64, types.int64,
-    types.int64, STATE, _F2, _F, _I, _F2, _I, _F, _F, _F2, _F2, _F)
+    types.int64, STATE, _F2, _F, _I, _F2, _I, _F, _F, _F2, _F2, _F, types.int64)
 
 
 @njit(FASTSLAM_SIG, cache=True)
 def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, N, predict_noise,
                     joseph, scheme, threshold, refine, sp, iters, ewa_beta, ewa_mu, ewa_printed,
                     dnoise, assoc, gate_reject, gate_augment, gate_pose, motion, s, est, ess,
-                    resampled, lm_est, lm_seen, evals, assoc_stats, lm_true, div, lm_trace):
+                    resampled, lm_est, lm_seen, evals, assoc_stats, lm_true, div, lm_trace,
+                    diag):
     """Run FastSLAM over one trial; fill est (T+1, 3) the weighted pose estimate at every control
     step, ess / resampled / evals (K,) per observation, lm_est (M, 2) and lm_seen (M,) the final
     weighted map. Returns the number of observation steps whose weights all underflowed.
@@ -380,7 +409,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
         the slots of the final map started from a true landmark that already had one (duplicates).
     div (K, 2): after each observation that resampled, the particles' mean pairwise L1 pose
         distance (|dx| + |dy| + |wrapped dtheta|) and the fraction of distinct poses (NaN where it
-        did not resample).
+        did not resample). div and lm_trace are filled only with diag = 1 (NaN otherwise).
     gate_pose : 1 = the gates' distance includes each particle's pose uncertainty since its last
         observation update (see ``mahalanobis2``): the motion noise it drew since then, plus the
         noise of a directional or mutated copy; 0 = the plain FastSLAM 1.0 distance.
@@ -657,7 +686,8 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
             ess[k] = Ssum * Ssum / S2
             for i in range(N):
                 Wn[i] = w[i] / Ssum
-            lm_trace[k] = map_error(Wn, mu, seen, nl, src, assoc, lm_true, first)
+            lm_trace[k] = (map_error(Wn, mu, seen, nl, src, assoc, lm_true, first) if diag
+                           else np.nan)
             resampled[k] = 0
             if scheme == DIRECTIONAL:
                 # this observation's weighted estimate and best particle (the next board)
@@ -736,7 +766,10 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                 lw[:] = 0.0
                 Wn[:] = 1.0 / N
                 resampled[k] = 1
-                div[k, 0], div[k, 1] = pose_diversity(P)
+                if diag:
+                    div[k, 0], div[k, 1] = pose_diversity(P)
+                else:
+                    div[k, 0], div[k, 1] = np.nan, np.nan
             else:
                 div[k, 0], div[k, 1] = np.nan, np.nan
             if scheme == DIRECTIONAL:     # the board for the next observation
@@ -849,9 +882,9 @@ def run(model, data, params, particles, state, diag=True):
         int(params["update"] == "joseph"), scheme, threshold, REFINE[refine], np.array(sp, dtype=np.float64), params["iterations"],
         params["ewa_beta"], params["ewa_mu"], int(params["ewa_correction"] == "as_printed"),
         dnoise, int(nearest), params["gate_reject"], params["gate_augment"],
-        int(params["gate_pose"]), motion, state,
+        int(params["gate_pose"] and nearest), motion, state,
         out["pose"], out["ess"], out["resampled"], out["lm_est"], out["lm_seen"], evals, stats,
-        np.ascontiguousarray(model.landmarks, dtype=np.float64), div, out["lm_trace"])
+        np.ascontiguousarray(model.landmarks, dtype=np.float64), div, out["lm_trace"], int(diag))
     out["div_l1"], out["distinct"] = div[:, 0], div[:, 1]
     out["lik_evals_per_step"] = float(evals.mean()) if K else 0.0
     if nearest:
