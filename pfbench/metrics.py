@@ -13,6 +13,15 @@ METRICS = {
     "position_error": "SLAM: mean distance between the estimated and the true position over "
                       "t = 1..T (m)",
     "heading_error": "SLAM: mean absolute heading error over t = 1..T (wrapped, rad)",
+    "x_error": "localization: mean |x error| over t = 1..T (m)",
+    "y_error": "localization: mean |y error| over t = 1..T (m)",
+    "final_error": "localization: position error at the last step (m)",
+    "converge_step": "localization: first step after which the position error stays below the "
+                     "bound (NaN: never)",
+    "recovery_steps": "localization with kidnapping: mean over the kidnappings the filter recovers "
+                      "from of the steps until its error stays below the bound again",
+    "recovery_failures": "localization with kidnapping: kidnappings it never recovers from",
+    "mean_particles": "mean particle count over the steps (KLD-sampling adapts it)",
     "landmark_error": "SLAM: mean distance between each landmark the filter has mapped and the "
                       "true one, at the end of the trial (m)",
     "association_errors": "SLAM with nearest-neighbour association: fraction of associations "
@@ -32,6 +41,9 @@ METRICS = {
 }
 
 
+NAN_ROW = {m: math.nan for m in METRICS}
+
+
 def _nanmean(a) -> float:
     a = np.asarray(a, dtype=float)
     a = a[~np.isnan(a)]
@@ -42,11 +54,7 @@ def trial_metrics(x: np.ndarray, out: dict) -> dict:
     """Metrics of one filter run: truth ``x`` (T+1,), filter output ``out`` (traces (T+1,))."""
     err = out["xhat"][1:] - x[1:]
     mse = float(np.mean(err * err))
-    row = {"rmse": math.sqrt(mse), "mse": mse, "heading_rmse": math.nan,
-           "position_error": math.nan, "heading_error": math.nan,
-           "landmark_error": math.nan, "association_errors": math.nan, "dropped_frac": math.nan,
-           "map_duplicates": math.nan, "mean_ess": math.nan, "resample_count": math.nan,
-           "diversity_l1": math.nan, "distinct_frac": math.nan,
+    row = {**NAN_ROW, "rmse": math.sqrt(mse), "mse": mse,
            "underflow_steps": float(out.get("underflow_steps", 0)),
            "lik_evals_per_step": float(out["lik_evals_per_step"])}
     if "ess" in out:
@@ -67,7 +75,7 @@ def slam_metrics(pose: np.ndarray, landmarks: np.ndarray, out: dict) -> dict:
     seen = out["lm_seen"].astype(bool)
     lm_err = (float(np.mean(np.hypot(*(out["lm_est"][seen] - landmarks[seen]).T)))
               if seen.any() else math.nan)
-    return {"rmse": math.sqrt(mse), "mse": mse,
+    return {**NAN_ROW, "rmse": math.sqrt(mse), "mse": mse,
             "heading_rmse": float(np.sqrt(np.mean(dth * dth))),
             "position_error": float(np.mean(np.hypot(d[:, 0], d[:, 1]))),
             "heading_error": float(np.mean(np.abs(dth))), "landmark_error": lm_err,
@@ -138,3 +146,49 @@ def paired(values, baseline) -> dict:
     wins = float(np.mean((d < 0) + 0.5 * (d == 0))) if d.size else math.nan
     return {"diff_mean": s["mean"], "diff_ci_lo": s["ci_lo"], "diff_ci_hi": s["ci_hi"],
             "win_rate": wins}
+
+
+def settle_step(err: np.ndarray, bound: float) -> int:
+    """Index of the first entry after which ``err`` stays below ``bound`` to its end (len(err)
+    when its last entry is not below)."""
+    above = np.flatnonzero(~(err < bound))
+    return int(above[-1]) + 1 if above.size else 0
+
+
+def localization_metrics(pose: np.ndarray, out: dict, bound: float,
+                         kidnaps: np.ndarray) -> dict:
+    """Metrics of one localization run: true poses (T+1, 3), the filter's 'pose' (T+1, 3), 'ess'
+    (T,), 'resampled' (T,), optionally 'n' (T,) particle counts; ``bound`` the convergence bound
+    (m); ``kidnaps`` the steps t at which the robot was moved (the pose at t is the new one).
+    Convergence: the first step after which the error stays below the bound until the first
+    kidnapping (or the end); recovery: likewise from each kidnapping to the next."""
+    est = out["pose"]
+    d = est[1:, :2] - pose[1:, :2]
+    err = np.hypot(d[:, 0], d[:, 1])                 # err[t - 1] is the error at step t
+    dth = (est[1:, 2] - pose[1:, 2] + math.pi) % (2 * math.pi) - math.pi
+    T = err.size
+    cuts = [int(k) for k in sorted(kidnaps) if 1 <= k <= T] + [T + 1]
+    first = err[: cuts[0] - 1]
+    s = settle_step(first, bound)
+    converge = float(s + 1) if s < first.size else math.nan
+    recover, failures = [], 0
+    for k, nxt in zip(cuts[:-1], cuts[1:]):
+        seg = err[k - 1: nxt - 1]
+        s = settle_step(seg, bound)
+        if s < seg.size:
+            recover.append(float(s))
+        else:
+            failures += 1
+    mse = float(np.mean(err * err))
+    return {**NAN_ROW, "rmse": math.sqrt(mse), "mse": mse,
+            "heading_rmse": float(np.sqrt(np.mean(dth * dth))),
+            "position_error": float(err.mean()), "heading_error": float(np.mean(np.abs(dth))),
+            "x_error": float(np.mean(np.abs(d[:, 0]))), "y_error": float(np.mean(np.abs(d[:, 1]))),
+            "final_error": float(err[-1]), "converge_step": converge,
+            "recovery_steps": float(np.mean(recover)) if recover else math.nan,
+            "recovery_failures": float(failures) if len(cuts) > 1 else math.nan,
+            "mean_particles": float(np.mean(out["n"])) if "n" in out else math.nan,
+            "mean_ess": float(np.mean(out["ess"])) if out["ess"].size else math.nan,
+            "resample_count": float(np.sum(out["resampled"])),
+            "underflow_steps": float(out.get("underflow_steps", 0)),
+            "lik_evals_per_step": float(out["lik_evals_per_step"])}
