@@ -31,7 +31,7 @@ from . import __version__
 from .config import FORMAT_VERSION, Experiment
 from .errors import UserError
 from .filters import FILTERS, LOAD_SECONDS
-from .metrics import METRICS, slam_metrics, trial_metrics
+from .metrics import METRICS, localization_metrics, slam_metrics, trial_metrics
 from .rng import state_from_seed
 from .scenarios import SCENARIOS
 
@@ -68,8 +68,11 @@ def trial_data(exp: Experiment, trial: int):
 
 def metrics_of(exp: Experiment, model, truth, out) -> dict:
     """A filter run's metrics for the experiment's kind of scenario."""
-    if getattr(SCENARIOS[exp.scenario], "KIND", "scalar") == "slam":
+    kind = getattr(SCENARIOS[exp.scenario], "KIND", "scalar")
+    if kind == "slam":
         return slam_metrics(truth.pose, model.landmarks, out)
+    if kind == "localization":
+        return localization_metrics(truth.pose, out, model.bound, model.kidnaps)
     return trial_metrics(truth, out)
 
 

@@ -93,12 +93,14 @@ class Key:
     choices: tuple = ()
     nullable: bool = False
     check: Callable[[Any], str | None] | None = None
+    empty_ok: bool = False      # ints / floats: an empty list is allowed
 
     def expected(self) -> str:
         if self.kind == "choice":
             return "one of " + ", ".join(f"'{c}'" for c in self.choices)
         noun = {"int": "an integer", "float": "a number", "str": "a string", "bool": "true or false",
-                "ints": "an integer or a list of integers"}[self.kind]
+                "ints": "an integer or a list of integers",
+                "floats": "a number or a list of numbers"}[self.kind]
         bounds = []
         if self.min is not None:
             bounds.append(f"{'>' if self.min_exclusive else '>='} {self.min:g}")
@@ -113,7 +115,8 @@ class Key:
 
     def _wrong(self, path: str, value: Any) -> ConfigError:
         msg = f"expected {self.expected()}, got {describe(value)}"
-        if isinstance(value, str) and self.kind in ("int", "float", "ints") and _looks_numeric(value):
+        if (isinstance(value, str) and self.kind in ("int", "float", "ints", "floats")
+                and _looks_numeric(value)):
             msg += f" ({_YAML11_HINT})"
         return ConfigError(path, msg)
 
@@ -150,19 +153,15 @@ class Key:
             if not isinstance(value, str) or value not in self.choices:
                 raise ConfigError(path, f"expected {self.expected()}, got {describe(value)}"
                                   + did_you_mean(value, self.choices))
-        elif k == "ints":
+        elif k in ("ints", "floats"):
             items = value if isinstance(value, list) else [value]
-            if not items:
+            if not items and not self.empty_ok:
                 raise ConfigError(path, f"expected {self.expected()}, got an empty list")
             out = []
             for i, item in enumerate(items):
                 sub = f"{path}[{i}]" if isinstance(value, list) else path
-                if isinstance(item, bool) or not isinstance(item, int):
-                    raise self._wrong(sub, item)
-                if not self._range_ok(item):
-                    raise ConfigError(sub, f"expected {self.expected()}, got {item!r}")
-                out.append(item)
-            if len(set(out)) != len(out):
+                out.append(self._scalar(sub, item, "int" if k == "ints" else "float"))
+            if k == "ints" and len(set(out)) != len(out):
                 raise ConfigError(path, f"expected distinct values, got {out}")
             value = tuple(out)
         else:  # pragma: no cover - a schema bug, not a user error

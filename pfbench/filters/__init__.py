@@ -10,7 +10,7 @@ from typing import Callable
 
 from ..resampling import SCHEMES
 from ..schema import Key
-from . import ekf, fastslam, kalman, pf, swarm_pf, ukf, upf
+from . import ekf, fastslam, kalman, mcl, pf, swarm_pf, ukf, upf
 
 # Seconds spent importing the kernels: numba compiles them here (first run) or loads them from the
 # disk cache. Reported in meta.json as kernel_load_s, apart from the trials' wall time.
@@ -33,7 +33,7 @@ class FilterType:
     particles: bool = True
     scenarios: tuple | None = None
     cost: str = "N"       # how the cost of a step grows with the particle count
-    kind: str = "scalar"  # the scenario kind it runs on ('scalar' or 'slam')
+    kind: str = "scalar"  # the scenario kind it runs on: scalar, slam or localization
 
 
 def _floor_key():
@@ -186,6 +186,34 @@ def _fastslam_schema():
     }
 
 
+def _mcl_schema():
+    pf_keys = _pf_schema()
+    return {
+        "resampling": pf_keys["resampling"],
+        "resample": pf_keys["resample"],
+        "neff_ratio": pf_keys["neff_ratio"],
+        "reset": Key("choice", "none", "particle injection: 'none' (MCL), 'srl' (sensor "
+                     "resetting), 'asrl' (adaptive sensor resetting, asrl2008), 'augmented' "
+                     "(augmented MCL with alpha_slow / alpha_fast)",
+                     choices=("none", "srl", "asrl", "augmented")),
+        "srl_fraction": Key("float", 0.1, "srl: fraction of the particles replaced by sensor "
+                            "draws when the mean likelihood is below srl_threshold", min=0.0,
+                            max=1.0),
+        "srl_threshold": Key("float", 0.01, "srl: mean-likelihood threshold (a density in the "
+                             "measurement's units)", min=0.0),
+        "asrl_mu": Key("float", 1.0, "asrl: gain mu of n_s = N max(0, 1 - p_mean / (mu "
+                       "p_t^c))", min=0.0, min_exclusive=True),
+        "asrl_pt": Key("float", 0.5, "asrl: per-component likelihood threshold p_t", min=0.0,
+                       min_exclusive=True),
+        "alpha_slow": Key("float", 0.05, "augmented: rate of the long-term likelihood average",
+                          min=0.0, max=1.0),
+        "alpha_fast": Key("float", 0.5, "augmented: rate of the short-term average (> "
+                          "alpha_slow)", min=0.0, max=1.0),
+        "inject": Key("choice", "uniform", "augmented: injected poses uniform over the field or "
+                      "drawn from the sensor model", choices=("uniform", "sensor")),
+    }
+
+
 def _ukf_schema():
     return {
         **_sigma_schema(),
@@ -269,6 +297,9 @@ FILTERS = {
                                      "improves it")}), swarm_pf.make_run("afsa"), cost="N^2"),
         FilterType("fastslam", "FastSLAM 1.0 with per-landmark EKFs, optional swarm pose "
                    "refinement (FA, IFA, BA, PSO)", _fastslam_schema(), fastslam.run, kind="slam"),
+        FilterType("mcl", "Monte Carlo localization, optionally with sensor resetting (SRL, "
+                   "ASRL) or augmented-MCL injection", _mcl_schema(), mcl.run,
+                   kind="localization"),
         FilterType("ekf", "extended Kalman filter", _gaussian_noise_schema("the EKF"), ekf.run,
                    particles=False, cost="1"),
         FilterType("kf", "exact Kalman filter (linear_gaussian scenario only)", {}, kalman.run,

@@ -1,0 +1,233 @@
+"""Monte Carlo localization on the beacon field, with the particle-injection schemes that let it
+recover from a wrong belief (review2007, asrl2008):
+
+- ``reset: none``: plain MCL (sample from the motion model, weigh, resample);
+- ``srl``: sensor resetting (Lenser and Veloso): when the mean likelihood of the particles falls
+  below ``srl_threshold``, ``srl_fraction`` of the resampled set is replaced by poses drawn from the
+  sensor model;
+- ``asrl``: adaptive sensor resetting (asrl2008): n_s = N max(0, 1 - p_mean / (mu p_t^c)) are
+  replaced, c the number of measurement components at the step (2 per range-bearing observation,
+  1 per range), p_mean the mean likelihood;
+- ``augmented``: augmented MCL (Thrun, Burgard and Fox): short- and long-term averages of p_mean,
+  w_fast and w_slow, and each particle replaced with probability max(0, 1 - w_fast / w_slow), by a
+  pose drawn uniformly over the field or from the sensor model (``inject``).
+
+Particles start uniform over the field and heading (the pose is unknown). Each step every particle
+moves by the odometry with its own draw of the scenario's motion noise; the likelihood is the
+product over the step's observations of Gaussians in range (and wrapped bearing). The estimate is
+the weighted mean (circular for the heading) before resampling. A pose drawn from the sensor model
+is consistent with one observation of the step: on its range circle around the beacon (range
+sensor: heading uniform), or, with a bearing, also heading so that the beacon is seen at that
+bearing.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, types
+
+from ..angles import wrap
+from ..resampling import SCHEME_CODES, resample
+from ..rng import STATE, normal, uniform
+from ..scenarios.beacon_field import noisy_odometry
+
+_F = types.float64[::1]
+_F2 = types.float64[:, ::1]
+_F3 = types.float64[:, :, ::1]
+_I = types.int64[::1]
+_I2 = types.int64[:, ::1]
+
+RESET = {"none": 0, "srl": 1, "asrl": 2, "augmented": 3}
+LOG_2PI = math.log(2.0 * math.pi)
+
+
+@njit(types.float64(types.float64, types.float64, types.float64, _F2, types.int64, _I, _F2,
+                    types.int64, types.float64, types.float64), cache=True)
+def pose_loglik(x, y, th, bc, n, ids, zs, sensor, sr, sb):
+    """log p(z | pose) of the n observations (ids, zs) of a step."""
+    acc = 0.0
+    for j in range(n):
+        b = ids[j]
+        dx, dy = bc[b, 0] - x, bc[b, 1] - y
+        v = (zs[j, 0] - math.hypot(dx, dy)) / sr
+        acc += -0.5 * v * v - math.log(sr) - 0.5 * LOG_2PI
+        if sensor == 1:
+            u = wrap(zs[j, 1] - (math.atan2(dy, dx) - th)) / sb
+            acc += -0.5 * u * u - math.log(sb) - 0.5 * LOG_2PI
+    return acc
+
+
+@njit(types.void(_F, types.int64, _F2, types.int64, _I, _F2, types.float64, types.float64, _F,
+                 STATE), cache=True)
+def sensor_pose(area, sensor, bc, n, ids, zs, sr, sb, out, s):
+    """A pose drawn from the sensor model of the step's observations into out (3,): consistent
+    with one observation chosen at random (uniform over the field when there is none)."""
+    if n == 0:
+        out[0] = area[0] * uniform(s)
+        out[1] = area[1] * uniform(s)
+        out[2] = math.pi * (2.0 * uniform(s) - 1.0)
+        return
+    j = min(int(uniform(s) * n), n - 1)
+    b = ids[j]
+    r = max(zs[j, 0] + sr * normal(s), 0.0)
+    a = math.pi * (2.0 * uniform(s) - 1.0)        # direction from the robot to the beacon
+    out[0] = bc[b, 0] - r * math.cos(a)
+    out[1] = bc[b, 1] - r * math.sin(a)
+    if sensor == 1:
+        out[2] = wrap(a - (zs[j, 1] + sb * normal(s)))
+    else:
+        out[2] = math.pi * (2.0 * uniform(s) - 1.0)
+
+
+@njit(types.void(_F2, _F, _F), cache=True)
+def _estimate(P, W, out):
+    ex = 0.0
+    ey = 0.0
+    ec = 0.0
+    es = 0.0
+    for i in range(P.shape[0]):
+        ex += W[i] * P[i, 0]
+        ey += W[i] * P[i, 1]
+        ec += W[i] * math.cos(P[i, 2])
+        es += W[i] * math.sin(P[i, 2])
+    out[0], out[1], out[2] = ex, ey, math.atan2(es, ec)
+
+
+MCL_SIG = types.int64(
+    _F2, _I, _I2, _F3, _F2, _F, types.int64, _F, types.int64, types.float64, types.float64,
+    types.int64, types.float64, types.int64, types.int64, _F, types.int64, STATE, _F2, _F, _I, _I,
+    _F)
+
+
+@njit(MCL_SIG, cache=True)
+def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr, sb, N, threshold,
+               scheme, reset, rp, inject_sensor, s, est, ess, resampled, injected, pmean):
+    """Run MCL over one trial; est (T+1, 3) the weighted pose estimate (est[0]: of the initial
+    uniform cloud), ess / resampled / injected / pmean (T,) per step. rp: [srl_fraction,
+    srl_threshold, mu, p_t, alpha_slow, alpha_fast]. Returns the steps whose weights all
+    underflowed."""
+    T = ctrl.shape[0]
+    P = np.empty((N, 3))
+    P2 = np.empty((N, 3))
+    for i in range(N):
+        P[i, 0] = area[0] * uniform(s)
+        P[i, 1] = area[1] * uniform(s)
+        P[i, 2] = math.pi * (2.0 * uniform(s) - 1.0)
+    lw = np.zeros(N)
+    W = np.full(N, 1.0 / N)
+    idx = np.empty(N, dtype=np.int64)
+    perm = np.empty(N, dtype=np.int64)
+    ll = np.empty(N)
+    pose = np.empty(3)
+    w_slow = 0.0
+    w_fast = 0.0
+    events = 0
+    _estimate(P, W, est[0])
+    for t in range(T):
+        for i in range(N):
+            a1, a2, a3 = noisy_odometry(ctrl[t, 0], ctrl[t, 1], ctrl[t, 2], motion, mnoise, s)
+            th = P[i, 2] + a1
+            P[i, 0] += a2 * math.cos(th)
+            P[i, 1] += a2 * math.sin(th)
+            P[i, 2] = wrap(th + a3)
+        n = obs_n[t]
+        ids = obs_id[t]
+        zs = obs_z[t]
+        mx = -np.inf
+        lmax = -np.inf
+        for i in range(N):
+            ll[i] = pose_loglik(P[i, 0], P[i, 1], P[i, 2], bc, n, ids, zs, sensor, sr, sb)
+            lw[i] += ll[i]
+            mx = max(mx, lw[i])
+            lmax = max(lmax, ll[i])
+        # the mean likelihood of the predicted particles, p_mean (log-sum-exp)
+        acc = 0.0
+        for i in range(N):
+            acc += math.exp(ll[i] - lmax)
+        pm = math.exp(lmax) * acc / N if np.isfinite(lmax) else 0.0
+        pmean[t] = pm
+        if not np.isfinite(mx):
+            events += 1
+            lw[:] = 0.0
+            mx = 0.0
+        S = 0.0
+        S2 = 0.0
+        for i in range(N):
+            W[i] = math.exp(lw[i] - mx)
+            S += W[i]
+        for i in range(N):
+            W[i] /= S
+            S2 += W[i] * W[i]
+        ess[t] = 1.0 / S2
+        _estimate(P, W, est[t + 1])
+        resampled[t] = 0
+        if ess[t] < threshold:
+            resample(scheme, W, 1.0, s, idx)
+            for i in range(N):
+                P2[i] = P[idx[i]]
+            P, P2 = P2, P
+            lw[:] = 0.0
+            W[:] = 1.0 / N
+            resampled[t] = 1
+        # injection
+        k = 0
+        if reset == 1 and n > 0 and pm < rp[1]:
+            k = int(round(rp[0] * N))
+        elif reset == 2 and n > 0:
+            c = n * (2 if sensor == 1 else 1)
+            k = int(round(N * max(0.0, 1.0 - pm / (rp[2] * rp[3] ** c))))
+        elif reset == 3:
+            if t == 0:
+                w_slow = pm
+                w_fast = pm
+            else:
+                w_slow += rp[4] * (pm - w_slow)
+                w_fast += rp[5] * (pm - w_fast)
+            prob = max(0.0, 1.0 - w_fast / w_slow) if w_slow > 0.0 else 0.0
+            for i in range(N):
+                if uniform(s) < prob:
+                    if inject_sensor:
+                        sensor_pose(area, sensor, bc, n, ids, zs, sr, sb, pose, s)
+                    else:
+                        sensor_pose(area, sensor, bc, 0, ids, zs, sr, sb, pose, s)
+                    P[i] = pose
+                    k += 1
+            injected[t] = k
+            k = 0
+        if reset == 1 or reset == 2:
+            k = min(k, N)
+            injected[t] = k
+            # replace k particles chosen at random (a partial Fisher-Yates shuffle: resampling
+            # leaves the set ordered by its sources)
+            for i in range(N):
+                perm[i] = i
+            for r in range(k):
+                j = r + min(int(uniform(s) * (N - r)), N - r - 1)
+                perm[r], perm[j] = perm[j], perm[r]
+                sensor_pose(area, sensor, bc, n, ids, zs, sr, sb, pose, s)
+                P[perm[r]] = pose
+        if injected[t] > 0 and resampled[t] == 0:
+            lw[:] = 0.0        # injected particles join a set of equal weights
+            W[:] = 1.0 / N
+    return events
+
+
+def run(model, data, params, particles, state, diag=True):
+    """Run MCL (with the configured injection) on a beacon-field trial; return the traces."""
+    T = data.ctrl.shape[0]
+    threshold = np.inf if params["resample"] == "always" else params["neff_ratio"] * particles
+    rp = np.array([params["srl_fraction"], params["srl_threshold"], params["asrl_mu"],
+                   params["asrl_pt"], params["alpha_slow"], params["alpha_fast"]])
+    out = {"pose": np.empty((T + 1, 3)), "ess": np.empty(T),
+           "resampled": np.zeros(T, dtype=np.int64), "injected": np.zeros(T, dtype=np.int64),
+           "pmean": np.empty(T)}
+    out["underflow_steps"] = mcl_kernel(
+        data.ctrl, data.obs_n, data.obs_id, data.obs_z, model.beacons, model.area, model.motion,
+        model.mnoise, model.sensor, float(model.sense[2]), float(model.sense[3]), particles,
+        threshold, SCHEME_CODES[params["resampling"]], RESET[params["reset"]], rp,
+        int(params["inject"] == "sensor"), state, out["pose"], out["ess"], out["resampled"],
+        out["injected"], out["pmean"])
+    out["n"] = np.full(T, particles)
+    out["lik_evals_per_step"] = float(particles)
+    return out
