@@ -294,6 +294,17 @@ def _fitness_scaled(Xn, mean, scale, mu, sig, seen, ids, zs, n, Rr, Rb, out, ass
                              Rr, Rb, assoc, nl[i], gate, pc)
 
 
+@njit(types.float64(_F2), cache=True)
+def circular_mean(P):
+    """Circular mean of the headings P[:, 2]."""
+    cs = 0.0
+    sn = 0.0
+    for i in range(P.shape[0]):
+        cs += math.cos(P[i, 2])
+        sn += math.sin(P[i, 2])
+    return math.atan2(sn, cs)
+
+
 @njit(types.float64(_F), cache=True)
 def _pairwise_abs_sum(v):
     """sum_{i<j} |v_i - v_j| in O(n log n): over the sorted values, v_(k) (2k - n + 1)."""
@@ -313,12 +324,7 @@ def pose_diversity(P):
     N = P.shape[0]
     if N < 2:
         return 0.0, 1.0
-    cs = 0.0
-    sn = 0.0
-    for i in range(N):
-        cs += math.cos(P[i, 2])
-        sn += math.sin(P[i, 2])
-    th0 = math.atan2(sn, cs)
+    th0 = circular_mean(P)
     h = np.empty(N)
     for i in range(N):
         h[i] = wrap(P[i, 2] - th0)
@@ -530,12 +536,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
             nev = 0
             if refine > 0 and iters > 0:
                 # headings as continuous values around the cloud's circular mean
-                cs = 0.0
-                sn = 0.0
-                for i in range(N):
-                    cs += math.cos(P[i, 2])
-                    sn += math.sin(P[i, 2])
-                th0 = math.atan2(sn, cs)
+                th0 = circular_mean(P)
                 for i in range(N):
                     P[i, 2] = th0 + wrap(P[i, 2] - th0)
                 X = P.reshape(3 * N)
