@@ -167,14 +167,14 @@ def propagate_pose_cov(c, fx, fy, g1x, g1y, g1t, q1, g2x, g2y, g2t, q2, qxy):
     c[5] = tt + q1 * g1t * g1t + q2 * g2t * g2t
 
 
-@njit(types.int64(types.float64, types.float64, types.float64, types.int64, _F3, _F3,
-                  types.int64, types.float64, types.float64, types.float64, types.float64,
-                  types.float64, _F), cache=True)
-def nearest_landmark(px, py, pth, i, mu, sig, nl, zr, zb, Rr, Rb, gate, pc):
-    """Index of particle i's landmark nearest (Mahalanobis, with the pose uncertainty pc, see
-    ``mahalanobis2``) to the observation among its nl landmarks, if within ``gate`` (squared
-    distance); -1 when none is, -2 - k when the nearest, k, lies beyond the gate (so the caller
-    can tell 'ambiguous' from 'new')."""
+@njit(types.Tuple((types.int64, types.float64))(types.float64, types.float64, types.float64,
+                                                types.int64, _F3, _F3, types.int64, types.float64,
+                                                types.float64, types.float64, types.float64, _F),
+      cache=True)
+def nearest_landmark(px, py, pth, i, mu, sig, nl, zr, zb, Rr, Rb, pc):
+    """(index, squared distance) of particle i's landmark nearest (Mahalanobis, with the pose
+    uncertainty pc, see ``mahalanobis2``) to the observation among its nl landmarks; (-1, inf)
+    when it has none at a finite distance."""
     best = -1
     bd = np.inf
     for m in range(nl):
@@ -182,9 +182,7 @@ def nearest_landmark(px, py, pth, i, mu, sig, nl, zr, zb, Rr, Rb, gate, pc):
         if d2 < bd:
             bd = d2
             best = m
-    if best < 0:
-        return -1
-    return best if bd <= gate else -2 - best
+    return best, bd
 
 
 @njit(types.void(types.float64, types.float64, types.float64, types.float64, types.float64,
@@ -216,11 +214,9 @@ def pose_loglik(px, py, pth, i, mu, sig, seen, ids, zs, n, Rr, Rb, assoc, nl, ga
     acc = 0.0
     for j in range(n):
         if assoc:
-            bd = gate
-            for m in range(nl):
-                bd = min(bd, mahalanobis2(px, py, pth, mu[i, m], sig[i, m], zs[j, 0], zs[j, 1],
-                                          Rr, Rb, pc[i]))
-            acc -= 0.5 * bd
+            _, d2 = nearest_landmark(px, py, pth, i, mu, sig, nl, zs[j, 0], zs[j, 1], Rr, Rb,
+                                     pc[i])
+            acc -= 0.5 * min(d2, gate)
             continue
         m = ids[j]
         if not seen[i, m]:
@@ -641,21 +637,18 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                 px, py, pth = P[i, 0], P[i, 1], P[i, 2]
                 for j in range(n):
                     if assoc:
-                        m = nearest_landmark(px, py, pth, i, mu, sig, nl[i], zs[j, 0], zs[j, 1],
-                                             Rr, Rb, gate_reject, pc[i])
-                        if m >= 0:
+                        m, d2 = nearest_landmark(px, py, pth, i, mu, sig, nl[i], zs[j, 0],
+                                                 zs[j, 1], Rr, Rb, pc[i])
+                        if d2 <= gate_reject:
                             n_assoc += 1.0
                             if src[i, m] != ids[j]:
                                 n_wrong += 1.0
                             lw[i] += ekf_landmark_update(px, py, pth, mu[i, m], sig[i, m],
                                                          zs[j, 0], zs[j, 1], Rr, Rb, joseph)
                             continue
-                        if m <= -2:   # a nearest landmark beyond the first gate
-                            far = mahalanobis2(px, py, pth, mu[i, -2 - m], sig[i, -2 - m],
-                                               zs[j, 0], zs[j, 1], Rr, Rb, pc[i])
-                            if far <= gate_augment:
-                                n_drop += 1.0
-                                continue
+                        if d2 <= gate_augment:   # between the gates: ambiguous, dropped
+                            n_drop += 1.0
+                            continue
                         if nl[i] >= M:          # the map is full: the observation is dropped
                             n_drop += 1.0
                             continue
