@@ -130,3 +130,18 @@ def test_asrl_replaces_more_particles_the_lower_the_likelihood():
     assert out["injected"][49] == 1000 and out["injected"][44] == 0
     err = np.hypot(*(out["pose"][1:, :2] - truth.pose[1:, :2]).T)
     assert err[49] > 5.0 and err[51:].max() < 0.5
+
+
+def test_beacon_world_errors_name_the_problem(tmp_path):
+    from pfbench.schema import ConfigError
+    world = tmp_path / "w.yaml"
+    world.write_text("area: [40, 40]\nstart: [5, 5, 0]\nwaypoints: [[10, 10], [20, 20]]\n"
+                     "beacons: [[5, 20], [45, 10]]\n")
+    p = {k: v.default for k, v in bf.SCHEMA.items()}
+    p["world"] = str(world)
+    with pytest.raises(ConfigError, match=r"beacons\[1\] = \[45.0, 10.0\] lies outside"):
+        bf.resolve(p, tmp_path)
+    p.update(world=str(ROOT / "configs/worlds/beacon_field.yaml"), kidnap_steps=(10,),
+             kidnap_poses=(1.0, 2.0))
+    with pytest.raises(ConfigError, match="kidnap_poses"):
+        bf.resolve(p, tmp_path)

@@ -30,13 +30,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 from numba import njit, types
 
 from ..angles import wrap
 from ..rng import STATE, normal, uniform
 from ..schema import ConfigError, Key
-from .waypoint_course import next_waypoint
+from .waypoint_course import load_world, next_waypoint
 
 NAME = "beacon_field"
 KIND = "localization"
@@ -126,41 +125,18 @@ class FieldData:
     obs_z: np.ndarray
 
 
-def _fail(path: str, message: str):
-    raise ConfigError(f"scenario.{path}", message)
-
-
 def resolve(params: dict, base_dir) -> dict:
-    """Load and check the world file; fill area, beacons, start and waypoints into the params."""
-    path = Path(base_dir) / params["world"]
-    try:
-        w = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except (OSError, yaml.YAMLError) as exc:
-        _fail("world", f"cannot read the world file {path}: {exc}")
-    if not isinstance(w, dict):
-        _fail("world", f"{path}: expected a mapping with area, beacons, start, waypoints")
+    """Load and check the world file (see waypoint_course.load_world; beacons in the place of
+    landmarks, the field [0, width] x [0, height]) into the params; check the kidnappings."""
     out = dict(params)
-    for key, shape in (("area", (2,)), ("start", (3,)), ("beacons", (None, 2)),
-                       ("waypoints", (None, 2))):
-        try:
-            a = np.asarray(w.get(key), dtype=np.float64)
-        except (TypeError, ValueError):
-            a = np.empty(0)
-        ok = a.ndim == len(shape) and all(s is None or s == n for s, n in zip(shape, a.shape))
-        if not ok or a.size == 0 or not np.isfinite(a).all():
-            _fail("world", f"{path}: '{key}' must be a list of {shape[-1]} numbers"
-                  + (" per row" if shape[0] is None else ""))
-        out[key] = a.tolist()
-    ax, ay = out["area"]
-    for key in ("beacons", "waypoints"):
-        pts = np.asarray(out[key])
-        if (pts < 0).any() or (pts[:, 0] > ax).any() or (pts[:, 1] > ay).any():
-            _fail("world", f"{path}: every one of '{key}' must lie inside the area [0, {ax}] x "
-                  f"[0, {ay}]")
+    out.update(load_world(Path(base_dir) / params["world"], points_key="beacons",
+                          origin="corner"))
     if len(params["kidnap_poses"]) not in (0, 3 * len(params["kidnap_steps"])):
-        _fail("kidnap_poses", "give x, y, heading for every kidnapping (3 numbers each), or none")
-    if params["steps"] and any(k > params["steps"] for k in params["kidnap_steps"]):
-        _fail("kidnap_steps", f"every step must be within the {params['steps']} steps")
+        raise ConfigError("scenario.kidnap_poses", "give x, y, heading for every kidnapping (3 "
+                          "numbers each), or none")
+    if any(k > params["steps"] for k in params["kidnap_steps"]):
+        raise ConfigError("scenario.kidnap_steps", f"every step must be within the "
+                          f"{params['steps']} steps")
     return out
 
 

@@ -83,8 +83,11 @@ class SlamModel:
     motion: int = 0
 
 
-def load_world(path: Path, where: str = "scenario.world") -> dict:
-    """Read and check a course file; return plain lists (they enter the experiment's hash)."""
+def load_world(path: Path, where: str = "scenario.world", points_key: str = "landmarks",
+               origin: str = "centre") -> dict:
+    """Read and check a course file (area, start, waypoints and the point features under
+    ``points_key``); return plain lists (they enter the experiment's hash). ``origin``: 'centre'
+    (the area is centred on the origin) or 'corner' (it is [0, width] x [0, height])."""
     try:
         raw = yaml.safe_load(path.read_text())
     except OSError as exc:
@@ -93,7 +96,7 @@ def load_world(path: Path, where: str = "scenario.world") -> dict:
         raise ConfigError(where, f"{path} is not valid YAML: {exc}") from None
     if not isinstance(raw, dict):
         raise ConfigError(where, f"{path}: expected a mapping with area, start, waypoints, "
-                          "landmarks")
+                          f"{points_key}")
 
     def points(key, n_min, width=2):
         pts = raw.get(key)
@@ -116,15 +119,21 @@ def load_world(path: Path, where: str = "scenario.world") -> dict:
     if start.shape != (3,) or not np.isfinite(start).all():
         raise ConfigError(where, f"{path}: 'start' must be [x, y, heading]")
     wp = points("waypoints", 2)
-    lm = points("landmarks", 1)
+    lm = points(points_key, 1)
     half = area / 2
-    for key, arr in (("waypoints", wp), ("landmarks", lm), ("start", start[None, :2])):
-        outside = np.any(np.abs(arr) > half, axis=1)
+    for key, arr in (("waypoints", wp), (points_key, lm), ("start", start[None, :2])):
+        if origin == "centre":
+            outside = np.any(np.abs(arr) > half, axis=1)
+            where_ = "centred on the origin"
+        else:
+            outside = np.any((arr < 0) | (arr > area), axis=1)
+            where_ = "[0, width] x [0, height]"
         if outside.any():
             i = int(np.argmax(outside))
             raise ConfigError(where, f"{path}: {key}[{i}] = {arr[i].tolist()} lies outside the "
-                              f"{area[0]:g} m x {area[1]:g} m area centred on the origin")
-    return {"waypoints": wp.tolist(), "landmarks": lm.tolist(), "start": start.tolist()}
+                              f"{area[0]:g} m x {area[1]:g} m area {where_}")
+    return {"area": area.tolist(), "waypoints": wp.tolist(), points_key: lm.tolist(),
+            "start": start.tolist()}
 
 
 def resolve(params: dict, base_dir: Path) -> dict:
@@ -134,7 +143,9 @@ def resolve(params: dict, base_dir: Path) -> dict:
     if not path.is_absolute():
         path = base_dir / path
     out = dict(params)
-    out.update(load_world(path))
+    world = load_world(path)
+    del world["area"]       # not used by the course's model (and kept out of its hash)
+    out.update(world)
     wp = np.asarray(out["waypoints"])
     lm = np.asarray(out["landmarks"])
     seen = np.sum(np.hypot(*(lm[None, :, :] - wp[:, None, :]).transpose(2, 0, 1))
