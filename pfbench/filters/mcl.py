@@ -172,12 +172,7 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
             resampled[t] = 1
         # injection
         k = 0
-        if reset == 1 and n > 0 and pm < rp[1]:
-            k = int(round(rp[0] * N))
-        elif reset == 2 and n > 0:
-            c = n * (2 if sensor == 1 else 1)
-            k = int(round(N * max(0.0, 1.0 - pm / (rp[2] * rp[3] ** c))))
-        elif reset == 3:
+        if reset == 3:
             if t == 0:
                 w_slow = pm
                 w_fast = pm
@@ -185,19 +180,18 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
                 w_slow += rp[4] * (pm - w_slow)
                 w_fast += rp[5] * (pm - w_fast)
             prob = max(0.0, 1.0 - w_fast / w_slow) if w_slow > 0.0 else 0.0
+            drawn_from = n if inject_sensor else 0      # no observation: uniform over the field
             for i in range(N):
                 if uniform(s) < prob:
-                    if inject_sensor:
-                        sensor_pose(area, sensor, bc, n, ids, zs, sr, sb, pose, s)
-                    else:
-                        sensor_pose(area, sensor, bc, 0, ids, zs, sr, sb, pose, s)
+                    sensor_pose(area, sensor, bc, drawn_from, ids, zs, sr, sb, pose, s)
                     P[i] = pose
                     k += 1
-            injected[t] = k
-            k = 0
-        if reset == 1 or reset == 2:
-            k = min(k, N)
-            injected[t] = k
+        elif n > 0 and (reset == 1 or reset == 2):
+            if reset == 1:
+                k = int(round(rp[0] * N)) if pm < rp[1] else 0
+            else:
+                c = n * (2 if sensor == 1 else 1)
+                k = min(int(round(N * max(0.0, 1.0 - pm / (rp[2] * rp[3] ** c)))), N)
             # replace k particles chosen at random (a partial Fisher-Yates shuffle: resampling
             # leaves the set ordered by its sources)
             for i in range(N):
@@ -207,6 +201,7 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
                 perm[r], perm[j] = perm[j], perm[r]
                 sensor_pose(area, sensor, bc, n, ids, zs, sr, sb, pose, s)
                 P[perm[r]] = pose
+        injected[t] = k
         if injected[t] > 0 and resampled[t] == 0:
             lw[:] = 0.0        # injected particles join a set of equal weights
             W[:] = 1.0 / N
