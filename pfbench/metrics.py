@@ -65,29 +65,39 @@ def trial_metrics(x: np.ndarray, out: dict) -> dict:
     return row
 
 
+def _pose_metrics(pose: np.ndarray, out: dict) -> tuple[dict, np.ndarray, np.ndarray]:
+    """The pose-error and filter-diagnostic metrics shared by SLAM and localization runs (true
+    poses (T+1, 3), the filter's 'pose' (T+1, 3), 'ess', 'resampled'), with the position error
+    vectors d (T, 2) and distances err (T,) over t = 1..T."""
+    est = out["pose"]
+    d = est[1:, :2] - pose[1:, :2]
+    err = np.hypot(d[:, 0], d[:, 1])
+    mse = float(np.mean(np.sum(d * d, axis=1)))
+    dth = (est[1:, 2] - pose[1:, 2] + math.pi) % (2 * math.pi) - math.pi
+    row = {**NAN_ROW, "rmse": math.sqrt(mse), "mse": mse,
+           "heading_rmse": float(np.sqrt(np.mean(dth * dth))),
+           "position_error": float(np.mean(err)), "heading_error": float(np.mean(np.abs(dth))),
+           "mean_ess": float(np.mean(out["ess"])) if out["ess"].size else math.nan,
+           "resample_count": float(np.sum(out["resampled"])),
+           "underflow_steps": float(out.get("underflow_steps", 0)),
+           "lik_evals_per_step": float(out["lik_evals_per_step"])}
+    return row, d, err
+
+
 def slam_metrics(pose: np.ndarray, landmarks: np.ndarray, out: dict) -> dict:
     """Metrics of one SLAM run: true poses (T+1, 3), true landmarks (M, 2), filter output with
     'pose' (T+1, 3), 'lm_est' (M, 2), 'lm_seen' (M,), 'ess' and 'resampled' per observation."""
-    est = out["pose"]
-    d = est[1:, :2] - pose[1:, :2]
-    mse = float(np.mean(np.sum(d * d, axis=1)))
-    dth = (est[1:, 2] - pose[1:, 2] + math.pi) % (2 * math.pi) - math.pi
+    row, _, _ = _pose_metrics(pose, out)
     seen = out["lm_seen"].astype(bool)
     lm_err = (float(np.mean(np.hypot(*(out["lm_est"][seen] - landmarks[seen]).T)))
               if seen.any() else math.nan)
-    return {**NAN_ROW, "rmse": math.sqrt(mse), "mse": mse,
-            "heading_rmse": float(np.sqrt(np.mean(dth * dth))),
-            "position_error": float(np.mean(np.hypot(d[:, 0], d[:, 1]))),
-            "heading_error": float(np.mean(np.abs(dth))), "landmark_error": lm_err,
-            "association_errors": float(out.get("association_errors", math.nan)),
-            "dropped_frac": float(out.get("dropped_frac", math.nan)),
-            "map_duplicates": float(out.get("map_duplicates", math.nan)),
-            "mean_ess": float(np.mean(out["ess"])) if out["ess"].size else math.nan,
-            "resample_count": float(np.sum(out["resampled"])),
-            "diversity_l1": _nanmean(out["div_l1"]) if "div_l1" in out else math.nan,
-            "distinct_frac": _nanmean(out["distinct"]) if "distinct" in out else math.nan,
-            "underflow_steps": float(out.get("underflow_steps", 0)),
-            "lik_evals_per_step": float(out["lik_evals_per_step"])}
+    row.update({"landmark_error": lm_err,
+                "association_errors": float(out.get("association_errors", math.nan)),
+                "dropped_frac": float(out.get("dropped_frac", math.nan)),
+                "map_duplicates": float(out.get("map_duplicates", math.nan)),
+                "diversity_l1": _nanmean(out["div_l1"]) if "div_l1" in out else math.nan,
+                "distinct_frac": _nanmean(out["distinct"]) if "distinct" in out else math.nan})
+    return row
 
 
 _T975 = (12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179,
@@ -162,10 +172,7 @@ def localization_metrics(pose: np.ndarray, out: dict, bound: float,
     (m); ``kidnaps`` the steps t at which the robot was moved (the pose at t is the new one).
     Convergence: the first step after which the error stays below the bound until the first
     kidnapping (or the end); recovery: likewise from each kidnapping to the next."""
-    est = out["pose"]
-    d = est[1:, :2] - pose[1:, :2]
-    err = np.hypot(d[:, 0], d[:, 1])                 # err[t - 1] is the error at step t
-    dth = (est[1:, 2] - pose[1:, 2] + math.pi) % (2 * math.pi) - math.pi
+    row, d, err = _pose_metrics(pose, out)              # err[t - 1]: the error at step t
     T = err.size
     cuts = [int(k) for k in sorted(kidnaps) if 1 <= k <= T] + [T + 1]
     first = err[: cuts[0] - 1]
@@ -179,16 +186,10 @@ def localization_metrics(pose: np.ndarray, out: dict, bound: float,
             recover.append(float(s))
         else:
             failures += 1
-    mse = float(np.mean(err * err))
-    return {**NAN_ROW, "rmse": math.sqrt(mse), "mse": mse,
-            "heading_rmse": float(np.sqrt(np.mean(dth * dth))),
-            "position_error": float(err.mean()), "heading_error": float(np.mean(np.abs(dth))),
-            "x_error": float(np.mean(np.abs(d[:, 0]))), "y_error": float(np.mean(np.abs(d[:, 1]))),
-            "final_error": float(err[-1]), "converge_step": converge,
-            "recovery_steps": float(np.mean(recover)) if recover else math.nan,
-            "recovery_failures": float(failures) if len(cuts) > 1 else math.nan,
-            "mean_particles": float(np.mean(out["n"])) if "n" in out else math.nan,
-            "mean_ess": float(np.mean(out["ess"])) if out["ess"].size else math.nan,
-            "resample_count": float(np.sum(out["resampled"])),
-            "underflow_steps": float(out.get("underflow_steps", 0)),
-            "lik_evals_per_step": float(out["lik_evals_per_step"])}
+    row.update({"x_error": float(np.mean(np.abs(d[:, 0]))),
+                "y_error": float(np.mean(np.abs(d[:, 1]))), "final_error": float(err[-1]),
+                "converge_step": converge,
+                "recovery_steps": float(np.mean(recover)) if recover else math.nan,
+                "recovery_failures": float(failures) if len(cuts) > 1 else math.nan,
+                "mean_particles": float(np.mean(out["n"])) if "n" in out else math.nan})
+    return row
