@@ -340,12 +340,14 @@ def console_tables(exp: Experiment, tab: pd.DataFrame) -> list[tuple[str, list[s
     for _, r in tab.iterrows():
         n = r["particles"]
         who = [r["label"], "-" if n is None or n != n else str(int(n))]
-        row = who + [str(int(r["trials"]))]
-        if not quantities:
-            row.append(f"{_fmt(r['rmse_mean'])} [{_fmt(r['rmse_ci_lo'])}, {_fmt(r['rmse_ci_hi'])}]")
-        for q in quantities:
-            row += [_ours_cell(r, q), _fmt(r[f"paper_{q.key}"], 6), r[f"verdict_{q.key}"] or "-"]
         if not long:
+            row = who + [str(int(r["trials"]))]
+            if not quantities:
+                row.append(f"{_fmt(r['rmse_mean'])} [{_fmt(r['rmse_ci_lo'])}, "
+                           f"{_fmt(r['rmse_ci_hi'])}]")
+            for q in quantities:
+                row += [_ours_cell(r, q), _fmt(r[f"paper_{q.key}"], 6),
+                        r[f"verdict_{q.key}"] or "-"]
             comp.append(row)
         diag.append(who + [_fmt(r["rmse_var"])]
                     + (_paired_cells(exp, r) if exp.compare["baseline"] else [])
