@@ -264,6 +264,9 @@ def _validate_filters(raw: Any, scenario: str) -> tuple[FilterRun, ...]:
             if L + params["kappa"] <= 0:
                 raise ConfigError(f"{path}.kappa", f"expected kappa > {-L} (L + kappa > 0 with "
                                   f"L = {L}), got {params['kappa']!r}")
+        broken = ftype.check(params) if ftype.check else None
+        if broken:
+            raise ConfigError(f"{path}.{broken[0]}", broken[1])
         label = common["label"] or name
         counts = common["particles"]
         if ftype.particles and counts is None:

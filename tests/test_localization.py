@@ -1,5 +1,6 @@
 """Localization on the beacon field: metrics, scenario, MCL and its resetting variants."""
 import math
+from statistics import NormalDist
 
 import numpy as np
 import pytest
@@ -145,3 +146,74 @@ def test_beacon_world_errors_name_the_problem(tmp_path):
              kidnap_poses=(1.0, 2.0))
     with pytest.raises(ConfigError, match="kidnap_poses"):
         bf.resolve(p, tmp_path)
+
+
+from pfbench.filters.mcl import kld_bin, kld_bins, kld_count, kld_sample  # noqa: E402
+
+
+def _kld_draw(P, kp, seed=0, nmax=100000, noise=0.0):
+    area = np.array([40.0, 40.0])
+    n = P.shape[0]
+    W = np.full(n, 1.0 / n)
+    occ = np.zeros(kld_bins(area, kp), dtype=np.uint8)
+    out = np.empty((nmax, 3))
+    m, inj = kld_sample(P, W, n, np.zeros(3), 0, np.array([noise, 0.0, 0.0, 0.0]), area, kp, nmax,
+                        occ, np.empty(nmax, dtype=np.int64), 0.0, 0, 0, np.zeros((1, 2)), 0,
+                        np.zeros(1, dtype=np.int64), np.zeros((1, 2)), 0.1, 0.1,
+                        state_from_seed(np.random.SeedSequence(seed)), out, np.empty(n))
+    assert inj == 0 and not occ.any()           # the histogram is left empty for the next step
+    return m, out[:m], area
+
+
+def test_kld_count_is_the_chi_square_quantile():
+    from scipy.stats import chi2
+    for eps, delta in ((0.05, 0.01), (0.15, 0.05)):
+        z = NormalDist().inv_cdf(1 - delta)
+        for k in (2, 5, 20, 100, 1000):
+            exact = chi2.ppf(1 - delta, k - 1) / (2 * eps)
+            # Wilson-Hilferty, rounded up: within 1% (+1) from 5 bins on, 20% for one degree of
+            # freedom
+            assert abs(kld_count(k, eps, z) - exact) <= 1 + (0.01 if k >= 5 else 0.2) * exact
+    assert kld_count(1, 0.05, 2.0) == 0
+
+
+def test_kld_draws_kld_min_from_one_bin_and_more_the_more_bins_are_occupied():
+    kp = np.array([0.05, NormalDist().inv_cdf(0.99), 0.5, math.radians(10.0), 40.0])
+    one = np.tile([10.2, 20.3, 0.1], (30, 1))
+    m, moved, area = _kld_draw(one, kp)
+    assert m == 40                                            # one bin: n_min
+    counts = []
+    for k in (2, 5, 20, 60):
+        # k particles in k different bins (0.5 m apart along x), equal weights, no motion noise
+        P = np.column_stack([0.25 + 0.5 * np.arange(k), np.full(k, 20.25), np.zeros(k)])
+        m, moved, area = _kld_draw(P, kp, seed=k)
+        bins = {kld_bin(*p, area, kp) for p in moved}
+        assert len(bins) == k
+        assert m == max(40, kld_count(k, kp[0], kp[1])), k
+        counts.append(m)
+    assert counts == sorted(counts) and counts[-1] > 40
+    # motion noise spreads one pose over more bins: more particles
+    m_noisy, moved, _ = _kld_draw(one, kp, noise=1.0)
+    assert m_noisy > 40 and m_noisy == max(40, kld_count(
+        len({kld_bin(*p, area, kp) for p in moved}), kp[0], kp[1]))
+
+
+def test_kld_mcl_shrinks_its_set_as_it_localizes():
+    model = _field(sensor="range_bearing", range_noise_m=0.05, bearing_noise_deg=1.0, steps=60)
+    truth, data = bf.simulate(model, state_from_seed(np.random.SeedSequence(30)))
+    out = _mcl(model, data, 5000, sampling="kld", kld_min=50)
+    err = np.hypot(*(out["pose"][1:, :2] - truth.pose[1:, :2]).T)
+    assert err[-10:].max() < 0.5
+    assert out["n"][0] == 5000 and out["n"][-10:].max() < 1000
+    assert out["resampled"].all() and out["n"].min() >= 50
+
+
+def test_kld_with_sensor_resetting_is_a_config_error(tmp_path):
+    from pfbench.config import load
+    from pfbench.schema import ConfigError
+    cfg = tmp_path / "k.yaml"
+    cfg.write_text(f"name: k\nscenario:\n  name: beacon_field\n  world: "
+                   f"{ROOT / 'configs/worlds/beacon_field.yaml'}\nfilters:\n  mcl:\n"
+                   "    particles: 100\n    sampling: kld\n    reset: srl\n")
+    with pytest.raises(ConfigError, match=r"k.yaml:9: filters.mcl.reset: KLD-sampling"):
+        load(cfg)

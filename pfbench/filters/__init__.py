@@ -34,6 +34,7 @@ class FilterType:
     scenarios: tuple | None = None
     cost: str = "N"       # how the cost of a step grows with the particle count
     kind: str = "scalar"  # the scenario kind it runs on: scalar, slam or localization
+    check: Callable | None = None   # params -> (key, message) of a broken cross-key rule, or None
 
 
 def _floor_key():
@@ -211,7 +212,30 @@ def _mcl_schema():
                           "alpha_slow)", min=0.0, max=1.0),
         "inject": Key("choice", "uniform", "augmented: injected poses uniform over the field or "
                       "drawn from the sensor model", choices=("uniform", "sensor")),
+        "sampling": Key("choice", "fixed", "'fixed': the particle count stays at 'particles'; "
+                        "'kld': KLD-sampling (Fox 2003), the count adapts each step, at most "
+                        "'particles' (with reset none or augmented)", choices=("fixed", "kld")),
+        "kld_epsilon": Key("float", 0.05, "kld: bound epsilon on the Kullback-Leibler error",
+                           min=0.0, min_exclusive=True),
+        "kld_delta": Key("float", 0.01, "kld: probability delta that the error exceeds it",
+                         min=0.0, max=0.5, min_exclusive=True),
+        "kld_bin_m": Key("float", 0.5, "kld: histogram bin size in x and y (Fox 2003: 0.5 m)",
+                         min=0.0, min_exclusive=True),
+        "kld_bin_deg": Key("float", 10.0, "kld: histogram bin size in heading (Fox 2003: 10 deg)",
+                           min=0.0, max=360.0, min_exclusive=True),
+        "kld_min": Key("int", 50, "kld: fewest particles a step draws", min=1),
     }
+
+
+def _mcl_check(params: dict) -> tuple[str, str] | None:
+    """Cross-key rules of mcl: (key, message) of the first one broken."""
+    if params["sampling"] == "kld" and params["reset"] in ("srl", "asrl"):
+        return "reset", ("KLD-sampling resamples while it draws; it combines with reset 'none' "
+                         "or 'augmented', not with sensor resetting")
+    if params["reset"] == "augmented" and params["alpha_fast"] <= params["alpha_slow"]:
+        return "alpha_fast", (f"expected alpha_fast > alpha_slow ({params['alpha_slow']!r}), "
+                              f"got {params['alpha_fast']!r}")
+    return None
 
 
 def _ukf_schema():
@@ -298,8 +322,8 @@ FILTERS = {
         FilterType("fastslam", "FastSLAM 1.0 with per-landmark EKFs, optional swarm pose "
                    "refinement (FA, IFA, BA, PSO)", _fastslam_schema(), fastslam.run, kind="slam"),
         FilterType("mcl", "Monte Carlo localization, optionally with sensor resetting (SRL, "
-                   "ASRL) or augmented-MCL injection", _mcl_schema(), mcl.run,
-                   kind="localization"),
+                   "ASRL) or augmented-MCL injection, or KLD-sampling", _mcl_schema(), mcl.run,
+                   kind="localization", check=_mcl_check),
         FilterType("ekf", "extended Kalman filter", _gaussian_noise_schema("the EKF"), ekf.run,
                    particles=False, cost="1"),
         FilterType("kf", "exact Kalman filter (linear_gaussian scenario only)", {}, kalman.run,

@@ -12,6 +12,14 @@ recover from a wrong belief (review2007, asrl2008):
   w_fast and w_slow, and each particle replaced with probability max(0, 1 - w_fast / w_slow), by a
   pose drawn uniformly over the field or from the sensor model (``inject``).
 
+``sampling: kld`` is KLD-sampling MCL (Fox 2003): each step draws particles one at a time from the
+weighted set and moves them, counting the histogram bins (``kld_bin_m`` x ``kld_bin_m`` x
+``kld_bin_deg``) they fall in, until the count reaches
+    n_chi(k) = (k - 1) / (2 eps) (1 - 2 / (9 (k - 1)) + sqrt(2 / (9 (k - 1))) z_(1-delta))^3
+(k occupied bins; the Wilson-Hilferty form of chi^2_(k-1, 1-delta) / (2 eps)) and at least
+``kld_min``, at most ``particles``. It resamples every step; with ``reset: augmented`` a drawn
+particle is, with the injection probability, a pose from the field or the sensor model instead.
+
 Particles start uniform over the field and heading (the pose is unknown). Each step every particle
 moves by the odometry with its own draw of the scenario's motion noise; the likelihood is the
 product over the step's observations of Gaussians in range (and wrapped bearing). The estimate is
@@ -23,6 +31,7 @@ bearing.
 from __future__ import annotations
 
 import math
+from statistics import NormalDist
 
 import numpy as np
 from numba import njit, types
@@ -80,13 +89,13 @@ def sensor_pose(area, sensor, bc, n, ids, zs, sr, sb, out, s):
         out[2] = math.pi * (2.0 * uniform(s) - 1.0)
 
 
-@njit(types.void(_F2, _F, _F), cache=True)
-def _estimate(P, W, out):
+@njit(types.void(_F2, _F, types.int64, _F), cache=True)
+def _estimate(P, W, n, out):
     ex = 0.0
     ey = 0.0
     ec = 0.0
     es = 0.0
-    for i in range(P.shape[0]):
+    for i in range(n):
         ex += W[i] * P[i, 0]
         ey += W[i] * P[i, 1]
         ec += W[i] * math.cos(P[i, 2])
@@ -94,19 +103,98 @@ def _estimate(P, W, out):
     out[0], out[1], out[2] = ex, ey, math.atan2(es, ec)
 
 
+@njit(types.int64(types.int64, types.float64, types.float64), cache=True)
+def kld_count(k, eps, z):
+    """Fox's sample count for k occupied bins: the (1 - delta) quantile of chi^2 with k - 1 degrees
+    of freedom over 2 eps (Wilson-Hilferty), rounded up; 0 for one bin."""
+    if k <= 1:
+        return 0
+    d = k - 1.0
+    a = 2.0 / (9.0 * d)
+    return int(math.ceil(d / (2.0 * eps) * (1.0 - a + math.sqrt(a) * z) ** 3))
+
+
+@njit(types.int64(types.float64, types.float64, types.float64, _F, _F), cache=True)
+def kld_bin(x, y, th, area, kp):
+    """Histogram bin of a pose: cells of kp[2] m x kp[2] m x kp[3] rad over the field (poses
+    outside it fall into the edge cells)."""
+    nx = int(math.ceil(area[0] / kp[2]))
+    ny = int(math.ceil(area[1] / kp[2]))
+    nt = int(math.ceil(2.0 * math.pi / kp[3]))
+    ix = min(max(int(math.floor(x / kp[2])), 0), nx - 1)
+    iy = min(max(int(math.floor(y / kp[2])), 0), ny - 1)
+    it = min(max(int(math.floor((th + math.pi) / kp[3])), 0), nt - 1)
+    return (ix * ny + iy) * nt + it
+
+
+def kld_bins(area, kp) -> int:
+    """Number of histogram bins of KLD-sampling over the field."""
+    return (math.ceil(area[0] / kp[2]) * math.ceil(area[1] / kp[2])
+            * math.ceil(2.0 * math.pi / kp[3]))
+
+
+@njit(types.UniTuple(types.int64, 2)(
+    _F2, _F, types.int64, _F, types.int64, _F, _F, _F, types.int64, types.uint8[::1], _I,
+    types.float64, types.int64, types.int64, _F2, types.int64, _I, _F2, types.float64,
+    types.float64, STATE, _F2, _F), cache=True)
+def kld_sample(P, W, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob, inject_sensor,
+               sensor, bc, nobs, ids, zs, sr, sb, s, out, cum):
+    """KLD-sampling: draw particles from the weighted set (P[:n], W[:n]) one at a time, move each
+    by the odometry u (3,) with its own noise, into out, until their count reaches the bound for
+    the bins they occupy (kp: [eps, z_(1-delta), bin m, bin rad, n_min]) or nmax. With
+    probability ``prob`` a draw is a new pose (uniform, or from the sensor model of the
+    observations (ids, zs)[:nobs] when inject_sensor) instead of a copy. occ (bins,) must be all
+    zero; it is left so. Returns (count, injected)."""
+    acc = 0.0
+    for i in range(n):
+        acc += W[i]
+        cum[i] = acc
+    nmin = int(kp[4])
+    target = nmin
+    k = 0
+    m = 0
+    injected = 0
+    pose = np.empty(3)
+    while m < nmax:
+        if prob > 0.0 and uniform(s) < prob:
+            sensor_pose(area, sensor, bc, nobs if inject_sensor else 0, ids, zs, sr, sb, pose, s)
+            injected += 1
+        else:
+            j = min(np.searchsorted(cum[:n], uniform(s) * acc, side="right"), n - 1)
+            pose[0], pose[1], pose[2] = P[j, 0], P[j, 1], P[j, 2]
+        a1, a2, a3 = noisy_odometry(u[0], u[1], u[2], motion, mnoise, s)
+        th = pose[2] + a1
+        out[m, 0] = pose[0] + a2 * math.cos(th)
+        out[m, 1] = pose[1] + a2 * math.sin(th)
+        out[m, 2] = wrap(th + a3)
+        b = kld_bin(out[m, 0], out[m, 1], out[m, 2], area, kp)
+        if occ[b] == 0:
+            occ[b] = 1
+            touched[k] = b
+            k += 1
+            target = max(nmin, kld_count(k, kp[0], kp[1]))
+        m += 1
+        if m >= target:
+            break
+    for r in range(k):
+        occ[touched[r]] = 0
+    return m, injected
+
+
 MCL_SIG = types.int64(
     _F2, _I, _I2, _F3, _F2, _F, types.int64, _F, types.int64, types.float64, types.float64,
-    types.int64, types.float64, types.int64, types.int64, _F, types.int64, STATE, _F2, _F, _I, _I,
-    _F)
+    types.int64, types.float64, types.int64, types.int64, _F, types.int64, types.int64, _F, STATE,
+    _F2, _F, _I, _I, _F, _I)
 
 
 @njit(MCL_SIG, cache=True)
 def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr, sb, N, threshold,
-               scheme, reset, rp, inject_sensor, s, est, ess, resampled, injected, pmean):
+               scheme, reset, rp, inject_sensor, kld, kp, s, est, ess, resampled, injected, pmean,
+               count):
     """Run MCL over one trial; est (T+1, 3) the weighted pose estimate (est[0]: of the initial
-    uniform cloud), ess / resampled / injected / pmean (T,) per step. rp: [srl_fraction,
-    srl_threshold, mu, p_t, alpha_slow, alpha_fast]. Returns the steps whose weights all
-    underflowed."""
+    uniform cloud), ess / resampled / injected / pmean / count (T,) per step. rp: [srl_fraction,
+    srl_threshold, mu, p_t, alpha_slow, alpha_fast]. kld = 1: KLD-sampling with kp (see
+    kld_sample), N the largest count. Returns the steps whose weights all underflowed."""
     T = ctrl.shape[0]
     P = np.empty((N, 3))
     P2 = np.empty((N, 3))
@@ -114,53 +202,86 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
         P[i, 0] = area[0] * uniform(s)
         P[i, 1] = area[1] * uniform(s)
         P[i, 2] = math.pi * (2.0 * uniform(s) - 1.0)
+    n = N
     lw = np.zeros(N)
     W = np.full(N, 1.0 / N)
     idx = np.empty(N, dtype=np.int64)
     perm = np.empty(N, dtype=np.int64)
     ll = np.empty(N)
     pose = np.empty(3)
+    nb = 1
+    if kld:
+        nb = int(math.ceil(area[0] / kp[2]) * math.ceil(area[1] / kp[2])
+                 * math.ceil(2.0 * math.pi / kp[3]))
+    occ = np.zeros(nb, dtype=np.uint8)
+    touched = np.empty(N, dtype=np.int64)
+    cum = np.empty(N)
     w_slow = 0.0
     w_fast = 0.0
+    prob = 0.0
     events = 0
-    _estimate(P, W, est[0])
+    _estimate(P, W, N, est[0])
     for t in range(T):
-        for i in range(N):
-            a1, a2, a3 = noisy_odometry(ctrl[t, 0], ctrl[t, 1], ctrl[t, 2], motion, mnoise, s)
-            th = P[i, 2] + a1
-            P[i, 0] += a2 * math.cos(th)
-            P[i, 1] += a2 * math.sin(th)
-            P[i, 2] = wrap(th + a3)
-        n = obs_n[t]
+        if kld:
+            # resample (the last step's weighted set) and move in one loop, as many as the bins
+            # the moved particles occupy call for
+            tp = max(t - 1, 0)
+            n, k = kld_sample(P, W, n, ctrl[t], motion, mnoise, area, kp, N, occ, touched, prob,
+                              inject_sensor, sensor, bc, obs_n[tp] if t > 0 else 0, obs_id[tp],
+                              obs_z[tp], sr, sb, s, P2, cum)
+            P, P2 = P2, P
+            lw[:n] = 0.0
+            resampled[t] = 1
+            injected[t] = k
+        else:
+            for i in range(N):
+                a1, a2, a3 = noisy_odometry(ctrl[t, 0], ctrl[t, 1], ctrl[t, 2], motion, mnoise,
+                                            s)
+                th = P[i, 2] + a1
+                P[i, 0] += a2 * math.cos(th)
+                P[i, 1] += a2 * math.sin(th)
+                P[i, 2] = wrap(th + a3)
+        count[t] = n
+        m = obs_n[t]
         ids = obs_id[t]
         zs = obs_z[t]
         mx = -np.inf
         lmax = -np.inf
-        for i in range(N):
-            ll[i] = pose_loglik(P[i, 0], P[i, 1], P[i, 2], bc, n, ids, zs, sensor, sr, sb)
+        for i in range(n):
+            ll[i] = pose_loglik(P[i, 0], P[i, 1], P[i, 2], bc, m, ids, zs, sensor, sr, sb)
             lw[i] += ll[i]
             mx = max(mx, lw[i])
             lmax = max(lmax, ll[i])
         # the mean likelihood of the predicted particles, p_mean (log-sum-exp)
         acc = 0.0
-        for i in range(N):
+        for i in range(n):
             acc += math.exp(ll[i] - lmax)
-        pm = math.exp(lmax) * acc / N if np.isfinite(lmax) else 0.0
+        pm = math.exp(lmax) * acc / n if np.isfinite(lmax) else 0.0
         pmean[t] = pm
         if not np.isfinite(mx):
             events += 1
-            lw[:] = 0.0
+            lw[:n] = 0.0
             mx = 0.0
         S = 0.0
         S2 = 0.0
-        for i in range(N):
+        for i in range(n):
             W[i] = math.exp(lw[i] - mx)
             S += W[i]
-        for i in range(N):
+        for i in range(n):
             W[i] /= S
             S2 += W[i] * W[i]
         ess[t] = 1.0 / S2
-        _estimate(P, W, est[t + 1])
+        _estimate(P, W, n, est[t + 1])
+        if reset == 3:
+            if t == 0:
+                w_slow = pm
+                w_fast = pm
+            else:
+                w_slow += rp[4] * (pm - w_slow)
+                w_fast += rp[5] * (pm - w_fast)
+            prob = max(0.0, 1.0 - w_fast / w_slow) if w_slow > 0.0 else 0.0
+        if kld:
+            continue            # the next step's sampling resamples (and injects)
         resampled[t] = 0
         if ess[t] < threshold:
             resample(scheme, W, 1.0, s, idx)
@@ -173,24 +294,17 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
         # injection
         k = 0
         if reset == 3:
-            if t == 0:
-                w_slow = pm
-                w_fast = pm
-            else:
-                w_slow += rp[4] * (pm - w_slow)
-                w_fast += rp[5] * (pm - w_fast)
-            prob = max(0.0, 1.0 - w_fast / w_slow) if w_slow > 0.0 else 0.0
-            drawn_from = n if inject_sensor else 0      # no observation: uniform over the field
+            drawn_from = m if inject_sensor else 0      # no observation: uniform over the field
             for i in range(N):
                 if uniform(s) < prob:
                     sensor_pose(area, sensor, bc, drawn_from, ids, zs, sr, sb, pose, s)
                     P[i] = pose
                     k += 1
-        elif n > 0 and (reset == 1 or reset == 2):
+        elif m > 0 and (reset == 1 or reset == 2):
             if reset == 1:
                 k = int(round(rp[0] * N)) if pm < rp[1] else 0
             else:
-                c = n * (2 if sensor == 1 else 1)
+                c = m * (2 if sensor == 1 else 1)
                 k = min(int(round(N * max(0.0, 1.0 - pm / (rp[2] * rp[3] ** c)))), N)
             # replace k particles chosen at random (a partial Fisher-Yates shuffle: resampling
             # leaves the set ordered by its sources)
@@ -199,7 +313,7 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
             for r in range(k):
                 j = r + min(int(uniform(s) * (N - r)), N - r - 1)
                 perm[r], perm[j] = perm[j], perm[r]
-                sensor_pose(area, sensor, bc, n, ids, zs, sr, sb, pose, s)
+                sensor_pose(area, sensor, bc, m, ids, zs, sr, sb, pose, s)
                 P[perm[r]] = pose
         injected[t] = k
         if injected[t] > 0 and resampled[t] == 0:
@@ -217,12 +331,16 @@ def run(model, data, params, particles, state, diag=True):
     out = {"pose": np.empty((T + 1, 3)), "ess": np.empty(T),
            "resampled": np.zeros(T, dtype=np.int64), "injected": np.zeros(T, dtype=np.int64),
            "pmean": np.empty(T)}
+    kld = params["sampling"] == "kld"
+    kp = np.array([params["kld_epsilon"], NormalDist().inv_cdf(1.0 - params["kld_delta"]),
+                   params["kld_bin_m"], math.radians(params["kld_bin_deg"]),
+                   min(params["kld_min"], particles)])
+    out["n"] = np.empty(T, dtype=np.int64)
     out["underflow_steps"] = mcl_kernel(
         data.ctrl, data.obs_n, data.obs_id, data.obs_z, model.beacons, model.area, model.motion,
         model.mnoise, model.sensor, float(model.sense[2]), float(model.sense[3]), particles,
         threshold, SCHEME_CODES[params["resampling"]], RESET[params["reset"]], rp,
-        int(params["inject"] == "sensor"), state, out["pose"], out["ess"], out["resampled"],
-        out["injected"], out["pmean"])
-    out["n"] = np.full(T, particles)
-    out["lik_evals_per_step"] = float(particles)
+        int(params["inject"] == "sensor"), int(kld), kp, state, out["pose"], out["ess"],
+        out["resampled"], out["injected"], out["pmean"], out["n"])
+    out["lik_evals_per_step"] = float(np.mean(out["n"]))
     return out
