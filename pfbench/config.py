@@ -15,7 +15,7 @@ from typing import Any, Iterator, Mapping
 
 import yaml
 
-from .filters import FILTERS
+from .filters import FILTERS, KIND_TYPES
 from .papers import PAPERS
 from .scenarios import SCENARIOS
 from .schema import ConfigError, Key, check_mapping, check_section, describe, did_you_mean
@@ -240,6 +240,7 @@ def _validate_filters(raw: Any, scenario: str) -> tuple[FilterRun, ...]:
         path = f"filters.{name}"
         spec = check_mapping(path, spec if spec is not None else {})
         ftype_name = spec.get("type", name)
+        ftype_name = KIND_TYPES.get((ftype_name, kind), ftype_name)
         if ftype_name is None or ftype_name not in FILTERS:
             shown = ftype_name if "type" in spec else name
             where = f"{path}.type" if "type" in spec else path

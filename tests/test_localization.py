@@ -217,3 +217,56 @@ def test_kld_with_sensor_resetting_is_a_config_error(tmp_path):
                    "    particles: 100\n    sampling: kld\n    reset: srl\n")
     with pytest.raises(ConfigError, match=r"k.yaml:9: filters.mcl.reset: KLD-sampling"):
         load(cfg)
+
+
+from pfbench.filters.sspf_field import chol, chol_solve, lognormal3, transition_cov  # noqa: E402
+
+
+def test_sspf_linear_algebra_matches_numpy():
+    from scipy.stats import multivariate_normal
+    rng = np.random.default_rng(5)
+    for n in (1, 3, 7, 12):
+        A = rng.normal(size=(n, n))
+        A = A @ A.T + n * np.eye(n)
+        L = np.zeros((n, n))
+        assert chol(A, n, L)
+        assert np.allclose(L, np.linalg.cholesky(A))
+        b = rng.normal(size=n)
+        x = b.copy()
+        chol_solve(L, n, x)
+        assert np.allclose(A @ x, b)
+    assert not chol(np.array([[1.0, 2.0], [2.0, 1.0]]), 2, np.zeros((2, 2)))
+    Q = np.empty((3, 3))
+    transition_cov(1.0, 2.0, 0.3, np.array([0.1, 0.5, 0.05]), np.array([0.01, 0.05, 0.03]),
+                   np.array([0.02, 0.01]), Q)
+    L = np.zeros((3, 3))
+    assert chol(Q, 3, L)
+    d = np.array([0.03, -0.02, 0.01])
+    assert lognormal3(*d, L) == pytest.approx(multivariate_normal(np.zeros(3), Q).logpdf(d))
+
+
+def test_sspf_localizes_from_a_uniform_start_with_one_range_a_step():
+    # sspf2008's setting: one beacon answers per step; the UKF proposal moves each particle toward
+    # the range circle. 6 trials of 1000 particles: within 0.5 m at the end in at least 5.
+    model = _field(steps=80)
+    ft = FILTERS["sspf_field"]
+    p = Params({k: v.default for k, v in ft.schema.items()})
+    ok = 0
+    for trial in range(6):
+        truth, data = bf.simulate(model, state_from_seed(np.random.SeedSequence(100 + trial)))
+        out = ft.run(model, data, p, 1000, state_from_seed(np.random.SeedSequence(trial)))
+        err = np.hypot(*(out["pose"][1:, :2] - truth.pose[1:, :2]).T)
+        ok += err[-1] < 0.5
+        acc = out["mh_accept"][out["resampled"] == 1]
+        assert np.all((acc >= 0) & (acc <= 1))
+    assert ok >= 5
+
+
+def test_type_sspf_on_the_beacon_field_is_the_localization_sspf(tmp_path):
+    from pfbench.config import load
+    cfg = tmp_path / "s.yaml"
+    cfg.write_text(f"name: s\nscenario:\n  name: beacon_field\n  world: "
+                   f"{ROOT / 'configs/worlds/beacon_field.yaml'}\nfilters:\n  sspf:\n"
+                   "    particles: 100\n    jitter_m: 0.1\n")
+    run = load(cfg).filters[0]
+    assert run.type == "sspf_field" and run.params["jitter_m"] == 0.1

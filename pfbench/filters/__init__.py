@@ -10,7 +10,7 @@ from typing import Callable
 
 from ..resampling import SCHEMES
 from ..schema import Key
-from . import ekf, fastslam, kalman, mcl, pf, swarm_pf, ukf, upf
+from . import ekf, fastslam, kalman, mcl, pf, sspf_field, swarm_pf, ukf, upf
 
 # Seconds spent importing the kernels: numba compiles them here (first run) or loads them from the
 # disk cache. Reported in meta.json as kernel_load_s, apart from the trials' wall time.
@@ -227,6 +227,24 @@ def _mcl_schema():
     }
 
 
+def _sspf_field_schema():
+    upf_keys = _upf_schema("weight_change", 1)
+    return {
+        **{k: upf_keys[k] for k in ("resampling", "resample", "neff_ratio", "sigma", "mh_steps")},
+        **_sigma_schema(),
+        "init_std_m": Key("float", 1.0, "initial position standard deviation of every particle's "
+                          "UKF (the particles start uniform over the field; our choice)", min=0.0,
+                          min_exclusive=True),
+        "init_std_deg": Key("float", 30.0, "initial heading standard deviation of every "
+                            "particle's UKF (our choice)", min=0.0, min_exclusive=True),
+        "jitter_m": Key("float", 0.05, "position noise added to the motion model's (the weight's "
+                        "transition density needs it: odometry moves a pose along a surface)",
+                        min=0.0, min_exclusive=True),
+        "jitter_deg": Key("float", 1.0, "heading noise added likewise", min=0.0,
+                          min_exclusive=True),
+    }
+
+
 def _mcl_check(params: dict) -> tuple[str, str] | None:
     """Cross-key rules of mcl: (key, message) of the first one broken."""
     if params["sampling"] == "kld" and params["reset"] in ("srl", "asrl"):
@@ -265,6 +283,9 @@ FILTERS_SWARM_KEYS = {
     "c1": Key("float", 1.5, "PSO: pull toward the particle's best", min=0.0),
     "c2": Key("float", 1.5, "PSO: pull toward the swarm's best", min=0.0),
 }
+
+# (type a config names, scenario kind) -> the filter type that implements it for that kind
+KIND_TYPES = {("sspf", "localization"): "sspf_field"}
 
 FILTERS = {
     f.name: f
@@ -324,6 +345,10 @@ FILTERS = {
         FilterType("mcl", "Monte Carlo localization, optionally with sensor resetting (SRL, "
                    "ASRL) or augmented-MCL injection, or KLD-sampling", _mcl_schema(), mcl.run,
                    kind="localization", check=_mcl_check),
+        FilterType("sspf_field", "SSPF for localization (sspf2008): a UKF proposal per particle "
+                   "(pose and odometry noise), weight-change-triggered residual resampling, MH "
+                   "move; 'type: sspf' on a localization scenario", _sspf_field_schema(),
+                   sspf_field.run, kind="localization"),
         FilterType("ekf", "extended Kalman filter", _gaussian_noise_schema("the EKF"), ekf.run,
                    particles=False, cost="1"),
         FilterType("kf", "exact Kalman filter (linear_gaussian scenario only)", {}, kalman.run,

@@ -1,0 +1,449 @@
+"""SSPF for localization on the beacon field (sspf2008): an unscented particle filter whose
+resampling is triggered by the weight change, followed by a Metropolis-Hastings move.
+
+Each particle i carries a pose x_i and a covariance P_i (3 x 3). Per step an augmented UKF
+(L = 6: the pose and the three odometry noises [rot1, trans, rot2]; scaled sigma points) run from
+(x_i, P_i) with the step's odometry and observations gives N(m_i, Pn_i); the particle is drawn from
+it, P_i becomes Pn_i, and the weight is multiplied by p(z | x) p(x | x_prev) / q(x | x_prev, z).
+The measurement noise is additive, so it enters the UKF's innovation covariance directly (the same
+as augmenting it).
+
+Choices the paper leaves open, each a key:
+- the transition density p(x | x_prev) in the weight is the motion model linearised in its noise,
+  N(f(x_prev, u), G M G^T + J), J = diag(jitter_m^2, jitter_m^2, jitter_deg^2): the odometry model
+  of ``motion: odometry`` moves a pose along a two-dimensional surface, whose density in the three
+  pose coordinates does not exist without some J. The UKF's process noise includes J too;
+- the initial covariance of every particle, diag(init_std_m^2, init_std_m^2, init_std_deg^2)
+  (the particles start uniform over the field and heading, as for MCL);
+- sspf2008 uses the odometry also as a measurement ([range, T, dtheta] + noise); here it is the
+  motion model's input, as for every other filter of the field, so the UKF measures the ranges
+  (and bearings) alone.
+
+Resampling (residual by default) when K = sum_i W_k^i (W_k^i - W_{k-1}^i)^2 > sigma / N^2
+(``resample: weight_change``), and then ``mh_steps`` independence MH moves per particle with the
+ancestor's proposal: accept x* ~ N(m_a, Pn_a) with probability
+min(1, p(z|x*) p(x*|x_prev) q(x) / (p(z|x) p(x|x_prev) q(x*))). The estimate is the weighted mean
+(circular heading) before resampling.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, types
+
+from ..angles import wrap
+from ..resampling import SCHEME_CODES, resample
+from ..rng import STATE, normal, uniform
+from .mcl import _estimate, pose_loglik
+
+_F = types.float64[::1]
+_F2 = types.float64[:, ::1]
+_F3 = types.float64[:, :, ::1]
+_I = types.int64[::1]
+_I2 = types.int64[:, ::1]
+LOG_2PI = math.log(2.0 * math.pi)
+TRIGGERS = {"always": 0, "neff": 1, "weight_change": 2}
+
+
+@njit(types.boolean(_F2, types.int64, _F2), cache=True)
+def chol(A, n, L):
+    """Lower Cholesky factor of A[:n, :n] into L[:n, :n]; False when A is not positive definite."""
+    for j in range(n):
+        d = A[j, j]
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        if not d > 0.0:
+            return False
+        L[j, j] = math.sqrt(d)
+        for i in range(j + 1, n):
+            v = A[i, j]
+            for k in range(j):
+                v -= L[i, k] * L[j, k]
+            L[i, j] = v / L[j, j]
+        for i in range(j):
+            L[i, j] = 0.0
+    return True
+
+
+@njit(types.void(_F2, types.int64, _F), cache=True)
+def chol_solve(L, n, b):
+    """Solve (L L^T) x = b[:n] in place."""
+    for i in range(n):
+        v = b[i]
+        for k in range(i):
+            v -= L[i, k] * b[k]
+        b[i] = v / L[i, i]
+    for i in range(n - 1, -1, -1):
+        v = b[i]
+        for k in range(i + 1, n):
+            v -= L[k, i] * b[k]
+        b[i] = v / L[i, i]
+
+
+@njit(types.float64(types.float64, types.float64, types.float64, _F2), cache=True)
+def lognormal3(dx, dy, dth, L):
+    """log N(d; 0, L L^T) of a pose difference d (the heading difference already wrapped)."""
+    y0 = dx / L[0, 0]
+    y1 = (dy - L[1, 0] * y0) / L[1, 1]
+    y2 = (dth - L[2, 0] * y0 - L[2, 1] * y1) / L[2, 2]
+    return (-0.5 * (y0 * y0 + y1 * y1 + y2 * y2) - math.log(L[0, 0] * L[1, 1] * L[2, 2])
+            - 1.5 * LOG_2PI)
+
+
+@njit(types.UniTuple(types.float64, 3)(types.float64, types.float64, types.float64, _F,
+                                       types.float64, types.float64, types.float64), cache=True)
+def move(x, y, th, u, w0, w1, w2):
+    """The odometry motion with noise w: turn rot1 + w0, drive trans + w1, turn rot2 + w2."""
+    t1 = th + u[0] + w0
+    return x + (u[1] + w1) * math.cos(t1), y + (u[1] + w1) * math.sin(t1), wrap(t1 + u[2] + w2)
+
+
+@njit(types.void(_F, types.int64, _F, _F), cache=True)
+def noise_sd(u, motion, mnoise, out):
+    """Standard deviations of the three odometry noises at a step with odometry u."""
+    if motion == 0:
+        out[0], out[1], out[2] = 0.0, mnoise[0], mnoise[1]
+    else:
+        a1, a2, a3, a4 = mnoise[0], mnoise[1], mnoise[2], mnoise[3]
+        out[0] = a1 * abs(u[0]) + a2 * abs(u[1])
+        out[1] = a3 * abs(u[1]) + a4 * (abs(u[0]) + abs(u[2]))
+        out[2] = a1 * abs(u[2]) + a2 * abs(u[1])
+
+
+@njit(types.void(types.float64, types.float64, types.float64, _F, _F, _F, _F2), cache=True)
+def transition_cov(x, y, th, u, sd, jit, Q):
+    """G M G^T + J: the motion's noise covariance linearised at a pose, plus the jitter."""
+    t1 = th + u[0]
+    c, s = math.cos(t1), math.sin(t1)
+    g = ((-u[1] * s, u[1] * c, 1.0), (c, s, 0.0), (0.0, 0.0, 1.0))
+    for a in range(3):
+        for b in range(3):
+            v = 0.0
+            for k in range(3):
+                v += sd[k] * sd[k] * g[k][a] * g[k][b]
+            Q[a, b] = v
+    Q[0, 0] += jit[0] * jit[0]
+    Q[1, 1] += jit[0] * jit[0]
+    Q[2, 2] += jit[1] * jit[1]
+
+
+SSPF_SIG = types.int64(
+    _F2, _I, _I2, _F3, _F2, _F, types.int64, _F, types.int64, types.float64, types.float64,
+    types.int64, types.int64, types.float64, types.int64, types.int64, _F, _F, _F, STATE, _F2, _F,
+    _I, _F)
+
+
+@njit(SSPF_SIG, cache=True)
+def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr, sb, N,
+                      trigger, threshold, scheme, mh_steps, up, init, jit, s, est, ess, resampled,
+                      accepted):
+    """Run the SSPF over one trial. up: [alpha, beta, kappa] of the sigma points; init: initial
+    standard deviations [m, rad]; jit: the jitter [m, rad]; trigger 0 always, 1 ESS < threshold,
+    2 K > threshold. Fills est (T+1, 3), ess / resampled / accepted (MH acceptance rate, NaN
+    without a move) (T,). Returns the steps whose weights all underflowed."""
+    T = ctrl.shape[0]
+    B = bc.shape[0]
+    nzmax = 2 * B
+    Lg = 6
+    ns = 2 * Lg + 1
+    alpha, beta, kappa = up[0], up[1], up[2]
+    lam = alpha * alpha * (Lg + kappa) - Lg
+    c = Lg + lam
+    sq = math.sqrt(c)
+    Wm = np.full(ns, 0.5 / c)
+    Wc = np.full(ns, 0.5 / c)
+    Wm[0] = lam / c
+    Wc[0] = lam / c + 1.0 - alpha * alpha + beta
+
+    X = np.empty((N, 3))
+    Pc = np.zeros((N, 3, 3))
+    for i in range(N):
+        X[i, 0] = area[0] * uniform(s)
+        X[i, 1] = area[1] * uniform(s)
+        X[i, 2] = math.pi * (2.0 * uniform(s) - 1.0)
+        Pc[i, 0, 0] = init[0] * init[0]
+        Pc[i, 1, 1] = init[0] * init[0]
+        Pc[i, 2, 2] = init[1] * init[1]
+    mprop = np.empty((N, 3))       # the proposal each particle was drawn from: mean, Cholesky
+    Lprop = np.zeros((N, 3, 3))
+    fpre = np.empty((N, 3))        # the transition density's mean f(x_prev, u) and Cholesky
+    Lq = np.zeros((N, 3, 3))
+    ltgt = np.empty(N)             # log p(z | x) + log p(x | x_prev) of the particle
+    lqs = np.empty(N)              # log q(x)
+    # resampling buffers
+    X2, Pc2, mprop2, Lprop2 = np.empty_like(X), np.empty_like(Pc), np.empty_like(mprop), \
+        np.empty_like(Lprop)
+    fpre2, Lq2, ltgt2, lqs2 = np.empty_like(fpre), np.empty_like(Lq), np.empty_like(ltgt), \
+        np.empty_like(lqs)
+
+    lw = np.zeros(N)
+    W = np.full(N, 1.0 / N)
+    Wprev = np.full(N, 1.0 / N)
+    idx = np.empty(N, dtype=np.int64)
+    sd = np.empty(3)
+    Y = np.empty((ns, 3))
+    Z = np.empty((ns, nzmax))
+    zm = np.empty(nzmax)
+    zobs = np.empty(nzmax)
+    isb = np.zeros(nzmax, dtype=np.int64)
+    S = np.empty((nzmax, nzmax))
+    LS = np.zeros((nzmax, nzmax))
+    C = np.empty((3, nzmax))
+    K = np.empty((3, nzmax))
+    rowb = np.empty(nzmax)
+    Pm = np.empty((3, 3))
+    Pn = np.empty((3, 3))
+    L3 = np.zeros((3, 3))
+    Q = np.empty((3, 3))
+    xm = np.empty(3)
+    d = np.empty(3)
+    events = 0
+    _estimate(X, W, N, est[0])
+    for t in range(T):
+        u = ctrl[t]
+        noise_sd(u, motion, mnoise, sd)
+        m = obs_n[t]
+        ids = obs_id[t]
+        zs = obs_z[t]
+        nz = m * (2 if sensor == 1 else 1)
+        r = 0
+        for j in range(m):
+            zobs[r] = zs[j, 0]
+            isb[r] = 0
+            r += 1
+            if sensor == 1:
+                zobs[r] = zs[j, 1]
+                isb[r] = 1
+                r += 1
+        mx = -np.inf
+        for i in range(N):
+            # sigma points of [pose, noise] through the motion
+            if not chol(Pc[i], 3, L3):
+                for a in range(3):
+                    for b in range(3):
+                        L3[a, b] = 0.0
+                L3[0, 0] = L3[1, 1] = jit[0]
+                L3[2, 2] = jit[1]
+            for j in range(ns):
+                px, py, pt = X[i, 0], X[i, 1], X[i, 2]
+                w0 = w1 = w2 = 0.0
+                if j > 0:
+                    k = (j - 1) % Lg
+                    sgn = 1.0 if j <= Lg else -1.0
+                    if k < 3:
+                        px += sgn * sq * L3[0, k]
+                        py += sgn * sq * L3[1, k]
+                        pt += sgn * sq * L3[2, k]
+                    elif k == 3:
+                        w0 = sgn * sq * sd[0]
+                    elif k == 4:
+                        w1 = sgn * sq * sd[1]
+                    else:
+                        w2 = sgn * sq * sd[2]
+                Y[j, 0], Y[j, 1], Y[j, 2] = move(px, py, pt, u, w0, w1, w2)
+            xm[0] = 0.0
+            xm[1] = 0.0
+            dt = 0.0
+            for j in range(ns):
+                xm[0] += Wm[j] * Y[j, 0]
+                xm[1] += Wm[j] * Y[j, 1]
+                dt += Wm[j] * wrap(Y[j, 2] - Y[0, 2])
+            xm[2] = wrap(Y[0, 2] + dt)
+            for a in range(3):
+                for b in range(3):
+                    Pm[a, b] = 0.0
+            for j in range(ns):
+                d[0] = Y[j, 0] - xm[0]
+                d[1] = Y[j, 1] - xm[1]
+                d[2] = wrap(Y[j, 2] - xm[2])
+                for a in range(3):
+                    for b in range(3):
+                        Pm[a, b] += Wc[j] * d[a] * d[b]
+            Pm[0, 0] += jit[0] * jit[0]
+            Pm[1, 1] += jit[0] * jit[0]
+            Pm[2, 2] += jit[1] * jit[1]
+            # the measurement update
+            for a in range(3):
+                for b in range(3):
+                    Pn[a, b] = Pm[a, b]
+            if nz > 0:
+                for j in range(ns):
+                    r = 0
+                    for q in range(m):
+                        dx = bc[ids[q], 0] - Y[j, 0]
+                        dy = bc[ids[q], 1] - Y[j, 1]
+                        Z[j, r] = math.hypot(dx, dy)
+                        r += 1
+                        if sensor == 1:
+                            Z[j, r] = wrap(math.atan2(dy, dx) - Y[j, 2])
+                            r += 1
+                for r in range(nz):
+                    v = 0.0
+                    for j in range(ns):
+                        v += Wm[j] * (wrap(Z[j, r] - Z[0, r]) if isb[r] else Z[j, r])
+                    zm[r] = wrap(Z[0, r] + v) if isb[r] else v
+                for a in range(nz):
+                    for b in range(nz):
+                        S[a, b] = 0.0
+                    S[a, a] = sb * sb if isb[a] else sr * sr
+                    for b in range(3):
+                        C[b, a] = 0.0
+                for j in range(ns):
+                    d[0] = Y[j, 0] - xm[0]
+                    d[1] = Y[j, 1] - xm[1]
+                    d[2] = wrap(Y[j, 2] - xm[2])
+                    for a in range(nz):
+                        da = wrap(Z[j, a] - zm[a]) if isb[a] else Z[j, a] - zm[a]
+                        for b in range(nz):
+                            db = wrap(Z[j, b] - zm[b]) if isb[b] else Z[j, b] - zm[b]
+                            S[a, b] += Wc[j] * da * db
+                        for b in range(3):
+                            C[b, a] += Wc[j] * d[b] * da
+                if chol(S, nz, LS):
+                    for b in range(3):
+                        for a in range(nz):
+                            rowb[a] = C[b, a]
+                        chol_solve(LS, nz, rowb)
+                        for a in range(nz):
+                            K[b, a] = rowb[a]
+                    for b in range(3):
+                        v = 0.0
+                        for a in range(nz):
+                            inn = zobs[a] - zm[a]
+                            if isb[a]:
+                                inn = wrap(inn)
+                            v += K[b, a] * inn
+                        xm[b] += v
+                    xm[2] = wrap(xm[2])
+                    for a in range(3):
+                        for b in range(3):
+                            v = 0.0
+                            for q in range(nz):
+                                v += K[a, q] * C[b, q]
+                            Pn[a, b] = Pm[a, b] - v
+                    for a in range(3):
+                        for b in range(a):
+                            v = 0.5 * (Pn[a, b] + Pn[b, a])
+                            Pn[a, b] = v
+                            Pn[b, a] = v
+            if not chol(Pn, 3, L3):     # numerically indefinite: keep the predicted covariance
+                for a in range(3):
+                    for b in range(3):
+                        Pn[a, b] = Pm[a, b]
+                chol(Pn, 3, L3)
+            # draw from the proposal; the transition density at the particle's previous pose
+            n0, n1, n2 = normal(s), normal(s), normal(s)
+            nx = xm[0] + L3[0, 0] * n0
+            ny = xm[1] + L3[1, 0] * n0 + L3[1, 1] * n1
+            nt = wrap(xm[2] + L3[2, 0] * n0 + L3[2, 1] * n1 + L3[2, 2] * n2)
+            lq = lognormal3(nx - xm[0], ny - xm[1], wrap(nt - xm[2]), L3)
+            fx, fy, ft = move(X[i, 0], X[i, 1], X[i, 2], u, 0.0, 0.0, 0.0)
+            transition_cov(X[i, 0], X[i, 1], X[i, 2], u, sd, jit, Q)
+            Li = Lq[i]
+            chol(Q, 3, Li)
+            lp = lognormal3(nx - fx, ny - fy, wrap(nt - ft), Li)
+            ll = pose_loglik(nx, ny, nt, bc, m, ids, zs, sensor, sr, sb)
+            X[i, 0], X[i, 1], X[i, 2] = nx, ny, nt
+            for a in range(3):
+                mprop[i, a] = xm[a]
+                for b in range(3):
+                    Pc[i, a, b] = Pn[a, b]
+                    Lprop[i, a, b] = L3[a, b]
+            fpre[i, 0], fpre[i, 1], fpre[i, 2] = fx, fy, ft
+            ltgt[i] = ll + lp
+            lqs[i] = lq
+            lw[i] += ll + lp - lq
+            if lw[i] > mx:
+                mx = lw[i]
+        if not np.isfinite(mx):
+            events += 1
+            lw[:] = 0.0
+            mx = 0.0
+        tot = 0.0
+        for i in range(N):
+            W[i] = math.exp(lw[i] - mx) if np.isfinite(lw[i]) else 0.0
+            tot += W[i]
+        S2 = 0.0
+        Kc = 0.0
+        for i in range(N):
+            W[i] /= tot
+            S2 += W[i] * W[i]
+            dw = W[i] - Wprev[i]
+            Kc += W[i] * dw * dw
+        ess[t] = 1.0 / S2
+        _estimate(X, W, N, est[t + 1])
+        accepted[t] = np.nan
+        go = trigger == 0 or (trigger == 1 and ess[t] < threshold) or (trigger == 2 and
+                                                                        Kc > threshold)
+        if not go:
+            Wprev[:] = W
+            resampled[t] = 0
+            continue
+        resample(scheme, W, 1.0, s, idx)
+        for i in range(N):
+            a = idx[i]
+            X2[i] = X[a]
+            Pc2[i] = Pc[a]
+            mprop2[i] = mprop[a]
+            Lprop2[i] = Lprop[a]
+            fpre2[i] = fpre[a]
+            Lq2[i] = Lq[a]
+            ltgt2[i] = ltgt[a]
+            lqs2[i] = lqs[a]
+        X, X2 = X2, X
+        Pc, Pc2 = Pc2, Pc
+        mprop, mprop2 = mprop2, mprop
+        Lprop, Lprop2 = Lprop2, Lprop
+        fpre, fpre2 = fpre2, fpre
+        Lq, Lq2 = Lq2, Lq
+        ltgt, ltgt2 = ltgt2, ltgt
+        lqs, lqs2 = lqs2, lqs
+        lw[:] = 0.0
+        W[:] = 1.0 / N
+        Wprev[:] = W
+        resampled[t] = 1
+        acc = 0
+        for i in range(N):
+            Lp = Lprop[i]
+            for _ in range(mh_steps):
+                n0, n1, n2 = normal(s), normal(s), normal(s)
+                nx = mprop[i, 0] + Lp[0, 0] * n0
+                ny = mprop[i, 1] + Lp[1, 0] * n0 + Lp[1, 1] * n1
+                nt = wrap(mprop[i, 2] + Lp[2, 0] * n0 + Lp[2, 1] * n1 + Lp[2, 2] * n2)
+                lq = lognormal3(nx - mprop[i, 0], ny - mprop[i, 1], wrap(nt - mprop[i, 2]), Lp)
+                lt = (pose_loglik(nx, ny, nt, bc, m, ids, zs, sensor, sr, sb)
+                      + lognormal3(nx - fpre[i, 0], ny - fpre[i, 1], wrap(nt - fpre[i, 2]),
+                                   Lq[i]))
+                la = (lt - lq) - (ltgt[i] - lqs[i])
+                if la >= 0.0 or uniform(s) < math.exp(la):
+                    X[i, 0], X[i, 1], X[i, 2] = nx, ny, nt
+                    ltgt[i] = lt
+                    lqs[i] = lq
+                    acc += 1
+        if mh_steps > 0:
+            accepted[t] = acc / (N * mh_steps)
+    return events
+
+
+def run(model, data, params, particles, state, diag=True):
+    """Run the SSPF on a beacon-field trial; return the traces."""
+    T = data.ctrl.shape[0]
+    N = particles
+    trig = TRIGGERS[params["resample"]]
+    threshold = {0: 0.0, 1: params["neff_ratio"] * N, 2: params["sigma"] / (N * N)}[trig]
+    out = {"pose": np.empty((T + 1, 3)), "ess": np.empty(T),
+           "resampled": np.zeros(T, dtype=np.int64), "mh_accept": np.empty(T)}
+    out["underflow_steps"] = sspf_field_kernel(
+        data.ctrl, data.obs_n, data.obs_id, data.obs_z, model.beacons, model.area, model.motion,
+        model.mnoise, model.sensor, float(model.sense[2]), float(model.sense[3]), N, trig,
+        threshold, SCHEME_CODES[params["resampling"]], params["mh_steps"],
+        np.array([params["alpha"], params["beta"], params["kappa"]]),
+        np.array([params["init_std_m"], math.radians(params["init_std_deg"])]),
+        np.array([params["jitter_m"], math.radians(params["jitter_deg"])]), state, out["pose"],
+        out["ess"], out["resampled"], out["mh_accept"])
+    out["n"] = np.full(T, N)
+    # the likelihood at the drawn particle, plus the UKF's sigma points, plus the MH proposals
+    out["lik_evals_per_step"] = float(N * (1 + 13) + N * params["mh_steps"]
+                                      * np.mean(out["resampled"]))
+    return out
