@@ -20,7 +20,7 @@ from .papers import PAPERS
 from .scenarios import SCENARIOS
 from .schema import ConfigError, Key, check_mapping, check_section, describe, did_you_mean
 
-FORMAT_VERSION = 3
+FORMAT_VERSION = 4
 
 
 class Params(Mapping):

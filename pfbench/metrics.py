@@ -13,9 +13,12 @@ METRICS = {
     "position_error": "SLAM: mean distance between the estimated and the true position over "
                       "t = 1..T (m)",
     "heading_error": "SLAM: mean absolute heading error over t = 1..T (wrapped, rad)",
-    "x_error": "localization: mean |x error| over t = 1..T (m)",
-    "y_error": "localization: mean |y error| over t = 1..T (m)",
+    "x_error": "localization: mean |x error| over t = 1..T (m; from the scenario's score_from)",
+    "y_error": "localization: mean |y error| over t = 1..T (m; likewise)",
     "final_error": "localization: position error at the last step (m)",
+    "error_at_step": "localization: position error at the scenario's report_step (m)",
+    "converged": "localization: 1 when the filter converged before the first kidnapping (or the "
+                 "end), else 0; its mean over trials is the success rate",
     "converge_step": "localization: first step after which the position error stays below the "
                      "bound (NaN: never)",
     "recovery_steps": "localization with kidnapping: mean over the kidnappings the filter recovers "
@@ -65,18 +68,22 @@ def trial_metrics(x: np.ndarray, out: dict) -> dict:
     return row
 
 
-def _pose_metrics(pose: np.ndarray, out: dict) -> tuple[dict, np.ndarray, np.ndarray]:
+def _pose_metrics(pose: np.ndarray, out: dict, score_from: int = 1
+                  ) -> tuple[dict, np.ndarray, np.ndarray]:
     """The pose-error and filter-diagnostic metrics shared by SLAM and localization runs (true
     poses (T+1, 3), the filter's 'pose' (T+1, 3), 'ess', 'resampled'), with the position error
-    vectors d (T, 2) and distances err (T,) over t = 1..T."""
+    vectors d (T, 2) and distances err (T,) over t = 1..T. The error averages count the steps
+    from ``score_from`` on."""
     est = out["pose"]
     d = est[1:, :2] - pose[1:, :2]
     err = np.hypot(d[:, 0], d[:, 1])
-    mse = float(np.mean(np.sum(d * d, axis=1)))
-    dth = (est[1:, 2] - pose[1:, 2] + math.pi) % (2 * math.pi) - math.pi
+    k = score_from - 1
+    mse = float(np.mean(np.sum(d[k:] * d[k:], axis=1)))
+    dth = (est[score_from:, 2] - pose[score_from:, 2] + math.pi) % (2 * math.pi) - math.pi
     row = {**NAN_ROW, "rmse": math.sqrt(mse), "mse": mse,
            "heading_rmse": float(np.sqrt(np.mean(dth * dth))),
-           "position_error": float(np.mean(err)), "heading_error": float(np.mean(np.abs(dth))),
+           "position_error": float(np.mean(err[k:])),
+           "heading_error": float(np.mean(np.abs(dth))),
            "mean_ess": float(np.mean(out["ess"])) if out["ess"].size else math.nan,
            "resample_count": float(np.sum(out["resampled"])),
            "underflow_steps": float(out.get("underflow_steps", 0)),
@@ -165,14 +172,16 @@ def settle_step(err: np.ndarray, bound: float) -> int:
     return int(above[-1]) + 1 if above.size else 0
 
 
-def localization_metrics(pose: np.ndarray, out: dict, bound: float,
-                         kidnaps: np.ndarray) -> dict:
+def localization_metrics(pose: np.ndarray, out: dict, bound: float, kidnaps: np.ndarray,
+                         score_from: int = 1, report_step: int = 0) -> dict:
     """Metrics of one localization run: true poses (T+1, 3), the filter's 'pose' (T+1, 3), 'ess'
     (T,), 'resampled' (T,), optionally 'n' (T,) particle counts; ``bound`` the convergence bound
     (m); ``kidnaps`` the steps t at which the robot was moved (the pose at t is the new one).
     Convergence: the first step after which the error stays below the bound until the first
-    kidnapping (or the end); recovery: likewise from each kidnapping to the next."""
-    row, d, err = _pose_metrics(pose, out)              # err[t - 1]: the error at step t
+    kidnapping (or the end); recovery: likewise from each kidnapping to the next. The error
+    averages count the steps from ``score_from``; error_at_step is the error at ``report_step``
+    (NaN for 0)."""
+    row, d, err = _pose_metrics(pose, out, score_from)  # err[t - 1]: the error at step t
     T = err.size
     cuts = [int(k) for k in sorted(kidnaps) if 1 <= k <= T] + [T + 1]
     first = err[: cuts[0] - 1]
@@ -186,8 +195,11 @@ def localization_metrics(pose: np.ndarray, out: dict, bound: float,
             recover.append(float(s))
         else:
             failures += 1
-    row.update({"x_error": float(np.mean(np.abs(d[:, 0]))),
-                "y_error": float(np.mean(np.abs(d[:, 1]))), "final_error": float(err[-1]),
+    k = score_from - 1
+    row.update({"x_error": float(np.mean(np.abs(d[k:, 0]))),
+                "y_error": float(np.mean(np.abs(d[k:, 1]))), "final_error": float(err[-1]),
+                "error_at_step": float(err[report_step - 1]) if report_step else math.nan,
+                "converged": float(not math.isnan(converge)),
                 "converge_step": converge,
                 "recovery_steps": float(np.mean(recover)) if recover else math.nan,
                 "recovery_failures": float(failures) if len(cuts) > 1 else math.nan,

@@ -3,8 +3,11 @@
 Every experiment: the per-trial RMSE of each filter run (box plot). SLAM experiments also, for one
 trial: the course with the true and estimated paths and the mapped landmarks, the position, heading
 and landmark errors over time (ifa2021 Fig. 6, afsa2014 Fig. 3), and the effective sample size over
-time (afsa2014 Fig. 5). One trial's traces are recomputed by running that
-trial again: it is a pure function of the experiment and the trial index.
+time (afsa2014 Fig. 5). Localization experiments: the position error per step, median and
+interquartile band over the first FIGURE_TRIALS trials (sspf2008's error figure), with the particle
+count over time when KLD-sampling adapts it, and the particles over the field at a few steps of one
+trial. Traces are recomputed by running the trials again: each is a pure function of the
+experiment and the trial index.
 """
 from __future__ import annotations
 
@@ -19,7 +22,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from .config import Experiment  # noqa: E402
-from .runner import run_filter, trial_data  # noqa: E402
+from .runner import build_model, run_filter, trial_data  # noqa: E402
 from .scenarios import SCENARIOS  # noqa: E402
 
 # Fixed metadata: the same figure gives the same bytes.
@@ -44,7 +47,7 @@ def rmse_boxplot(exp: Experiment, rows: pd.DataFrame, path: Path) -> None:
     ax.boxplot(data, showfliers=True, flierprops={"markersize": 2})
     ax.set_xticks(range(1, len(data) + 1), [_run_name(r) for r in exp.filters], rotation=45,
                   ha="right", fontsize=8)
-    ax.set_ylabel("RMSE per trial" + (" (m)" if _kind(exp) == "slam" else ""))
+    ax.set_ylabel("RMSE per trial" + (" (m)" if _kind(exp) != "scalar" else ""))
     ax.set_title(f"{exp.name}: RMSE over {len(rows['trial'].unique())} trials")
     ax.grid(axis="y", alpha=0.3)
     fig.tight_layout()
@@ -126,6 +129,123 @@ def slam_trial_figures(exp: Experiment, folder: Path, trial: int = 0) -> list[Pa
     return [course, errors, ess]
 
 
+def _localization_runs(exp: Experiment) -> list:
+    """The filter runs a localization figure shows: all of them up to 6; beyond, each label's
+    smallest and largest particle count."""
+    if len(exp.filters) <= 6:
+        return list(exp.filters)
+    keep = []
+    for label in dict.fromkeys(r.label for r in exp.filters):
+        runs = [r for r in exp.filters if r.label == label]
+        keep += [runs[0]] if len(runs) == 1 else [min(runs, key=lambda r: r.particles),
+                                                  max(runs, key=lambda r: r.particles)]
+    return keep
+
+
+def localization_error_figure(exp: Experiment, trials: list[int], path: Path) -> dict:
+    """Position error per step over trials (median and interquartile band) of each shown run,
+    with the particle count over time when a run adapts it; returns {run key: (T+1,) median}."""
+    runs = _localization_runs(exp)
+    err = {r.key: [] for r in runs}
+    count = {r.key: [] for r in runs}
+    for k in trials:
+        model, truth, data = trial_data(exp, k)
+        for r in runs:
+            out = run_filter(exp, k, r, model, data)[0]
+            err[r.key].append(np.hypot(*(out["pose"][:, :2] - truth.pose[:, :2]).T))
+            count[r.key].append(out["n"])
+    adaptive = [r for r in runs if np.ptp(np.asarray(count[r.key])) > 0]
+    colors = plt.cm.tab10(np.linspace(0, 1, 10))
+    fig, axes = plt.subplots(2 if adaptive else 1, 1, figsize=(8.0, 6.8 if adaptive else 4.4),
+                             sharex=True, squeeze=False)
+    ax = axes[0, 0]
+    t = np.arange(len(err[runs[0].key][0]))
+    medians = {}
+    for i, r in enumerate(runs):
+        e = np.asarray(err[r.key])
+        q1, med, q3 = np.percentile(e, [25, 50, 75], axis=0)
+        medians[r.key] = med
+        c = colors[i % 10]
+        ax.plot(t, med, color=c, lw=1.2, label=_run_name(r))
+        ax.fill_between(t, q1, q3, color=c, alpha=0.18, lw=0)
+    model = build_model(exp)
+    for kstep in model.kidnaps:
+        ax.axvline(kstep, color="0.3", ls=":", lw=1)
+    ax.axhline(model.bound, color="0.5", ls="--", lw=0.8)
+    ax.set_yscale("log")
+    ax.set_ylabel("position error (m)")
+    ax.set_title(f"{exp.name}: position error per step, median and interquartile band over "
+                 f"{len(trials)} trials" + (" (dotted: kidnappings)" if model.kidnaps.size else "")
+                 + "; dashed: the convergence bound", fontsize=9)
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3, which="both")
+    if adaptive:
+        ax2 = axes[1, 0]
+        for i, r in enumerate(runs):
+            if r in adaptive:
+                n = np.asarray(count[r.key], dtype=float)
+                ax2.plot(t[1:], n.mean(axis=0), color=colors[i % 10], lw=1.2,
+                         label=f"{_run_name(r)}: mean over trials")
+        ax2.set_yscale("log")
+        ax2.set_ylabel("particles")
+        ax2.legend(fontsize=7)
+        ax2.grid(alpha=0.3, which="both")
+    axes[-1, 0].set_xlabel("step")
+    fig.tight_layout()
+    _save(fig, path)
+    return medians
+
+
+def particle_figure(exp: Experiment, path: Path, trial: int = 0) -> None:
+    """The particles of each filter (one run per label: the largest count) over the field at a few
+    steps of one trial: the start, during global localization, after each kidnapping, the end."""
+    model, truth, data = trial_data(exp, trial)
+    T = data.ctrl.shape[0]
+    steps = [0, 1, 3, 10]
+    for k in model.kidnaps:
+        steps += [int(k), int(k) + 3]
+    steps = sorted({min(t, T) for t in steps} | {T})[:8]
+    runs = {}
+    for r in exp.filters:
+        if r.label not in runs or r.particles > runs[r.label].particles:
+            runs[r.label] = r
+    runs = list(runs.values())[:6]
+    fig, axes = plt.subplots(len(runs), len(steps), figsize=(1.9 * len(steps) + 0.6,
+                                                             1.95 * len(runs) + 0.5),
+                             squeeze=False)
+    for i, r in enumerate(runs):
+        out = run_filter(exp, trial, r, model, data, snapshots=steps)[0]
+        _, parts, counts = out["snapshots"]
+        for j, t in enumerate(steps):
+            ax = axes[i, j]
+            P = parts[j, :counts[j]]
+            ax.plot(P[:, 0], P[:, 1], ".", color="tab:blue", ms=1.5, alpha=0.4, mew=0)
+            ax.plot(model.beacons[:, 0], model.beacons[:, 1], "k^", ms=4)
+            ax.plot(*truth.pose[t, :2], "o", mfc="none", mec="red", ms=7, mew=1.2)
+            ax.plot(*out["pose"][t, :2], "x", color="green", ms=6, mew=1.2)
+            ax.set_xlim(0, model.area[0])
+            ax.set_ylim(0, model.area[1])
+            ax.set_aspect("equal")
+            ax.set_xticks([])
+            ax.set_yticks([])
+            if i == 0:
+                ax.set_title(f"step {t}" + (" (kidnapped)" if t in model.kidnaps else ""),
+                             fontsize=8)
+            if j == 0:
+                ax.set_ylabel(_run_name(r), fontsize=7)
+            if counts[j] != r.particles:
+                ax.text(0.03, 0.03, f"{counts[j]} particles", transform=ax.transAxes,
+                        fontsize=6)
+    fig.suptitle(f"{exp.name}, trial {trial}: particles (blue), beacons (black), true pose (red "
+                 "circle), estimate (green x)", fontsize=9)
+    fig.tight_layout()
+    _save(fig, path)
+
+
+# localization figures re-run at most this many trials
+FIGURE_TRIALS = 50
+
+
 def write_figures(exp: Experiment, rows: list[dict] | pd.DataFrame, out_dir: Path) -> list[Path]:
     """Write the experiment's figures into ``out_dir/figures``; return their paths."""
     folder = Path(out_dir) / "figures"
@@ -135,4 +255,9 @@ def write_figures(exp: Experiment, rows: list[dict] | pd.DataFrame, out_dir: Pat
     rmse_boxplot(exp, df, paths[0])
     if _kind(exp) == "slam":
         paths += slam_trial_figures(exp, folder)
+    if _kind(exp) == "localization":
+        trials = sorted(df["trial"].unique())[:FIGURE_TRIALS]
+        paths += [folder / "errors.png", folder / "particles.png"]
+        localization_error_figure(exp, [int(k) for k in trials], paths[-2])
+        particle_figure(exp, paths[-1], int(trials[0]))
     return paths

@@ -72,15 +72,18 @@ def metrics_of(exp: Experiment, model, truth, out) -> dict:
     if kind == "slam":
         return slam_metrics(truth.pose, model.landmarks, out)
     if kind == "localization":
-        return localization_metrics(truth.pose, out, model.bound, model.kidnaps)
+        return localization_metrics(truth.pose, out, model.bound, model.kidnaps,
+                                    model.score_from, model.report_step)
     return trial_metrics(truth, out)
 
 
-def run_filter(exp: Experiment, trial: int, run, model, y, diag: bool = True) -> tuple[dict, float]:
-    """Run one filter of a trial on measurements ``y``; return (output traces, wall seconds)."""
+def run_filter(exp: Experiment, trial: int, run, model, y, diag: bool = True,
+               **extra) -> tuple[dict, float]:
+    """Run one filter of a trial on measurements ``y``; return (output traces, wall seconds).
+    ``extra``: keyword arguments the filter's run takes beyond the common ones (snapshots)."""
     state = state_from_seed(filter_seed(exp.seed, trial, run.key))
     t0 = time.perf_counter()
-    out = FILTERS[run.type].run(model, y, run.params, run.particles, state, diag)
+    out = FILTERS[run.type].run(model, y, run.params, run.particles, state, diag, **extra)
     return out, time.perf_counter() - t0
 
 

@@ -21,7 +21,8 @@ def verdict(paper: float | None, ours: float, lo: float, hi: float, *, rel_tol: 
             floor: float | None = None, not_comparable: str | None = None) -> str:
     """Compare a paper value with ours (point ``ours``, 95% interval [lo, hi]).
 
-    'reproduced' when the paper's value lies in our interval (or within ``rel_tol`` of ours);
+    'reproduced' when the paper's value lies in our interval (or within ``rel_tol`` of ours; for
+    a range (lo, hi) the paper gives, when our interval meets it);
     'differs (x R)' otherwise, R = ours / paper, noting when the paper's value is below ``floor``
     (the lower 95% bound of what a near-optimal filter reaches); 'not comparable: reason' if set.
     """
@@ -31,6 +32,10 @@ def verdict(paper: float | None, ours: float, lo: float, hi: float, *, rel_tol: 
         return f"not comparable: {not_comparable}"
     if math.isnan(ours):
         return "not comparable: no finite result"
+    if isinstance(paper, tuple):          # the paper gives a range
+        if lo <= paper[1] and paper[0] <= hi:
+            return "reproduced (our interval meets the paper's range)"
+        return f"differs (x{ours / (0.5 * (paper[0] + paper[1])):.2f} the range's middle)"
     if lo <= paper <= hi:
         return "reproduced"
     ratio = ours / paper if paper else math.inf
@@ -77,7 +82,7 @@ def _quantity(q: Quantity, g: pd.DataFrame, base: pd.DataFrame | None,
             lo = 100 * (1 - sa["var_ci_hi"] / sb["var_ci_lo"]) if sb["var_ci_lo"] > 0 else -math.inf
             hi = 100 * (1 - sa["var_ci_lo"] / sb["var_ci_hi"])
         return v, lo, hi, lo, hi
-    s = summarize(_metric_values(q.metric, g, base))
+    s = summarize(_metric_values(q.metric, g, base) * q.scale)
     v, lo, hi = _stat(s, q)
     _, vlo, vhi = _stat(s, q, paper_runs)
     return v, vlo, vhi, lo, hi
@@ -96,29 +101,36 @@ def _metric_values(metric: str, g: pd.DataFrame, base: pd.DataFrame | None):
 
 def rankings(exp: Experiment, tab: pd.DataFrame) -> list[str]:
     """For a table whose paper claims an order of its rows: the paper's order and ours at each
-    particle count, and whether they agree."""
+    particle count (for each ranked quantity), whether they agree, and how often over all."""
     table = reported(exp.paper, exp.table)
     if table is None or table.ranking is None:
         return []
-    q = next(q for q in table.quantities if q.key == table.ranking)
+    keys = (table.ranking,) if isinstance(table.ranking, str) else tuple(table.ranking)
     lines = []
+    agree = total = 0
     counts = sorted({n for (_, n) in table.values}, key=lambda v: (v is None, v or 0))
-    for n in counts:
-        labels = [lab for (lab, m) in table.values if m == n and q.key in table.values[(lab, m)]]
-        ours = {}
-        for lab in labels:
-            # a paper that gives no particle count (n None) is matched by label alone
-            r = tab[(tab["label"] == lab) & ((tab["particles"] == n) if n is not None else True)]
-            if len(r):
-                ours[lab] = float(r.iloc[0][f"{q.metric}_{q.stat}"])
-        if len(ours) < 2:
-            continue
-        paper_order = sorted(ours, key=lambda lab: table.values[(lab, n)][q.key])
-        our_order = sorted(ours, key=lambda lab: ours[lab])
-        same = "same order" if paper_order == our_order else "differs"
-        at = f" at N = {n}" if n is not None else ""
-        lines.append(f"Ranking by {q.title}{at}: paper {' < '.join(paper_order)}; ours "
-                     f"{' < '.join(our_order)}: {same}.")
+    for q in (q for key in keys for q in table.quantities if q.key == key):
+        for n in counts:
+            labels = [lab for (lab, m) in table.values
+                      if m == n and q.key in table.values[(lab, m)]]
+            ours = {}
+            for lab in labels:
+                # a paper that gives no particle count (n None) is matched by label alone
+                r = tab[(tab["label"] == lab) & ((tab["particles"] == n) if n is not None else True)]
+                if len(r):
+                    ours[lab] = float(r.iloc[0][f"ours_{q.key}"])
+            if len(ours) < 2:
+                continue
+            paper_order = sorted(ours, key=lambda lab: table.values[(lab, n)][q.key])
+            our_order = sorted(ours, key=lambda lab: ours[lab])
+            same = paper_order == our_order
+            agree += same
+            total += 1
+            at = f" at N = {n}" if n is not None else ""
+            lines.append(f"Ranking by {q.title}{at}: paper {' < '.join(paper_order)}; ours "
+                         f"{' < '.join(our_order)}: {'same order' if same else 'differs'}.")
+    if total > 1:
+        lines.append(f"Rankings: the same order in {agree} of {total} comparisons.")
     return lines
 
 
@@ -175,8 +187,12 @@ def summary(exp: Experiment, rows: list[dict] | pd.DataFrame) -> pd.DataFrame:
                 ours, lo, hi, r[f"ours_lo_{q.key}"], r[f"ours_hi_{q.key}"] = _quantity(
                     q, g, by_key.get(pairs.get(run.key)), exp.compare["paper_runs"])
                 r[f"ours_{q.key}"] = ours
-                r[f"paper_{q.key}"] = paper
-                r[f"ratio_{q.key}"] = ours / paper if paper else math.nan
+                if isinstance(paper, tuple):      # a range: shown as such, ratio to its middle
+                    r[f"paper_{q.key}"] = f"{paper[0]:g}-{paper[1]:g}"
+                    r[f"ratio_{q.key}"] = ours / (0.5 * (paper[0] + paper[1]))
+                else:
+                    r[f"paper_{q.key}"] = paper
+                    r[f"ratio_{q.key}"] = ours / paper if paper else math.nan
                 floored_q = q.metric == "rmse" and q.stat == "mean"  # the floor is an RMSE level
                 r[f"verdict_{q.key}"] = verdict(
                     paper, ours, lo, hi, rel_tol=exp.compare["rel_tol"] if floored_q else 0.0,

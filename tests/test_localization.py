@@ -270,3 +270,53 @@ def test_type_sspf_on_the_beacon_field_is_the_localization_sspf(tmp_path):
                    "    particles: 100\n    jitter_m: 0.1\n")
     run = load(cfg).filters[0]
     assert run.type == "sspf_field" and run.params["jitter_m"] == 0.1
+
+
+def test_scoring_from_a_later_step_and_the_error_at_a_step():
+    errs = [5.0, 2.0, 0.3, 0.2, 0.4, 0.1]
+    truth, out = _poses(errs)
+    out["pose"][1:, 2] = [1.0, 1.0, 0.1, 0.1, 0.1, 0.1]          # heading errors
+    m = localization_metrics(truth, out, 0.5, np.array([], dtype=np.int64), score_from=3,
+                             report_step=2)
+    assert m["position_error"] == pytest.approx(np.mean(errs[2:]))
+    assert m["x_error"] == pytest.approx(np.mean(errs[2:]))
+    assert m["rmse"] == pytest.approx(math.sqrt(np.mean(np.square(errs[2:]))))
+    assert m["heading_error"] == pytest.approx(0.1)
+    assert m["error_at_step"] == 2.0 and m["converge_step"] == 3 and m["converged"] == 1.0
+    never = localization_metrics(*_poses([5.0, 6.0]), 0.5, np.array([], dtype=np.int64))
+    assert never["converged"] == 0.0 and math.isnan(never["error_at_step"])
+
+
+@pytest.mark.parametrize("name,over", [("mcl", {}), ("mcl", {"sampling": "kld"}),
+                                       ("sspf_field", {})])
+def test_snapshots_leave_the_run_unchanged_and_hold_its_particles(name, over):
+    model = _field(steps=20)
+    truth, data = bf.simulate(model, state_from_seed(np.random.SeedSequence(7)))
+    ft = FILTERS[name]
+    p = Params({**{k: v.default for k, v in ft.schema.items()}, **over})
+    a = ft.run(model, data, p, 300, state_from_seed(np.random.SeedSequence(1)))
+    b = ft.run(model, data, p, 300, state_from_seed(np.random.SeedSequence(1)),
+               snapshots=(0, 20, 5))
+    assert np.array_equal(a["pose"], b["pose"])
+    steps, parts, counts = b["snapshots"]
+    assert list(steps) == [0, 5, 20]
+    assert counts[0] == 300 and list(counts[1:]) == [b["n"][4], b["n"][19]]
+    # the initial cloud covers the field; the estimate at a step is its particles' weighted mean,
+    # so it lies within their bounding box
+    assert parts[0, :, 0].min() < 2 and parts[0, :, 0].max() > 38
+    for k, t in enumerate(steps[1:], start=1):
+        P = parts[k, :counts[k]]
+        assert np.all(P.min(axis=0)[:2] <= b["pose"][t, :2] + 1e-9)
+        assert np.all(P.max(axis=0)[:2] >= b["pose"][t, :2] - 1e-9)
+
+
+def test_a_known_start_tracks_and_plain_mcl_does_not_survive_a_kidnapping():
+    model = _field(sensor="range_bearing", steps=60, initial="known", kidnap_steps=[30],
+                   kidnap_poses=[34.0, 30.0, 180.0])
+    truth, data = bf.simulate(model, state_from_seed(np.random.SeedSequence(40)))
+    out = _mcl(model, data, 500)
+    err = np.hypot(*(out["pose"][:, :2] - truth.pose[:, :2]).T)
+    assert err[0] < 0.1 and err[1:30].max() < 0.5       # tracks from the first step
+    assert err[31:].min() > 2.0                         # and stays lost after the kidnapping
+    m = localization_metrics(truth.pose, out, 0.5, model.kidnaps)
+    assert m["converge_step"] == 1 and m["recovery_failures"] == 1

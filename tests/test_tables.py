@@ -8,6 +8,8 @@ from pfbench.metrics import summarize, t975
 from pfbench.papers import PAPERS
 from pfbench.tables import verdict
 
+from .conftest import ROOT
+
 
 def test_t_quantiles_against_scipy():
     stats = pytest.importorskip("scipy.stats")
@@ -95,11 +97,39 @@ def test_ranking_lines_compare_orders(write_config):
                        "  pf: {label: PF, particles: 50}\n  fa: {label: FA-PF, particles: 50}\n")
     exp = load(cfg)
     tab = pd.DataFrame({"label": ["PF", "FA-PF"], "particles": [50, 50],
-                        "rmse_mean": [4.0, 3.0]})
+                        "ours_rmse_mean": [4.0, 3.0]})
     assert rankings(exp, tab) == ["Ranking by RMSE at N = 50: paper FA-PF < PF; ours FA-PF < PF: "
                                   "same order."]
-    tab["rmse_mean"] = [3.0, 4.0]
+    tab["ours_rmse_mean"] = [3.0, 4.0]
     assert rankings(exp, tab)[0].endswith("ours PF < FA-PF: differs.")
+
+
+def test_rankings_over_several_quantities_count_the_agreements(write_config):
+    import pandas as pd
+
+    from pfbench.config import load
+    from pfbench.tables import rankings
+    world = ROOT / "configs/worlds/beacon_field.yaml"
+    cfg = write_config(f"paper: asrl2008\ntable: table1\nscenario: {{name: beacon_field, world: "
+                       f"{world}}}\nfilters:\n  srl: {{type: mcl, label: SRL, particles: [100, 200], "
+                       "reset: srl}\n  asrl: {type: mcl, label: ASRL, particles: [100, 200], "
+                       "reset: asrl}\n")
+    exp = load(cfg)
+    # paper: ASRL below SRL in x, y and heading at 100 and 200 particles
+    tab = pd.DataFrame({"label": ["SRL", "SRL", "ASRL", "ASRL"], "particles": [100, 200, 100, 200],
+                        "ours_x_mm": [50.0, 50.0, 40.0, 60.0], "ours_y_mm": [1.0, 1.0, 2.0, 2.0],
+                        "ours_th_deg": [3.0, 3.0, 2.0, 2.0]})
+    lines = rankings(exp, tab)
+    assert len(lines) == 7
+    assert lines[1] == ("Ranking by x error (mm) at N = 200: paper ASRL < SRL; ours SRL < ASRL: "
+                        "differs.")
+    assert lines[-1] == "Rankings: the same order in 3 of 6 comparisons."
+
+
+def test_a_paper_range_is_reproduced_when_our_interval_meets_it():
+    from pfbench.tables import verdict
+    assert verdict((10.0, 20.0), 22.0, 19.0, 25.0).startswith("reproduced")
+    assert verdict((10.0, 20.0), 5.0, 4.0, 6.0) == "differs (x0.33 the range's middle)"
 
 
 def test_time_ratio_is_per_trial_against_the_baseline():
@@ -125,7 +155,6 @@ filters:
 
 
 def _afsa_cfg(write_config, trials=12):
-    from .conftest import ROOT
     world = ROOT / "configs" / "worlds" / "afsa_world.yaml"
     return write_config(AFSA_CFG.replace("WORLD", str(world)).replace("trials: 12",
                                                                       f"trials: {trials}"))

@@ -10,7 +10,9 @@ recover from a wrong belief (review2007, asrl2008):
   1 per range), p_mean the mean likelihood;
 - ``augmented``: augmented MCL (Thrun, Burgard and Fox): short- and long-term averages of p_mean,
   w_fast and w_slow, and each particle replaced with probability max(0, 1 - w_fast / w_slow), by a
-  pose drawn uniformly over the field or from the sensor model (``inject``).
+  pose drawn uniformly over the field or from the sensor model (``inject``). The averages follow
+  p_mean^(1/c), c the measurement components of the step (a step that sees three beacons has a
+  likelihood of another dimension than one that sees one), and skip steps without observations.
 
 ``sampling: kld`` is KLD-sampling MCL (Fox 2003): each step draws particles one at a time from the
 weighted set and moves them, counting the histogram bins (``kld_bin_m`` x ``kld_bin_m`` x
@@ -20,7 +22,8 @@ weighted set and moves them, counting the histogram bins (``kld_bin_m`` x ``kld_
 ``kld_min``, at most ``particles``. It resamples every step; with ``reset: augmented`` a drawn
 particle is, with the injection probability, a pose from the field or the sensor model instead.
 
-Particles start uniform over the field and heading (the pose is unknown). Each step every particle
+Particles start uniform over the field and heading (the pose is unknown), or around the start
+(scenario ``initial: known``). Each step every particle
 moves by the odometry with its own draw of the scenario's motion noise; the likelihood is the
 product over the step's observations of Gaussians in range (and wrapped bearing). The estimate is
 the weighted mean (circular for the heading) before resampling. A pose drawn from the sensor model
@@ -39,7 +42,7 @@ from numba import njit, types
 from ..angles import wrap
 from ..resampling import SCHEME_CODES, resample
 from ..rng import STATE, normal, uniform
-from ..scenarios.beacon_field import noisy_odometry
+from ..scenarios.beacon_field import init_particles, noisy_odometry
 
 _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
@@ -181,27 +184,37 @@ def kld_sample(P, W, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob, i
     return m, injected
 
 
+@njit(types.int64(types.int64, _F2, types.int64, _I, _F3, _I, types.int64), cache=True)
+def _snapshot(t, P, n, snap_t, snap, snap_n, si):
+    """Copy the particles P[:n] into snap[si] when step t is the next snapshot step; return the
+    index of the next snapshot."""
+    if si < snap_t.size and snap_t[si] == t:
+        snap[si, :n] = P[:n]
+        snap_n[si] = n
+        return si + 1
+    return si
+
+
 MCL_SIG = types.int64(
     _F2, _I, _I2, _F3, _F2, _F, types.int64, _F, types.int64, types.float64, types.float64,
-    types.int64, types.float64, types.int64, types.int64, _F, types.int64, types.int64, _F, STATE,
-    _F2, _F, _I, _I, _F, _I)
+    types.int64, types.float64, types.int64, types.int64, _F, types.int64, types.int64, _F, _F,
+    STATE, _F2, _F, _I, _I, _F, _I, _I, _F3, _I)
 
 
 @njit(MCL_SIG, cache=True)
 def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr, sb, N, threshold,
-               scheme, reset, rp, inject_sensor, kld, kp, s, est, ess, resampled, injected, pmean,
-               count):
+               scheme, reset, rp, inject_sensor, kld, kp, init, s, est, ess, resampled, injected, pmean,
+               count, snap_t, snap, snap_n):
     """Run MCL over one trial; est (T+1, 3) the weighted pose estimate (est[0]: of the initial
     uniform cloud), ess / resampled / injected / pmean / count (T,) per step. rp: [srl_fraction,
     srl_threshold, mu, p_t, alpha_slow, alpha_fast]. kld = 1: KLD-sampling with kp (see
-    kld_sample), N the largest count. Returns the steps whose weights all underflowed."""
+    kld_sample), N the largest count; init: the initial belief (init_particles). snap_t: increasing steps at which the particles (after
+    the step's move, before resampling; step 0: the initial cloud) are copied into snap (S, N, 3),
+    their count into snap_n. Returns the steps whose weights all underflowed."""
     T = ctrl.shape[0]
     P = np.empty((N, 3))
     P2 = np.empty((N, 3))
-    for i in range(N):
-        P[i, 0] = area[0] * uniform(s)
-        P[i, 1] = area[1] * uniform(s)
-        P[i, 2] = math.pi * (2.0 * uniform(s) - 1.0)
+    init_particles(P, area, init, s)
     n = N
     lw = np.zeros(N)
     W = np.full(N, 1.0 / N)
@@ -221,6 +234,7 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
     prob = 0.0
     events = 0
     _estimate(P, W, N, est[0])
+    si = _snapshot(0, P, N, snap_t, snap, snap_n, 0)
     for t in range(T):
         if kld:
             # resample (the last step's weighted set) and move in one loop, as many as the bins
@@ -272,13 +286,18 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
             S2 += W[i] * W[i]
         ess[t] = 1.0 / S2
         _estimate(P, W, n, est[t + 1])
-        if reset == 3:
-            if t == 0:
-                w_slow = pm
-                w_fast = pm
+        si = _snapshot(t + 1, P, n, snap_t, snap, snap_n, si)
+        if reset == 3 and m > 0:
+            # the averages follow the likelihood per measurement component, pm^(1/c): steps see
+            # different numbers of beacons, and a product over more of them is not less likely
+            # in the sense the averages compare (a step without observations leaves them)
+            q = pm ** (1.0 / (m * (2 if sensor == 1 else 1)))
+            if w_slow == 0.0:
+                w_slow = q
+                w_fast = q
             else:
-                w_slow += rp[4] * (pm - w_slow)
-                w_fast += rp[5] * (pm - w_fast)
+                w_slow += rp[4] * (q - w_slow)
+                w_fast += rp[5] * (q - w_fast)
             prob = max(0.0, 1.0 - w_fast / w_slow) if w_slow > 0.0 else 0.0
         if kld:
             continue            # the next step's sampling resamples (and injects)
@@ -322,8 +341,15 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
     return events
 
 
-def run(model, data, params, particles, state, diag=True):
-    """Run MCL (with the configured injection) on a beacon-field trial; return the traces."""
+def snapshot_arrays(snapshots, particles: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(steps, particles (S, N, 3), counts (S,)) buffers for the snapshots at ``snapshots``."""
+    steps = np.asarray(sorted(set(snapshots)), dtype=np.int64)
+    return steps, np.zeros((steps.size, particles, 3)), np.zeros(steps.size, dtype=np.int64)
+
+
+def run(model, data, params, particles, state, diag=True, snapshots=()):
+    """Run MCL (with the configured injection) on a beacon-field trial; return the traces (with
+    'snapshots': (steps, particles, counts) of the particles at the steps ``snapshots``)."""
     T = data.ctrl.shape[0]
     threshold = np.inf if params["resample"] == "always" else params["neff_ratio"] * particles
     rp = np.array([params["srl_fraction"], params["srl_threshold"], params["asrl_mu"],
@@ -336,11 +362,12 @@ def run(model, data, params, particles, state, diag=True):
                    params["kld_bin_m"], math.radians(params["kld_bin_deg"]),
                    min(params["kld_min"], particles)])
     out["n"] = np.empty(T, dtype=np.int64)
+    out["snapshots"] = snapshot_arrays(snapshots, particles)
     out["underflow_steps"] = mcl_kernel(
         data.ctrl, data.obs_n, data.obs_id, data.obs_z, model.beacons, model.area, model.motion,
         model.mnoise, model.sensor, float(model.sense[2]), float(model.sense[3]), particles,
         threshold, SCHEME_CODES[params["resampling"]], RESET[params["reset"]], rp,
-        int(params["inject"] == "sensor"), int(kld), kp, state, out["pose"], out["ess"],
-        out["resampled"], out["injected"], out["pmean"], out["n"])
+        int(params["inject"] == "sensor"), int(kld), kp, model.init, state, out["pose"], out["ess"],
+        out["resampled"], out["injected"], out["pmean"], out["n"], *out["snapshots"])
     out["lik_evals_per_step"] = float(np.mean(out["n"]))
     return out

@@ -14,7 +14,7 @@ Choices the paper leaves open, each a key:
   of ``motion: odometry`` moves a pose along a two-dimensional surface, whose density in the three
   pose coordinates does not exist without some J. The UKF's process noise includes J too;
 - the initial covariance of every particle, diag(init_std_m^2, init_std_m^2, init_std_deg^2)
-  (the particles start uniform over the field and heading, as for MCL);
+  (the particles start as MCL's: uniform over the field and heading, or around a known start);
 - sspf2008 uses the odometry also as a measurement ([range, T, dtheta] + noise); here it is the
   motion model's input, as for every other filter of the field, so the UKF measures the ranges
   (and bearings) alone.
@@ -35,7 +35,8 @@ from numba import njit, types
 from ..angles import wrap
 from ..resampling import SCHEME_CODES, resample
 from ..rng import STATE, normal, uniform
-from .mcl import _estimate, pose_loglik
+from ..scenarios.beacon_field import init_particles
+from .mcl import _estimate, _snapshot, pose_loglik, snapshot_arrays
 
 _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
@@ -130,18 +131,19 @@ def transition_cov(x, y, th, u, sd, jit, Q):
 
 SSPF_SIG = types.int64(
     _F2, _I, _I2, _F3, _F2, _F, types.int64, _F, types.int64, types.float64, types.float64,
-    types.int64, types.int64, types.float64, types.int64, types.int64, _F, _F, _F, STATE, _F2, _F,
-    _I, _F)
+    types.int64, types.int64, types.float64, types.int64, types.int64, _F, _F, _F, _F, STATE, _F2,
+    _F, _I, _F, _I, _F3, _I)
 
 
 @njit(SSPF_SIG, cache=True)
 def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr, sb, N,
-                      trigger, threshold, scheme, mh_steps, up, init, jit, s, est, ess, resampled,
-                      accepted):
+                      trigger, threshold, scheme, mh_steps, up, init, jit, start, s, est, ess, resampled,
+                      accepted, snap_t, snap, snap_n):
     """Run the SSPF over one trial. up: [alpha, beta, kappa] of the sigma points; init: initial
     standard deviations [m, rad]; jit: the jitter [m, rad]; trigger 0 always, 1 ESS < threshold,
-    2 K > threshold. Fills est (T+1, 3), ess / resampled / accepted (MH acceptance rate, NaN
-    without a move) (T,). Returns the steps whose weights all underflowed."""
+    2 K > threshold; start: the initial belief (init_particles). Fills est (T+1, 3), ess / resampled / accepted (MH acceptance rate, NaN
+    without a move) (T,); snapshots as mcl_kernel's. Returns the steps whose weights all
+    underflowed."""
     T = ctrl.shape[0]
     B = bc.shape[0]
     nzmax = 2 * B
@@ -158,10 +160,8 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sens
 
     X = np.empty((N, 3))
     Pc = np.zeros((N, 3, 3))
+    init_particles(X, area, start, s)
     for i in range(N):
-        X[i, 0] = area[0] * uniform(s)
-        X[i, 1] = area[1] * uniform(s)
-        X[i, 2] = math.pi * (2.0 * uniform(s) - 1.0)
         Pc[i, 0, 0] = init[0] * init[0]
         Pc[i, 1, 1] = init[0] * init[0]
         Pc[i, 2, 2] = init[1] * init[1]
@@ -200,6 +200,7 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sens
     d = np.empty(3)
     events = 0
     _estimate(X, W, N, est[0])
+    si = _snapshot(0, X, N, snap_t, snap, snap_n, 0)
     for t in range(T):
         u = ctrl[t]
         noise_sd(u, motion, mnoise, sd)
@@ -373,6 +374,7 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sens
             Kc += W[i] * dw * dw
         ess[t] = 1.0 / S2
         _estimate(X, W, N, est[t + 1])
+        si = _snapshot(t + 1, X, N, snap_t, snap, snap_n, si)
         accepted[t] = np.nan
         go = trigger == 0 or (trigger == 1 and ess[t] < threshold) or (trigger == 2 and
                                                                         Kc > threshold)
@@ -426,22 +428,24 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sens
     return events
 
 
-def run(model, data, params, particles, state, diag=True):
-    """Run the SSPF on a beacon-field trial; return the traces."""
+def run(model, data, params, particles, state, diag=True, snapshots=()):
+    """Run the SSPF on a beacon-field trial; return the traces (snapshots as mcl.run's)."""
     T = data.ctrl.shape[0]
     N = particles
     trig = TRIGGERS[params["resample"]]
     threshold = {0: 0.0, 1: params["neff_ratio"] * N, 2: params["sigma"] / (N * N)}[trig]
     out = {"pose": np.empty((T + 1, 3)), "ess": np.empty(T),
-           "resampled": np.zeros(T, dtype=np.int64), "mh_accept": np.empty(T)}
+           "resampled": np.zeros(T, dtype=np.int64), "mh_accept": np.empty(T),
+           "snapshots": snapshot_arrays(snapshots, N)}
     out["underflow_steps"] = sspf_field_kernel(
         data.ctrl, data.obs_n, data.obs_id, data.obs_z, model.beacons, model.area, model.motion,
         model.mnoise, model.sensor, float(model.sense[2]), float(model.sense[3]), N, trig,
         threshold, SCHEME_CODES[params["resampling"]], params["mh_steps"],
         np.array([params["alpha"], params["beta"], params["kappa"]]),
         np.array([params["init_std_m"], math.radians(params["init_std_deg"])]),
-        np.array([params["jitter_m"], math.radians(params["jitter_deg"])]), state, out["pose"],
-        out["ess"], out["resampled"], out["mh_accept"])
+        np.array([params["jitter_m"], math.radians(params["jitter_deg"])]), model.init, state,
+        out["pose"],
+        out["ess"], out["resampled"], out["mh_accept"], *out["snapshots"])
     out["n"] = np.full(T, N)
     # the likelihood at the drawn particle, plus the UKF's sigma points, plus the MH proposals
     out["lik_evals_per_step"] = float(N * (1 + 13) + N * params["mh_steps"]

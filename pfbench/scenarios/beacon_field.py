@@ -83,6 +83,17 @@ SCHEMA = {
     "converge_bound_m": Key("float", 0.5, "position error under which a filter counts as "
                             "converged (and recovered after a kidnapping)", min=0.0,
                             min_exclusive=True),
+    "initial": Key("choice", "unknown", "what the filters know of the start: 'unknown' (particles "
+                   "uniform over the field and heading: global localization) or 'known' (drawn "
+                   "around the true start: tracking)", choices=("unknown", "known")),
+    "initial_std_m": Key("float", 0.1, "known: position spread of the initial particles", min=0.0),
+    "initial_std_deg": Key("float", 2.0, "known: heading spread of the initial particles",
+                           min=0.0),
+    "score_from": Key("int", 1, "first step the error averages (rmse, position, x, y and heading "
+                      "error) count: later than 1 scores tracking after the global localization",
+                      min=1),
+    "report_step": Key("int", 0, "step whose position error is reported as error_at_step (0: "
+                       "none)", min=0),
 }
 
 
@@ -94,7 +105,9 @@ class FieldModel:
     start (3,); drive: [step, max_turn, waypoint radius]; motion: 0 odometry, 1 rot_trans_rot;
     mnoise (4,): [sigma_trans, sigma_turn, 0, 0] or alpha1..alpha4; sensor: 0 range, 1
     range_bearing; sense: [max_range, half_fov, sigma_r, sigma_b, nearest (0/1)]; kidnaps (k,)
-    steps; kidnap_poses (k, 3) (NaN rows: uniform); bound: the convergence bound.
+    steps; kidnap_poses (k, 3) (NaN rows: uniform); bound: the convergence bound; init: the
+    filters' initial belief (see init_particles); score_from,
+    report_step: see the keys.
     """
 
     area: np.ndarray
@@ -110,6 +123,9 @@ class FieldModel:
     kidnaps: np.ndarray
     kidnap_poses: np.ndarray
     bound: float
+    init: np.ndarray        # [known (0/1), x, y, heading, sd_xy, sd_heading]
+    score_from: int = 1
+    report_step: int = 0
 
 
 @dataclass
@@ -134,6 +150,10 @@ def resolve(params: dict, base_dir) -> dict:
     if len(params["kidnap_poses"]) not in (0, 3 * len(params["kidnap_steps"])):
         raise ConfigError("scenario.kidnap_poses", "give x, y, heading for every kidnapping (3 "
                           "numbers each), or none")
+    for key in ("score_from", "report_step"):
+        if params[key] > params["steps"]:
+            raise ConfigError(f"scenario.{key}", f"expected a step within the {params['steps']} "
+                              f"steps, got {params[key]}")
     if any(k > params["steps"] for k in params["kidnap_steps"]):
         raise ConfigError("scenario.kidnap_steps", f"every step must be within the "
                           f"{params['steps']} steps")
@@ -160,7 +180,11 @@ def build(p) -> FieldModel:
         0 if p["sensor"] == "range" else 1,
         np.array([p["max_range_m"], 0.5 * p["field_of_view_deg"] * DEG, p["range_noise_m"],
                   p["bearing_noise_deg"] * DEG, 1.0 if p["answer"] == "nearest" else 0.0]),
-        int(p["steps"]), kid, kp, float(p["converge_bound_m"]))
+        int(p["steps"]), kid, kp, float(p["converge_bound_m"]),
+        np.array([1.0 if p["initial"] == "known" else 0.0, p["start"][0], p["start"][1],
+                  p["start"][2] * DEG, p["initial_std_m"], p["initial_std_deg"] * DEG]),
+        int(p["score_from"]),
+        int(p["report_step"]))
 
 
 _F = types.float64[::1]
@@ -181,6 +205,21 @@ def noisy_odometry(rot1, trans, rot2, motion, mnoise, s):
     tr = trans + (a3 * abs(trans) + a4 * (abs(rot1) + abs(rot2))) * normal(s)
     r2 = rot2 + (a1 * abs(rot2) + a2 * abs(trans)) * normal(s)
     return r1, tr, r2
+
+
+@njit(types.void(_F2, _F, _F, STATE), cache=True)
+def init_particles(P, area, init, s):
+    """The filters' initial particles P (N, 3): uniform over the field and heading (init[0] = 0),
+    or Gaussian around the start init[1:4] with spreads init[4] (m) and init[5] (rad)."""
+    for i in range(P.shape[0]):
+        if init[0] == 0.0:
+            P[i, 0] = area[0] * uniform(s)
+            P[i, 1] = area[1] * uniform(s)
+            P[i, 2] = math.pi * (2.0 * uniform(s) - 1.0)
+        else:
+            P[i, 0] = init[1] + init[4] * normal(s)
+            P[i, 1] = init[2] + init[4] * normal(s)
+            P[i, 2] = wrap(init[3] + init[5] * normal(s))
 
 
 @njit(types.int64(_F2, types.float64, types.float64, types.float64, types.int64, _F, STATE, _I,
