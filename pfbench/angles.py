@@ -8,5 +8,8 @@ from numba import njit, types
 
 @njit(types.float64(types.float64), cache=True)
 def wrap(a):
-    """a wrapped to [-pi, pi)."""
+    """a wrapped to [-pi, pi); an angle already inside is returned as it is (exact, and the
+    common case is fast)."""
+    if -math.pi <= a < math.pi:
+        return a
     return (a + math.pi) % (2.0 * math.pi) - math.pi

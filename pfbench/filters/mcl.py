@@ -56,18 +56,35 @@ LOG_2PI = math.log(2.0 * math.pi)
 
 @njit(types.float64(types.float64, types.float64, types.float64, _F2, types.int64, _I, _F2,
                     types.int64, types.float64, types.float64), cache=True)
-def pose_loglik(x, y, th, bc, n, ids, zs, sensor, sr, sb):
-    """log p(z | pose) of the n observations (ids, zs) of a step."""
+def pose_quad(x, y, th, bc, n, ids, zs, sensor, sr, sb):
+    """-1/2 the sum of the squared normalised residuals of the n observations (ids, zs) of a step
+    seen from a pose: log p(z | pose) up to loglik_const."""
     acc = 0.0
     for j in range(n):
         b = ids[j]
         dx, dy = bc[b, 0] - x, bc[b, 1] - y
-        v = (zs[j, 0] - math.hypot(dx, dy)) / sr
-        acc += -0.5 * v * v - math.log(sr) - 0.5 * LOG_2PI
+        v = (zs[j, 0] - math.sqrt(dx * dx + dy * dy)) / sr
+        acc -= 0.5 * v * v
         if sensor == 1:
             u = wrap(zs[j, 1] - (math.atan2(dy, dx) - th)) / sb
-            acc += -0.5 * u * u - math.log(sb) - 0.5 * LOG_2PI
+            acc -= 0.5 * u * u
     return acc
+
+
+@njit(types.float64(types.int64, types.int64, types.float64, types.float64), cache=True)
+def loglik_const(n, sensor, sr, sb):
+    """The Gaussian normalisation of n observations' log-likelihood."""
+    c = -math.log(sr) - 0.5 * LOG_2PI
+    if sensor == 1:
+        c += -math.log(sb) - 0.5 * LOG_2PI
+    return n * c
+
+
+@njit(types.float64(types.float64, types.float64, types.float64, _F2, types.int64, _I, _F2,
+                    types.int64, types.float64, types.float64), cache=True)
+def pose_loglik(x, y, th, bc, n, ids, zs, sensor, sr, sb):
+    """log p(z | pose) of the n observations (ids, zs) of a step."""
+    return pose_quad(x, y, th, bc, n, ids, zs, sensor, sr, sb) + loglik_const(n, sensor, sr, sb)
 
 
 @njit(types.void(_F, types.int64, _F2, types.int64, _I, _F2, types.float64, types.float64, _F,
@@ -261,8 +278,9 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
         zs = obs_z[t]
         mx = -np.inf
         lmax = -np.inf
+        cst = loglik_const(m, sensor, sr, sb)
         for i in range(n):
-            ll[i] = pose_loglik(P[i, 0], P[i, 1], P[i, 2], bc, m, ids, zs, sensor, sr, sb)
+            ll[i] = pose_quad(P[i, 0], P[i, 1], P[i, 2], bc, m, ids, zs, sensor, sr, sb) + cst
             lw[i] += ll[i]
             mx = max(mx, lw[i])
             lmax = max(lmax, ll[i])
