@@ -175,8 +175,8 @@ def localization_error_figure(exp: Experiment, trials: list[int], path: Path) ->
     ax.set_yscale("log")
     ax.set_ylabel("position error (m)")
     ax.set_title(f"{exp.name}: position error per step, median and interquartile band over "
-                 f"{len(trials)} trials" + (" (dotted: kidnappings)" if model.kidnaps.size else "")
-                 + "; dashed: the convergence bound", fontsize=9)
+                 f"{len(trials)} trials\n" + ("dotted: kidnappings; " if model.kidnaps.size else "")
+                 + "dashed: the convergence bound", fontsize=9)
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3, which="both")
     if adaptive:
@@ -186,7 +186,8 @@ def localization_error_figure(exp: Experiment, trials: list[int], path: Path) ->
                 n = np.asarray(count[r.key], dtype=float)
                 ax2.plot(t[1:], n.mean(axis=0), color=colors[i % 10], lw=1.2,
                          label=f"{_run_name(r)}: mean over trials")
-        ax2.set_yscale("log")
+        if max(np.ptp(np.asarray(count[r.key])) for r in adaptive) > 1000:
+            ax2.set_yscale("log")
         ax2.set_ylabel("particles")
         ax2.legend(fontsize=7)
         ax2.grid(alpha=0.3, which="both")
