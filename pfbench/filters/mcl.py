@@ -111,6 +111,7 @@ def sensor_pose(area, sensor, bc, n, ids, zs, sr, sb, out, s):
 
 @njit(types.void(_F2, _F, types.int64, _F), cache=True)
 def _estimate(P, W, n, out):
+    """The weighted mean pose of P[:n] (circular mean heading) into out."""
     ex = 0.0
     ey = 0.0
     ec = 0.0
@@ -121,6 +122,29 @@ def _estimate(P, W, n, out):
         ec += W[i] * math.cos(P[i, 2])
         es += W[i] * math.sin(P[i, 2])
     out[0], out[1], out[2] = ex, ey, math.atan2(es, ec)
+
+
+@njit(types.void(_F2, _F, types.int64, _F2, _F), cache=True)
+def _estimate_cs(P, W, n, CS, out):
+    """_estimate with the headings' cosines and sines given, CS (N, 2)."""
+    ex = 0.0
+    ey = 0.0
+    ec = 0.0
+    es = 0.0
+    for i in range(n):
+        ex += W[i] * P[i, 0]
+        ey += W[i] * P[i, 1]
+        ec += W[i] * CS[i, 0]
+        es += W[i] * CS[i, 1]
+    out[0], out[1], out[2] = ex, ey, math.atan2(es, ec)
+
+
+@njit(types.void(_F2, types.int64, types.int64, _F2), cache=True)
+def _trig(P, i0, i1, CS):
+    """CS[i] = cos, sin of the heading of P[i] for i0 <= i < i1."""
+    for i in range(i0, i1):
+        CS[i, 0] = math.cos(P[i, 2])
+        CS[i, 1] = math.sin(P[i, 2])
 
 
 @njit(types.int64(types.int64, types.float64, types.float64), cache=True)
@@ -250,7 +274,13 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
     w_fast = 0.0
     prob = 0.0
     events = 0
-    _estimate(P, W, N, est[0])
+    # the headings' cosines and sines, kept with the particles: a move without a first turn
+    # (sspf2008's odometry) reuses them, and the estimate never recomputes them
+    CS = np.empty((N, 2))
+    CS2 = np.empty((N, 2))
+    _trig(P, 0, N, CS)
+    fresh = True            # the log-weights are all zero (a resampled or initial set)
+    _estimate_cs(P, W, N, CS, est[0])
     si = _snapshot(0, P, N, snap_t, snap, snap_n, 0)
     for t in range(T):
         if kld:
@@ -261,17 +291,26 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
                               inject_sensor, sensor, bc, obs_n[tp] if t > 0 else 0, obs_id[tp],
                               obs_z[tp], sr, sb, s, P2, cum)
             P, P2 = P2, P
+            _trig(P, 0, n, CS)
             lw[:n] = 0.0
+            fresh = True
             resampled[t] = 1
             injected[t] = k
         else:
             for i in range(N):
                 a1, a2, a3 = noisy_odometry(ctrl[t, 0], ctrl[t, 1], ctrl[t, 2], motion, mnoise,
                                             s)
-                th = P[i, 2] + a1
-                P[i, 0] += a2 * math.cos(th)
-                P[i, 1] += a2 * math.sin(th)
-                P[i, 2] = wrap(th + a3)
+                if a1 == 0.0:
+                    ct, st = CS[i, 0], CS[i, 1]
+                else:
+                    th = P[i, 2] + a1
+                    ct, st = math.cos(th), math.sin(th)
+                P[i, 0] += a2 * ct
+                P[i, 1] += a2 * st
+                h = wrap(P[i, 2] + a1 + a3)
+                P[i, 2] = h
+                CS[i, 0] = math.cos(h)
+                CS[i, 1] = math.sin(h)
         count[t] = n
         m = obs_n[t]
         ids = obs_id[t]
@@ -284,26 +323,32 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
             lw[i] += ll[i]
             mx = max(mx, lw[i])
             lmax = max(lmax, ll[i])
-        # the mean likelihood of the predicted particles, p_mean (log-sum-exp)
+        # the mean likelihood of the predicted particles, p_mean (log-sum-exp); on a fresh set
+        # these terms are the weights themselves
         acc = 0.0
         for i in range(n):
-            acc += math.exp(ll[i] - lmax)
+            W[i] = math.exp(ll[i] - lmax)
+            acc += W[i]
         pm = math.exp(lmax) * acc / n if np.isfinite(lmax) else 0.0
         pmean[t] = pm
         if not np.isfinite(mx):
             events += 1
             lw[:n] = 0.0
             mx = 0.0
-        S = 0.0
+            fresh = False
+        S = acc
+        if not fresh:
+            S = 0.0
+            for i in range(n):
+                W[i] = math.exp(lw[i] - mx)
+                S += W[i]
         S2 = 0.0
-        for i in range(n):
-            W[i] = math.exp(lw[i] - mx)
-            S += W[i]
         for i in range(n):
             W[i] /= S
             S2 += W[i] * W[i]
         ess[t] = 1.0 / S2
-        _estimate(P, W, n, est[t + 1])
+        fresh = False
+        _estimate_cs(P, W, n, CS, est[t + 1])
         si = _snapshot(t + 1, P, n, snap_t, snap, snap_n, si)
         if reset == 3 and m > 0:
             # the averages follow the likelihood per measurement component, pm^(1/c): steps see
@@ -324,9 +369,12 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
             resample(scheme, W, 1.0, s, idx)
             for i in range(N):
                 P2[i] = P[idx[i]]
+                CS2[i] = CS[idx[i]]
             P, P2 = P2, P
+            CS, CS2 = CS2, CS
             lw[:] = 0.0
             W[:] = 1.0 / N
+            fresh = True
             resampled[t] = 1
         # injection
         k = 0
@@ -336,6 +384,7 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
                 if uniform(s) < prob:
                     sensor_pose(area, sensor, bc, drawn_from, ids, zs, sr, sb, pose, s)
                     P[i] = pose
+                    _trig(P, i, i + 1, CS)
                     k += 1
         elif m > 0 and (reset == 1 or reset == 2):
             if reset == 1:
@@ -352,10 +401,12 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
                 perm[r], perm[j] = perm[j], perm[r]
                 sensor_pose(area, sensor, bc, m, ids, zs, sr, sb, pose, s)
                 P[perm[r]] = pose
+                _trig(P, perm[r], perm[r] + 1, CS)
         injected[t] = k
         if injected[t] > 0 and resampled[t] == 0:
             lw[:] = 0.0        # injected particles join a set of equal weights
             W[:] = 1.0 / N
+            fresh = True
     return events
 
 

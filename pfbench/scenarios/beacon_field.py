@@ -195,7 +195,7 @@ _I2 = types.int64[:, ::1]
 
 
 @njit(types.UniTuple(types.float64, 3)(types.float64, types.float64, types.float64, types.int64,
-                                       _F, STATE), cache=True)
+                                       _F, STATE), cache=True, inline="always")
 def noisy_odometry(rot1, trans, rot2, motion, mnoise, s):
     """The odometry [rot1, trans, rot2] with one draw of the motion noise (see the module)."""
     if motion == 0:
