@@ -58,6 +58,14 @@ def _main(
     _state["debug"] = debug
 
 
+def _executor(kind: str, workers: int, scheduler: str | None):
+    """The executor of --executor / --scheduler (a context manager that closes it)."""
+    from .runner import make_executor
+    if kind not in ("local", "dask"):
+        raise UserError(f"--executor: expected 'local' or 'dask', got '{kind}'")
+    return make_executor(kind, workers, scheduler)
+
+
 def _load(config: Path, trials=None, seed=None, sets=()):
     from .config import load
     return load(config, {"trials": trials, "seed": seed}, sets)
@@ -93,6 +101,12 @@ def run(
     set_: List[str] = typer.Option([], "--set", help="Override a config key: KEY.PATH=VALUE "
                                    "(YAML value; '*' matches every key), repeatable."),
     no_figures: bool = typer.Option(False, "--no-figures", help="Skip the figures."),
+    executor: str = typer.Option("local", "--executor", help="'local' (this machine's "
+                                 "processes) or 'dask' (a Dask cluster; results do not depend on "
+                                 "it)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler "
+                                            "tcp://HOST:PORT (default with --executor dask: a "
+                                            "local cluster of --workers processes)."),
 ):
     """Run an experiment: Monte Carlo trials, then the table beside the paper's values."""
     with _guard():
@@ -104,19 +118,21 @@ def run(
         from .runner import Interrupted, run_experiment
         folder = out_dir or Path("results") / exp.name
         runs = ", ".join(f.key for f in exp.filters)
-        err.print(f"{exp.name}: {exp.trials} trials of {exp.scenario} x [{runs}], seed {exp.seed}, "
-                  f"{workers} worker(s) -> {folder}", markup=False)
-        with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                      TimeElapsedColumn(), TimeRemainingColumn(), console=err,
-                      transient=True) as bar:
-            task = bar.add_task("trials", total=exp.trials)
-            try:
-                res = run_experiment(exp, folder, workers=workers, resume=resume,
-                                     progress=lambda d, n: bar.update(task, completed=d))
-            except Interrupted as exc:
-                bar.stop()
-                err.print(f"pfbench: {exc}", markup=False)
-                raise typer.Exit(130) from None
+        with _executor(executor, workers, scheduler) as ex:
+            err.print(f"{exp.name}: {exp.trials} trials of {exp.scenario} x [{runs}], seed "
+                      f"{exp.seed}, {ex.describe()} -> {folder}", markup=False)
+            with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                          TimeElapsedColumn(), TimeRemainingColumn(), console=err,
+                          transient=True) as bar:
+                task = bar.add_task("trials", total=exp.trials)
+                try:
+                    res = run_experiment(exp, folder, workers=workers, resume=resume,
+                                         progress=lambda d, n: bar.update(task, completed=d),
+                                         executor=ex)
+                except Interrupted as exc:
+                    bar.stop()
+                    err.print(f"pfbench: {exc}", markup=False)
+                    raise typer.Exit(130) from None
         tab = tables.summary(exp, res.rows)
         tables.write(exp, tab, folder, res.meta)
         _print_table(exp, tab)
@@ -144,6 +160,9 @@ def sweep(
                                            "results/<experiment>)."),
     resume: bool = typer.Option(False, "--resume", help="Keep the finished trials of every cell."),
     yes: bool = typer.Option(False, "--yes", help="Run even when there are many cells."),
+    executor: str = typer.Option("local", "--executor", help="'local' or 'dask' (see run)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler "
+                                            "tcp://HOST:PORT (see run)."),
 ):
     """Run an experiment over the cartesian product of values of some of its keys."""
     with _guard():
@@ -161,13 +180,15 @@ def sweep(
         if len(cells) > sw.CONFIRM_ABOVE and not yes:
             raise UserError(f"{len(cells)} cells is more than {sw.CONFIRM_ABOVE}: add --yes to run "
                             "them")
-        with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                      TimeElapsedColumn(), TimeRemainingColumn(), console=err,
-                      transient=True) as bar:
+        with _executor(executor, workers, scheduler) as ex, \
+                Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                         TimeElapsedColumn(), TimeRemainingColumn(), console=err,
+                         transient=True) as bar:
             task = bar.add_task("trials", total=total)
             try:
                 trials_df = sw.run_sweep(cells, folder, workers=workers, resume=resume,
-                                         progress=lambda d, n: bar.update(task, completed=d))
+                                         progress=lambda d, n: bar.update(task, completed=d),
+                                         executor=ex)
             except Interrupted as exc:
                 bar.stop()
                 err.print(f"pfbench: interrupted in a cell: {exc}", markup=False)

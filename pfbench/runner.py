@@ -135,6 +135,116 @@ def execute(exp: Experiment, trials: list[int], workers: int) -> Iterable[list[l
         pool.join()
 
 
+class LocalExecutor:
+    """Trials in this process (workers = 1) or a local process pool."""
+
+    def __init__(self, workers: int = 1):
+        self.workers = workers
+
+    def describe(self) -> str:
+        return f"{self.workers} worker(s)"
+
+    def run(self, exp: Experiment, trials: list[int]) -> Iterable[list[list[dict]]]:
+        yield from execute(exp, trials, self.workers)
+
+    def close(self) -> None:
+        pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+DASK_HINT = ("--executor dask needs Dask distributed: pip install 'pfbench[dask]' (or pip install "
+             "'dask[distributed]')")
+
+
+class DaskExecutor(LocalExecutor):
+    """Trials on a Dask distributed cluster: the scheduler at ``scheduler`` (tcp://HOST:PORT), or,
+    without one, a local cluster of ``workers`` single-threaded worker processes.
+
+    The same trial function runs on the workers, seeded as everywhere else, so the rows are the
+    in-process executor's bit for bit. A worker that dies takes its unfinished chunks with it; the
+    scheduler runs them again elsewhere, and the runner keeps one row set per trial, so nothing is
+    counted twice. Workers must run the same pfbench, numpy and numba versions as this process
+    (checked when connecting): otherwise their rows could differ.
+    """
+
+    def __init__(self, workers: int = 1, scheduler: str | None = None, timeout: float = 10.0):
+        try:
+            import distributed
+        except ImportError:
+            raise UserError(DASK_HINT) from None
+        self.workers, self.scheduler, self.cluster = workers, scheduler, None
+        try:
+            if scheduler:
+                self.client = distributed.Client(scheduler, timeout=timeout)
+            else:
+                self.cluster = distributed.LocalCluster(
+                    n_workers=workers, threads_per_worker=1, processes=True,
+                    dashboard_address=None, silence_logs=40)
+                self.client = distributed.Client(self.cluster)
+        except (OSError, TimeoutError) as exc:  # refused, unreachable, or no answer in time
+            raise UserError(f"--scheduler {scheduler}: cannot connect ({exc}); start one with "
+                            "'dask scheduler' and workers with 'dask worker SCHEDULER'") from None
+        self._check_versions()
+
+    def _check_versions(self) -> None:
+        ours = versions()
+        ours.pop("python")
+        theirs = self.client.run(_worker_versions)
+        if not theirs:
+            self.close()
+            raise UserError(f"--scheduler {self.scheduler}: the cluster has no workers; start "
+                            "them with 'dask worker SCHEDULER'")
+        for addr, v in theirs.items():
+            if v != ours:
+                bad = ", ".join(f"{k} {v.get(k)} (here {ours[k]})" for k in ours
+                                if v.get(k) != ours[k])
+                self.close()
+                raise UserError(f"worker {addr} runs {bad}: install the same versions on every "
+                                "worker, or its trials could differ")
+
+    def describe(self) -> str:
+        n = len(self.client.scheduler_info().get("workers", {}))
+        where = self.scheduler or "a local Dask cluster"
+        return f"{n} Dask worker(s) at {where}"
+
+    def run(self, exp: Experiment, trials: list[int]) -> Iterable[list[list[dict]]]:
+        import distributed
+        n = max(1, len(self.client.scheduler_info().get("workers", {})))
+        size = max(1, min(25, math.ceil(len(trials) / (n * 6))))
+        futures = [self.client.submit(_run_chunk, exp, chunk, pure=False)
+                   for chunk in _chunks(trials, size)]
+        try:
+            for fut in distributed.as_completed(futures):
+                yield fut.result()
+        finally:
+            self.client.cancel(futures)
+
+    def close(self) -> None:
+        self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+
+
+def _worker_versions() -> dict:
+    v = versions()
+    v.pop("python")
+    return v
+
+
+def make_executor(kind: str, workers: int = 1, scheduler: str | None = None) -> LocalExecutor:
+    """The executor a command asked for: 'local' (in-process or a process pool) or 'dask'."""
+    if kind == "dask":
+        return DaskExecutor(workers, scheduler)
+    if scheduler:
+        raise UserError("--scheduler needs --executor dask")
+    return LocalExecutor(workers)
+
+
 # ---------------------------------------------------------------- files
 
 def atomic_write(path: Path, text: str) -> None:
@@ -235,13 +345,16 @@ class RunResult:
 
 
 def run_experiment(exp: Experiment, out_dir: Path, *, workers: int = 1, resume: bool = False,
-                   progress: Callable[[int, int], None] | None = None) -> RunResult:
+                   progress: Callable[[int, int], None] | None = None,
+                   executor: LocalExecutor | None = None) -> RunResult:
     """Run every trial of ``exp`` into ``out_dir`` (see DESIGN.md section 3 for the files).
 
     Trials go to ``trials.partial.csv`` as they finish; at the end the sorted ``trials.csv``
     replaces it. ``resume`` keeps the finished trials of a partial (or a complete) earlier run of
-    the same experiment (same hash) and runs the rest.
+    the same experiment (same hash) and runs the rest. ``executor``: where the trials run (default:
+    a LocalExecutor of ``workers``); a trial that arrives twice (a re-run chunk) is kept once.
     """
+    executor = executor or LocalExecutor(workers)
     out_dir = Path(out_dir)
     partial = out_dir / "trials.partial.csv"
     final = out_dir / "trials.csv"
@@ -274,7 +387,8 @@ def run_experiment(exp: Experiment, out_dir: Path, *, workers: int = 1, resume: 
     t0 = time.perf_counter()
     with open(partial, "a", encoding="utf-8", newline="") as fh:
         try:
-            for chunk in execute(exp, todo, workers):
+            for chunk in executor.run(exp, todo):
+                chunk = [rows for rows in chunk if rows[0]["trial"] not in done]
                 fh.write(_csv_text((r for rows in chunk for r in rows), header=False))
                 fh.flush()
                 for rows in chunk:
@@ -290,6 +404,7 @@ def run_experiment(exp: Experiment, out_dir: Path, *, workers: int = 1, resume: 
         "format": FORMAT_VERSION, "experiment": exp.name, "config": exp.source,
         "experiment_hash": exp.hash, "paper": exp.paper, "table": exp.table, "seed": exp.seed,
         "trials": exp.trials, "trials_run_now": len(todo), "workers": workers,
+        "executor": executor.describe(),
         "wall_s": round(wall, 3), "kernel_load_s": round(LOAD_SECONDS, 3),
         "started": started.isoformat(), "finished": datetime.now(timezone.utc).isoformat(),
         "host": socket.gethostname(), "platform": platform.platform(), "cpus": os.cpu_count(),

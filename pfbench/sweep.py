@@ -115,8 +115,9 @@ def expand(config: Path, sets: dict[str, list[Any]], overrides: dict[str, Any]) 
 
 
 def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: bool = False,
-              progress: Callable[[int, int], None] | None = None) -> pd.DataFrame:
-    """Run every cell (resumable), then write the combined trials, summary and figures."""
+              progress: Callable[[int, int], None] | None = None,
+              executor=None) -> pd.DataFrame:
+    """Run every cell (resumable) on one executor, then write the combined trials."""
     total = sum(c.exp.trials for c in cells)
     done = 0
     frames = []
@@ -128,7 +129,7 @@ def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: boo
                 progress(base + d, total)
 
         res = run_experiment(cell.exp, folder, workers=workers, resume=resume,
-                             progress=cell_progress)
+                             progress=cell_progress, executor=executor)
         done += cell.exp.trials
         df = pd.DataFrame(res.rows)
         for k, v in cell.values.items():

@@ -1,0 +1,84 @@
+"""The Dask executor: the in-process executor's rows bit for bit, re-run chunks of a dead worker
+counted once, and a clear message without Dask."""
+import os
+import sys
+
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from pfbench.cli import app
+from pfbench.config import load
+from pfbench.errors import UserError
+from pfbench.runner import TIMING_COLUMNS, DaskExecutor, run_experiment
+
+from .conftest import SMALL
+
+pytest.importorskip("distributed")
+from distributed.comm.core import CommClosedError  # noqa: E402
+runner = CliRunner()
+
+
+def _numbers(path):
+    return pd.read_csv(path).drop(columns=list(TIMING_COLUMNS))
+
+
+def test_dask_local_cluster_gives_the_in_process_rows(tmp_path, write_config):
+    exp = load(write_config(SMALL.replace("trials: 6", "trials: 12")))
+    run_experiment(exp, tmp_path / "local", workers=1)
+    with DaskExecutor(2) as ex:
+        assert "2 Dask worker(s)" in ex.describe()
+        res = run_experiment(exp, tmp_path / "dask", executor=ex)
+    assert res.ran == 12 and "Dask" in res.meta["executor"]
+    pd.testing.assert_frame_equal(_numbers(tmp_path / "local/trials.csv"),
+                                  _numbers(tmp_path / "dask/trials.csv"), check_exact=True)
+
+
+def test_a_worker_that_dies_mid_run_has_its_trials_run_again_once(tmp_path, write_config):
+    # trials of a few tens of milliseconds, so that chunks are under way when a worker dies
+    cfg = ("name: slow\nseed: 5\ntrials: 40\nscenario: {name: ungm, steps: 100}\n"
+           "filters:\n  pf: {particles: 20000}\n")
+    exp = load(write_config(cfg))
+    run_experiment(exp, tmp_path / "local", workers=1)
+    with DaskExecutor(2) as ex:
+        inner = ex.run
+        killed = []
+
+        def die():          # the worker process exits a moment after answering
+            import threading
+            threading.Timer(0.05, os._exit, args=(1,)).start()
+
+        def run_and_kill(e, trials):
+            for chunk in inner(e, trials):
+                if not killed:
+                    victim = sorted(ex.client.scheduler_info()["workers"])[0]
+                    try:
+                        ex.client.run(die, workers=[victim])
+                    except (OSError, CommClosedError):
+                        pass        # it died before its answer arrived
+                    killed.append(victim)
+                yield chunk
+
+        ex.run = run_and_kill
+        res = run_experiment(exp, tmp_path / "dask", executor=ex)
+        assert killed and killed[0] not in ex.client.scheduler_info()["workers"]
+    assert res.ran == 40
+    got = _numbers(tmp_path / "dask/trials.csv")
+    assert sorted(got["trial"]) == list(range(40))          # every trial once
+    pd.testing.assert_frame_equal(_numbers(tmp_path / "local/trials.csv"), got, check_exact=True)
+
+
+def test_without_dask_the_executor_says_how_to_install_it(monkeypatch, write_config, tmp_path):
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    with pytest.raises(UserError, match=r"pip install 'pfbench\[dask\]'"):
+        DaskExecutor(2)
+    res = runner.invoke(app, ["run", str(write_config(SMALL)), "--executor", "dask", "--out",
+                              str(tmp_path / "o")])
+    assert res.exit_code == 2 and "pfbench[dask]" in res.output
+    assert not (tmp_path / "o").exists()
+
+
+def test_scheduler_without_the_dask_executor_is_refused(write_config, tmp_path):
+    res = runner.invoke(app, ["run", str(write_config(SMALL)), "--scheduler", "tcp://x:1",
+                              "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2 and "--scheduler needs --executor dask" in res.output
