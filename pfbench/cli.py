@@ -66,6 +66,14 @@ def _executor(kind: str, workers: int, scheduler: str | None):
     return make_executor(kind, workers, scheduler)
 
 
+def _bar():
+    """The progress bar of long runs (on stderr, gone when done)."""
+    from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
+                               TimeElapsedColumn, TimeRemainingColumn)
+    return Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                    TimeElapsedColumn(), TimeRemainingColumn(), console=err, transient=True)
+
+
 def _load(config: Path, trials=None, seed=None, sets=()):
     from .config import load
     return load(config, {"trials": trials, "seed": seed}, sets)
@@ -111,19 +119,13 @@ def run(
     """Run an experiment: Monte Carlo trials, then the table beside the paper's values."""
     with _guard():
         exp = _load(config, trials, seed, set_)
-        from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
-                                   TimeElapsedColumn, TimeRemainingColumn)
-
-        from . import tables
         from .runner import Interrupted, run_experiment
         folder = out_dir or Path("results") / exp.name
         runs = ", ".join(f.key for f in exp.filters)
         with _executor(executor, workers, scheduler) as ex:
             err.print(f"{exp.name}: {exp.trials} trials of {exp.scenario} x [{runs}], seed "
                       f"{exp.seed}, {ex.describe()} -> {folder}", markup=False)
-            with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                          TimeElapsedColumn(), TimeRemainingColumn(), console=err,
-                          transient=True) as bar:
+            with _bar() as bar:
                 task = bar.add_task("trials", total=exp.trials)
                 try:
                     res = run_experiment(exp, folder, workers=workers, resume=resume,
@@ -133,13 +135,9 @@ def run(
                     bar.stop()
                     err.print(f"pfbench: {exc}", markup=False)
                     raise typer.Exit(130) from None
-        tab = tables.summary(exp, res.rows)
-        tables.write(exp, tab, folder, res.meta)
+        from .regen import write_experiment
+        tab, figures = write_experiment(exp, res, folder, not no_figures)
         _print_table(exp, tab)
-        figures = []
-        if not no_figures:
-            from .plots import write_figures
-            figures = write_figures(exp, res.rows, folder)
         note = f" ({exp.trials - res.ran} resumed)" if res.ran < exp.trials else ""
         err.print(f"{res.ran} trials in {res.wall_s:.1f} s{note}; wrote {folder}/trials.csv, "
                   "table.csv, table.md, meta.json"
@@ -166,9 +164,6 @@ def sweep(
 ):
     """Run an experiment over the cartesian product of values of some of its keys."""
     with _guard():
-        from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
-                                   TimeElapsedColumn, TimeRemainingColumn)
-
         from . import sweep as sw
         from .runner import Interrupted
         name, cells = sw.expand(config, sw.parse_sets(set_), {"trials": trials, "seed": seed})
@@ -180,10 +175,7 @@ def sweep(
         if len(cells) > sw.CONFIRM_ABOVE and not yes:
             raise UserError(f"{len(cells)} cells is more than {sw.CONFIRM_ABOVE}: add --yes to run "
                             "them")
-        with _executor(executor, workers, scheduler) as ex, \
-                Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                         TimeElapsedColumn(), TimeRemainingColumn(), console=err,
-                         transient=True) as bar:
+        with _executor(executor, workers, scheduler) as ex, _bar() as bar:
             task = bar.add_task("trials", total=total)
             try:
                 trials_df = sw.run_sweep(cells, folder, workers=workers, resume=resume,
@@ -193,10 +185,8 @@ def sweep(
                 bar.stop()
                 err.print(f"pfbench: interrupted in a cell: {exc}", markup=False)
                 raise typer.Exit(130) from None
-        summ = sw.summary(trials_df, keys)
-        from .runner import atomic_write
-        atomic_write(folder / "summary.csv", summ.to_csv(index=False, lineterminator="\n"))
-        figs = sw.figures(summ, keys, folder, name)
+        from .regen import write_sweep
+        summ, figs = write_sweep(trials_df, keys, folder, name)
         t = RichTable(title=f"{name}: sweep over {', '.join(keys)}", title_justify="left")
         for h in keys + ["Filter", "N", "Trials", "RMSE mean [95% CI]", "ms/trial"]:
             t.add_column(h, overflow="fold")
@@ -209,6 +199,89 @@ def sweep(
         out.print(t)
         err.print(f"wrote {folder}/trials.csv, summary.csv, {len(figs)} figures and a results "
                   "folder per cell under cells/", markup=False)
+
+
+@app.command("tables")
+def tables_(
+    check: bool = typer.Option(False, "--check", help="Re-run each config's first check.trials "
+                               "trials and compare with the committed results instead of "
+                               "regenerating them; exit 1 when a metric moved."),
+    configs: Path = typer.Option(Path("configs"), "--configs", help="Folder of configs."),
+    results: Path = typer.Option(Path("results"), "--results", help="Folder of results."),
+    only: List[str] = typer.Option([], "--only", help="Only this config (file name or stem), "
+                                   "repeatable."),
+    workers: int = typer.Option(1, "--workers", "-w", min=1, help="Local worker processes."),
+    z: float = typer.Option(4.0, "--z", min=0.0, help="--check tolerance in standard errors of "
+                            "the difference of the means."),
+    resume: bool = typer.Option(False, "--resume", help="Keep the finished trials of an "
+                                "interrupted regeneration."),
+    no_figures: bool = typer.Option(False, "--no-figures", help="Skip the figures."),
+    executor: str = typer.Option("local", "--executor", help="'local' or 'dask' (see run)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler "
+                                            "tcp://HOST:PORT (see run)."),
+):
+    """Regenerate every config's results, or check them (--check) against the committed ones."""
+    import time
+
+    with _guard():
+        from . import regen
+        from .runner import Interrupted
+        files = regen.config_files(configs)
+        if only:
+            want = set(only)
+            unknown = want - {p.name for p in files} - {p.stem for p in files}
+            if unknown:
+                raise UserError(f"--only {sorted(unknown)[0]}: no such config in {configs}; "
+                                f"configs: {', '.join(p.stem for p in files)}")
+            files = [p for p in files if p.name in want or p.stem in want]
+        if check and resume:
+            raise UserError("--resume continues a regeneration; --check starts afresh each time")
+        # every config is valid (and its trial count known) before anything runs
+        totals = [regen.check_trials(p) if check else regen.total_trials(p) for p in files]
+        rows = []
+        with _executor(executor, workers, scheduler) as ex, _bar() as bar:
+            task = bar.add_task("trials", total=sum(totals))
+            before = 0
+            for p, n in zip(files, totals):
+                t0 = time.perf_counter()
+                bar.update(task, description=p.stem)
+                step = (lambda d, _n, b=before: bar.update(task, completed=b + d))
+                try:
+                    if check:
+                        r = regen.check_config(p, results, ex, z, progress=step)
+                        rows.append((p.name, r, time.perf_counter() - t0))
+                    else:
+                        folder = regen.regenerate(p, results, ex, figures=not no_figures,
+                                                  resume=resume, progress=step)
+                        bar.console.print(f"{p.name} -> {folder} in "
+                                          f"{time.perf_counter() - t0:.1f} s", markup=False)
+                except Interrupted as exc:
+                    bar.stop()
+                    err.print(f"pfbench: {p.name}: {exc}"
+                              + ("" if check else "; 'pfbench tables --resume' continues"),
+                              markup=False)
+                    raise typer.Exit(130) from None
+                before += n
+        if not check:
+            return
+        t = RichTable(title=f"pfbench tables --check: {len(files)} configs against {results}",
+                      title_justify="left")
+        for h in ("config", "trials re-run", "metrics compared", "same trials bit for bit",
+                  "result", "s"):
+            t.add_column(h)
+        for name, r, sec in rows:
+            t.add_row(name, str(r.trials), str(r.compared), "yes" if r.identical else "no",
+                      "ok" if r.ok else f"{len(r.findings)} moved", f"{sec:.1f}")
+        out.print(t)
+        for _, r, _ in rows:
+            for f in r.findings:
+                out.print(f"moved: {f.line()}", markup=False, soft_wrap=True)
+        out.print(f"Tolerance: |mean now - mean committed| <= {z:g} s sqrt(1/n_now + "
+                  "1/n_committed) per filter run and metric (s: the pooled standard deviation "
+                  "of the trials of both); constant metrics to 1e-9 relative.", markup=False,
+                  soft_wrap=True)
+        if not all(r.ok for _, r, _ in rows):
+            raise typer.Exit(1)
 
 
 @app.command()

@@ -79,6 +79,7 @@ class Experiment:
     scenario_params: Params
     filters: tuple[FilterRun, ...]
     compare: Params
+    check: Params
     raw: dict = field(repr=False, compare=False, hash=False)
 
     @property
@@ -207,6 +208,11 @@ TOP_SCHEMA = {
     "trials": Key("int", 100, "Monte Carlo trials (independent truths and filter runs)", min=1),
 }
 
+CHECK_SCHEMA = {
+    "trials": Key("int", 20, "trials 'pfbench tables --check' runs again (the first ones) to "
+                  "compare with the committed results", min=2),
+}
+
 COMPARE_SCHEMA = {
     "rel_tol": Key("float", 0.0, "also call a value reproduced when ours is within this fraction "
                    "of the paper's (0: only when the paper's value is inside our 95% interval)",
@@ -293,7 +299,8 @@ def validate(raw: Any, source: str = "config") -> Experiment:
     raw = check_mapping("", raw if raw is not None else {})
     if "sweep" in raw:
         raise ConfigError("sweep", "this file describes a sweep: run it with 'pfbench sweep'")
-    top = check_section({k: v for k, v in raw.items() if k not in ("scenario", "filters", "compare")},
+    top = check_section({k: v for k, v in raw.items()
+                         if k not in ("scenario", "filters", "compare", "check")},
                         TOP_SCHEMA, "")
     if "scenario" not in raw:
         raise ConfigError("scenario", "missing required section (a mapping with 'name' and the "
@@ -322,6 +329,7 @@ def validate(raw: Any, source: str = "config") -> Experiment:
         names = sorted({f.name for f in filters})
         raise ConfigError("compare.baseline", f"no filter '{compare['baseline']}'"
                           + did_you_mean(compare["baseline"], names) + f"; filters: {', '.join(names)}")
+    check = check_section(raw.get("check") or {}, CHECK_SCHEMA, "check")
     if top["table"] is not None:
         if top["paper"] is None:
             raise ConfigError("table", "needs 'paper' too")
@@ -334,7 +342,7 @@ def validate(raw: Any, source: str = "config") -> Experiment:
                       description=top["description"] or "", seed=top["seed"],
                       trials=top["trials"], scenario=scen_name,
                       scenario_params=Params(scen_params), filters=filters,
-                      compare=Params(compare), raw=copy.deepcopy(raw))
+                      compare=Params(compare), check=Params(check), raw=copy.deepcopy(raw))
 
 
 def load(path: str | Path, overrides: dict[str, Any] | None = None,

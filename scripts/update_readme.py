@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from pfbench.config import COMPARE_SCHEMA, FILTER_COMMON, TOP_SCHEMA
+from pfbench.config import CHECK_SCHEMA, COMPARE_SCHEMA, FILTER_COMMON, TOP_SCHEMA
 from pfbench.filters import FILTERS
 from pfbench.scenarios import SCENARIOS
 from pfbench.schema import REQUIRED
@@ -46,6 +46,7 @@ def keys_block() -> str:
     out = ["", "*Generated from the schemas by `python scripts/update_readme.py --write`.*", ""]
     out += _table("Top level", TOP_SCHEMA, "")
     out += _table("`compare:` (how verdicts are given)", COMPARE_SCHEMA, "compare.")
+    out += _table("`check:` (what `pfbench tables --check` runs)", CHECK_SCHEMA, "check.")
     out += _table("Every filter (`filters.<key>.`)", FILTER_COMMON, "")
     for name, ftype in FILTERS.items():
         if ftype.schema:

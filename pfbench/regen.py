@@ -1,0 +1,246 @@
+"""``pfbench tables``: regenerate every config's results, or check them against the committed ones.
+
+Regeneration runs each config of a folder (``pfbench run``, or ``pfbench sweep`` for a file with a
+``sweep:`` section) into ``<results>/<name>``, tables and figures included.
+
+The check re-runs the first ``check.trials`` trials of each config (its ``check:`` section) into a
+scratch folder and compares, for every filter run and every metric, the mean over those trials
+with the mean over the committed trials:
+
+    |mean_check - mean_committed| <= z s_pooled sqrt(1/n_check + 1/n_committed)
+
+(s_pooled: the pooled standard deviation over the trials of both, the standard error of the
+difference under the hypothesis that nothing changed; z = 4 by default). Metrics that are constant in both (a
+particle count, the likelihood evaluations) must agree to 1e-9 relative. Trials are pure functions
+of the seed and the index, so on the machine that produced the results the first trials are
+reproduced bit for bit (reported, not required: another platform's floating point may differ in
+the last bits, which a chaotic filter can grow into a different trial, but not into a different
+mean).
+"""
+from __future__ import annotations
+
+import math
+import shutil
+import tempfile
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import pandas as pd
+
+from .config import load, read_yaml
+from .errors import UserError
+from .metrics import METRICS
+from .runner import TIMING_COLUMNS, LocalExecutor, atomic_write, run_experiment
+
+Z_DEFAULT = 4.0
+
+
+def config_files(folder: Path) -> list[Path]:
+    """The experiment files of a folder (its YAML files, not those of subfolders such as
+    worlds/), sorted by name."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise UserError(f"{folder}: no such folder of configs")
+    files = sorted(p for p in folder.iterdir() if p.suffix in (".yaml", ".yml") and p.is_file())
+    if not files:
+        raise UserError(f"{folder}: no configs (*.yaml) in it")
+    return files
+
+
+def is_sweep(path: Path) -> bool:
+    raw, _ = read_yaml(path)
+    return isinstance(raw, dict) and "sweep" in raw
+
+
+def write_experiment(exp, res, folder: Path, figures: bool = True) -> tuple:
+    """The summary table (table.csv / table.md) and figures of a finished run; returns (summary,
+    figure paths)."""
+    from . import tables
+    tab = tables.summary(exp, res.rows)
+    tables.write(exp, tab, folder, res.meta)
+    paths = []
+    if figures:
+        from .plots import write_figures
+        paths = write_figures(exp, res.rows, folder)
+    return tab, paths
+
+
+def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: str,
+                figures: bool = True) -> tuple:
+    """summary.csv and the figures of a finished sweep; returns (summary, figure paths)."""
+    from . import sweep as sw
+    summ = sw.summary(trials_df, keys)
+    atomic_write(folder / "summary.csv", summ.to_csv(index=False, lineterminator="\n"))
+    return summ, (sw.figures(summ, keys, folder, name) if figures else [])
+
+
+def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int | None = None,
+               figures: bool = True, resume: bool = False,
+               progress: Callable[[int, int], None] | None = None) -> Path:
+    """Run one config (an experiment or a sweep) into results/<name>, replacing what the folder
+    held; return the folder.
+
+    The run goes to a staging folder beside it (``.<name>.partial``) that replaces the old folder
+    only when everything is written, so an error or Ctrl-C leaves the committed results as they
+    were; ``resume`` keeps the staging folder's finished trials."""
+    from . import sweep as sw
+    sweep = is_sweep(path)
+    if sweep:
+        name, cells = sw.expand(path, {}, {"trials": trials})
+    else:
+        exp = load(path, {"trials": trials})
+        name = exp.name
+    folder = Path(results) / name
+    stage = Path(results) / f".{name}.partial"
+    if not resume:
+        clear(stage)
+    if sweep:
+        df = sw.run_sweep(cells, stage, resume=resume, progress=progress, executor=executor)
+        write_sweep(df, list(cells[0].values), stage, name, figures)
+    else:
+        res = run_experiment(exp, stage, resume=resume, progress=progress, executor=executor)
+        write_experiment(exp, res, stage, figures)
+    clear(folder)
+    stage.rename(folder)
+    return folder
+
+
+def total_trials(path: Path, trials: int | None = None) -> int:
+    """Trials a regeneration of the config runs (over all cells of a sweep)."""
+    from . import sweep as sw
+    if is_sweep(path):
+        return sum(c.exp.trials for c in sw.expand(path, {}, {"trials": trials})[1])
+    return load(path, {"trials": trials}).trials
+
+
+@dataclass
+class Finding:
+    """One (filter run, metric) comparison that failed."""
+    where: str          # config, and the sweep cell if any
+    run: str
+    metric: str
+    check: float
+    committed: float
+    tolerance: float
+
+    def line(self) -> str:
+        return (f"{self.where}: {self.run} {self.metric}: {self.check:.6g} now, {self.committed:.6g} "
+                f"committed (difference {self.check - self.committed:+.3g}, tolerance "
+                f"{self.tolerance:.3g})")
+
+
+@dataclass
+class CheckResult:
+    config: str
+    trials: int                   # trials re-run (per cell)
+    compared: int = 0             # (run, metric) pairs compared
+    identical: bool = True        # the re-run trials equal the committed ones bit for bit
+    findings: list[Finding] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return not self.findings
+
+
+def compare(check: pd.DataFrame, committed: pd.DataFrame, where: str, z: float = Z_DEFAULT,
+            result: CheckResult | None = None) -> CheckResult:
+    """Compare re-run trials with committed ones, metric by metric, for every filter run."""
+    result = result or CheckResult(where, int(check["trial"].nunique()))
+    for run, a_rows in check.groupby("filter", sort=False):
+        b_rows = committed[committed["filter"] == run]
+        if b_rows.empty:
+            result.findings.append(Finding(where, run, "(missing)", math.nan, math.nan, 0.0))
+            continue
+        for metric in (m for m in METRICS if m in check.columns and m in committed.columns):
+            a = a_rows[metric].to_numpy(float)
+            b = b_rows[metric].to_numpy(float)
+            a, b = a[np.isfinite(a)], b[np.isfinite(b)]
+            if a.size < 2 or b.size < 2:
+                continue            # too few finite values to compare (e.g. no convergence yet)
+            result.compared += 1
+            d = float(a.mean() - b.mean())
+            se = pooled_se(a, b)
+            tol = z * se if se > 0 else 1e-9 * max(1.0, abs(float(b.mean())))
+            if not abs(d) <= tol:
+                result.findings.append(Finding(where, run, metric, float(a.mean()),
+                                               float(b.mean()), tol))
+    cols = [c for c in check.columns if c not in TIMING_COLUMNS]
+    same = committed[committed["trial"].isin(check["trial"].unique())]
+    key = ["trial", "filter"]
+    mine = check[cols].sort_values(key).reset_index(drop=True)
+    theirs = same[cols].sort_values(key).reset_index(drop=True) if set(cols) <= set(same.columns) \
+        else None
+    result.identical &= theirs is not None and mine.equals(theirs)
+    return result
+
+
+def pooled_se(a: np.ndarray, b: np.ndarray) -> float:
+    """Standard error of mean(a) - mean(b) when both samples come from one distribution (the
+    hypothesis under test): the pooled variance of the two, times 1/n_a + 1/n_b.
+
+    The pooled variance is dominated by the larger, committed sample. Estimating the re-run's
+    spread from its own few trials instead (Welch) understates it whenever a metric is
+    heavy-tailed: 5 trials of a SLAM heading error rarely contain the one bad trial in 20 that
+    sets the spread."""
+    na, nb = a.size, b.size
+    var = ((na - 1) * a.var(ddof=1) + (nb - 1) * b.var(ddof=1)) / (na + nb - 2)
+    return math.sqrt(var * (1.0 / na + 1.0 / nb))
+
+
+def _committed(folder: Path) -> pd.DataFrame:
+    path = folder / "trials.csv"
+    if not path.exists():
+        raise UserError(f"{path}: no committed trials to check against; run 'pfbench tables' "
+                        "first")
+    df = pd.read_csv(path)
+    missing = [m for m in METRICS if m not in df.columns]
+    if missing:
+        raise UserError(f"{path}: written by another version (no column {missing[0]}); "
+                        "regenerate it with 'pfbench tables'")
+    return df
+
+
+def check_trials(path: Path) -> int:
+    """Trials a check of the config re-runs (over all cells of a sweep); validates it."""
+    from . import sweep as sw
+    if is_sweep(path):
+        return sum(min(c.exp.check["trials"], c.exp.trials)
+                   for c in sw.expand(path, {}, {})[1])
+    exp = load(path)
+    return min(exp.check["trials"], exp.trials)
+
+
+def check_config(path: Path, results: Path, executor: LocalExecutor, z: float = Z_DEFAULT,
+                 progress: Callable[[int, int], None] | None = None) -> CheckResult:
+    """Re-run the first check.trials trials of a config and compare them with results/<name>."""
+    from . import sweep as sw
+    progress = progress or (lambda done, total: None)
+    with tempfile.TemporaryDirectory(prefix="pfbench-check-") as tmp:
+        if is_sweep(path):
+            name, cells = sw.expand(path, {}, {})
+            result = CheckResult(name, 0)
+            before = 0
+            for cell in cells:
+                k = min(cell.exp.check["trials"], cell.exp.trials)
+                committed = _committed(Path(results) / name / "cells" / cell.name)
+                res = run_experiment(replace(cell.exp, trials=k), Path(tmp) / cell.name,
+                                     progress=lambda d, n, b=before: progress(b + d, 0),
+                                     executor=executor)
+                before += k
+                result.trials = k
+                compare(pd.DataFrame(res.rows), committed, f"{name} [{cell.name}]", z, result)
+            return result
+        exp = load(path)
+        k = min(exp.check["trials"], exp.trials)
+        committed = _committed(Path(results) / exp.name)
+        res = run_experiment(replace(exp, trials=k), Path(tmp) / exp.name, progress=progress,
+                             executor=executor)
+        return compare(pd.DataFrame(res.rows), committed, exp.name, z, CheckResult(exp.name, k))
+
+
+def clear(folder: Path) -> None:
+    """Remove a results folder before regenerating it (stale cells and figures go with it)."""
+    if folder.exists():
+        shutil.rmtree(folder)
