@@ -263,6 +263,9 @@ def tables_(
                     raise typer.Exit(130) from None
                 before += n
         if not check:
+            from . import report as rp
+            path, _ = rp.write(configs, results)
+            err.print(f"wrote {path}", markup=False)
             return
         t = RichTable(title=f"pfbench tables --check: {len(files)} configs against {results}",
                       title_justify="left")
@@ -281,6 +284,29 @@ def tables_(
                   "of the trials of both); constant metrics to 1e-9 relative.", markup=False,
                   soft_wrap=True)
         if not all(r.ok for _, r, _ in rows):
+            raise typer.Exit(1)
+
+
+@app.command()
+def report(
+    configs: Path = typer.Option(Path("configs"), "--configs", help="Folder of configs."),
+    results: Path = typer.Option(Path("results"), "--results", help="Folder of results."),
+    out_file: Optional[Path] = typer.Option(None, "--out", help="Report file (default: "
+                                            "RESULTS/REPORT.md)."),
+    check: bool = typer.Option(False, "--check", help="Write nothing; exit 1 when the file is "
+                               "not what the results give."),
+):
+    """Write the reproduction report: every paper's tables beside ours, from the results."""
+    with _guard():
+        from . import report as rp
+        path, same = rp.write(configs, results, out_file, check=check)
+        if not check:
+            err.print(f"wrote {path}", markup=False)
+        elif same:
+            err.print(f"{path} is up to date", markup=False)
+        else:
+            err.print(f"{path} is not what the results give: run 'pfbench report'",
+                      markup=False)
             raise typer.Exit(1)
 
 

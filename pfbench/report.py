@@ -1,0 +1,429 @@
+"""``pfbench report``: results/REPORT.md, every paper's tables beside ours, from the results folder.
+
+Each config of ``configs/`` is matched with its results folder; its table is recomputed from
+``trials.csv`` (as ``pfbench run`` computes it), so the report cannot disagree with the trials.
+Per paper the report gives: each table as the paper printed it beside ours with intervals and
+verdicts, the rankings and factors, the paper's notes (why a value cannot be held against ours),
+the figures, the choices the paper left open with the values our configs use, and a short summary
+whose numbers are filled in from the results (``papers.FINDINGS``). A config whose results are
+missing, or were made from a different version of the config, is named as such, never silently
+reported.
+"""
+from __future__ import annotations
+
+import json
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+from . import __version__
+from . import tables as tb
+from .config import Experiment, load
+from .errors import UserError
+from .papers import CHOICES, FINDINGS, PAPERS, reported
+from .regen import config_files, is_sweep
+
+TITLE = "pfbench reproduction report"
+
+
+@dataclass
+class Entry:
+    """One config and what its results folder holds."""
+    path: Path                      # the config
+    exp: Experiment                 # the experiment (a sweep: its first cell)
+    folder: Path                    # results/<name>
+    sweep_keys: list | None = None  # swept key paths, for a sweep
+    cells: list | None = None       # a sweep's cells
+    status: str = "ok"              # 'ok', or why the results cannot be reported
+    table: pd.DataFrame | None = None   # the summary (experiments) or summary.csv (sweeps)
+    meta: dict | None = None
+
+    @property
+    def name(self) -> str:
+        return self.folder.name
+
+
+def collect(configs: Path, results: Path) -> list[Entry]:
+    """Every config with its results, tables recomputed from the trials."""
+    from . import sweep as sw
+    entries = []
+    for path in config_files(configs):
+        if is_sweep(path):
+            name, cells = sw.expand(path, {}, {})
+            e = Entry(path, cells[0].exp, Path(results) / name, list(cells[0].values), cells)
+        else:
+            exp = load(path)
+            e = Entry(path, exp, Path(results) / exp.name)
+        _read(e)
+        entries.append(e)
+    return entries
+
+
+def _read(e: Entry) -> None:
+    if e.cells is not None:
+        summary = e.folder / "summary.csv"
+        if not summary.exists():
+            e.status = "not run"
+            return
+        for cell in e.cells:
+            meta = _meta(e.folder / "cells" / cell.name)
+            why = _stale(cell.exp, meta)
+            if why:
+                e.status = f"{why} (cell {cell.name})"
+                return
+            e.meta = e.meta or meta
+        e.table = pd.read_csv(summary)
+        return
+    trials = e.folder / "trials.csv"
+    if not trials.exists():
+        e.status = "not run"
+        return
+    e.meta = _meta(e.folder)
+    why = _stale(e.exp, e.meta)
+    if why:
+        e.status = why
+        return
+    e.table = tb.summary(e.exp, pd.read_csv(trials))
+
+
+def _meta(folder: Path) -> dict | None:
+    path = folder / "meta.json"
+    return json.loads(path.read_text()) if path.exists() else None
+
+
+def _stale(exp: Experiment, meta: dict | None) -> str:
+    """Why results with this meta.json are not those of the experiment ('' when they are)."""
+    if meta is None:
+        return "no meta.json"
+    if meta.get("experiment_hash") != exp.hash:
+        return "stale: the config changed since these results were made"
+    if meta.get("trials") != exp.trials:
+        return f"stale: {meta.get('trials')} trials, the config asks for {exp.trials}"
+    return ""
+
+
+# ---- values of config keys (the choices a paper left open)
+
+def config_value(e: Entry, path: str) -> list:
+    """The distinct values a config gives a key path ('trials', 'scenario.steps',
+    'filters.<name>.<key>'), over a sweep's cells; [] when the key does not apply."""
+    exps = [c.exp for c in e.cells] if e.cells else [e.exp]
+    out = []
+    for exp in exps:
+        for v in _values(exp, path):
+            if v not in out:
+                out.append(v)
+    return out
+
+
+def _values(exp: Experiment, path: str) -> list:
+    parts = path.split(".")
+    if parts == ["trials"]:
+        return [exp.trials]
+    if parts[0] == "scenario" and len(parts) == 2:
+        if parts[1] == "name":
+            return [exp.scenario]
+        return [exp.scenario_params[parts[1]]] if parts[1] in exp.scenario_params else []
+    if parts[0] == "filters" and len(parts) == 3:
+        out = []
+        for f in exp.filters:
+            if f.name != parts[1]:
+                continue
+            v = f.particles if parts[2] == "particles" else (
+                f.type if parts[2] == "type" else f.params.get(parts[2], _MISSING))
+            if v is not _MISSING and v not in out:
+                out.append(v)
+        return out
+    raise ValueError(f"unknown key path {path!r}")
+
+
+_MISSING = object()
+
+
+def _fmt_value(v) -> str:
+    if v is None:
+        return "unset"
+    if isinstance(v, float):
+        return f"{v:g}"
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_fmt_value(x) for x in v) + "]"
+    return str(v)
+
+
+# ---- numbers in the findings: {config:run:column} or {config:run:column:ci}
+
+_FIELD = re.compile(r"\{([\w.-]+):([\w.@-]+):(\w+)(:ci)?\}")
+
+
+def fill(text: str, entries: dict[str, Entry]) -> str:
+    """Replace each {config:run:column[:ci]} by the value in that config's table (its 95%
+    interval too with :ci); '(not run)' where the results are missing."""
+    def one(m: re.Match) -> str:
+        name, run, col, ci = m.groups()
+        e = entries.get(name)
+        if e is None or e.table is None:
+            return "(not run)"
+        rows = e.table[e.table["filter"] == run]
+        if rows.empty or col not in rows.columns:
+            raise KeyError(f"{m.group(0)}: no run {run!r} or column {col!r} in {name}")
+        r = rows.iloc[0]
+        v = r[col]
+        if isinstance(v, str):
+            return v
+        text = _num(float(v))
+        if ci:
+            lo, hi = _interval_columns(col)
+            text += f" [{_num(float(r[lo]))}, {_num(float(r[hi]))}]"
+        return text
+    return _FIELD.sub(one, text)
+
+
+def _num(v: float) -> str:
+    """Three significant digits, whole numbers from 100 on (no exponents in prose)."""
+    if v != v:
+        return "-"
+    return f"{v:.0f}" if abs(v) >= 100 else f"{v:.3g}"
+
+
+def _interval_columns(col: str) -> tuple[str, str]:
+    if col.startswith("ours_"):
+        return f"ours_lo_{col[5:]}", f"ours_hi_{col[5:]}"
+    stem = col.removesuffix("_mean")
+    return f"{stem}_ci_lo", f"{stem}_ci_hi"
+
+
+# ---- counting verdicts
+
+def verdict_counts(e: Entry) -> dict[str, int]:
+    """Paper values compared, by outcome: reproduced, differ, not comparable."""
+    table = reported(e.exp.paper, e.exp.table)
+    counts = {"values": 0, "reproduced": 0, "differ": 0, "not comparable": 0}
+    if table is None or e.table is None:
+        return counts
+    verdicts = [r[f"verdict_{q.key}"] for q in table.quantities for _, r in e.table.iterrows()]
+    verdicts += [f["verdict"] for f in e.table.attrs.get("factors", [])]
+    for v in verdicts:
+        if not isinstance(v, str) or not v:
+            continue
+        counts["values"] += 1
+        kind = ("reproduced" if v.startswith("reproduced") else
+                "not comparable" if v.startswith("not comparable") else "differ")
+        counts[kind] += 1
+    return counts
+
+
+def ranking_counts(e: Entry) -> tuple[int, int]:
+    """(comparisons in the same order as the paper's, comparisons)."""
+    if e.table is None:
+        return 0, 0
+    lines = [x for x in tb.rankings(e.exp, e.table) if x.startswith("Ranking by")]
+    return sum(x.endswith("same order.") for x in lines), len(lines)
+
+
+# ---- the document
+
+def _table_md(head: list[str], cells: list[list[str]]) -> list[str]:
+    out = ["| " + " | ".join(head) + " |", "|" + "|".join(" --- " for _ in head) + "|"]
+    return out + ["| " + " | ".join(str(c).replace("|", "/") for c in row) + " |" for row in cells]
+
+
+def _n(v) -> str:
+    return "-" if v is None or v != v else str(int(v))
+
+
+def comparison(e: Entry) -> list[str]:
+    """The paper's table beside ours: per filter run and reported quantity, ours with its 95%
+    interval, the paper's value and the verdict; reasons for 'not comparable' listed once."""
+    table = reported(e.exp.paper, e.exp.table)
+    head = ["Filter", "N", "Trials"]
+    for q in table.quantities:
+        head += [f"{q.title}: ours [95% CI]", "paper", "verdict"]
+    reasons: list[str] = []
+    cells = []
+    for _, r in e.table.iterrows():
+        row = [r["label"], _n(r["particles"]), str(int(r["trials"]))]
+        for q in table.quantities:
+            v = r[f"verdict_{q.key}"] or "-"
+            if v.startswith("not comparable: "):
+                why = v.removeprefix("not comparable: ")
+                if why not in reasons:
+                    reasons.append(why)
+                v = f"not comparable ({reasons.index(why) + 1})"
+            row += [tb._ours_cell(r, q), tb._fmt(r[f"paper_{q.key}"], 6), v]
+        cells.append(row)
+    out = _table_md(head, cells)
+    if reasons:
+        out += [""] + [f"Not comparable ({i + 1}): {why}." for i, why in enumerate(reasons)]
+    return out
+
+
+def _figures(folder: Path, where: Path) -> list[str]:
+    figs = sorted((folder / "figures").glob("*.png"))
+    return [f"![{f.stem}]({os.path.relpath(f, where).replace(os.sep, '/')})" for f in figs]
+
+
+def _provenance(e: Entry) -> str:
+    m = e.meta or {}
+    commit = (m.get("git_commit") or "unknown")[:10]
+    trials = e.exp.trials
+    cells = f" in each of {len(e.cells)} cells" if e.cells else ""
+    return (f"`{e.path.as_posix()}` -> `{e.folder.as_posix()}`: {trials} trials{cells}, seed "
+            f"{e.exp.seed}, scenario `{e.exp.scenario}`; results of commit `{commit}`, pfbench "
+            f"{m.get('versions', {}).get('pfbench', '?')}.")
+
+
+def _experiment_section(e: Entry, where: Path) -> list[str]:
+    table = reported(e.exp.paper, e.exp.table)
+    out = _head(e, f"{_table_name(e.exp.table)}: `{e.path.stem}`",
+                f"The paper's table: {table.caption}." if table else None)
+    if e.status != "ok":
+        return out
+    if table is not None:
+        out += comparison(e) + [""]
+        if e.table.attrs.get("per_trial"):
+            title, head, cells = e.table.attrs["per_trial"]
+            out += [f"{title}:", ""] + _table_md(head, cells) + [""]
+        # the baseline's paired columns are in table.md, not here: their legend goes too
+        notes = [n for n in tb.footnotes(e.exp, e.table) if not n.startswith("'RMSE - ")]
+        if notes:
+            out += ["Measured here:", ""] + [f"- {n}" for n in notes] + [""]
+        if table.notes:
+            out += ["The paper's table and how we read it:", ""]
+            out += [f"- {n}" for n in table.notes] + [""]
+    out += [f"Full table with the diagnostics: [{e.name}/table.md]"
+            f"({os.path.relpath(e.folder / 'table.md', where).replace(os.sep, '/')}).", ""]
+    return out + _figures(e.folder, where) + [""]
+
+
+def _head(e: Entry, title: str, paper: str | None = None) -> list[str]:
+    """A section's heading, what the paper and we ran, where the numbers come from; and why
+    nothing follows when the results cannot be reported."""
+    out = [f"### {title}", ""]
+    if paper:
+        out += [paper, ""]
+    if e.exp.description:
+        out += [f"Ours: {e.exp.description}.", ""]
+    out += [_provenance(e), ""]
+    if e.status != "ok":
+        out += [f"**Not reported: {e.status}.** Run `pfbench tables --only {e.path.stem}` to "
+                "regenerate it.", ""]
+    return out
+
+
+def _table_name(key: str | None) -> str:
+    """'table3' -> 'Table 3'; another key as it is."""
+    if key is None:
+        return "Experiment"
+    m = re.fullmatch(r"table(\d+)", key)
+    return f"Table {m.group(1)}" if m else key.capitalize()
+
+
+def _sweep_section(e: Entry, where: Path) -> list[str]:
+    out = _head(e, f"Sweep: `{e.path.stem}`")
+    if e.status != "ok":
+        return out
+    keys = e.sweep_keys
+    s = e.table
+    out += [f"Swept: {', '.join(f'`{k}`' for k in keys)}. Position RMSE mean [95% CI] and "
+            "milliseconds per trial:", ""]
+    head = keys + ["Filter", "N", "RMSE mean [95% CI]", "ms/trial"]
+    cells = [[_fmt_value(r[k]) for k in keys] + [r["label"], _n(r["particles"]),
+             f"{tb._fmt(r['rmse_mean'])} [{tb._fmt(r['rmse_ci_lo'])}, "
+             f"{tb._fmt(r['rmse_ci_hi'])}]", tb._fmt(1e3 * r["wall_s_mean"], 3)]
+             for _, r in s.iterrows()]
+    out += _table_md(head, cells) + [""]
+    return out + _figures(e.folder, where) + [""]
+
+
+def _choices(paper: str, entries: list[Entry]) -> list[str]:
+    choices = CHOICES.get(paper, ())
+    if not choices:
+        return []
+    out = ["### Choices the paper left open, and the values used", "",
+           "Each value with the configs that use it; 'unset' is the key's default of none "
+           "(the README's key reference says what that means).", "",
+           "| The paper | Key | Value (config) |", "| --- | --- | --- |"]
+    for what, keys in choices:
+        for key in keys:
+            by_value: dict[str, list[str]] = {}      # the value -> the configs that use it
+            for e in entries:
+                v = config_value(e, key)
+                if v:
+                    by_value.setdefault(", ".join(_fmt_value(x) for x in v), []).append(
+                        e.path.stem)
+            if by_value:
+                vals = "; ".join(f"{v} ({', '.join(names)})" for v, names in by_value.items())
+                out.append(f"| {what} | `{key}` | {vals} |")
+    return out + [""]
+
+
+def _summary_row(e: Entry) -> list[str]:
+    c = verdict_counts(e)
+    agree, total = ranking_counts(e)
+    table = e.exp.table or ("sweep" if e.cells else "-")
+    if e.status != "ok":
+        return [e.exp.paper or "-", table, f"`{e.path.stem}`", e.status, "", "", "", "", ""]
+    return [e.exp.paper or "-", table, f"`{e.path.stem}`", str(e.exp.trials),
+            str(c["values"]), str(c["reproduced"]), str(c["differ"]), str(c["not comparable"]),
+            f"{agree} of {total}" if total else "-"]
+
+
+def build(configs: Path, results: Path, out: Path) -> str:
+    """The report's text (links relative to ``out``'s folder)."""
+    order = {k: i for i, k in enumerate(PAPERS)}
+    entries = sorted(collect(configs, results),
+                     key=lambda e: (order.get(e.exp.paper, len(order)), e.cells is not None,
+                                    e.exp.table or "", e.path.stem))
+    by_name = {e.name: e for e in entries}
+    where = Path(out).parent
+    papers = [k for k in PAPERS if any(e.exp.paper == k for e in entries)]
+    lines = [f"# {TITLE}", "",
+             f"Written by `pfbench report` (pfbench {__version__}) from the configs in "
+             f"`{configs.as_posix()}` and the trials in `{results.as_posix()}`. Every table is "
+             "recomputed from its `trials.csv`; do not edit this file, run `pfbench report` "
+             "again (`pfbench report --check`, in CI, fails when it is out of date).", "",
+             "A paper's value is *reproduced* when it lies inside our 95% interval (Student's t "
+             "over trials; for a paper's range, when our interval meets it; where a config sets "
+             "`compare.rel_tol`, also within that fraction), *differs* otherwise (with the "
+             "ratio ours / paper), and is *not comparable* when the paper's setting cannot be "
+             "rebuilt (a real robot, an unpublished course); the notes give each reason. Where "
+             "a paper claims an order of its filters, the rankings are compared too.", "",
+             "## Summary", ""]
+    lines += _table_md(["Paper", "Table", "Config", "Trials", "Paper values", "Reproduced",
+                        "Differ", "Not comparable", "Rankings as the paper's"],
+                       [_summary_row(e) for e in entries]) + [""]
+    for paper in papers:
+        p = PAPERS[paper]
+        mine = [e for e in entries if e.exp.paper == paper]
+        lines += [f"## `{paper}`: {p.citation}", ""]
+        findings = FINDINGS.get(paper, ())
+        if findings:
+            lines += ["What reproduced and what did not:", ""]
+            lines += [f"- {fill(text, by_name)}" for text in findings] + [""]
+        for e in mine:
+            lines += _sweep_section(e, where) if e.cells else _experiment_section(e, where)
+        lines += _choices(paper, mine)
+    others = [e for e in entries if e.exp.paper not in PAPERS]
+    if others:
+        lines += ["## Other experiments", ""]
+        for e in others:
+            lines += _sweep_section(e, where) if e.cells else _experiment_section(e, where)
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def write(configs: Path, results: Path, out: Path | None = None, check: bool = False
+          ) -> tuple[Path, bool]:
+    """Write the report (default results/REPORT.md), or with ``check`` only compare it with the
+    file; return (its path, whether the file held this text before)."""
+    from .runner import atomic_write
+    out = Path(out) if out else Path(results) / "REPORT.md"
+    if not Path(results).is_dir():
+        raise UserError(f"{results}: no such results folder; run 'pfbench tables' first")
+    text = build(Path(configs), Path(results), out)
+    same = out.exists() and out.read_text(encoding="utf-8") == text
+    if not check:
+        atomic_write(out, text)
+    return out, same
