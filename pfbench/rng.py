@@ -74,34 +74,69 @@ def uniform(s):
     return float(next_u64(s) >> uint64(11)) * _U53
 
 
+@njit(types.float64(STATE, types.uint64, types.uint64, types.float64), cache=True, inline="always")
+def _normal_slow(s, idx, rabs, x):
+    """The rest of :func:`normal` once a draw fell outside its layer's rectangle: the tail
+    (layer 0) or the wedge test; NaN when the draw is rejected (the caller draws again)."""
+    if idx == 0:
+        while True:
+            xx = -_ZINV_R * math.log1p(-uniform(s))
+            yy = -math.log1p(-uniform(s))
+            if yy + yy > xx * xx:
+                return -(_ZR + xx) if (rabs >> uint64(8)) & uint64(1) else _ZR + xx
+    if (_ZFI[idx - 1] - _ZFI[idx]) * uniform(s) + _ZFI[idx] < math.exp(-0.5 * x * x):
+        return x
+    return math.nan
+
+
+@njit(types.Tuple((types.uint64, types.uint64, types.float64))(types.uint64), cache=True,
+      inline="always")
+def _layer(r):
+    """The ziggurat's reading of 64 random bits: (layer, 52-bit magnitude, signed candidate)."""
+    idx = r & _LOW8
+    r >>= uint64(8)
+    rabs = (r >> uint64(1)) & _MANT52
+    x = rabs * _ZWI[idx]
+    return idx, rabs, -x if r & uint64(1) else x
+
+
 @njit(types.float64(STATE), cache=True)
 def normal(s):
     """One standard normal draw (ziggurat: one 64-bit draw per value 98.8% of the time)."""
     while True:
-        r = next_u64(s)
-        idx = r & _LOW8
-        r >>= uint64(8)
-        rabs = (r >> uint64(1)) & _MANT52
-        x = rabs * _ZWI[idx]
-        if r & uint64(1):
-            x = -x
+        idx, rabs, x = _layer(next_u64(s))
         if rabs < _ZKI[idx]:
             return x
-        if idx == 0:  # the tail beyond r, by Marsaglia's exponential method
-            while True:
-                xx = -_ZINV_R * math.log1p(-uniform(s))
-                yy = -math.log1p(-uniform(s))
-                if yy + yy > xx * xx:
-                    return -(_ZR + xx) if (rabs >> uint64(8)) & uint64(1) else _ZR + xx
-        elif (_ZFI[idx - 1] - _ZFI[idx]) * uniform(s) + _ZFI[idx] < math.exp(-0.5 * x * x):
+        x = _normal_slow(s, idx, rabs, x)
+        if x == x:
             return x
 
 
 @njit(types.void(STATE, types.float64[::1]), cache=True)
 def fill_normal(s, z):
-    """Fill ``z`` with independent standard normal draws."""
+    """Fill ``z`` with independent standard normal draws: the draws of as many calls of
+    :func:`normal`, bit for bit, about 2.5x faster. The generator state lives in local variables
+    (registers) while the ziggurat's fast path runs, and goes back to ``s`` for the rare slow
+    one (1.2% of draws)."""
+    s0, s1, s2, s3 = s[0], s[1], s[2], s[3]
     for i in range(z.size):
-        z[i] = normal(s)
+        r = s0 + s3                     # next_u64, on the local state
+        t = s1 << uint64(17)
+        s2 ^= s0
+        s3 ^= s1
+        s1 ^= s2
+        s0 ^= s3
+        s2 ^= t
+        s3 = (s3 << uint64(45)) | (s3 >> uint64(19))
+        idx, rabs, x = _layer(r)
+        if rabs < _ZKI[idx]:
+            z[i] = x
+            continue
+        s[0], s[1], s[2], s[3] = s0, s1, s2, s3
+        x = _normal_slow(s, idx, rabs, x)
+        z[i] = x if x == x else normal(s)
+        s0, s1, s2, s3 = s[0], s[1], s[2], s[3]
+    s[0], s[1], s[2], s[3] = s0, s1, s2, s3
 
 
 @njit(types.void(STATE, types.float64, types.float64[::1]), cache=True)
