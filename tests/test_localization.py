@@ -156,13 +156,13 @@ def _kld_draw(P, kp, seed=0, nmax=100000, noise=0.0):
     n = P.shape[0]
     W = np.full(n, 1.0 / n)
     occ = np.zeros(kld_bins(area, kp), dtype=np.uint8)
-    out = np.empty((nmax, 3))
-    m, inj = kld_sample(P, W, n, np.zeros(3), 0, np.array([noise, 0.0, 0.0, 0.0]), area, kp, nmax,
+    out = np.empty((3, nmax))                  # the kernel keeps particles as rows
+    m, inj = kld_sample(np.ascontiguousarray(P.T), W, n, np.zeros(3), 0, np.array([noise, 0.0, 0.0, 0.0]), area, kp, nmax,
                         occ, np.empty(nmax, dtype=np.int64), 0.0, 0, 0, np.zeros((1, 2)), 0,
                         np.zeros(1, dtype=np.int64), np.zeros((1, 2)), 0.1, 0.1,
                         state_from_seed(np.random.SeedSequence(seed)), out, np.empty(n))
     assert inj == 0 and not occ.any()           # the histogram is left empty for the next step
-    return m, out[:m], area
+    return m, out[:, :m].T, area
 
 
 def test_kld_count_is_the_chi_square_quantile():

@@ -200,7 +200,7 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sens
     d = np.empty(3)
     events = 0
     _estimate(X, W, N, est[0])
-    si = _snapshot(0, X, N, snap_t, snap, snap_n, 0)
+    si = _snapshot(0, X, N, snap_t, snap, snap_n, 0, False)
     for t in range(T):
         u = ctrl[t]
         noise_sd(u, motion, mnoise, sd)
@@ -374,7 +374,7 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sens
             Kc += W[i] * dw * dw
         ess[t] = 1.0 / S2
         _estimate(X, W, N, est[t + 1])
-        si = _snapshot(t + 1, X, N, snap_t, snap, snap_n, si)
+        si = _snapshot(t + 1, X, N, snap_t, snap, snap_n, si, False)
         accepted[t] = np.nan
         go = trigger == 0 or (trigger == 1 and ess[t] < threshold) or (trigger == 2 and
                                                                         Kc > threshold)

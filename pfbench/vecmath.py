@@ -1,0 +1,82 @@
+"""Branch-free sine, cosine and exponential that the compiler vectorises.
+
+numba calls the C library for ``math.sin``, ``math.cos`` and ``math.exp``, one value at a time
+(about 10 ns for a sine and cosine, 4 ns for an exponential here); the functions below are the
+classic Cephes polynomials written without branches, so a loop over an array that calls them
+compiles to vector instructions (1.4 ns and 0.8 ns per value on this machine's AVX-512). They are
+not the library's functions bit for bit: ``sincos`` differs from ``math.sin`` / ``math.cos`` by
+at most 2.3e-16 for |x| <= 4 pi (1 ulp but next to the zeros), ``exp`` by at most 2 ulp from
+``math.exp`` on [-708, 709] (below, where the library's result is subnormal, it gives 0); the
+tests check both.
+
+A loop only vectorises when nothing in it can raise: compile it with ``error_model="numpy"`` (a
+float division by zero gives inf instead of raising ZeroDivisionError).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, types
+
+# sin and cos on [-pi/4, pi/4] (Cephes sin.c), pi/4 in three parts for the reduction
+_S0, _S1, _S2 = 1.58962301576546568060e-10, -2.50507477628578072866e-8, 2.75573136213857245213e-6
+_S3, _S4, _S5 = -1.98412698295895385996e-4, 8.33333333332211858878e-3, -1.66666666666666307295e-1
+_C0, _C1, _C2 = -1.13585365213876817300e-11, 2.08757008419747316778e-9, -2.75573141792967388112e-7
+_C3, _C4, _C5 = 2.48015872888517045348e-5, -1.38888888888730564116e-3, 4.16666666666665929218e-2
+_DP1, _DP2, _DP3 = 7.85398125648498535156e-1, 3.77489470793079817668e-8, 2.69515142907905952645e-15
+_FOPI = 4.0 / math.pi
+
+# exp (Cephes exp.c): x = n ln 2 + r, |r| <= ln(2) / 2, e^r by a rational function
+_LOG2E = 1.4426950408889634073599
+_LN2_HI, _LN2_LO = 6.93145751953125e-1, 1.42860682030941723212e-6
+_P0, _P1, _P2 = 1.26177193074810590878e-4, 3.02994407707441961300e-2, 9.99999999999999999910e-1
+_Q0, _Q1 = 3.00198505138664455042e-6, 2.52448340349684104192e-3
+_Q2, _Q3 = 2.27265548208155028766e-1, 2.00000000000000000009e0
+EXP_MIN = -708.0          # exp is 0 below (the library's result is subnormal there)
+_EXP_MAX = 709.0
+
+
+@njit(types.UniTuple(types.float64, 2)(types.float64), cache=True, inline="always")
+def sincos(x):
+    """(sin x, cos x) for |x| <= 4 pi (beyond, the three-part reduction loses accuracy)."""
+    ax = abs(x)
+    j = np.int64(ax * _FOPI)
+    j += j & 1                           # the nearest even octant: |z| <= pi / 4
+    y = float(j)
+    z = ((ax - y * _DP1) - y * _DP2) - y * _DP3
+    zz = z * z
+    ps = z + z * zz * (((((_S0 * zz + _S1) * zz + _S2) * zz + _S3) * zz + _S4) * zz + _S5)
+    pc = (1.0 - 0.5 * zz
+          + zz * zz * (((((_C0 * zz + _C1) * zz + _C2) * zz + _C3) * zz + _C4) * zz + _C5))
+    swap = (j & 2) != 0                  # octants 2 and 6: sin and cos trade places
+    s = pc if swap else ps
+    c = ps if swap else pc
+    s = -s if ((j & 4) != 0) != (x < 0.0) else s
+    c = -c if ((j + 2) & 4) != 0 else c
+    return s, c
+
+
+@njit(types.float64(types.float64), cache=True, inline="always")
+def exp(x):
+    """e^x: 0 below EXP_MIN, inf above 709 (the library's overflows above 709.78)."""
+    xc = x if x > EXP_MIN else EXP_MIN
+    xc = xc if xc < _EXP_MAX else _EXP_MAX
+    n = math.floor(_LOG2E * xc + 0.5)
+    r = (xc - n * _LN2_HI) - n * _LN2_LO
+    rr = r * r
+    px = r * ((_P0 * rr + _P1) * rr + _P2)
+    e = 1.0 + 2.0 * (px / ((((_Q0 * rr + _Q1) * rr + _Q2) * rr + _Q3) - px))
+    v = e * np.int64((np.int64(n) + 1023) << 52).view(np.float64)
+    v = v if x <= _EXP_MAX else math.inf
+    return v if x >= EXP_MIN else 0.0
+
+
+@njit(types.float64(types.float64), cache=True, inline="always")
+def wrap(a):
+    """a wrapped to [-pi, pi) without a branch the vectoriser cannot follow: exact for an angle
+    already inside; outside, a - 2 pi floor((a + pi) / 2 pi) (pfbench.angles.wrap takes the
+    remainder instead; the two may differ in the last bit)."""
+    w = a - 2.0 * math.pi * math.floor((a + math.pi) / (2.0 * math.pi))
+    w = w - 2.0 * math.pi if w >= math.pi else w      # rounding up to pi exactly
+    return a if -math.pi <= a < math.pi else w
