@@ -267,11 +267,13 @@ def _figures(folder: Path, where: Path) -> list[str]:
 
 def _provenance(e: Entry) -> str:
     m = e.meta or {}
-    commit = (m.get("git_commit") or "unknown")[:10]
+    commit = m.get("git_commit") or "unknown"
+    commit = f"`{commit[:10]}`" + (" with uncommitted changes to the code"
+                                   if commit.endswith("-dirty") else "")
     trials = e.exp.trials
     cells = f" in each of {len(e.cells)} cells" if e.cells else ""
     return (f"`{e.path.as_posix()}` -> `{e.folder.as_posix()}`: {trials} trials{cells}, seed "
-            f"{e.exp.seed}, scenario `{e.exp.scenario}`; results of commit `{commit}`, pfbench "
+            f"{e.exp.seed}, scenario `{e.exp.scenario}`; results of commit {commit}, pfbench "
             f"{m.get('versions', {}).get('pfbench', '?')}.")
 
 

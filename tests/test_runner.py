@@ -152,3 +152,24 @@ def test_ctrl_c_keeps_finished_trials_and_resume_completes_them(tmp_path, write_
     assert runner.invoke(app, ["run", str(cfg), "--out", str(ref), "--workers", "2"]).exit_code == 0
     pd.testing.assert_frame_equal(_numbers(out / "trials.csv"), _numbers(ref / "trials.csv"),
                                   check_exact=True)
+
+
+def test_git_commit_is_dirty_for_the_code_not_for_the_results(tmp_path):
+    import subprocess
+
+    from pfbench.runner import git_commit
+
+    def git(*args):
+        subprocess.run(["git", *args], cwd=tmp_path, check=True, capture_output=True)
+    git("init", "-q")
+    for name in ("pfbench/x.py", "results/r/trials.csv", "configs/c.yaml"):
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_text("0\n")
+    git("add", "-A")
+    git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "x")
+    clean = git_commit(tmp_path)
+    assert clean and not clean.endswith("-dirty")
+    (tmp_path / "results/r/trials.csv").write_text("1\n")       # a run rewriting its results
+    assert git_commit(tmp_path) == clean
+    (tmp_path / "configs/c.yaml").write_text("1\n")
+    assert git_commit(tmp_path) == clean + "-dirty"
