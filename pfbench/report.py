@@ -365,7 +365,7 @@ def _choices(paper: str, entries: list[Entry]) -> list[str]:
 def _summary_row(e: Entry) -> list[str]:
     c = verdict_counts(e)
     agree, total = ranking_counts(e)
-    table = e.exp.table or ("sweep" if e.cells else "-")
+    table = "Sweep" if e.cells else _table_name(e.exp.table)
     if e.status != "ok":
         return [e.exp.paper or "-", table, f"`{e.path.stem}`", e.status, "", "", "", "", ""]
     return [e.exp.paper or "-", table, f"`{e.path.stem}`", str(e.exp.trials),
