@@ -1,4 +1,6 @@
 """pfbench tables: regeneration of a folder of configs, and --check against committed results."""
+import json
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -133,3 +135,26 @@ def test_a_failed_regeneration_keeps_the_committed_folder(folders, monkeypatch):
     with pytest.raises(RuntimeError):
         regen.regenerate(configs / "small.yaml", results, regen.LocalExecutor(1), figures=False)
     assert (results / "small" / "trials.csv").read_bytes() == before
+
+
+def test_tables_resume_keeps_the_staged_trials_of_an_interrupted_regeneration(folders):
+    from pfbench.config import load
+    from pfbench.runner import run_experiment
+    configs, results = folders
+    exp = load(configs / "small.yaml")
+    # what an interrupted 'pfbench tables' leaves: the first trials in the staging folder
+    stage = results / ".small.partial"
+    run_experiment(load(configs / "small.yaml", {"trials": 5}), stage)
+    r = tables("--configs", configs, "--results", results, "--no-figures", "--only", "small",
+               "--resume")
+    assert r.exit_code == 0, r.output
+    meta = json.loads((results / "small" / "meta.json").read_text())
+    assert meta["trials"] == exp.trials == 12 and meta["trials_run_now"] == 7
+    assert not stage.exists()
+    # the same trials as a regeneration from scratch
+    resumed = pd.read_csv(results / "small" / "trials.csv").drop(columns="wall_s")
+    assert tables("--configs", configs, "--results", results, "--no-figures", "--only",
+                  "small").exit_code == 0
+    fresh = pd.read_csv(results / "small" / "trials.csv").drop(columns="wall_s")
+    assert resumed.equals(fresh)
+    assert json.loads((results / "small" / "meta.json").read_text())["trials_run_now"] == 12
