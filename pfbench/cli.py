@@ -369,7 +369,7 @@ def bench(
     threads: int = typer.Option(0, "--threads", min=0, help="Threads for the batch "
                                 "(0: every core)."),
 ):
-    """Kernel throughput (particle-steps/s) on UNGM against a numpy (and optional C) reference."""
+    """Kernel speed beside numpy (and a C reference): UNGM PF, every filter, FastSLAM, MCL."""
     with _guard():
         from .bench import run_bench
         run_bench(json_path=json_path, quick=quick, c_ref=c_ref, threads=threads, console=out)
