@@ -427,21 +427,52 @@ def mcl_bench(quick: bool, min_time: float, reps: int, say) -> list[dict]:
     return recs
 
 
-def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None):
-    """Time every implementation, print a table of throughputs and ratios, optionally write JSON."""
-    from rich.table import Table
+PARTS = ("ungm", "costs", "fastslam", "afsa", "mcl")
+
+
+def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None, only=()):
+    """Time every implementation (or the parts named in ``only``: PARTS), print tables of
+    throughputs and ratios, optionally write JSON."""
+    unknown = sorted(set(only) - set(PARTS))
+    if unknown:
+        raise UserError(f"--only {unknown[0]}: no such part of the bench; parts: "
+                        f"{', '.join(PARTS)}")
+    parts = set(only) or set(PARTS)
     if c_ref is not None and not Path(c_ref).is_file():
         raise UserError(f"--c-ref {c_ref}: no such file (build it: gcc -O3 -march=native "
                         "-fopenmp -o ungm_ref ungm_ref.c -lm)")
+    if c_ref is not None and "ungm" not in parts:
+        raise UserError("--c-ref times the UNGM rows: add --only ungm")
     threads = threads or os.cpu_count() or 1
     numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
-    sizes = (100, 10_000) if quick else SIZES
     min_time, reps = (0.05, 1) if quick else (0.3, 3)
     K = 100 if quick else BATCH_TRIALS
+    records = []
+    say = console.print if console else print
+    if "ungm" in parts:
+        records += ungm_bench(quick, c_ref, K, min_time, reps, threads, say, console)
+    if "costs" in parts:
+        records += costs_bench(bench_data(K)[1], min_time, reps, say, console)
+    if "fastslam" in parts:
+        records += fastslam_bench(quick, min_time, reps, say)
+    if "afsa" in parts:
+        records += afsa_bench(quick, min_time, reps, say, console)
+    if "mcl" in parts:
+        records += mcl_bench(quick, min_time, reps, say)
+    if json_path is not None:
+        Path(json_path).write_text(json.dumps(records, indent=2) + "\n")
+        say(f"wrote {json_path}")
+    return records
+
+
+def ungm_bench(quick, c_ref, K, min_time, reps, threads, say, console) -> list[dict]:
+    """The bootstrap PF on UNGM, one trial at N = 100 .. 1e6 on one thread and a batch of K
+    trials on every thread, beside numpy (and the C reference)."""
+    from rich.table import Table
+    sizes = (100, 10_000) if quick else SIZES
     X, Y = bench_data(K)
     model = bench_model()
     records = []
-    say = console.print if console else print
     say(f"UNGM bootstrap PF, T = {T}, systematic resampling every step; {os.cpu_count()} cores; "
         f"numba {numba.__version__}, numpy {np.__version__}")
     state = state_from_seed(np.random.SeedSequence(7))
@@ -497,11 +528,13 @@ def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None):
         f"{rm_np:.3f}; paired difference {rm_pf - rm_np:+.3f} (standard error {diff_se:.3f})")
     say(f"batch: pfbench on {numba.get_num_threads()} threads; numpy and the single-trial rows on "
         "one core")
+    return records
+
+
+def costs_bench(Y, min_time, reps, say, console) -> list[dict]:
+    """Every scalar filter's cost per step at N = BATCH_N, as a table."""
+    from rich.table import Table
     costs = filter_costs(Y, min_time, reps)
-    records += costs
-    records += fastslam_bench(quick, min_time, reps, say)
-    records += afsa_bench(quick, min_time, reps, say, console)
-    records += mcl_bench(quick, min_time, reps, say)
     base = next(c["seconds_per_step"] for c in costs if c["filter"] == "pf")
     tab = Table(title=f"cost per step of each filter at N = {BATCH_N} (one thread, default settings)")
     for h in ("filter", "N", "cost grows as", "us / step", "x bootstrap PF"):
@@ -513,7 +546,4 @@ def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None):
         console.print(tab)
     say("per-step costs include each run's fixed cost (about 65 us for handing the model functions "
         "to numba), which dominates the filters without particles")
-    if json_path is not None:
-        Path(json_path).write_text(json.dumps(records, indent=2) + "\n")
-        say(f"wrote {json_path}")
-    return records
+    return costs

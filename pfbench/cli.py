@@ -368,11 +368,14 @@ def bench(
                                          "(ungm_ref) to time in the same run."),
     threads: int = typer.Option(0, "--threads", min=0, help="Threads for the batch "
                                 "(0: every core)."),
+    only: List[str] = typer.Option([], "--only", help="Only this part, repeatable: ungm, costs, "
+                                   "fastslam, afsa, mcl."),
 ):
     """Kernel speed beside numpy (and a C reference): UNGM PF, every filter, FastSLAM, MCL."""
     with _guard():
         from .bench import run_bench
-        run_bench(json_path=json_path, quick=quick, c_ref=c_ref, threads=threads, console=out)
+        run_bench(json_path=json_path, quick=quick, c_ref=c_ref, threads=threads, console=out,
+                  only=only)
 
 
 def main():  # console-script entry point

@@ -82,6 +82,19 @@ def test_bench_quick_writes_records(tmp_path, monkeypatch):
     assert abs(batch["pfbench"] - batch["numpy"]) < 0.5
 
 
+def test_bench_only_runs_the_parts_named(tmp_path, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    path = tmp_path / "b.json"
+    res = runner.invoke(app, ["bench", "--quick", "--only", "mcl", "--json", str(path)])
+    assert res.exit_code == 0, res.output
+    assert {r["workload"] for r in json.loads(path.read_text())} == {"mcl-beacon-field"}
+    assert "UNGM" not in res.output
+    res = runner.invoke(app, ["bench", "--only", "nosuch"])
+    assert res.exit_code == 2 and "parts: ungm, costs, fastslam, afsa, mcl" in res.output
+    res = runner.invoke(app, ["bench", "--only", "mcl", "--c-ref", str(path)])
+    assert res.exit_code == 2 and "--only ungm" in res.output
+
+
 def test_run_writes_figures_unless_told_not_to(tmp_path, write_config):
     out = tmp_path / "f"
     res = runner.invoke(app, ["run", str(write_config(SMALL)), "--out", str(out)])
