@@ -64,9 +64,38 @@ def test_wrap_agrees_with_the_angle_wrap():
             assert w == a
 
 
+@njit(error_model="numpy")
+def _atan2(y, x, out):
+    for i in range(x.size):
+        out[i] = vecmath.atan2(y[i], x[i])
+
+
+def test_atan2_within_2_ulp_and_its_special_cases():
+    rng = np.random.default_rng(6)
+    n = 1_000_000
+    x = rng.standard_normal(n) * 10.0 ** rng.uniform(-6, 6, n)
+    y = rng.standard_normal(n) * 10.0 ** rng.uniform(-6, 6, n)
+    out = np.empty(n)
+    _atan2(y, x, out)
+    ref = np.arctan2(y, x)
+    assert _ulps(out, ref).max() <= 2.0
+    z = 0.0
+    special = np.array([(z, 1.0), (z, -1.0), (-z, -1.0), (-z, 1.0), (1.0, z), (-1.0, z), (z, z),
+                        (z, -z), (-z, -z), (1.0, 1.0), (-1.0, -1.0), (3.0, -3.0), (1e-300, -1.0)])
+    out = np.empty(len(special))
+    _atan2(special[:, 0].copy(), special[:, 1].copy(), out)
+    ref = np.arctan2(special[:, 0], special[:, 1])
+    assert np.array_equal(np.signbit(out), np.signbit(ref))
+    assert np.all(_ulps(out, ref)[ref != 0] <= 2.0) and np.all(out[ref == 0] == 0)
+
+
 @pytest.mark.skipif(platform.machine() not in ("x86_64", "AMD64"), reason="x86 assembly")
 def test_the_loops_vectorise():
     """What the module is for: a loop calling them compiles to packed (vector) instructions."""
-    for f in (_exp, _sincos):
+    x = np.linspace(0.1, 1.0, 16)
+    _exp(x, np.empty_like(x))
+    _sincos(x, np.empty_like(x), np.empty_like(x))
+    _atan2(x, x, np.empty_like(x))
+    for f in (_exp, _sincos, _atan2):
         asm = f.inspect_asm(f.signatures[0])
         assert re.search(r"\bv?(mul|add|fmadd\w*)pd\b", asm), f

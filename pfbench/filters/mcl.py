@@ -34,7 +34,7 @@ bearing.
 Speed: the kernel keeps the particles as rows (x, y, heading: (3, N), and the headings' cosines
 and sines (2, N)) and runs each step as passes over them: all the move's normal draws at once
 (``fill_normal``), then the move, the range likelihood and the weights' exponentials each in a
-loop the compiler vectorises, with the branch-free sine, cosine and exponential of
+loop the compiler vectorises, with the branch-free sine, cosine, arctangent and exponential of
 ``pfbench.vecmath`` (within 2 ulp of the C library's; the beacon-field results moved by at most
 1e-11 relative when they came in).
 """
@@ -199,20 +199,25 @@ def _move_rot_trans_rot(X, Y, H, C, S, Z, rot1, trans, rot2, mnoise, n):
                  types.float64, types.float64, types.float64, _F), cache=True,
       error_model="numpy")
 def _loglik(X, Y, H, n, bc, m, ids, zs, sensor, sr, sb, cst, ll):
-    """ll[:n] = log p(z | particle i) of the step's m observations (pose_quad + loglik_const);
-    the range sensor's in passes the vectoriser takes (the bearing's atan2 it cannot)."""
-    if sensor == 1:
-        for i in range(n):
-            ll[i] = pose_quad(X[i], Y[i], H[i], bc, m, ids, zs, sensor, sr, sb) + cst
-        return
+    """ll[:n] = log p(z | particle i) of the step's m observations (pose_quad's sum, in its
+    order, + loglik_const), an observation at a time over all particles: passes the vectoriser
+    takes, with vecmath's arctangent and wrap for the bearings."""
     for i in range(n):
         ll[i] = 0.0
     for j in range(m):
-        bx, by, z = bc[ids[j], 0], bc[ids[j], 1], zs[j, 0]
-        for i in range(n):
-            dx, dy = bx - X[i], by - Y[i]
-            v = (z - math.sqrt(dx * dx + dy * dy)) / sr
-            ll[i] -= 0.5 * v * v
+        bx, by, z, zb = bc[ids[j], 0], bc[ids[j], 1], zs[j, 0], zs[j, 1]
+        if sensor == 1:
+            for i in range(n):
+                dx, dy = bx - X[i], by - Y[i]
+                v = (z - math.sqrt(dx * dx + dy * dy)) / sr
+                u = vm.wrap(zb - (vm.atan2(dy, dx) - H[i])) / sb
+                ll[i] -= 0.5 * v * v
+                ll[i] -= 0.5 * u * u
+        else:
+            for i in range(n):
+                dx, dy = bx - X[i], by - Y[i]
+                v = (z - math.sqrt(dx * dx + dy * dy)) / sr
+                ll[i] -= 0.5 * v * v
     for i in range(n):
         ll[i] += cst
 
