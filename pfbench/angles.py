@@ -1,4 +1,9 @@
-"""The one angle wrap, used for innovations, pose differences and heading errors."""
+"""The one angle wrap, used for innovations, pose differences and heading errors.
+
+``pfbench.vecmath.wrap`` is the same wrap written so that a loop calling it vectorises (a floor
+instead of the remainder: outside [-pi, pi) the two may differ in the last bit); MCL's passes use
+it.
+"""
 from __future__ import annotations
 
 import math
