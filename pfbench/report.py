@@ -381,7 +381,7 @@ def build(configs: Path, results: Path, out: Path) -> str:
                                     e.exp.table or "", e.path.stem))
     by_name = {e.name: e for e in entries}
     where = Path(out).parent
-    papers = [k for k in PAPERS if any(e.exp.paper == k for e in entries)]
+    papers = [k for k in PAPERS if any(e.exp.paper == k for e in entries) or FINDINGS.get(k)]
     lines = [f"# {TITLE}", "",
              f"Written by `pfbench report` (pfbench {__version__}) from the configs in "
              f"`{configs.as_posix()}` and the trials in `{results.as_posix()}`. Every table is "
@@ -407,7 +407,7 @@ def build(configs: Path, results: Path, out: Path) -> str:
             lines += [f"- {fill(text, by_name)}" for text in findings] + [""]
         for e in mine:
             lines += _sweep_section(e, where) if e.cells else _experiment_section(e, where)
-        lines += _choices(paper, mine)
+        lines += _choices(paper, mine or entries)   # a survey's choices live in others' configs
     others = [e for e in entries if e.exp.paper not in PAPERS]
     if others:
         lines += ["## Other experiments", ""]
