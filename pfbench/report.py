@@ -381,7 +381,9 @@ def build(configs: Path, results: Path, out: Path) -> str:
                                     e.exp.table or "", e.path.stem))
     by_name = {e.name: e for e in entries}
     where = Path(out).parent
-    papers = [k for k in PAPERS if any(e.exp.paper == k for e in entries) or FINDINGS.get(k)]
+    # a paper with configs here, or a survey (no tables of its own) measured through others'
+    papers = [k for k in PAPERS if any(e.exp.paper == k for e in entries)
+              or (not PAPERS[k].tables and FINDINGS.get(k))]
     lines = [f"# {TITLE}", "",
              f"Written by `pfbench report` (pfbench {__version__}) from the configs in "
              f"`{configs.as_posix()}` and the trials in `{results.as_posix()}`. Every table is "
