@@ -37,6 +37,7 @@ from ..resampling import SCHEME_CODES, resample
 from ..rng import STATE, normal, uniform
 from ..scenarios.beacon_field import init_particles
 from .mcl import _estimate, _snapshot, pose_loglik, snapshot_arrays
+from .ukf import ut_weights
 
 _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
@@ -129,6 +130,14 @@ def transition_cov(x, y, th, u, sd, jit, Q):
     Q[2, 2] += jit[1] * jit[1]
 
 
+@njit(types.void(_F2, types.int64, _F, _F), cache=True, inline="always")
+def _pose_diff(Y, j, xm, d):
+    """d = sigma point Y[j] - the mean pose xm, the heading wrapped."""
+    d[0] = Y[j, 0] - xm[0]
+    d[1] = Y[j, 1] - xm[1]
+    d[2] = wrap(Y[j, 2] - xm[2])
+
+
 SSPF_SIG = types.int64(
     _F2, _I, _I2, _F3, _F2, _F, types.int64, _F, types.int64, types.float64, types.float64,
     types.int64, types.int64, types.float64, types.int64, types.int64, _F, _F, _F, _F, STATE, _F2,
@@ -149,14 +158,9 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sens
     nzmax = 2 * B
     Lg = 6
     ns = 2 * Lg + 1
-    alpha, beta, kappa = up[0], up[1], up[2]
-    lam = alpha * alpha * (Lg + kappa) - Lg
-    c = Lg + lam
-    sq = math.sqrt(c)
-    Wm = np.full(ns, 0.5 / c)
-    Wc = np.full(ns, 0.5 / c)
-    Wm[0] = lam / c
-    Wc[0] = lam / c + 1.0 - alpha * alpha + beta
+    Wm = np.empty(ns)
+    Wc = np.empty(ns)
+    sq = ut_weights(Lg, up[0], up[1], up[2], Wm, Wc)
 
     X = np.empty((N, 3))
     Pc = np.zeros((N, 3, 3))
@@ -255,9 +259,7 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sens
                 for b in range(3):
                     Pm[a, b] = 0.0
             for j in range(ns):
-                d[0] = Y[j, 0] - xm[0]
-                d[1] = Y[j, 1] - xm[1]
-                d[2] = wrap(Y[j, 2] - xm[2])
+                _pose_diff(Y, j, xm, d)
                 for a in range(3):
                     for b in range(3):
                         Pm[a, b] += Wc[j] * d[a] * d[b]
@@ -291,9 +293,7 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sens
                     for b in range(3):
                         C[b, a] = 0.0
                 for j in range(ns):
-                    d[0] = Y[j, 0] - xm[0]
-                    d[1] = Y[j, 1] - xm[1]
-                    d[2] = wrap(Y[j, 2] - xm[2])
+                    _pose_diff(Y, j, xm, d)
                     for a in range(nz):
                         da = wrap(Z[j, a] - zm[a]) if isb[a] else Z[j, a] - zm[a]
                         for b in range(nz):

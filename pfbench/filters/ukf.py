@@ -34,6 +34,20 @@ def _transform(fn, pts, t, theta, offset, add_offset, Wm, Wc, out):
     return mean, var
 
 
+@njit(types.float64(types.int64, types.float64, types.float64, types.float64, _F, _F),
+      cache=True)
+def ut_weights(L, alpha, beta, kappa, Wm, Wc):
+    """The scaled unscented transform's weights for an L-dimensional state into Wm, Wc (2 L + 1,)
+    (lambda = alpha^2 (L + kappa) - L); returns sqrt(L + lambda), the sigma points' scale."""
+    lam = alpha * alpha * (L + kappa) - L
+    c = L + lam
+    Wm[:] = 0.5 / c
+    Wc[:] = 0.5 / c
+    Wm[0] = lam / c
+    Wc[0] = lam / c + 1.0 - alpha * alpha + beta
+    return math.sqrt(c)
+
+
 UKF_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64, types.float64,
                       types.float64, types.float64, types.float64, types.float64, types.float64,
                       types.int64, _F, _F)
@@ -51,13 +65,10 @@ def ukf_kernel(f, h, theta, noise, y, prior_mean, prior_var, q_mean, Q, R, alpha
     """
     T = y.size - 1
     L = 3 if augmented else 1
-    lam = alpha * alpha * (L + kappa) - L
-    c = L + lam
     n = 2 * L + 1
-    Wm = np.full(n, 0.5 / c)
-    Wc = np.full(n, 0.5 / c)
-    Wm[0] = lam / c
-    Wc[0] = lam / c + 1.0 - alpha * alpha + beta
+    Wm = np.empty(n)
+    Wc = np.empty(n)
+    sq = ut_weights(L, alpha, beta, kappa, Wm, Wc)
     chi = np.empty(n)
     fx = np.empty(n)
     hz = np.empty(n)
@@ -68,7 +79,6 @@ def ukf_kernel(f, h, theta, noise, y, prior_mean, prior_var, q_mean, Q, R, alpha
     xhat[0] = m
     pvar[0] = P
     events = 0
-    sq = math.sqrt(c)
     wn[:] = q_mean
     if augmented:
         wn[2] += sq * math.sqrt(Q)

@@ -24,6 +24,7 @@ from ..scenarios.base import ModelFn, process_logpdf
 from ._common import floored, resampled_step, start, weigh
 from .ekf import noise_moments
 from .pf import log_floor
+from .ukf import ut_weights
 
 _F = types.float64[::1]
 _I = types.int64[::1]
@@ -77,13 +78,9 @@ def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, q_mean, Qp, Rp, 
     c0 = -0.5 * math.log(R)  # the likelihood's scale R^(-1/2), which a floor compares with
     L = 3
     n = 7
-    lam = alpha * alpha * (L + kappa) - L
-    c = L + lam
-    sq = math.sqrt(c)
-    Wm = np.full(n, 0.5 / c)
-    Wc = np.full(n, 0.5 / c)
-    Wm[0] = lam / c
-    Wc[0] = lam / c + 1.0 - alpha * alpha + beta
+    Wm = np.empty(n)
+    Wc = np.empty(n)
+    sq = ut_weights(L, alpha, beta, kappa, Wm, Wc)
     wn = np.full(n, q_mean)
     wn[2] += sq * math.sqrt(Qp)
     wn[5] -= sq * math.sqrt(Qp)
