@@ -257,7 +257,8 @@ def kld_bin(x, y, th, area, kp):
     return (ix * ny + iy) * nt + it
 
 
-def kld_bins(area, kp) -> int:
+@njit(types.int64(_F, _F), cache=True)
+def kld_bins(area, kp):
     """Number of histogram bins of KLD-sampling over the field."""
     return (math.ceil(area[0] / kp[2]) * math.ceil(area[1] / kp[2])
             * math.ceil(2.0 * math.pi / kp[3]))
@@ -357,11 +358,7 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
     perm = np.empty(N, dtype=np.int64)
     ll = np.empty(N)
     pose = np.empty(3)
-    nb = 1
-    if kld:
-        nb = int(math.ceil(area[0] / kp[2]) * math.ceil(area[1] / kp[2])
-                 * math.ceil(2.0 * math.pi / kp[3]))
-    occ = np.zeros(nb, dtype=np.uint8)
+    occ = np.zeros(kld_bins(area, kp) if kld else 1, dtype=np.uint8)
     touched = np.empty(N, dtype=np.int64)
     cum = np.empty(N)
     w_slow = 0.0
