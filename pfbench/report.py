@@ -219,8 +219,8 @@ def ranking_counts(e: Entry) -> tuple[int, int]:
     """(comparisons in the same order as the paper's, comparisons)."""
     if e.table is None:
         return 0, 0
-    lines = [x for x in tb.rankings(e.exp, e.table) if x.startswith("Ranking by")]
-    return sum(x.endswith("same order.") for x in lines), len(lines)
+    comps = tb.ranking_comparisons(e.exp, e.table)
+    return sum(c[4] for c in comps), len(comps)
 
 
 # ---- the document

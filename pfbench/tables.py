@@ -99,15 +99,14 @@ def _metric_values(metric: str, g: pd.DataFrame, base: pd.DataFrame | None):
     return a / base.set_index("trial")["wall_s"].reindex(a.index)
 
 
-def rankings(exp: Experiment, tab: pd.DataFrame) -> list[str]:
-    """For a table whose paper claims an order of its rows: the paper's order and ours at each
-    particle count (for each ranked quantity), whether they agree, and how often over all."""
+def ranking_comparisons(exp: Experiment, tab: pd.DataFrame) -> list[tuple]:
+    """For a table whose paper claims an order of its rows: per ranked quantity and particle count
+    with two or more rows, (quantity, N or None, the paper's order, ours, the same order)."""
     table = reported(exp.paper, exp.table)
     if table is None or table.ranking is None:
         return []
     keys = (table.ranking,) if isinstance(table.ranking, str) else tuple(table.ranking)
-    lines = []
-    agree = total = 0
+    out = []
     counts = sorted({n for (_, n) in table.values}, key=lambda v: (v is None, v or 0))
     for q in (q for key in keys for q in table.quantities if q.key == key):
         for n in counts:
@@ -123,14 +122,21 @@ def rankings(exp: Experiment, tab: pd.DataFrame) -> list[str]:
                 continue
             paper_order = sorted(ours, key=lambda lab: table.values[(lab, n)][q.key])
             our_order = sorted(ours, key=lambda lab: ours[lab])
-            same = paper_order == our_order
-            agree += same
-            total += 1
-            at = f" at N = {n}" if n is not None else ""
-            lines.append(f"Ranking by {q.title}{at}: paper {' < '.join(paper_order)}; ours "
-                         f"{' < '.join(our_order)}: {'same order' if same else 'differs'}.")
-    if total > 1:
-        lines.append(f"Rankings: the same order in {agree} of {total} comparisons.")
+            out.append((q, n, paper_order, our_order, paper_order == our_order))
+    return out
+
+
+def rankings(exp: Experiment, tab: pd.DataFrame) -> list[str]:
+    """The ranking comparisons as lines: the paper's order and ours at each particle count (for
+    each ranked quantity), whether they agree, and how often over all."""
+    comps = ranking_comparisons(exp, tab)
+    lines = [f"Ranking by {q.title}{f' at N = {n}' if n is not None else ''}: paper "
+             f"{' < '.join(paper_order)}; ours {' < '.join(our_order)}: "
+             f"{'same order' if same else 'differs'}."
+             for q, n, paper_order, our_order, same in comps]
+    if len(comps) > 1:
+        lines.append(f"Rankings: the same order in {sum(c[4] for c in comps)} of {len(comps)} "
+                     "comparisons.")
     return lines
 
 
