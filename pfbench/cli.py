@@ -74,6 +74,19 @@ def _bar():
                     TimeElapsedColumn(), TimeRemainingColumn(), console=err, transient=True)
 
 
+@contextlib.contextmanager
+def _stop_on_interrupt(bar, before: str = "", after: str = ""):
+    """Ctrl-C in a run (runner.Interrupted): stop the progress bar, say what was kept in one
+    line, exit 130."""
+    from .runner import Interrupted
+    try:
+        yield
+    except Interrupted as exc:
+        bar.stop()
+        err.print(f"pfbench: {before}{exc}{after}", markup=False)
+        raise typer.Exit(130) from None
+
+
 def _load(config: Path, trials=None, seed=None, sets=()):
     from .config import load
     return load(config, {"trials": trials, "seed": seed}, sets)
@@ -119,7 +132,7 @@ def run(
     """Run an experiment: Monte Carlo trials, then the table beside the paper's values."""
     with _guard():
         exp = _load(config, trials, seed, set_)
-        from .runner import Interrupted, run_experiment
+        from .runner import run_experiment
         folder = out_dir or Path("results") / exp.name
         runs = ", ".join(f.key for f in exp.filters)
         with _executor(executor, workers, scheduler) as ex:
@@ -127,14 +140,10 @@ def run(
                       f"{exp.seed}, {ex.describe()} -> {folder}", markup=False)
             with _bar() as bar:
                 task = bar.add_task("trials", total=exp.trials)
-                try:
+                with _stop_on_interrupt(bar):
                     res = run_experiment(exp, folder, workers=workers, resume=resume,
                                          progress=lambda d, n: bar.update(task, completed=d),
                                          executor=ex)
-                except Interrupted as exc:
-                    bar.stop()
-                    err.print(f"pfbench: {exc}", markup=False)
-                    raise typer.Exit(130) from None
         from .regen import write_experiment
         tab, figures = write_experiment(exp, res, folder, not no_figures)
         _print_table(exp, tab)
@@ -165,7 +174,6 @@ def sweep(
     """Run an experiment over the cartesian product of values of some of its keys."""
     with _guard():
         from . import sweep as sw
-        from .runner import Interrupted
         name, cells = sw.expand(config, sw.parse_sets(set_), {"trials": trials, "seed": seed})
         folder = out_dir or Path("results") / name
         keys = list(cells[0].values)
@@ -177,14 +185,10 @@ def sweep(
                             "them")
         with _executor(executor, workers, scheduler) as ex, _bar() as bar:
             task = bar.add_task("trials", total=total)
-            try:
+            with _stop_on_interrupt(bar, "interrupted in a cell: "):
                 trials_df = sw.run_sweep(cells, folder, workers=workers, resume=resume,
                                          progress=lambda d, n: bar.update(task, completed=d),
                                          executor=ex)
-            except Interrupted as exc:
-                bar.stop()
-                err.print(f"pfbench: interrupted in a cell: {exc}", markup=False)
-                raise typer.Exit(130) from None
         from .regen import write_sweep
         summ, figs = write_sweep(trials_df, keys, folder, name)
         t = RichTable(title=f"{name}: sweep over {', '.join(keys)}", title_justify="left")
@@ -225,7 +229,6 @@ def tables_(
 
     with _guard():
         from . import regen
-        from .runner import Interrupted
         files = regen.config_files(configs)
         if only:
             want = set(only)
@@ -246,7 +249,8 @@ def tables_(
                 t0 = time.perf_counter()
                 bar.update(task, description=p.stem)
                 step = (lambda d, _n, b=before: bar.update(task, completed=b + d))
-                try:
+                with _stop_on_interrupt(bar, f"{p.name}: ", "" if check else
+                                        "; 'pfbench tables --resume' continues"):
                     if check:
                         r = regen.check_config(p, results, ex, z, progress=step)
                         rows.append((p.name, r, time.perf_counter() - t0))
@@ -255,12 +259,6 @@ def tables_(
                                                   resume=resume, progress=step)
                         bar.console.print(f"{p.name} -> {folder} in "
                                           f"{time.perf_counter() - t0:.1f} s", markup=False)
-                except Interrupted as exc:
-                    bar.stop()
-                    err.print(f"pfbench: {p.name}: {exc}"
-                              + ("" if check else "; 'pfbench tables --resume' continues"),
-                              markup=False)
-                    raise typer.Exit(130) from None
                 before += n
         if not check:
             from . import report as rp
