@@ -42,7 +42,6 @@ def _ziggurat_tables():
 _ZKI, _ZWI, _ZFI = _ziggurat_tables()
 _ZR = 3.6541528853610088
 _ZINV_R = 1.0 / _ZR
-_LOW8 = uint64(0xFF)
 _MANT52 = uint64(0x000FFFFFFFFFFFFF)
 
 
@@ -83,7 +82,7 @@ def _normal_slow(s, idx, rabs, x):
             xx = -_ZINV_R * math.log1p(-uniform(s))
             yy = -math.log1p(-uniform(s))
             if yy + yy > xx * xx:
-                return -(_ZR + xx) if (rabs >> uint64(8)) & uint64(1) else _ZR + xx
+                return -(_ZR + xx) if math.copysign(1.0, x) < 0.0 else _ZR + xx
     if (_ZFI[idx - 1] - _ZFI[idx]) * uniform(s) + _ZFI[idx] < math.exp(-0.5 * x * x):
         return x
     return math.nan
@@ -92,12 +91,14 @@ def _normal_slow(s, idx, rabs, x):
 @njit(types.Tuple((types.uint64, types.uint64, types.float64))(types.uint64), cache=True,
       inline="always")
 def _layer(r):
-    """The ziggurat's reading of 64 random bits: (layer, 52-bit magnitude, signed candidate)."""
-    idx = r & _LOW8
-    r >>= uint64(8)
-    rabs = (r >> uint64(1)) & _MANT52
+    """The ziggurat's reading of 64 random bits: (layer, 52-bit magnitude, signed candidate).
+
+    The layer is bits 56-63 and the sign bit 55, the magnitude bits 3-54: xoshiro256+'s lowest
+    bits are its weakest (their authors say so), and the lowest three are not used at all."""
+    idx = r >> uint64(56)
+    rabs = (r >> uint64(3)) & _MANT52
     x = rabs * _ZWI[idx]
-    return idx, rabs, -x if r & uint64(1) else x
+    return idx, rabs, -x if (r >> uint64(55)) & uint64(1) else x
 
 
 @njit(types.float64(STATE), cache=True)

