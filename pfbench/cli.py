@@ -9,11 +9,54 @@ from typing import List, Optional
 import typer
 from rich.console import Console
 from rich.table import Table as RichTable
+from typer.core import TyperGroup
 
 from . import __version__
 from .errors import UserError
 
-app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
+try:                                    # typer 0.2x carries its own copy of click
+    from typer import _click as _ck
+except ImportError:                     # pragma: no cover - older typer on click
+    import click as _ck
+
+_NO_ARGS = getattr(_ck.exceptions, "NoArgsIsHelpError", None)
+
+
+class _OneLineErrors(TyperGroup):
+    """Usage errors (a bad flag or value) as one line on stderr and exit status 2, like every
+    other error, instead of click's boxed usage text."""
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        try:
+            rv = super().main(args=args, prog_name=prog_name, complete_var=complete_var,
+                              standalone_mode=False, **extra)
+        except _ck.exceptions.ClickException as exc:
+            if _NO_ARGS is not None and isinstance(exc, _NO_ARGS):
+                text = exc.format_message()     # the help (typer's rich help printed it already)
+                if text.strip():
+                    print(text)
+                rv = 0
+            else:
+                msg = " ".join(exc.format_message().split())
+                ctx = getattr(exc, "ctx", None)
+                param = getattr(exc, "param", None)
+                if param is not None and getattr(param, "opts", None) and param.opts[0] not in msg:
+                    msg = f"{param.opts[0]}: {msg}"
+                sub = ctx.command_path.split(" ", 1)[1:] if ctx is not None else []
+                hint = f" (see 'pfbench {' '.join(sub + ['--help'])}')" if ctx is not None else ""
+                msg = msg.replace("greater than or equal to ", ">= ")
+                print(f"pfbench: error: {msg}{hint}", file=sys.stderr)
+                rv = exc.exit_code
+        except typer.Abort:
+            print("pfbench: aborted", file=sys.stderr)
+            rv = 130
+        if not standalone_mode:
+            return rv
+        sys.exit(rv if isinstance(rv, int) else 0)
+
+
+app = typer.Typer(cls=_OneLineErrors, add_completion=False, no_args_is_help=True,
+                  pretty_exceptions_enable=False,
                   help="Reproduce the tables of particle-filter papers from YAML experiments.")
 err = Console(stderr=True, highlight=False)
 
@@ -34,13 +77,41 @@ _state = {"debug": False}
 @contextlib.contextmanager
 def _guard():
     """A UserError becomes one line on stderr and exit status 2 (a traceback only with --debug)."""
+    from .fsutil import os_error_line
     try:
         yield
     except UserError as exc:
         if _state["debug"]:
             raise
-        err.print(f"pfbench: error: {exc}", markup=False, soft_wrap=True)
-        raise typer.Exit(2) from None
+        _fail(str(exc))
+    except OSError as exc:              # a full disk, a read-only folder, a path below a file
+        if _state["debug"]:
+            raise
+        _fail(os_error_line(exc))
+    except MemoryError:
+        if _state["debug"]:
+            raise
+        _fail("out of memory: lower the particles, steps, trials or workers")
+
+
+def _fail(message: str):
+    err.print(f"pfbench: error: {' '.join(message.split())}", markup=False, soft_wrap=True)
+    raise typer.Exit(2) from None
+
+
+def _once(fn):
+    """``fn`` as a function that runs it the first time it is called, and then never again."""
+    done = []
+
+    def call():
+        if not done:
+            done.append(1)
+            fn()
+    return call
+
+
+def _warn(message: str) -> None:
+    err.print(f"pfbench: warning: {message}", markup=False, soft_wrap=True)
 
 
 def _version(value: bool):
@@ -131,21 +202,31 @@ def run(
 ):
     """Run an experiment: Monte Carlo trials, then the table beside the paper's values."""
     with _guard():
+        from .fsutil import FolderLock
+        from .resources import cap_workers, check_fits
         exp = _load(config, trials, seed, set_)
         from .runner import run_experiment
         folder = out_dir or Path("results") / exp.name
+        check_fits(exp, cap_workers(workers, exp.trials) if executor == "local" else 1)
+        workers = cap_workers(workers, exp.trials, _warn)
         runs = ", ".join(f.key for f in exp.filters)
-        with _executor(executor, workers, scheduler) as ex:
-            err.print(f"{exp.name}: {exp.trials} trials of {exp.scenario} x [{runs}], seed "
-                      f"{exp.seed}, {ex.describe()} -> {folder}", markup=False)
+        with _executor(executor, workers, scheduler) as ex, \
+                FolderLock(folder, "--out" if out_dir else "results folder"):
+            header = _once(lambda: err.print(
+                f"{exp.name}: {exp.trials} trials of {exp.scenario} x [{runs}], seed "
+                f"{exp.seed}, {ex.describe()} -> {folder}", markup=False))
             with _bar() as bar:
                 task = bar.add_task("trials", total=exp.trials)
+
+                def progress(done, total):
+                    header()            # once the folder is ready and the trials start
+                    bar.update(task, completed=done)
+
                 with _stop_on_interrupt(bar):
                     res = run_experiment(exp, folder, workers=workers, resume=resume,
-                                         progress=lambda d, n: bar.update(task, completed=d),
-                                         executor=ex)
-        from .regen import write_experiment
-        tab, figures = write_experiment(exp, res, folder, not no_figures)
+                                         progress=progress, executor=ex, warn=_warn)
+            from .regen import write_experiment
+            tab, figures = write_experiment(exp, res, folder, not no_figures)
         _print_table(exp, tab)
         note = f" ({exp.trials - res.ran} resumed)" if res.ran < exp.trials else ""
         err.print(f"{res.ran} trials in {res.wall_s:.1f} s{note}; wrote {folder}/trials.csv, "
@@ -174,23 +255,39 @@ def sweep(
     """Run an experiment over the cartesian product of values of some of its keys."""
     with _guard():
         from . import sweep as sw
-        name, cells = sw.expand(config, sw.parse_sets(set_), {"trials": trials, "seed": seed})
+        from .fsutil import FolderLock
+        from .resources import cap_workers, check_fits
+        sets = sw.parse_sets(set_)
+        n_cells = sw.count_cells(config, sets)
+        if n_cells > sw.CONFIRM_ABOVE and not yes:
+            raise UserError(f"{n_cells} cells is more than {sw.CONFIRM_ABOVE}: add --yes to run "
+                            "them")
+        name, cells = sw.expand(config, sets, {"trials": trials, "seed": seed})
         folder = out_dir or Path("results") / name
         keys = list(cells[0].values)
         total = sum(c.exp.trials for c in cells)
-        err.print(f"{name}: {len(cells)} cells ({', '.join(keys)}) x {cells[0].exp.trials} trials "
-                  f"= {total} trials -> {folder}", markup=False)
-        if len(cells) > sw.CONFIRM_ABOVE and not yes:
-            raise UserError(f"{len(cells)} cells is more than {sw.CONFIRM_ABOVE}: add --yes to run "
-                            "them")
-        with _executor(executor, workers, scheduler) as ex, _bar() as bar:
-            task = bar.add_task("trials", total=total)
-            with _stop_on_interrupt(bar, "interrupted in a cell: "):
-                trials_df = sw.run_sweep(cells, folder, workers=workers, resume=resume,
-                                         progress=lambda d, n: bar.update(task, completed=d),
-                                         executor=ex)
-        from .regen import write_sweep
-        summ, figs = write_sweep(trials_df, keys, folder, name)
+        most = max(c.exp.trials for c in cells)
+        for c in cells:
+            check_fits(c.exp, cap_workers(workers, most) if executor == "local" else 1,
+                       f"{config} (sweep cell {c.name})")
+        workers = cap_workers(workers, most, _warn)
+        header = _once(lambda: err.print(
+            f"{name}: {len(cells)} cells ({', '.join(keys)}) x {cells[0].exp.trials} trials "
+            f"= {total} trials -> {folder}", markup=False))
+        with _executor(executor, workers, scheduler) as ex, \
+                FolderLock(folder, "--out" if out_dir else "results folder"):
+            with _bar() as bar:
+                task = bar.add_task("trials", total=total)
+
+                def progress(done, n):
+                    header()
+                    bar.update(task, completed=done)
+
+                with _stop_on_interrupt(bar, "interrupted in a cell: "):
+                    trials_df = sw.run_sweep(cells, folder, workers=workers, resume=resume,
+                                             progress=progress, executor=ex, warn=_warn)
+            from .regen import write_sweep
+            summ, figs = write_sweep(trials_df, keys, folder, name)
         t = RichTable(title=f"{name}: sweep over {', '.join(keys)}", title_justify="left")
         for h in keys + ["Filter", "N", "Trials", "RMSE mean [95% CI]", "ms/trial"]:
             t.add_column(h, overflow="fold")
@@ -225,10 +322,14 @@ def tables_(
                                             "tcp://HOST:PORT (see run)."),
 ):
     """Regenerate every config's results, or check them (--check) against the committed ones."""
+    import math
     import time
 
     with _guard():
         from . import regen
+        from .fsutil import FolderLock
+        if not math.isfinite(z) or z <= 0:
+            raise UserError(f"--z: expected a finite number > 0, got {z}")
         files = regen.config_files(configs)
         if only:
             want = set(only)
@@ -242,7 +343,8 @@ def tables_(
         # every config is valid (and its trial count known) before anything runs
         totals = [regen.check_trials(p) if check else regen.total_trials(p) for p in files]
         rows = []
-        with _executor(executor, workers, scheduler) as ex, _bar() as bar:
+        with _executor(executor, workers, scheduler) as ex, FolderLock(results, "--results"), \
+                _bar() as bar:
             task = bar.add_task("trials", total=sum(totals))
             before = 0
             for p, n in zip(files, totals):
@@ -314,26 +416,34 @@ def validate(config: Path = typer.Argument(..., help="Experiment YAML file."),
     """Check a config against the schema; run nothing."""
     with _guard():
         from .config import read_yaml
+        from .resources import check_fits, human
         raw, _ = read_yaml(config)
         if isinstance(raw, dict) and "sweep" in raw:
             from . import sweep as sw
-            name, cells = sw.expand(config, {}, {})
+            sets = sw.parse_sets(set_)
+            n_cells = sw.count_cells(config, sets)
+            if n_cells > sw.MAX_CELLS:
+                raise UserError(f"{config}: {n_cells} sweep cells is more than {sw.MAX_CELLS}")
+            name, cells = sw.expand(config, sets, {})
+            need = max(check_fits(c.exp, 1, f"{config} (sweep cell {c.name})").bytes
+                       for c in cells)
             out.print(f"{config}: ok: sweep {name}: {len(cells)} cells over "
-                      f"{', '.join(cells[0].values)}, {cells[0].exp.trials} trials each",
-                      markup=False)
+                      f"{', '.join(cells[0].values)}, {cells[0].exp.trials} trials each, "
+                      f"about {human(need)} of memory on one worker", markup=False)
             return
         exp = _load(config, sets=set_)
+        need = check_fits(exp, 1)
         runs = ", ".join(f.key for f in exp.filters)
         out.print(f"{config}: ok: {exp.name}: scenario {exp.scenario}, {exp.trials} trials, "
-                  f"seed {exp.seed}, filter runs {runs}", markup=False)
+                  f"seed {exp.seed}, filter runs {runs}; about {human(need.bytes)} of memory on "
+                  "one worker", markup=False)
 
 
 @app.command("list")
 def list_(configs: Path = typer.Option(Path("configs"), "--configs",
                                        help="Folder of experiment files to list.")):
     """List scenarios, filters, resampling schemes and configs, one line each."""
-    import yaml
-
+    from .config import read_yaml
     from .filters import FILTERS
     from .resampling import SCHEMES
     from .scenarios import SCENARIOS
@@ -349,11 +459,12 @@ def list_(configs: Path = typer.Option(Path("configs"), "--configs",
     out.print(f"configs ({configs}):", style="bold")
     for path in sorted(configs.glob("*.yaml")):
         try:
-            raw = yaml.safe_load(path.read_text()) or {}
+            raw = read_yaml(path)[0] or {}
             what = raw.get("description") or ""
-            tag = f"{raw.get('paper')} {raw.get('table')}: " if raw.get("paper") else ""
-        except (yaml.YAMLError, AttributeError, OSError):
-            tag, what = "", "(not valid YAML)"
+            tag = (f"{raw.get('paper')} {raw.get('table') or ''}".strip() + ": "
+                   if raw.get("paper") else "")
+        except (UserError, AttributeError):
+            tag, what = "", "(not a valid config)"
         out.print(f"  {path.name:<28} {tag}{what}", markup=False)
 
 

@@ -13,14 +13,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterator, Mapping
 
-import yaml
-
 from .filters import FILTERS, KIND_TYPES
+from .fsutil import name_problem
 from .papers import PAPERS
 from .scenarios import SCENARIOS
 from .schema import ConfigError, Key, check_mapping, check_section, describe, did_you_mean
+from .yamlio import parse_yaml, read_yaml  # noqa: F401  (read_yaml: part of this module's API)
 
-FORMAT_VERSION = 4
+FORMAT_VERSION = 5
 
 
 class Params(Mapping):
@@ -98,64 +98,6 @@ class Experiment:
 
 # ---------------------------------------------------------------- YAML reading
 
-class _StrictLoader(yaml.SafeLoader):
-    """safe_load, but a mapping with a repeated key is an error."""
-
-
-def _construct_mapping(loader, node, deep=False):
-    seen = {}
-    for key_node, _ in node.value:
-        if key_node.tag == "tag:yaml.org,2002:merge":
-            continue        # `<<: *anchor`: the keys given here override the merged ones
-        key = loader.construct_object(key_node, deep=True)
-        if key in seen:
-            raise ConfigError(str(key), f"duplicate key (first given on line {seen[key]})",
-                              line=key_node.start_mark.line + 1)
-        seen[key] = key_node.start_mark.line + 1
-    return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
-
-
-_StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
-
-
-def _lines(node, path="", out=None) -> dict[str, int]:
-    """Map each key path ("filters.pf.particles") to its line number in the file."""
-    out = {} if out is None else out
-    if isinstance(node, yaml.MappingNode):
-        for k, v in node.value:
-            p = f"{path}.{k.value}" if path else str(k.value)
-            out[p] = k.start_mark.line + 1
-            _lines(v, p, out)
-    elif isinstance(node, yaml.SequenceNode):
-        for i, v in enumerate(node.value):
-            p = f"{path}[{i}]"
-            out[p] = v.start_mark.line + 1
-            _lines(v, p, out)
-    return out
-
-
-def read_yaml(path: str | Path) -> tuple[Any, dict[str, int]]:
-    """Return (data, line numbers by key path) of a YAML file, rejecting duplicate keys."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ConfigError("", "no such file", source=str(path)) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError("", f"cannot read: {exc}", source=str(path)) from None
-    try:
-        data = yaml.load(text, Loader=_StrictLoader)
-        node = yaml.compose(text, Loader=yaml.SafeLoader)
-    except ConfigError as err:
-        raise ConfigError(err.path, err.message, source=str(path), line=err.line) from None
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise ConfigError("", f"not valid YAML: {problem}", source=str(path),
-                          line=mark.line + 1 if mark else None) from None
-    return data, _lines(node)
-
-
 # ---------------------------------------------------------------- overrides
 
 def apply_override(raw: dict, assignment: str) -> None:
@@ -165,9 +107,10 @@ def apply_override(raw: dict, assignment: str) -> None:
     if not sep or not key:
         raise ConfigError(f"--set {assignment}", "expected KEY=VALUE, e.g. scenario.steps=60")
     try:
-        value = yaml.load(text, Loader=_StrictLoader)
-    except (yaml.YAMLError, ConfigError):
-        raise ConfigError(f"--set {key}", f"cannot read the value {text!r}") from None
+        value, _ = parse_yaml(text, "--set")
+    except ConfigError as err:
+        raise ConfigError(f"--set {key}", f"cannot read the value {text!r}: {err.message}") \
+            from None
     parts = key.split(".")
 
     def walk(node, i, trail):
@@ -198,8 +141,8 @@ def apply_override(raw: dict, assignment: str) -> None:
 # ---------------------------------------------------------------- validation
 
 TOP_SCHEMA = {
-    "name": Key("str", None, "experiment name, the results folder (default: the file name)",
-                nullable=True),
+    "name": Key("str", None, "experiment name, the results folder results/<name>: one plain folder "
+                "name (default: the file name)", nullable=True, check=name_problem),
     "paper": Key("choice", None, "the paper whose table this reproduces", choices=tuple(PAPERS),
                  nullable=True),
     "table": Key("str", None, "the table of that paper (a key of pfbench.papers)", nullable=True),
@@ -338,6 +281,9 @@ def validate(raw: Any, source: str = "config") -> Experiment:
             raise ConfigError("table", f"paper {top['paper']} has no table '{top['table']}'"
                               + did_you_mean(top["table"], tables) + f"; tables: {', '.join(tables)}")
     name = top["name"] or Path(source).stem
+    if name_problem(name):
+        raise ConfigError("name", f"the file name gives the experiment no usable folder name: "
+                          f"{name_problem(name)}; set 'name'")
     return Experiment(name=name, source=source, paper=top["paper"], table=top["table"],
                       description=top["description"] or "", seed=top["seed"],
                       trials=top["trials"], scenario=scen_name,

@@ -39,6 +39,8 @@ METRICS = {
                     "over the steps that resampled (SLAM: L1 on poses, |dx| + |dy| + |dtheta|)",
     "distinct_frac": "fraction of distinct particles right after resampling, averaged likewise",
     "underflow_steps": "steps where every log-weight was -inf or NaN (weights reset to uniform)",
+    "diverged_steps": "steps whose estimate is not a finite number or (localization) lies outside "
+                      "the world",
     "lik_evals_per_step": "measurement-model evaluations per step (N for a PF, sigma points for "
                           "a UKF)",
 }
@@ -59,6 +61,7 @@ def trial_metrics(x: np.ndarray, out: dict) -> dict:
     mse = float(np.mean(err * err))
     row = {**NAN_ROW, "rmse": math.sqrt(mse), "mse": mse,
            "underflow_steps": float(out.get("underflow_steps", 0)),
+           "diverged_steps": float(np.sum(~np.isfinite(out["xhat"][1:]))),
            "lik_evals_per_step": float(out["lik_evals_per_step"])}
     if "ess" in out:
         row["mean_ess"] = float(np.mean(out["ess"][1:]))
@@ -87,6 +90,7 @@ def _pose_metrics(pose: np.ndarray, out: dict, score_from: int = 1
            "mean_ess": float(np.mean(out["ess"])) if out["ess"].size else math.nan,
            "resample_count": float(np.sum(out["resampled"])),
            "underflow_steps": float(out.get("underflow_steps", 0)),
+           "diverged_steps": float(np.sum(~np.isfinite(est[1:]).all(axis=1))),
            "lik_evals_per_step": float(out["lik_evals_per_step"])}
     return row, d, err
 
@@ -173,15 +177,22 @@ def settle_step(err: np.ndarray, bound: float) -> int:
 
 
 def localization_metrics(pose: np.ndarray, out: dict, bound: float, kidnaps: np.ndarray,
-                         score_from: int = 1, report_step: int = 0) -> dict:
+                         score_from: int = 1, report_step: int = 0,
+                         area: np.ndarray | None = None) -> dict:
     """Metrics of one localization run: true poses (T+1, 3), the filter's 'pose' (T+1, 3), 'ess'
     (T,), 'resampled' (T,), optionally 'n' (T,) particle counts; ``bound`` the convergence bound
     (m); ``kidnaps`` the steps t at which the robot was moved (the pose at t is the new one).
     Convergence: the first step after which the error stays below the bound until the first
     kidnapping (or the end); recovery: likewise from each kidnapping to the next. The error
     averages count the steps from ``score_from``; error_at_step is the error at ``report_step``
-    (NaN for 0)."""
+    (NaN for 0). ``area`` (2,): the world is [0, area[0]] x [0, area[1]]; an estimate outside it
+    is a divergence (diverged_steps), never a silent error of any size."""
     row, d, err = _pose_metrics(pose, out, score_from)  # err[t - 1]: the error at step t
+    if area is not None:
+        xy = out["pose"][1:, :2]
+        with np.errstate(invalid="ignore"):
+            inside = ((xy >= 0.0) & (xy <= np.asarray(area, dtype=float))).all(axis=1)
+        row["diverged_steps"] = float(np.sum(~inside))
     T = err.size
     cuts = [int(k) for k in sorted(kidnaps) if 1 <= k <= T] + [T + 1]
     first = err[: cuts[0] - 1]

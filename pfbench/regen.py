@@ -20,7 +20,6 @@ mean).
 from __future__ import annotations
 
 import math
-import shutil
 import tempfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -32,7 +31,8 @@ import pandas as pd
 from .config import load, read_yaml
 from .errors import UserError
 from .metrics import METRICS
-from .runner import TIMING_COLUMNS, LocalExecutor, atomic_write, run_experiment
+from .fsutil import FolderLock, atomic_write, child, remove_tree, replace_tree
+from .runner import TIMING_COLUMNS, LocalExecutor, run_experiment
 
 Z_DEFAULT = 4.0
 
@@ -92,18 +92,23 @@ def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int |
     else:
         exp = load(path, {"trials": trials})
         name = exp.name
-    folder = Path(results) / name
-    stage = Path(results) / f".{name}.partial"
-    if not resume:
-        clear(stage)
-    if sweep:
-        df = sw.run_sweep(cells, stage, resume=resume, progress=progress, executor=executor)
-        write_sweep(df, list(cells[0].values), stage, name, figures)
-    else:
-        res = run_experiment(exp, stage, resume=resume, progress=progress, executor=executor)
-        write_experiment(exp, res, stage, figures)
-    clear(folder)
-    stage.rename(folder)
+    results = Path(results)
+    folder = child(results, name, f"{path}: name")
+    stage = results / f".{name}.partial"
+    with FolderLock(results):
+        if not resume:
+            remove_tree(stage, results)
+        with FolderLock(stage):
+            if sweep:
+                df = sw.run_sweep(cells, stage, resume=resume, progress=progress,
+                                  executor=executor)
+                write_sweep(df, list(cells[0].values), stage, name, figures)
+            else:
+                res = run_experiment(exp, stage, resume=resume, progress=progress,
+                                     executor=executor)
+                write_experiment(exp, res, stage, figures)
+        with FolderLock(folder):
+            replace_tree(stage, folder, results)
     return folder
 
 
@@ -194,7 +199,11 @@ def _committed(folder: Path) -> pd.DataFrame:
     if not path.exists():
         raise UserError(f"{path}: no committed trials to check against; run 'pfbench tables' "
                         "first")
-    df = pd.read_csv(path)
+    try:
+        df = pd.read_csv(path)
+    except (UnicodeDecodeError, ValueError, pd.errors.ParserError) as exc:
+        raise UserError(f"{path}: not a pfbench trials file ({str(exc).splitlines()[0]})") \
+            from None
     missing = [m for m in METRICS if m not in df.columns]
     if missing:
         raise UserError(f"{path}: written by another version (no column {missing[0]}); "
@@ -224,7 +233,8 @@ def check_config(path: Path, results: Path, executor: LocalExecutor, z: float = 
             before = 0
             for cell in cells:
                 k = min(cell.exp.check["trials"], cell.exp.trials)
-                committed = _committed(Path(results) / name / "cells" / cell.name)
+                committed = _committed(child(Path(results), name, f"{path}: name") / "cells"
+                                       / cell.name)
                 res = run_experiment(replace(cell.exp, trials=k), Path(tmp) / cell.name,
                                      progress=lambda d, n, b=before: progress(b + d, 0),
                                      executor=executor)
@@ -234,13 +244,7 @@ def check_config(path: Path, results: Path, executor: LocalExecutor, z: float = 
             return result
         exp = load(path)
         k = min(exp.check["trials"], exp.trials)
-        committed = _committed(Path(results) / exp.name)
+        committed = _committed(child(Path(results), exp.name, f"{path}: name"))
         res = run_experiment(replace(exp, trials=k), Path(tmp) / exp.name, progress=progress,
                              executor=executor)
         return compare(pd.DataFrame(res.rows), committed, exp.name, z, CheckResult(exp.name, k))
-
-
-def clear(folder: Path) -> None:
-    """Remove a results folder before regenerating it (stale cells and figures go with it)."""
-    if folder.exists():
-        shutil.rmtree(folder)

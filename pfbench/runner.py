@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import csv
 import io
+import itertools
 import json
 import math
 import os
@@ -30,14 +31,17 @@ import numpy as np
 from . import __version__
 from .config import FORMAT_VERSION, Experiment
 from .errors import UserError
+from .fsutil import FolderLock, atomic_write, close_inherited_locks
 from .filters import FILTERS, LOAD_SECONDS
 from .metrics import METRICS, localization_metrics, slam_metrics, trial_metrics
 from .rng import state_from_seed
 from .scenarios import SCENARIOS
 
-TRIAL_COLUMNS = ("trial", "filter", "label", "particles", *METRICS, "wall_s")
-# Columns that may differ between two runs of the same experiment (timings).
-TIMING_COLUMNS = ("wall_s",)
+# crc: a checksum of the row's other fields (``row_crc``), checked when a run resumes.
+TRIAL_COLUMNS = ("trial", "filter", "label", "particles", *METRICS, "wall_s", "crc")
+# Columns that may differ between two runs of the same experiment (the timing, and the checksum
+# that covers it).
+TIMING_COLUMNS = ("wall_s", "crc")
 
 
 def data_seed(seed: int, trial: int) -> np.random.SeedSequence:
@@ -73,7 +77,7 @@ def metrics_of(exp: Experiment, model, truth, out) -> dict:
         return slam_metrics(truth.pose, model.landmarks, out)
     if kind == "localization":
         return localization_metrics(truth.pose, out, model.bound, model.kidnaps,
-                                    model.score_from, model.report_step)
+                                    model.score_from, model.report_step, model.area)
     return trial_metrics(truth, out)
 
 
@@ -106,27 +110,46 @@ def _run_chunk(exp: Experiment, trials: list[int]) -> list[list[dict]]:
 
 # ---------------------------------------------------------------- executors
 
-def _ignore_sigint():  # workers leave Ctrl-C to the parent, which stops them
+def _worker_init():
+    """A pool worker leaves Ctrl-C to the parent, which stops it, and closes the parent's folder
+    locks (the parent keeps them)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    close_inherited_locks()
 
 
-def _chunks(trials: list[int], size: int) -> list[list[int]]:
-    return [trials[i:i + size] for i in range(0, len(trials), size)]
+def _chunks(trials: Iterable[int], size: int) -> Iterable[list[int]]:
+    """Lists of ``size`` consecutive items of ``trials``, drawn lazily (a to-do list of a billion
+    trials is never built)."""
+    it = iter(trials)
+    while True:
+        chunk = list(itertools.islice(it, size))
+        if not chunk:
+            return
+        yield chunk
 
 
-def execute(exp: Experiment, trials: list[int], workers: int) -> Iterable[list[list[dict]]]:
+def _count(trials) -> int:
+    return len(trials) if hasattr(trials, "__len__") else -1
+
+
+def execute(exp: Experiment, trials: Iterable[int], workers: int,
+            count: int | None = None) -> Iterable[list[list[dict]]]:
     """Yield the rows of chunks of ``trials`` as they finish (in-process or a process pool).
 
-    Workers ignore SIGINT; on Ctrl-C the parent terminates them, keeping what already arrived.
+    ``count``: how many trials there are (when ``trials`` is an iterator). Never more workers
+    than trials. Workers ignore SIGINT; on Ctrl-C the parent terminates them, keeping what
+    already arrived.
     """
-    if workers <= 1 or len(trials) <= 1:
+    count = _count(trials) if count is None else count
+    workers = min(workers, count) if count >= 0 else workers
+    if workers <= 1:
         for chunk in _chunks(trials, 1):
             yield _run_chunk(exp, chunk)
         return
     import multiprocessing as mp
     ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
-    size = max(1, min(25, math.ceil(len(trials) / (workers * 6))))
-    pool = ctx.Pool(workers, initializer=_ignore_sigint)
+    size = max(1, min(25, math.ceil(count / (workers * 6))))
+    pool = ctx.Pool(workers, initializer=_worker_init)
     try:
         yield from pool.imap_unordered(partial(_run_chunk, exp), _chunks(trials, size))
         pool.close()
@@ -144,8 +167,9 @@ class LocalExecutor:
     def describe(self) -> str:
         return f"{self.workers} worker(s)"
 
-    def run(self, exp: Experiment, trials: list[int]) -> Iterable[list[list[dict]]]:
-        yield from execute(exp, trials, self.workers)
+    def run(self, exp: Experiment, trials: Iterable[int],
+            count: int | None = None) -> Iterable[list[list[dict]]]:
+        yield from execute(exp, trials, self.workers, count)
 
     def close(self) -> None:
         pass
@@ -178,6 +202,8 @@ class DaskExecutor(LocalExecutor):
         except ImportError:
             raise UserError(DASK_HINT) from None
         self.workers, self.scheduler, self.cluster = workers, scheduler, None
+        if scheduler:
+            check_scheduler(scheduler)
         try:
             if scheduler:
                 self.client = distributed.Client(scheduler, timeout=timeout)
@@ -186,7 +212,7 @@ class DaskExecutor(LocalExecutor):
                     n_workers=workers, threads_per_worker=1, processes=True,
                     dashboard_address=None, silence_logs=40)
                 self.client = distributed.Client(self.cluster)
-        except (OSError, TimeoutError) as exc:  # refused, unreachable, or no answer in time
+        except (OSError, TimeoutError, ValueError) as exc:  # refused, unreachable, no answer
             raise UserError(f"--scheduler {scheduler}: cannot connect ({exc}); start one with "
                             "'dask scheduler' and workers with 'dask worker SCHEDULER'") from None
         self._check_versions()
@@ -212,8 +238,10 @@ class DaskExecutor(LocalExecutor):
         where = self.scheduler or "a local Dask cluster"
         return f"{n} Dask worker(s) at {where}"
 
-    def run(self, exp: Experiment, trials: list[int]) -> Iterable[list[list[dict]]]:
+    def run(self, exp: Experiment, trials: Iterable[int],
+            count: int | None = None) -> Iterable[list[list[dict]]]:
         import distributed
+        trials = list(trials)
         n = max(1, len(self.client.scheduler_info().get("workers", {})))
         size = max(1, min(25, math.ceil(len(trials) / (n * 6))))
         futures = [self.client.submit(_run_chunk, exp, chunk, pure=False)
@@ -228,6 +256,26 @@ class DaskExecutor(LocalExecutor):
         self.client.close()
         if self.cluster is not None:
             self.cluster.close()
+
+
+SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
+
+
+def check_scheduler(address: str) -> None:
+    """A UserError unless ``address`` reads as SCHEME://HOST:PORT (a Dask scheduler)."""
+    from urllib.parse import urlsplit
+    hint = f"--scheduler {address}: expected tcp://HOST:PORT"
+    try:
+        parts = urlsplit(address)
+        port = parts.port
+    except ValueError as exc:
+        raise UserError(f"{hint} ({exc})") from None
+    if parts.scheme not in SCHEDULER_SCHEMES:
+        raise UserError(f"{hint} (the scheme is one of {', '.join(SCHEDULER_SCHEMES)})")
+    if not parts.hostname or port is None or not 0 < port < 65536:
+        raise UserError(f"{hint} (a host and a port from 1 to 65535)")
+    if parts.path not in ("", "/") or parts.query or parts.fragment:
+        raise UserError(f"{hint} (nothing after the port)")
 
 
 def _worker_versions() -> dict:
@@ -247,23 +295,25 @@ def make_executor(kind: str, workers: int = 1, scheduler: str | None = None) -> 
 
 # ---------------------------------------------------------------- files
 
-def atomic_write(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file and a rename (never half-written)."""
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    with open(tmp, "w", encoding="utf-8", newline="") as fh:
-        fh.write(text)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
+def _fields(r: dict) -> list[str]:
+    return ["" if r[c] is None else str(r[c]) for c in TRIAL_COLUMNS[:-1]]
+
+
+def row_crc(fields: list[str]) -> int:
+    """The checksum of a trial row: crc32 of its fields as written (every column but ``crc``)."""
+    return zlib.crc32("\x1f".join(fields).encode("utf-8", "surrogatepass"))
 
 
 def _csv_text(rows: Iterable[dict], header: bool) -> str:
+    """CSV text of ``rows``; each row gets its checksum (``crc``), in the file and in the dict."""
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     if header:
         w.writerow(TRIAL_COLUMNS)
     for r in rows:
-        w.writerow(["" if r[c] is None else r[c] for c in TRIAL_COLUMNS])
+        fields = _fields(r)
+        r["crc"] = row_crc(fields)
+        w.writerow(fields + [r["crc"]])
     return buf.getvalue()
 
 
@@ -273,26 +323,71 @@ def _parse_row(fields: list[str]) -> dict:
     row["particles"] = int(row["particles"]) if row["particles"] else None
     for c in (*METRICS, "wall_s"):
         row[c] = float(row[c])
+    row["crc"] = int(row["crc"])
     return row
 
 
-def read_trials(path: Path) -> list[dict]:
-    """Rows of a trials file; a torn last line (an interrupted write) is dropped."""
-    text = path.read_text(encoding="utf-8")
+def _values(row: dict) -> tuple:
+    """A row's values without its timing and checksum (two runs of a trial agree on these)."""
+    return tuple(repr(row[c]) for c in TRIAL_COLUMNS if c not in TIMING_COLUMNS)
+
+
+@dataclass
+class TrialsFile:
+    """What a trials file holds: the rows that check, and the trials that must run again."""
+    rows: list[dict]
+    rejected: dict[int, str]      # trial -> why its rows cannot be kept
+
+
+def read_trials(path: Path) -> TrialsFile:
+    """The rows of a trials file, each checked against its checksum.
+
+    A torn last line (an interrupted write) is dropped. A trial with a row whose checksum does
+    not match its values (an edited file), a malformed row, or two different rows for one filter
+    run is rejected as a whole (it runs again); a row written twice with the same values is kept
+    once. A file that is not a trials file at all is a UserError.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise UserError(f"{path}: not a pfbench trials file (not UTF-8 text)") from None
+    if "\x00" in text:
+        raise UserError(f"{path}: not a pfbench trials file (binary data in it)")
     if text and not text.endswith("\n"):
         text = text[: text.rfind("\n") + 1]
-    lines = list(csv.reader(io.StringIO(text)))
+    try:
+        lines = list(csv.reader(io.StringIO(text)))
+    except csv.Error as exc:
+        raise UserError(f"{path}: not a pfbench trials file ({exc})") from None
     if not lines or tuple(lines[0]) != TRIAL_COLUMNS:
         raise UserError(f"{path}: not a pfbench trials file of this version (columns differ)")
-    rows = []
-    for fields in lines[1:]:
+    rows: dict[tuple[int, str], dict] = {}
+    rejected: dict[int, str] = {}
+    for n, fields in enumerate(lines[1:], start=2):
+        try:
+            trial = int(fields[0])
+        except (ValueError, IndexError):
+            continue                     # no trial to re-run: the row is ignored
         if len(fields) != len(TRIAL_COLUMNS):
+            rejected.setdefault(trial, f"line {n} has {len(fields)} fields")
             continue
         try:
-            rows.append(_parse_row(fields))
+            row = _parse_row(fields)
         except ValueError:
+            rejected.setdefault(trial, f"line {n} is malformed")
             continue
-    return rows
+        if row["crc"] != row_crc(fields[:-1]):
+            rejected.setdefault(trial, f"line {n} ({row['filter']}): its checksum does not match "
+                                "its values")
+            continue
+        key = (trial, row["filter"])
+        if key in rows and _values(rows[key]) != _values(row):
+            rejected.setdefault(trial, f"line {n} ({row['filter']}): a second row for it with "
+                                "different values")
+            continue
+        rows.setdefault(key, row)
+    return TrialsFile([r for r in rows.values() if r["trial"] not in rejected], rejected)
 
 
 def complete_trials(rows: list[dict], exp: Experiment) -> dict[int, list[dict]]:
@@ -348,48 +443,69 @@ class RunResult:
 
 def run_experiment(exp: Experiment, out_dir: Path, *, workers: int = 1, resume: bool = False,
                    progress: Callable[[int, int], None] | None = None,
-                   executor: LocalExecutor | None = None) -> RunResult:
+                   executor: LocalExecutor | None = None,
+                   warn: Callable[[str], None] | None = None) -> RunResult:
     """Run every trial of ``exp`` into ``out_dir`` (see DESIGN.md section 3 for the files).
 
     Trials go to ``trials.partial.csv`` as they finish; at the end the sorted ``trials.csv``
     replaces it. ``resume`` keeps the finished trials of a partial (or a complete) earlier run of
-    the same experiment (same hash) and runs the rest. ``executor``: where the trials run (default:
-    a LocalExecutor of ``workers``); a trial that arrives twice (a re-run chunk) is kept once.
+    the same experiment (same hash) and runs the rest; rows that fail their checksum or disagree
+    with another row of the same trial are not kept: their trials run again, and ``warn`` is told
+    which. ``executor``: where the trials run (default: a LocalExecutor of ``workers``); a trial
+    that arrives twice (a re-run chunk) is kept once. The folder is locked (:class:`FolderLock`)
+    for the whole run: a second run into it is refused.
     """
     executor = executor or LocalExecutor(workers)
     out_dir = Path(out_dir)
+    with FolderLock(out_dir):
+        return _run_locked(exp, out_dir, workers, resume, progress, executor, warn)
+
+
+def _resumed(exp: Experiment, out_dir: Path, warn) -> dict[int, list[dict]]:
+    """The finished trials an earlier run of ``exp`` left in ``out_dir`` (see run_experiment)."""
+    partial, final = out_dir / "trials.partial.csv", out_dir / "trials.csv"
+    source = partial if partial.exists() else final if final.exists() else None
+    if source is None:
+        return {}
+    stamp = out_dir / "run.json" if source == partial else out_dir / "meta.json"
+    try:
+        old_hash = json.loads(stamp.read_text(encoding="utf-8"))["experiment_hash"]
+    except (OSError, ValueError, KeyError, TypeError):
+        raise UserError(f"{out_dir}: cannot resume: {stamp.name} is missing or unreadable") \
+            from None
+    if old_hash != exp.hash:
+        raise UserError(f"{out_dir}: cannot resume: those trials come from a different "
+                        f"experiment (hash {old_hash}, this config {exp.hash}); run without "
+                        "--resume or choose another --out")
+    got = read_trials(source)
+    bad = {k: why for k, why in got.rejected.items() if 0 <= k < exp.trials}
+    if bad and warn:
+        shown = "; ".join(f"trial {k}: {why}" for k, why in sorted(bad.items())[:5])
+        more = f" and {len(bad) - 5} more" if len(bad) > 5 else ""
+        warn(f"{source}: {len(bad)} trial(s) not kept, they run again: {shown}{more}")
+    return {k: v for k, v in complete_trials(got.rows, exp).items() if k < exp.trials}
+
+
+def _run_locked(exp, out_dir, workers, resume, progress, executor, warn) -> RunResult:
     partial = out_dir / "trials.partial.csv"
     final = out_dir / "trials.csv"
     marker = out_dir / "run.json"
-    done: dict[int, list[dict]] = {}
-    if resume:
-        source = partial if partial.exists() else final if final.exists() else None
-        if source is not None:
-            stamp = marker if source == partial else out_dir / "meta.json"
-            try:
-                old_hash = json.loads(stamp.read_text())["experiment_hash"]
-            except (OSError, ValueError, KeyError):
-                raise UserError(f"{out_dir}: cannot resume: {stamp.name} is missing or unreadable")
-            if old_hash != exp.hash:
-                raise UserError(f"{out_dir}: cannot resume: those trials come from a different "
-                                f"experiment (hash {old_hash}, this config {exp.hash}); run without "
-                                "--resume or choose another --out")
-            done = {k: v for k, v in complete_trials(read_trials(source), exp).items()
-                    if k < exp.trials}
-    out_dir.mkdir(parents=True, exist_ok=True)
+    done = _resumed(exp, out_dir, warn) if resume else {}
     started = datetime.now(timezone.utc)
     atomic_write(marker, json.dumps({"format": FORMAT_VERSION, "experiment": exp.name,
                                      "experiment_hash": exp.hash, "seed": exp.seed,
                                      "trials": exp.trials, "started": started.isoformat()}) + "\n")
     atomic_write(partial, _csv_text((r for k in sorted(done) for r in done[k]), header=True))
-    todo = [k for k in range(exp.trials) if k not in done]
+    resumed = set(done)
+    todo = (k for k in range(exp.trials) if k not in resumed)    # lazy: no list of all trials
+    n_todo = exp.trials - len(resumed)
     total = exp.trials
     if progress:
         progress(len(done), total)
     t0 = time.perf_counter()
     with open(partial, "a", encoding="utf-8", newline="") as fh:
         try:
-            for chunk in executor.run(exp, todo):
+            for chunk in executor.run(exp, todo, n_todo):
                 chunk = [rows for rows in chunk if rows[0]["trial"] not in done]
                 fh.write(_csv_text((r for rows in chunk for r in rows), header=False))
                 fh.flush()
@@ -405,7 +521,7 @@ def run_experiment(exp: Experiment, out_dir: Path, *, workers: int = 1, resume: 
     meta = {
         "format": FORMAT_VERSION, "experiment": exp.name, "config": exp.source,
         "experiment_hash": exp.hash, "paper": exp.paper, "table": exp.table, "seed": exp.seed,
-        "trials": exp.trials, "trials_run_now": len(todo), "workers": workers,
+        "trials": exp.trials, "trials_run_now": n_todo, "workers": workers,
         "executor": executor.describe(),
         "wall_s": round(wall, 3), "kernel_load_s": round(LOAD_SECONDS, 3),
         "started": started.isoformat(), "finished": datetime.now(timezone.utc).isoformat(),
@@ -415,4 +531,4 @@ def run_experiment(exp: Experiment, out_dir: Path, *, workers: int = 1, resume: 
     atomic_write(out_dir / "meta.json", json.dumps(meta, indent=2) + "\n")
     partial.unlink(missing_ok=True)
     marker.unlink(missing_ok=True)
-    return RunResult(rows, out_dir, wall, len(todo), meta)
+    return RunResult(rows, out_dir, wall, n_todo, meta)

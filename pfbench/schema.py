@@ -15,8 +15,8 @@ from .errors import UserError
 
 REQUIRED = object()
 
-# PyYAML follows YAML 1.1: 1e3 and 1e-3 (no dot) are read as strings, not numbers.
-_YAML11_HINT = "YAML 1.1 reads a number without a dot in its mantissa, like 1e3, as text: write 1.0e3"
+# Text that Python reads as a number but YAML does not (quoted, or a form such as 'infinity').
+_YAML11_HINT = "text, not a number: write it unquoted, like 1000, 2.5 or 1e3"
 
 
 class ConfigError(UserError):
@@ -122,6 +122,8 @@ class Key:
 
     def _scalar(self, path: str, value: Any, kind: str):
         if kind == "int":
+            if isinstance(value, float) and math.isfinite(value) and value.is_integer():
+                value = int(value)          # 1e3 or 2.0e2: a whole number written as a float
             if isinstance(value, bool) or not isinstance(value, int):
                 raise self._wrong(path, value)
         elif kind == "float":

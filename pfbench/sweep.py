@@ -9,23 +9,26 @@ first swept key, one line per filter run with its 95% band.
 from __future__ import annotations
 
 import copy
+import hashlib
 import itertools
 import json
+import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
 import pandas as pd
-import yaml
-
 from .config import Experiment, apply_override, read_yaml, validate
 from .errors import UserError
+from .fsutil import FolderLock
 from .metrics import summarize
 from .runner import atomic_write, run_experiment
 from .schema import ConfigError
+from .yamlio import parse_yaml
 
 CONFIRM_ABOVE = 50       # cells; more need --yes
+MAX_CELLS = 10_000       # cells; more are refused (each is a folder of results)
 SWEEP_METRICS = ("rmse", "wall_s")
 
 
@@ -61,9 +64,10 @@ def parse_sets(sets: list[str] | tuple[str, ...]) -> dict[str, list[Any]]:
         if not sep or not key.strip() or not text.strip():
             raise ConfigError(f"--set {s}", "expected KEY=V1,V2,..., e.g. scenario.speed_mps=1,2,3")
         try:
-            values = [yaml.safe_load(v) for v in split_values(text)]
-        except yaml.YAMLError:
-            raise ConfigError(f"--set {key}", f"cannot read the values {text!r}") from None
+            values = [parse_yaml(v, "--set")[0] for v in split_values(text)]
+        except ConfigError as err:
+            raise ConfigError(f"--set {key}", f"cannot read the values {text!r}: {err.message}") \
+                from None
         out[key.strip()] = values
     return out
 
@@ -76,13 +80,19 @@ class Cell:
 
 
 def _cell_name(values: dict[str, Any]) -> str:
+    """A plain folder name for a cell ('particles=50,steps=100'): never a path, at most 100
+    characters (a long one ends in a hash of the whole)."""
     parts = [f"{k.split('.')[-1].replace('*', 'all')}={v}" for k, v in values.items()]
-    return re.sub(r"[^A-Za-z0-9_.=,-]+", "_", ",".join(parts))
+    name = re.sub(r"[^A-Za-z0-9_.=,-]+", "_", ",".join(parts)).lstrip(".") or "cell"
+    if len(name) > 100:
+        digest = hashlib.sha256(json.dumps(values, sort_keys=True, default=str).encode())
+        name = f"{name[:83]}-{digest.hexdigest()[:16]}"
+    return name
 
 
-def expand(config: Path, sets: dict[str, list[Any]], overrides: dict[str, Any]) -> tuple[
-        str, list[Cell]]:
-    """The sweep's name and cells: the config's own ``sweep:`` section, then --set (which wins)."""
+def _spec(config: Path, sets: dict[str, list[Any]]) -> tuple[dict, dict, dict]:
+    """(raw config without 'sweep', line numbers, swept key -> values): the file's own ``sweep:``
+    section, then --set (which wins)."""
     raw, lines = read_yaml(config)
     if not isinstance(raw, dict):
         raise ConfigError("", "expected a mapping of keys at the top", source=str(config))
@@ -94,6 +104,23 @@ def expand(config: Path, sets: dict[str, list[Any]], overrides: dict[str, Any]) 
     if not spec:
         raise UserError(f"{config}: nothing to sweep: give --set KEY=V1,V2,... or a 'sweep:' "
                         "section")
+    return raw, lines, spec
+
+
+def count_cells(config: Path, sets: dict[str, list[Any]]) -> int:
+    """The number of cells of a sweep, without building them."""
+    return math.prod(len(v) for v in _spec(config, sets)[2].values())
+
+
+def expand(config: Path, sets: dict[str, list[Any]], overrides: dict[str, Any]) -> tuple[
+        str, list[Cell]]:
+    """The sweep's name and cells: the config's own ``sweep:`` section, then --set (which wins).
+    More than MAX_CELLS cells are refused before any is built."""
+    raw, lines, spec = _spec(config, sets)
+    n = math.prod(len(v) for v in spec.values())
+    if n > MAX_CELLS:
+        raise UserError(f"{config}: {n:,} sweep cells is more than {MAX_CELLS:,}: sweep fewer "
+                        "values, or split the sweep")
     keys = list(spec)
     cells = []
     for combo in itertools.product(*(spec[k] for k in keys)):
@@ -111,14 +138,22 @@ def expand(config: Path, sets: dict[str, list[Any]], overrides: dict[str, Any]) 
             raise ConfigError(err.path, f"{err.message} (sweep cell {where})", source=str(config),
                               line=lines.get(err.path)) from None
         cells.append(Cell(values, exp, _cell_name(values)))
+    names = [c.name for c in cells]
+    if len(set(names)) != len(names):
+        dup = next(n for n in names if names.count(n) > 1)
+        raise UserError(f"{config}: two sweep cells would share the folder '{dup}': make the "
+                        "swept values distinct")
     return (cells[0].exp.name if cells else config.stem), cells
 
 
 def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: bool = False,
               progress: Callable[[int, int], None] | None = None,
-              executor=None) -> pd.DataFrame:
+              executor=None, warn: Callable[[str], None] | None = None) -> pd.DataFrame:
     """Run every cell (resumable) on one executor, then write the combined trials."""
     total = sum(c.exp.trials for c in cells)
+    for cell in cells:          # every cell's folder is free before any cell runs
+        with FolderLock(out_dir / "cells" / cell.name, "sweep cell"):
+            pass
     done = 0
     frames = []
     for cell in cells:
@@ -129,7 +164,7 @@ def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: boo
                 progress(base + d, total)
 
         res = run_experiment(cell.exp, folder, workers=workers, resume=resume,
-                             progress=cell_progress, executor=executor)
+                             progress=cell_progress, executor=executor, warn=warn)
         done += cell.exp.trials
         df = pd.DataFrame(res.rows)
         for k, v in cell.values.items():

@@ -176,6 +176,7 @@ def summary(exp: Experiment, rows: list[dict] | pd.DataFrame) -> pd.DataFrame:
         for metric in MEAN_COLUMNS:
             r[metric] = summarize(g[metric])["mean"]
         r["underflow_steps"] = float(g["underflow_steps"].sum())
+        r["diverged_steps"] = float(g["diverged_steps"].sum()) if "diverged_steps" in g else 0.0
         r["wall_ms_per_trial"] = 1e3 * float(g["wall_s"].mean()) if len(g) else math.nan
         r["baseline"] = pairs.get(run.key)
         if run.key in pairs:
@@ -382,6 +383,13 @@ def console_tables(exp: Experiment, tab: pd.DataFrame) -> list[tuple[str, list[s
     return out
 
 
+def _counts(rows: pd.DataFrame, column: str) -> str:
+    """'PF N=50: 3, UKF: 1': a count per table row."""
+    return ", ".join(f"{r['label']}" + (f" N={int(r['particles'])}" if r["particles"] ==
+                                        r["particles"] and r["particles"] is not None else "")
+                     + f": {int(r[column])}" for _, r in rows.iterrows())
+
+
 def footnotes(exp: Experiment, tab: pd.DataFrame) -> list[str]:
     """Lines that explain the table: the floor row, underflow events."""
     notes = rankings(exp, tab)
@@ -406,11 +414,13 @@ def footnotes(exp: Experiment, tab: pd.DataFrame) -> list[str]:
                      "that interval is marked 'paper below the model's floor'.")
     hit = tab[tab["underflow_steps"] > 0]
     if len(hit):
-        rows = ", ".join(f"{r['label']}" + (f" N={int(r['particles'])}" if r["particles"] ==
-                                            r["particles"] and r["particles"] is not None else "")
-                         + f": {int(r['underflow_steps'])}" for _, r in hit.iterrows())
         notes.append("Steps where every weight was zero (the measurement was ignored), summed over "
-                     f"trials: {rows}.")
+                     f"trials: {_counts(hit, 'underflow_steps')}.")
+    hit = tab[tab["diverged_steps"] > 0] if "diverged_steps" in tab else tab.iloc[:0]
+    if len(hit):
+        notes.append("Steps where the estimate diverged (not a finite number, or outside the "
+                     f"world), summed over trials: {_counts(hit, 'diverged_steps')}. Those "
+                     "trials' errors measure the divergence, not the filter's accuracy.")
     return notes
 
 

@@ -30,7 +30,8 @@ CASES = [
     ("unknown nested key", "    label: PF\n", "    label: PF\n    resampleing: systematic\n",
      ["filters.pf.resampleing", "did you mean 'resampling'"]),
     ("unknown scenario key", "  steps: 30\n", "  steps: 30\n  stepz: 3\n", ["scenario.stepz"]),
-    ("1e3 read as text", "trials: 6\n", "trials: 1e3\n", ["trials", "1e3", "1.0e3"]),
+    ("quoted number is text", "trials: 6\n", "trials: '6'\n", ["trials", "string '6'",
+                                                                "write it unquoted"]),
     ("bool is not an int", "trials: 6\n", "trials: true\n", ["trials", "boolean true"]),
     ("float is not an int", "steps: 30\n", "steps: 30.5\n", ["scenario.steps", "integer"]),
     ("particles >= 2", "particles: [20, 40]", "particles: [20, 1]", ["filters.pf.particles[1]", ">= 2"]),
@@ -74,7 +75,7 @@ def test_bad_config_is_one_line_exit_2(tmp_path, write_config, name, old, new, w
 
 
 def test_validate_reports_the_same_errors(tmp_path, write_config):
-    cfg = write_config(SMALL.replace("trials: 6", "trials: 1e3"))
+    cfg = write_config(SMALL.replace("trials: 6", "trials: 0"))
     res = runner.invoke(app, ["validate", str(cfg)])
     assert res.exit_code == 2 and "trials" in res.output
 

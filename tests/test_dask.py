@@ -48,8 +48,8 @@ def test_a_worker_that_dies_mid_run_has_its_trials_run_again_once(tmp_path, writ
             import threading
             threading.Timer(0.05, os._exit, args=(1,)).start()
 
-        def run_and_kill(e, trials):
-            for chunk in inner(e, trials):
+        def run_and_kill(e, trials, count=None):
+            for chunk in inner(e, trials, count):
                 if not killed:
                     victim = sorted(ex.client.scheduler_info()["workers"])[0]
                     try:

@@ -3,6 +3,8 @@ import json
 
 import numpy as np
 import pandas as pd
+
+from pfbench.runner import TIMING_COLUMNS
 import pytest
 from typer.testing import CliRunner
 
@@ -152,9 +154,9 @@ def test_tables_resume_keeps_the_staged_trials_of_an_interrupted_regeneration(fo
     assert meta["trials"] == exp.trials == 12 and meta["trials_run_now"] == 7
     assert not stage.exists()
     # the same trials as a regeneration from scratch
-    resumed = pd.read_csv(results / "small" / "trials.csv").drop(columns="wall_s")
+    resumed = pd.read_csv(results / "small" / "trials.csv").drop(columns=list(TIMING_COLUMNS))
     assert tables("--configs", configs, "--results", results, "--no-figures", "--only",
                   "small").exit_code == 0
-    fresh = pd.read_csv(results / "small" / "trials.csv").drop(columns="wall_s")
+    fresh = pd.read_csv(results / "small" / "trials.csv").drop(columns=list(TIMING_COLUMNS))
     assert resumed.equals(fresh)
     assert json.loads((results / "small" / "meta.json").read_text())["trials_run_now"] == 12

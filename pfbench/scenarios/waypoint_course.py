@@ -17,12 +17,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 from numba import njit, types
 
 from ..angles import wrap
 from ..rng import STATE, normal
 from ..schema import ConfigError, Key
+from ..yamlio import read_yaml
 
 NAME = "waypoint_course"
 KIND = "slam"
@@ -89,11 +89,10 @@ def load_world(path: Path, where: str = "scenario.world", points_key: str = "lan
     ``points_key``); return plain lists (they enter the experiment's hash). ``origin``: 'centre'
     (the area is centred on the origin) or 'corner' (it is [0, width] x [0, height])."""
     try:
-        raw = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise ConfigError(where, f"cannot read the course file {path}: {exc.strerror}") from None
-    except yaml.YAMLError as exc:
-        raise ConfigError(where, f"{path} is not valid YAML: {exc}") from None
+        raw, _ = read_yaml(path)
+    except ConfigError as err:
+        line = f":{err.line}" if err.line else ""
+        raise ConfigError(where, f"the world file {path}{line}: {err.message}") from None
     if not isinstance(raw, dict):
         raise ConfigError(where, f"{path}: expected a mapping with area, start, waypoints, "
                           f"{points_key}")
@@ -109,9 +108,13 @@ def load_world(path: Path, where: str = "scenario.world", points_key: str = "lan
                               f"[{', '.join(['x', 'y', 'heading'][:width])}] entries")
         return arr
 
-    area = np.asarray(raw.get("area", []), dtype=float)
-    if area.shape != (2,) or not (area > 0).all():
-        raise ConfigError(where, f"{path}: 'area' must be [width, height] in metres")
+    try:
+        area = np.asarray(raw.get("area", []), dtype=float)
+    except (TypeError, ValueError):
+        area = np.empty(0)
+    if area.shape != (2,) or not np.isfinite(area).all() or not (area > 0).all():
+        raise ConfigError(where, f"{path}: 'area' must be [width, height]: two finite numbers of "
+                          "metres > 0")
     try:
         start = np.asarray(raw.get("start", []), dtype=float)
     except (TypeError, ValueError):
