@@ -99,6 +99,18 @@ def _fail(message: str):
     raise typer.Exit(2) from None
 
 
+def _path(value: str | None, flag: str) -> Path | None:
+    """A path option as a Path; an empty one is an error (Path('') would be the current
+    folder, which nobody named)."""
+    if value is None:
+        return None
+    if not value.strip():
+        raise UserError(f"{flag}: expected a path, got an empty one")
+    if "\x00" in value:
+        raise UserError(f"{flag}: a path cannot contain a NUL character")
+    return Path(value)
+
+
 def _once(fn):
     """``fn`` as a function that runs it the first time it is called, and then never again."""
     done = []
@@ -186,7 +198,7 @@ def run(
     seed: Optional[int] = typer.Option(None, "--seed", min=0, help="Override the base seed."),
     workers: int = typer.Option(1, "--workers", "-w", min=1,
                                 help="Local worker processes (results do not depend on it)."),
-    out_dir: Optional[Path] = typer.Option(None, "--out", help="Results folder "
+    out_dir: Optional[str] = typer.Option(None, "--out", help="Results folder "
                                            "(default: results/<experiment>)."),
     resume: bool = typer.Option(False, "--resume", help="Keep the finished trials of an earlier "
                                 "run of the same experiment in the results folder."),
@@ -202,6 +214,7 @@ def run(
 ):
     """Run an experiment: Monte Carlo trials, then the table beside the paper's values."""
     with _guard():
+        out_dir = _path(out_dir, "--out")
         from .fsutil import FolderLock
         from .resources import cap_workers, check_fits
         exp = _load(config, trials, seed, set_)
@@ -244,7 +257,7 @@ def sweep(
     trials: Optional[int] = typer.Option(None, "--trials", min=1, help="Trials per cell."),
     seed: Optional[int] = typer.Option(None, "--seed", min=0, help="Override the base seed."),
     workers: int = typer.Option(1, "--workers", "-w", min=1, help="Local worker processes."),
-    out_dir: Optional[Path] = typer.Option(None, "--out", help="Results folder (default: "
+    out_dir: Optional[str] = typer.Option(None, "--out", help="Results folder (default: "
                                            "results/<experiment>)."),
     resume: bool = typer.Option(False, "--resume", help="Keep the finished trials of every cell."),
     yes: bool = typer.Option(False, "--yes", help="Run even when there are many cells."),
@@ -254,6 +267,7 @@ def sweep(
 ):
     """Run an experiment over the cartesian product of values of some of its keys."""
     with _guard():
+        out_dir = _path(out_dir, "--out")
         from . import sweep as sw
         from .fsutil import FolderLock
         from .resources import cap_workers, check_fits
@@ -307,8 +321,8 @@ def tables_(
     check: bool = typer.Option(False, "--check", help="Re-run each config's first check.trials "
                                "trials and compare with the committed results instead of "
                                "regenerating them; exit 1 when a metric moved."),
-    configs: Path = typer.Option(Path("configs"), "--configs", help="Folder of configs."),
-    results: Path = typer.Option(Path("results"), "--results", help="Folder of results."),
+    configs: str = typer.Option("configs", "--configs", help="Folder of configs."),
+    results: str = typer.Option("results", "--results", help="Folder of results."),
     only: List[str] = typer.Option([], "--only", help="Only this config (file name or stem), "
                                    "repeatable."),
     workers: int = typer.Option(1, "--workers", "-w", min=1, help="Local worker processes."),
@@ -326,6 +340,7 @@ def tables_(
     import time
 
     with _guard():
+        configs, results = _path(configs, "--configs"), _path(results, "--results")
         from . import regen
         from .fsutil import FolderLock
         if not math.isfinite(z) or z <= 0:
@@ -389,17 +404,26 @@ def tables_(
 
 @app.command()
 def report(
-    configs: Path = typer.Option(Path("configs"), "--configs", help="Folder of configs."),
-    results: Path = typer.Option(Path("results"), "--results", help="Folder of results."),
-    out_file: Optional[Path] = typer.Option(None, "--out", help="Report file (default: "
+    configs: str = typer.Option("configs", "--configs", help="Folder of configs."),
+    results: str = typer.Option("results", "--results", help="Folder of results."),
+    out_file: Optional[str] = typer.Option(None, "--out", help="Report file (default: "
                                             "RESULTS/REPORT.md)."),
     check: bool = typer.Option(False, "--check", help="Write nothing; exit 1 when the file is "
                                "not what the results give."),
 ):
     """Write the reproduction report: every paper's tables beside ours, from the results."""
     with _guard():
+        configs, results = _path(configs, "--configs"), _path(results, "--results")
+        out_file = _path(out_file, "--out")
         from . import report as rp
-        path, same = rp.write(configs, results, out_file, check=check)
+        from .fsutil import FolderLock
+        if check:
+            path, same = rp.write(configs, results, out_file, check=True)
+        else:
+            if not Path(results).is_dir():
+                raise UserError(f"{results}: no such results folder; run 'pfbench tables' first")
+            with FolderLock(results, "--results"):      # not while 'tables' rewrites them
+                path, same = rp.write(configs, results, out_file)
         if not check:
             err.print(f"wrote {path}", markup=False)
         elif same:
@@ -423,7 +447,8 @@ def validate(config: Path = typer.Argument(..., help="Experiment YAML file."),
             sets = sw.parse_sets(set_)
             n_cells = sw.count_cells(config, sets)
             if n_cells > sw.MAX_CELLS:
-                raise UserError(f"{config}: {n_cells} sweep cells is more than {sw.MAX_CELLS}")
+                raise UserError(f"{config}: {n_cells:,} sweep cells is more than "
+                                f"{sw.MAX_CELLS:,}: sweep fewer values, or split the sweep")
             name, cells = sw.expand(config, sets, {})
             need = max(check_fits(c.exp, 1, f"{config} (sweep cell {c.name})").bytes
                        for c in cells)

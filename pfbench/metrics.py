@@ -39,8 +39,8 @@ METRICS = {
                     "over the steps that resampled (SLAM: L1 on poses, |dx| + |dy| + |dtheta|)",
     "distinct_frac": "fraction of distinct particles right after resampling, averaged likewise",
     "underflow_steps": "steps where every log-weight was -inf or NaN (weights reset to uniform)",
-    "diverged_steps": "steps whose estimate is not a finite number or (localization) lies outside "
-                      "the world",
+    "diverged_steps": "steps whose estimate or its error is not a finite number, or (localization) "
+                      "whose estimate lies outside the world",
     "lik_evals_per_step": "measurement-model evaluations per step (N for a PF, sigma points for "
                           "a UKF)",
 }
@@ -58,10 +58,12 @@ def _nanmean(a) -> float:
 def trial_metrics(x: np.ndarray, out: dict) -> dict:
     """Metrics of one filter run: truth ``x`` (T+1,), filter output ``out`` (traces (T+1,))."""
     err = out["xhat"][1:] - x[1:]
-    mse = float(np.mean(err * err))
+    with np.errstate(over="ignore", invalid="ignore"):
+        sq = err * err
+    mse = float(np.mean(sq))
     row = {**NAN_ROW, "rmse": math.sqrt(mse), "mse": mse,
            "underflow_steps": float(out.get("underflow_steps", 0)),
-           "diverged_steps": float(np.sum(~np.isfinite(out["xhat"][1:]))),
+           "diverged_steps": float(np.sum(~np.isfinite(out["xhat"][1:]) | ~np.isfinite(sq))),
            "lik_evals_per_step": float(out["lik_evals_per_step"])}
     if "ess" in out:
         row["mean_ess"] = float(np.mean(out["ess"][1:]))
@@ -90,7 +92,8 @@ def _pose_metrics(pose: np.ndarray, out: dict, score_from: int = 1
            "mean_ess": float(np.mean(out["ess"])) if out["ess"].size else math.nan,
            "resample_count": float(np.sum(out["resampled"])),
            "underflow_steps": float(out.get("underflow_steps", 0)),
-           "diverged_steps": float(np.sum(~np.isfinite(est[1:]).all(axis=1))),
+           "diverged_steps": float(np.sum(~np.isfinite(est[1:]).all(axis=1)
+                                          | ~np.isfinite(err))),
            "lik_evals_per_step": float(out["lik_evals_per_step"])}
     return row, d, err
 

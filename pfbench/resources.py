@@ -56,11 +56,11 @@ def estimate(exp, workers: int = 1) -> Need:
               f"the scenario's {steps:,} steps")]
     for run in exp.filters:
         n = run.particles or 1
-        per = 8 * (n * _per_particle_floats(kind, run.params, scen) + steps * TRACE_FLOATS)
-        if run.particles:
-            terms.append((per, f"filters.{run.name}: {n:,} particles"))
-        else:
-            terms.append((per, f"filters.{run.name}: {steps:,} steps"))
+        particles = 8 * n * _per_particle_floats(kind, run.params, scen)
+        traces = 8 * steps * TRACE_FLOATS
+        what = (f"filters.{run.name}: {n:,} particles" if particles >= traces
+                else f"filters.{run.name}: the traces of {steps:,} steps")
+        terms.append((particles + traces, what))
     trial = terms[0][0] + max(t[0] for t in terms[1:])
     biggest = max(terms[1:], key=lambda t: t[0])
     if terms[0][0] > biggest[0]:

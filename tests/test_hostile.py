@@ -372,6 +372,18 @@ def test_out_that_is_a_file_or_below_a_file(tmp_path, write_config):
     assert f.read_text() == "keep"
 
 
+@pytest.mark.parametrize("cmd", [["run", "CFG", "--out", ""], ["sweep", "CFG", "--set", "seed=1,2",
+                                                                "--out", " "],
+                                 ["tables", "--results", ""], ["report", "--out", ""]])
+def test_an_empty_path_is_not_the_current_folder(tmp_path, write_config, monkeypatch, cmd):
+    monkeypatch.chdir(tmp_path)
+    cfg = write_config(TINY)
+    before = sorted(p.name for p in tmp_path.iterdir())
+    line = _one_line_exit_2(runner.invoke(app, [str(cfg) if c == "CFG" else c for c in cmd]))
+    assert "empty" in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == before
+
+
 def _fail_with(err_no):
     def fail(*a, **k):
         raise OSError(err_no, os.strerror(err_no))
