@@ -30,10 +30,16 @@ _META = {"Software": None}
 
 
 def _save(fig, path: Path) -> None:
+    """Save ``fig`` to ``path`` through a temporary file (removed if the save fails)."""
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}.png")
-    fig.savefig(tmp, dpi=110, metadata=_META)
-    plt.close(fig)
-    os.replace(tmp, path)
+    try:
+        fig.savefig(tmp, dpi=110, metadata=_META)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    finally:
+        plt.close(fig)
 
 
 def _run_name(run) -> str:
