@@ -176,7 +176,9 @@ def summary(exp: Experiment, rows: list[dict] | pd.DataFrame) -> pd.DataFrame:
         for metric in MEAN_COLUMNS:
             r[metric] = summarize(g[metric])["mean"]
         r["underflow_steps"] = float(g["underflow_steps"].sum())
-        r["diverged_steps"] = float(g["diverged_steps"].sum()) if "diverged_steps" in g else 0.0
+        dv = g["diverged_steps"] if "diverged_steps" in g else pd.Series(dtype=float)
+        r["diverged_steps"] = float(dv.sum())
+        r["diverged_trials"] = float((dv > 0).sum())
         r["wall_ms_per_trial"] = 1e3 * float(g["wall_s"].mean()) if len(g) else math.nan
         r["baseline"] = pairs.get(run.key)
         if run.key in pairs:
@@ -383,11 +385,13 @@ def console_tables(exp: Experiment, tab: pd.DataFrame) -> list[tuple[str, list[s
     return out
 
 
-def _counts(rows: pd.DataFrame, column: str) -> str:
-    """'PF N=50: 3, UKF: 1': a count per table row."""
+def _counts(rows: pd.DataFrame, column: str, trials: str | None = None) -> str:
+    """'PF N=50: 3, UKF: 1' (or with ``trials``: 'PF N=50: 3 in 2 trials'): a count per row."""
     return ", ".join(f"{r['label']}" + (f" N={int(r['particles'])}" if r["particles"] ==
                                         r["particles"] and r["particles"] is not None else "")
-                     + f": {int(r[column])}" for _, r in rows.iterrows())
+                     + f": {int(r[column])}"
+                     + (f" in {int(r[trials])} trial{'s' if int(r[trials]) != 1 else ''}"
+                        if trials else "") for _, r in rows.iterrows())
 
 
 def footnotes(exp: Experiment, tab: pd.DataFrame) -> list[str]:
@@ -418,9 +422,10 @@ def footnotes(exp: Experiment, tab: pd.DataFrame) -> list[str]:
                      f"trials: {_counts(hit, 'underflow_steps')}.")
     hit = tab[tab["diverged_steps"] > 0] if "diverged_steps" in tab else tab.iloc[:0]
     if len(hit):
-        notes.append("Steps where the estimate diverged (not a finite number, or outside the "
-                     f"world), summed over trials: {_counts(hit, 'diverged_steps')}. Those "
-                     "trials' errors measure the divergence, not the filter's accuracy.")
+        notes.append("Steps whose estimate left the world (a lost filter's particles drifting past "
+                     "its border) or was not a finite number, summed over trials, with the trials "
+                     f"they occur in: {_counts(hit, 'diverged_steps', 'diverged_trials')}. The "
+                     "error averages include those steps.")
     return notes
 
 

@@ -284,6 +284,11 @@ def test_localization_filters_with_two_particles_and_no_sensor_noise(tmp_path):
     # an estimate far outside the 40 m field is a divergence event, not a silent error
     far = df[df["final_error"] > 100]
     assert (far["diverged_steps"] > 0).all(), far
+    # two particles lose the robot: the steps outside the world are counted and named
+    assert df["diverged_steps"].sum() > 0
+    note = next(l for l in (tmp_path / "o/table.md").read_text().splitlines()
+                if "left the world" in l)
+    assert "trial" in note
 
 
 def test_an_estimate_outside_the_world_is_counted_as_diverged():
