@@ -468,16 +468,24 @@ def validate(config: Path = typer.Argument(..., help="Experiment YAML file."),
 def list_(configs: Path = typer.Option(Path("configs"), "--configs",
                                        help="Folder of experiment files to list.")):
     """List scenarios, filters, resampling schemes and configs, one line each."""
+    from . import plugins
     from .config import read_yaml
     from .filters import FILTERS
     from .resampling import SCHEMES
     from .scenarios import SCENARIOS
+
+    def origin(group, name):
+        pkg = plugins.ORIGIN.get((group, name), "pfbench")
+        return "" if pkg == "pfbench" else f" (plug-in: {pkg})"
+
     out.print("scenarios:", style="bold")
     for name, mod in SCENARIOS.items():
-        out.print(f"  {name:<18} {mod.DESCRIPTION}", markup=False)
+        out.print(f"  {name:<18} {mod.DESCRIPTION}{origin(plugins.SCENARIO_GROUP, name)}",
+                  markup=False)
     out.print("filters:", style="bold")
     for name, f in FILTERS.items():
-        out.print(f"  {name:<18} {f.description}", markup=False)
+        out.print(f"  {name:<18} {f.description}{origin(plugins.FILTER_GROUP, name)}",
+                  markup=False)
     out.print("resampling:", style="bold")
     for name, text in SCHEMES.items():
         out.print(f"  {name:<18} {text}", markup=False)
@@ -491,6 +499,8 @@ def list_(configs: Path = typer.Option(Path("configs"), "--configs",
         except (UserError, AttributeError):
             tag, what = "", "(not a valid config)"
         out.print(f"  {path.name:<28} {tag}{what}", markup=False)
+    for problem in plugins.PROBLEMS:
+        _warn(f"{problem}; left out")
 
 
 @app.command()

@@ -16,6 +16,7 @@ from typing import Any, Iterator, Mapping
 from .filters import FILTERS, KIND_TYPES
 from .fsutil import name_problem
 from .papers import PAPERS
+from .plugins import FILTER_GROUP, SCENARIO_GROUP, problem_for
 from .scenarios import SCENARIOS
 from .schema import ConfigError, Key, check_mapping, check_section, describe, did_you_mean
 from .yamlio import parse_yaml, read_yaml  # noqa: F401  (read_yaml: part of this module's API)
@@ -193,6 +194,9 @@ def _validate_filters(raw: Any, scenario: str) -> tuple[FilterRun, ...]:
         if ftype_name is None or ftype_name not in FILTERS:
             shown = ftype_name if "type" in spec else name
             where = f"{path}.type" if "type" in spec else path
+            broken = problem_for(FILTER_GROUP, str(shown))
+            if broken:
+                raise ConfigError(where, f"filter type '{shown}': {broken}")
             raise ConfigError(where, f"unknown filter type '{shown}'" + did_you_mean(shown, FILTERS)
                               + f"; valid types: {', '.join(FILTERS)}"
                               + ("" if "type" in spec else " (set 'type' when the key is not one)"))
@@ -250,6 +254,9 @@ def validate(raw: Any, source: str = "config") -> Experiment:
                           "scenario's keys)")
     scen_raw = check_mapping("scenario", raw["scenario"])
     scen_name = scen_raw.get("name")
+    if isinstance(scen_name, str) and problem_for(SCENARIO_GROUP, scen_name):
+        raise ConfigError("scenario.name", f"scenario '{scen_name}': "
+                          f"{problem_for(SCENARIO_GROUP, scen_name)}")
     if not isinstance(scen_name, str) or scen_name not in SCENARIOS:
         msg = ("missing required key" if scen_name is None
                else f"unknown scenario {describe(scen_name)}" + did_you_mean(scen_name, SCENARIOS))

@@ -287,7 +287,10 @@ FILTERS_SWARM_KEYS = {
 # (type a config names, scenario kind) -> the filter type that implements it for that kind
 KIND_TYPES = {("sspf", "localization"): "sspf_field"}
 
-FILTERS = {
+# pfbench's own filter types: each is an entry point of group pfbench.filters (pyproject.toml),
+# reached as a module attribute named in capitals (pfbench.filters:PF; the lower-case names are
+# the submodules).
+BUILTIN = {
     f.name: f
     for f in (
         FilterType("pf", "bootstrap particle filter (SIR)", _pf_schema(), pf.run),
@@ -355,3 +358,9 @@ FILTERS = {
                    particles=False, scenarios=("linear_gaussian",), cost="1"),
     )
 }
+globals().update({name.upper(): f for name, f in BUILTIN.items()})
+
+# Every filter type: pfbench's own and the plug-ins', found through entry points.
+from ..plugins import FILTER_GROUP, check_filter, discover  # noqa: E402
+
+FILTERS = discover(FILTER_GROUP, check_filter, BUILTIN)

@@ -1,0 +1,120 @@
+"""Filters and scenarios found through entry points: the groups ``pfbench.filters`` and
+``pfbench.scenarios``.
+
+pfbench's own filters and scenarios are entry points of its own distribution (see its
+``pyproject.toml``), so a plug-in package registers exactly as they do:
+
+    [project.entry-points."pfbench.filters"]
+    my_pf = "my_package.my_module:MY_PF"        # a pfbench.filters.FilterType
+
+    [project.entry-points."pfbench.scenarios"]
+    my_world = "my_package.my_world"            # a module (or object) with NAME, KIND, ...
+
+An entry point that cannot be loaded, or whose object is not what its group needs, is left out
+and named in one line (``PROBLEMS``, printed by ``pfbench list`` and where a config names it);
+the others keep working. The name a config uses is the entry point's name.
+"""
+from __future__ import annotations
+
+from importlib.metadata import entry_points
+from typing import Any, Callable
+
+FILTER_GROUP = "pfbench.filters"
+SCENARIO_GROUP = "pfbench.scenarios"
+KINDS = ("scalar", "slam", "localization")
+
+# One line per plug-in left out (group, name, package, why).
+PROBLEMS: list[str] = []
+# name -> the distribution (package) that registered it, for `pfbench list`
+ORIGIN: dict[tuple[str, str], str] = {}
+
+
+def _dist(ep) -> str:
+    dist = getattr(ep, "dist", None)
+    return getattr(dist, "name", None) or "?"
+
+
+def _problem(group: str, ep, why: str) -> None:
+    PROBLEMS.append(f"plug-in '{ep.name}' ({group}, package {_dist(ep)}, {ep.value}): {why}")
+
+
+def discover(group: str, check: Callable[[str, Any], str | None],
+             builtin: dict[str, Any]) -> dict[str, Any]:
+    """Name -> object of every entry point of ``group`` that loads and passes ``check`` (which
+    returns why an object does not fit, or None). pfbench's own entry points come first; a
+    plug-in cannot take a name that is already registered. ``builtin`` (name -> object) stands in
+    for pfbench's own entry points when its package metadata is not installed (a source tree on
+    the path)."""
+    found: dict[str, Any] = {}
+    eps = list(entry_points(group=group))
+    own = [ep for ep in eps if _dist(ep).lower() == "pfbench"]
+    if not own:
+        found.update(builtin)
+        ORIGIN.update({(group, name): "pfbench" for name in builtin})
+    for ep in own + [ep for ep in eps if ep not in own]:
+        if ep.name in found:
+            _problem(group, ep, f"the name '{ep.name}' is taken by package "
+                     f"{ORIGIN.get((group, ep.name), '?')}")
+            continue
+        try:
+            obj = ep.load()
+        except Exception as exc:   # any error in a plug-in's import is its own, named here
+            _problem(group, ep, f"cannot be loaded: {type(exc).__name__}: "
+                     f"{' '.join(str(exc).split())}")
+            continue
+        why = check(ep.name, obj)
+        if why:
+            _problem(group, ep, why)
+            continue
+        found[ep.name] = obj
+        ORIGIN[(group, ep.name)] = _dist(ep)
+    # pfbench's own in their declared order, then the plug-ins in the order found
+    ordered = {name: found[name] for name in builtin if name in found}
+    ordered.update((name, obj) for name, obj in found.items() if name not in ordered)
+    return ordered
+
+
+def problem_for(group: str, name: str) -> str | None:
+    """The line that says why plug-in ``name`` of ``group`` was left out, if it was."""
+    head = f"plug-in '{name}' ({group},"
+    return next((p for p in PROBLEMS if p.startswith(head)), None)
+
+
+def check_filter(name: str, obj: Any) -> str | None:
+    """Why ``obj`` cannot be the filter type ``name``, or None."""
+    from .filters import FilterType
+    from .schema import Key
+    if not isinstance(obj, FilterType):
+        return f"expected a pfbench.filters.FilterType, got {type(obj).__name__}"
+    if obj.name != name:
+        return f"its FilterType is named '{obj.name}', the entry point '{name}'"
+    if not callable(obj.run):
+        return "its run is not callable"
+    if obj.kind not in KINDS:
+        return f"its kind '{obj.kind}' is not one of {', '.join(KINDS)}"
+    if not isinstance(obj.schema, dict) or not all(isinstance(k, Key) for k in obj.schema.values()):
+        return "its schema is not a mapping of key name -> pfbench.schema.Key"
+    undocumented = [k for k, key in obj.schema.items() if not key.doc]
+    if undocumented:
+        return f"key '{undocumented[0]}' of its schema has no doc line"
+    return None
+
+
+SCENARIO_NEEDS = ("NAME", "KIND", "DESCRIPTION", "SCHEMA", "build", "simulate")
+
+
+def check_scenario(name: str, obj: Any) -> str | None:
+    """Why ``obj`` cannot be the scenario ``name``, or None."""
+    from .schema import Key
+    missing = [a for a in SCENARIO_NEEDS if not hasattr(obj, a)]
+    if missing:
+        return f"it has no {', '.join(missing)}"
+    if obj.NAME != name:
+        return f"its NAME is '{obj.NAME}', the entry point '{name}'"
+    if obj.KIND not in KINDS:
+        return f"its KIND '{obj.KIND}' is not one of {', '.join(KINDS)}"
+    if not callable(obj.build) or not callable(obj.simulate):
+        return "build and simulate must be callables"
+    if not isinstance(obj.SCHEMA, dict) or not all(isinstance(k, Key) for k in obj.SCHEMA.values()):
+        return "its SCHEMA is not a mapping of key name -> pfbench.schema.Key"
+    return None

@@ -1,0 +1,1 @@
+"""An example pfbench plug-in package (see pfbench's README, "Adding a filter")."""
