@@ -122,6 +122,29 @@ def _once(fn):
     return call
 
 
+def _workers_that_fit(runs: list[tuple], workers: int, executor: str) -> int:
+    """--workers capped at the trials of the largest of ``runs`` ((experiment, where) pairs),
+    once every run is known to fit the memory on that many local workers; a warning above the
+    machine's cores."""
+    from .resources import cap_workers, check_fits, warn_above_cores
+    capped = cap_workers(workers, max(exp.trials for exp, _ in runs))
+    for exp, where in runs:
+        check_fits(exp, capped if executor == "local" else 1, where)
+    warn_above_cores(workers, _warn)
+    return capped
+
+
+def _progress(bar, total: int, first):
+    """The progress callback of a run: a bar task of ``total`` trials; ``first()`` on its first
+    call (once the folder is ready and the trials start)."""
+    task = bar.add_task("trials", total=total)
+
+    def progress(done, _total):
+        first()
+        bar.update(task, completed=done)
+    return progress
+
+
 def _warn(message: str) -> None:
     err.print(f"pfbench: warning: {message}", markup=False, soft_wrap=True)
 
@@ -216,12 +239,10 @@ def run(
     with _guard():
         out_dir = _path(out_dir, "--out")
         from .fsutil import FolderLock
-        from .resources import cap_workers, check_fits
         exp = _load(config, trials, seed, set_)
         from .runner import run_experiment
         folder = out_dir or Path("results") / exp.name
-        check_fits(exp, cap_workers(workers, exp.trials) if executor == "local" else 1)
-        workers = cap_workers(workers, exp.trials, _warn)
+        workers = _workers_that_fit([(exp, str(config))], workers, executor)
         runs = ", ".join(f.key for f in exp.filters)
         with _executor(executor, workers, scheduler) as ex, \
                 FolderLock(folder, "--out" if out_dir else "results folder"):
@@ -229,12 +250,7 @@ def run(
                 f"{exp.name}: {exp.trials} trials of {exp.scenario} x [{runs}], seed "
                 f"{exp.seed}, {ex.describe()} -> {folder}", markup=False))
             with _bar() as bar:
-                task = bar.add_task("trials", total=exp.trials)
-
-                def progress(done, total):
-                    header()            # once the folder is ready and the trials start
-                    bar.update(task, completed=done)
-
+                progress = _progress(bar, exp.trials, header)
                 with _stop_on_interrupt(bar):
                     res = run_experiment(exp, folder, workers=workers, resume=resume,
                                          progress=progress, executor=ex, warn=_warn)
@@ -270,33 +286,20 @@ def sweep(
         out_dir = _path(out_dir, "--out")
         from . import sweep as sw
         from .fsutil import FolderLock
-        from .resources import cap_workers, check_fits
-        sets = sw.parse_sets(set_)
-        n_cells = sw.count_cells(config, sets)
-        if n_cells > sw.CONFIRM_ABOVE and not yes:
-            raise UserError(f"{n_cells} cells is more than {sw.CONFIRM_ABOVE}: add --yes to run "
-                            "them")
-        name, cells = sw.expand(config, sets, {"trials": trials, "seed": seed})
+        name, cells = sw.expand(config, sw.parse_sets(set_), {"trials": trials, "seed": seed},
+                                confirm_above=None if yes else sw.CONFIRM_ABOVE)
         folder = out_dir or Path("results") / name
         keys = list(cells[0].values)
         total = sum(c.exp.trials for c in cells)
-        most = max(c.exp.trials for c in cells)
-        for c in cells:
-            check_fits(c.exp, cap_workers(workers, most) if executor == "local" else 1,
-                       f"{config} (sweep cell {c.name})")
-        workers = cap_workers(workers, most, _warn)
+        workers = _workers_that_fit([(c.exp, f"{config} (sweep cell {c.name})") for c in cells],
+                                    workers, executor)
         header = _once(lambda: err.print(
             f"{name}: {len(cells)} cells ({', '.join(keys)}) x {cells[0].exp.trials} trials "
             f"= {total} trials -> {folder}", markup=False))
         with _executor(executor, workers, scheduler) as ex, \
                 FolderLock(folder, "--out" if out_dir else "results folder"):
             with _bar() as bar:
-                task = bar.add_task("trials", total=total)
-
-                def progress(done, n):
-                    header()
-                    bar.update(task, completed=done)
-
+                progress = _progress(bar, total, header)
                 with _stop_on_interrupt(bar, "interrupted in a cell: "):
                     trials_df = sw.run_sweep(cells, folder, workers=workers, resume=resume,
                                              progress=progress, executor=ex, warn=_warn)
@@ -416,14 +419,7 @@ def report(
         configs, results = _path(configs, "--configs"), _path(results, "--results")
         out_file = _path(out_file, "--out")
         from . import report as rp
-        from .fsutil import FolderLock
-        if check:
-            path, same = rp.write(configs, results, out_file, check=True)
-        else:
-            if not Path(results).is_dir():
-                raise UserError(f"{results}: no such results folder; run 'pfbench tables' first")
-            with FolderLock(results, "--results"):      # not while 'tables' rewrites them
-                path, same = rp.write(configs, results, out_file)
+        path, same = rp.write(configs, results, out_file, check=check)
         if not check:
             err.print(f"wrote {path}", markup=False)
         elif same:
@@ -444,12 +440,7 @@ def validate(config: Path = typer.Argument(..., help="Experiment YAML file."),
         raw, _ = read_yaml(config)
         if isinstance(raw, dict) and "sweep" in raw:
             from . import sweep as sw
-            sets = sw.parse_sets(set_)
-            n_cells = sw.count_cells(config, sets)
-            if n_cells > sw.MAX_CELLS:
-                raise UserError(f"{config}: {n_cells:,} sweep cells is more than "
-                                f"{sw.MAX_CELLS:,}: sweep fewer values, or split the sweep")
-            name, cells = sw.expand(config, sets, {})
+            name, cells = sw.expand(config, sw.parse_sets(set_), {})
             need = max(check_fits(c.exp, 1, f"{config} (sweep cell {c.name})").bytes
                        for c in cells)
             out.print(f"{config}: ok: sweep {name}: {len(cells)} cells over "

@@ -254,9 +254,8 @@ def validate(raw: Any, source: str = "config") -> Experiment:
                           "scenario's keys)")
     scen_raw = check_mapping("scenario", raw["scenario"])
     scen_name = scen_raw.get("name")
-    if isinstance(scen_name, str) and problem_for(SCENARIO_GROUP, scen_name):
-        raise ConfigError("scenario.name", f"scenario '{scen_name}': "
-                          f"{problem_for(SCENARIO_GROUP, scen_name)}")
+    if isinstance(scen_name, str) and (broken := problem_for(SCENARIO_GROUP, scen_name)):
+        raise ConfigError("scenario.name", f"scenario '{scen_name}': {broken}")
     if not isinstance(scen_name, str) or scen_name not in SCENARIOS:
         msg = ("missing required key" if scen_name is None
                else f"unknown scenario {describe(scen_name)}" + did_you_mean(scen_name, SCENARIOS))
@@ -288,9 +287,9 @@ def validate(raw: Any, source: str = "config") -> Experiment:
             raise ConfigError("table", f"paper {top['paper']} has no table '{top['table']}'"
                               + did_you_mean(top["table"], tables) + f"; tables: {', '.join(tables)}")
     name = top["name"] or Path(source).stem
-    if name_problem(name):
+    if problem := name_problem(name):
         raise ConfigError("name", f"the file name gives the experiment no usable folder name: "
-                          f"{name_problem(name)}; set 'name'")
+                          f"{problem}; set 'name'")
     return Experiment(name=name, source=source, paper=top["paper"], table=top["table"],
                       description=top["description"] or "", seed=top["seed"],
                       trials=top["trials"], scenario=scen_name,

@@ -95,20 +95,13 @@ def replace_tree(src: Path, dst: Path, root: Path) -> None:
         remove_tree(old, root)
 
 
-def atomic_write(path: Path, data: str | bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file and a rename: never half-written; a
-    failed write (a full disk) removes its temporary file."""
+def write_through_temp(path: Path, write, suffix: str = "") -> None:
+    """Call ``write(tmp)`` on a temporary file beside ``path``, then rename it to ``path``: never
+    half-written; a failed write (a full disk) removes the temporary file."""
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}{suffix}")
     try:
-        if isinstance(data, bytes):
-            fh = open(tmp, "wb")
-        else:
-            fh = open(tmp, "w", encoding="utf-8", newline="")
-        with fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
+        write(tmp)
         os.replace(tmp, path)
     except BaseException:
         try:
@@ -118,6 +111,21 @@ def atomic_write(path: Path, data: str | bytes) -> None:
         raise
 
 
+def atomic_write(path: Path, data: str | bytes) -> None:
+    """Write ``data`` to ``path`` atomically (see :func:`write_through_temp`), synced to disk."""
+    def write(tmp: Path) -> None:
+        if isinstance(data, bytes):
+            fh = open(tmp, "wb")
+        else:
+            fh = open(tmp, "w", encoding="utf-8", newline="")
+        with fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+
+    write_through_temp(path, write)
+
+
 def ensure_folder(folder: Path, what: str = "--out") -> Path:
     """Create ``folder`` (and its parents) or say in one line why it cannot be."""
     folder = Path(folder)
@@ -125,9 +133,7 @@ def ensure_folder(folder: Path, what: str = "--out") -> Path:
         raise UserError(f"{what} {folder}: exists and is not a folder")
     try:
         folder.mkdir(parents=True, exist_ok=True)
-    except FileExistsError:
-        raise UserError(f"{what} {folder}: a part of the path is a file, not a folder") from None
-    except NotADirectoryError:
+    except (FileExistsError, NotADirectoryError):
         raise UserError(f"{what} {folder}: a part of the path is a file, not a folder") from None
     except OSError as exc:
         raise UserError(f"{what} {folder}: cannot create it: {exc.strerror}") from None

@@ -73,12 +73,13 @@ def trial_metrics(x: np.ndarray, out: dict) -> dict:
     return row
 
 
-def _pose_metrics(pose: np.ndarray, out: dict, score_from: int = 1
-                  ) -> tuple[dict, np.ndarray, np.ndarray]:
+def _pose_metrics(pose: np.ndarray, out: dict, score_from: int = 1,
+                  area: np.ndarray | None = None) -> tuple[dict, np.ndarray, np.ndarray]:
     """The pose-error and filter-diagnostic metrics shared by SLAM and localization runs (true
     poses (T+1, 3), the filter's 'pose' (T+1, 3), 'ess', 'resampled'), with the position error
     vectors d (T, 2) and distances err (T,) over t = 1..T. The error averages count the steps
-    from ``score_from`` on."""
+    from ``score_from`` on. A step diverged when its estimate or error is not finite, or (with
+    ``area``, the world [0, area[0]] x [0, area[1]]) when its estimate lies outside the world."""
     est = out["pose"]
     d = est[1:, :2] - pose[1:, :2]
     err = np.hypot(d[:, 0], d[:, 1])
@@ -92,10 +93,19 @@ def _pose_metrics(pose: np.ndarray, out: dict, score_from: int = 1
            "mean_ess": float(np.mean(out["ess"])) if out["ess"].size else math.nan,
            "resample_count": float(np.sum(out["resampled"])),
            "underflow_steps": float(out.get("underflow_steps", 0)),
-           "diverged_steps": float(np.sum(~np.isfinite(est[1:]).all(axis=1)
-                                          | ~np.isfinite(err))),
+           "diverged_steps": float(np.sum(_diverged(est[1:], err, area))),
            "lik_evals_per_step": float(out["lik_evals_per_step"])}
     return row, d, err
+
+
+def _diverged(est: np.ndarray, err: np.ndarray, area) -> np.ndarray:
+    """(T,) bool: the steps whose estimate est (T, 3) or error err (T,) is not finite, or whose
+    position lies outside [0, area[0]] x [0, area[1]] (when ``area`` is given)."""
+    bad = ~np.isfinite(est).all(axis=1) | ~np.isfinite(err)
+    if area is not None:
+        with np.errstate(invalid="ignore"):
+            bad |= ~((est[:, :2] >= 0.0) & (est[:, :2] <= np.asarray(area, float))).all(axis=1)
+    return bad
 
 
 def slam_metrics(pose: np.ndarray, landmarks: np.ndarray, out: dict) -> dict:
@@ -190,12 +200,7 @@ def localization_metrics(pose: np.ndarray, out: dict, bound: float, kidnaps: np.
     averages count the steps from ``score_from``; error_at_step is the error at ``report_step``
     (NaN for 0). ``area`` (2,): the world is [0, area[0]] x [0, area[1]]; an estimate outside it
     is a divergence (diverged_steps), never a silent error of any size."""
-    row, d, err = _pose_metrics(pose, out, score_from)  # err[t - 1]: the error at step t
-    if area is not None:
-        xy = out["pose"][1:, :2]
-        with np.errstate(invalid="ignore"):
-            inside = ((xy >= 0.0) & (xy <= np.asarray(area, dtype=float))).all(axis=1)
-        row["diverged_steps"] = float(np.sum(~inside))
+    row, d, err = _pose_metrics(pose, out, score_from, area)  # err[t - 1]: the error at step t
     T = err.size
     cuts = [int(k) for k in sorted(kidnaps) if 1 <= k <= T] + [T + 1]
     first = err[: cuts[0] - 1]

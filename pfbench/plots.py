@@ -11,7 +11,6 @@ experiment and the trial index.
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import matplotlib
@@ -22,6 +21,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from .config import Experiment  # noqa: E402
+from .fsutil import write_through_temp  # noqa: E402
 from .runner import build_model, run_filter, trial_data  # noqa: E402
 from .scenarios import SCENARIOS  # noqa: E402
 
@@ -31,13 +31,9 @@ _META = {"Software": None}
 
 def _save(fig, path: Path) -> None:
     """Save ``fig`` to ``path`` through a temporary file (removed if the save fails)."""
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}.png")
     try:
-        fig.savefig(tmp, dpi=110, metadata=_META)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+        write_through_temp(path, lambda tmp: fig.savefig(tmp, dpi=110, metadata=_META),
+                           ".png")
     finally:
         plt.close(fig)
 

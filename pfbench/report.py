@@ -421,13 +421,17 @@ def build(configs: Path, results: Path, out: Path) -> str:
 def write(configs: Path, results: Path, out: Path | None = None, check: bool = False
           ) -> tuple[Path, bool]:
     """Write the report (default results/REPORT.md), or with ``check`` only compare it with the
-    file; return (its path, whether the file held this text before)."""
-    from .runner import atomic_write
+    file; return (its path, whether the file held this text before). Writing holds the results
+    folder's lock (not while 'pfbench tables' rewrites the results)."""
+    from .fsutil import FolderLock, atomic_write
     out = Path(out) if out else Path(results) / "REPORT.md"
     if not Path(results).is_dir():
         raise UserError(f"{results}: no such results folder; run 'pfbench tables' first")
-    text = build(Path(configs), Path(results), out)
-    same = out.exists() and out.read_text(encoding="utf-8") == text
-    if not check:
+    if check:
+        text = build(Path(configs), Path(results), out)
+        return out, out.exists() and out.read_text(encoding="utf-8") == text
+    with FolderLock(results, "--results"):      # not while 'tables' rewrites them
+        text = build(Path(configs), Path(results), out)
+        same = out.exists() and out.read_text(encoding="utf-8") == text
         atomic_write(out, text)
     return out, same

@@ -30,8 +30,7 @@ def _per_particle_floats(kind: str, params, scen: dict) -> int:
     """float64s a particle holds while its filter runs (state, weights, scratch, the resampling
     copy)."""
     if kind == "slam":
-        m = len(scen.get("landmarks", ()))
-        m = params.get("max_landmarks") or 3 * m if params else 3 * m
+        m = (params.get("max_landmarks") if params else None) or 3 * len(scen.get("landmarks", ()))
         return 16 + 12 * max(int(m), 1) * 2
     if kind == "localization":
         return 64
@@ -111,10 +110,14 @@ def check_fits(exp, workers: int = 1, where: str | None = None) -> Need:
     return need
 
 
-def cap_workers(workers: int, trials: int, warn=None) -> int:
-    """Never more worker processes than trials; warn above the machine's cores."""
+def cap_workers(workers: int, trials: int) -> int:
+    """Never more worker processes than trials."""
+    return max(1, min(workers, trials))
+
+
+def warn_above_cores(workers: int, warn) -> None:
+    """Tell ``warn`` when more workers were asked for than the machine has cores."""
     cores = os.cpu_count() or 1
-    if workers > cores and warn:
+    if workers > cores:
         warn(f"--workers {workers} is more than the {cores} cores of this machine: the trials "
              "will not run faster")
-    return max(1, min(workers, trials))

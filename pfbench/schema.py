@@ -16,7 +16,7 @@ from .errors import UserError
 REQUIRED = object()
 
 # Text that Python reads as a number but YAML does not (quoted, or a form such as 'infinity').
-_YAML11_HINT = "text, not a number: write it unquoted, like 1000, 2.5 or 1e3"
+_TEXT_HINT = "text, not a number: write it unquoted, like 1000, 2.5 or 1e3"
 
 
 class ConfigError(UserError):
@@ -117,7 +117,7 @@ class Key:
         msg = f"expected {self.expected()}, got {describe(value)}"
         if (isinstance(value, str) and self.kind in ("int", "float", "ints", "floats")
                 and _looks_numeric(value)):
-            msg += f" ({_YAML11_HINT})"
+            msg += f" ({_TEXT_HINT})"
         return ConfigError(path, msg)
 
     def _scalar(self, path: str, value: Any, kind: str):

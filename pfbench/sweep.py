@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 import pandas as pd
+
 from .config import Experiment, apply_override, read_yaml, validate
 from .errors import UserError
 from .fsutil import FolderLock
@@ -107,17 +108,16 @@ def _spec(config: Path, sets: dict[str, list[Any]]) -> tuple[dict, dict, dict]:
     return raw, lines, spec
 
 
-def count_cells(config: Path, sets: dict[str, list[Any]]) -> int:
-    """The number of cells of a sweep, without building them."""
-    return math.prod(len(v) for v in _spec(config, sets)[2].values())
-
-
-def expand(config: Path, sets: dict[str, list[Any]], overrides: dict[str, Any]) -> tuple[
-        str, list[Cell]]:
+def expand(config: Path, sets: dict[str, list[Any]], overrides: dict[str, Any], *,
+           confirm_above: int | None = None) -> tuple[str, list[Cell]]:
     """The sweep's name and cells: the config's own ``sweep:`` section, then --set (which wins).
-    More than MAX_CELLS cells are refused before any is built."""
+
+    The cells are counted before any is built: more than ``confirm_above`` (when given: the
+    caller has no --yes) or than MAX_CELLS are refused."""
     raw, lines, spec = _spec(config, sets)
     n = math.prod(len(v) for v in spec.values())
+    if confirm_above is not None and n > confirm_above:
+        raise UserError(f"{n} cells is more than {confirm_above}: add --yes to run them")
     if n > MAX_CELLS:
         raise UserError(f"{config}: {n:,} sweep cells is more than {MAX_CELLS:,}: sweep fewer "
                         "values, or split the sweep")
