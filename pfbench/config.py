@@ -15,6 +15,7 @@ from typing import Any, Iterator, Mapping
 
 from .filters import FILTERS, KIND_TYPES
 from .fsutil import name_problem
+from .kinds import kind_of
 from .papers import PAPERS
 from .plugins import FILTER_GROUP, SCENARIO_GROUP, problem_for
 from .scenarios import SCENARIOS
@@ -181,7 +182,7 @@ FILTER_COMMON = {
 
 
 def _validate_filters(raw: Any, scenario: str) -> tuple[FilterRun, ...]:
-    kind = getattr(SCENARIOS[scenario], "KIND", "scalar")
+    kind = kind_of(scenario).name
     raw = check_mapping("filters", raw)
     if not raw:
         raise ConfigError("filters", "expected at least one filter")

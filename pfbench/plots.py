@@ -23,7 +23,7 @@ import pandas as pd  # noqa: E402
 from .config import Experiment  # noqa: E402
 from .fsutil import write_through_temp  # noqa: E402
 from .runner import build_model, run_filter, trial_data  # noqa: E402
-from .scenarios import SCENARIOS  # noqa: E402
+from .kinds import kind_of  # noqa: E402
 
 # Fixed metadata: the same figure gives the same bytes.
 _META = {"Software": None}
@@ -49,15 +49,12 @@ def rmse_boxplot(exp: Experiment, rows: pd.DataFrame, path: Path) -> None:
     ax.boxplot(data, showfliers=True, flierprops={"markersize": 2})
     ax.set_xticks(range(1, len(data) + 1), [_run_name(r) for r in exp.filters], rotation=45,
                   ha="right", fontsize=8)
-    ax.set_ylabel("RMSE per trial" + (" (m)" if _kind(exp) != "scalar" else ""))
+    unit = kind_of(exp.scenario).unit
+    ax.set_ylabel("RMSE per trial" + (f" ({unit})" if unit else ""))
     ax.set_title(f"{exp.name}: RMSE over {len(rows['trial'].unique())} trials")
     ax.grid(axis="y", alpha=0.3)
     fig.tight_layout()
     _save(fig, path)
-
-
-def _kind(exp: Experiment) -> str:
-    return getattr(SCENARIOS[exp.scenario], "KIND", "scalar")
 
 
 def slam_trial_figures(exp: Experiment, folder: Path, trial: int = 0) -> list[Path]:
@@ -256,11 +253,21 @@ def write_figures(exp: Experiment, rows: list[dict] | pd.DataFrame, out_dir: Pat
     df = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(rows)
     paths = [folder / "rmse.png"]
     rmse_boxplot(exp, df, paths[0])
-    if _kind(exp) == "slam":
-        paths += slam_trial_figures(exp, folder)
-    if _kind(exp) == "localization":
-        trials = sorted(df["trial"].unique())[:FIGURE_TRIALS]
-        paths += [folder / "errors.png", folder / "particles.png"]
-        localization_error_figure(exp, [int(k) for k in trials], paths[-2])
-        particle_figure(exp, paths[-1], int(trials[0]))
+    kind = kind_of(exp.scenario)
+    if kind.figures:
+        paths += globals()[kind.figures](exp, df, folder)
+    return paths
+
+
+def slam_figures(exp: Experiment, rows: pd.DataFrame, folder: Path) -> list[Path]:
+    """A SLAM experiment's figures of one trial (see slam_trial_figures)."""
+    return slam_trial_figures(exp, folder)
+
+
+def localization_figures(exp: Experiment, rows: pd.DataFrame, folder: Path) -> list[Path]:
+    """A localization experiment's error curves over trials and its particles in one trial."""
+    trials = sorted(rows["trial"].unique())[:FIGURE_TRIALS]
+    paths = [folder / "errors.png", folder / "particles.png"]
+    localization_error_figure(exp, [int(k) for k in trials], paths[0])
+    particle_figure(exp, paths[1], int(trials[0]))
     return paths

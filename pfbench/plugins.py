@@ -21,7 +21,6 @@ from typing import Any, Callable
 
 FILTER_GROUP = "pfbench.filters"
 SCENARIO_GROUP = "pfbench.scenarios"
-KINDS = ("scalar", "slam", "localization")
 
 # One line per plug-in left out (group, name, package, why).
 PROBLEMS: list[str] = []
@@ -83,6 +82,7 @@ def problem_for(group: str, name: str) -> str | None:
 def check_filter(name: str, obj: Any) -> str | None:
     """Why ``obj`` cannot be the filter type ``name``, or None."""
     from .filters import FilterType
+    from .kinds import KINDS
     from .schema import Key
     if not isinstance(obj, FilterType):
         return f"expected a pfbench.filters.FilterType, got {type(obj).__name__}"
@@ -105,6 +105,7 @@ SCENARIO_NEEDS = ("NAME", "KIND", "DESCRIPTION", "SCHEMA", "build", "simulate")
 
 def check_scenario(name: str, obj: Any) -> str | None:
     """Why ``obj`` cannot be the scenario ``name``, or None."""
+    from .kinds import KINDS
     from .schema import Key
     missing = [a for a in SCENARIO_NEEDS if not hasattr(obj, a)]
     if missing:

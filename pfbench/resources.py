@@ -26,36 +26,17 @@ class Need:
     what: str        # the term that dominates, in words
 
 
-def _per_particle_floats(kind: str, params, scen: dict) -> int:
-    """float64s a particle holds while its filter runs (state, weights, scratch, the resampling
-    copy)."""
-    if kind == "slam":
-        m = (params.get("max_landmarks") if params else None) or 3 * len(scen.get("landmarks", ()))
-        return 16 + 12 * max(int(m), 1) * 2
-    if kind == "localization":
-        return 64
-    return 24
-
-
-def _scenario_floats_per_step(kind: str, scen: dict) -> int:
-    if kind == "slam":
-        return 16 + 3 * len(scen.get("landmarks", ()))
-    if kind == "localization":
-        return 16 + 3 * len(scen.get("beacons", ()))
-    return 8
-
-
 def estimate(exp, workers: int = 1) -> Need:
     """Bytes of memory a run of ``exp`` on ``workers`` local processes needs, about."""
-    from .scenarios import SCENARIOS
-    kind = getattr(SCENARIOS[exp.scenario], "KIND", "scalar")
+    from .kinds import kind_of
+    kind = kind_of(exp.scenario)
     scen = dict(exp.scenario_params)
     steps = int(scen.get("steps", 1000))
-    terms = [(8 * steps * _scenario_floats_per_step(kind, scen),
+    terms = [(8 * steps * kind.step_floats(scen),
               f"the scenario's {steps:,} steps")]
     for run in exp.filters:
         n = run.particles or 1
-        particles = 8 * n * _per_particle_floats(kind, run.params, scen)
+        particles = 8 * n * kind.particle_floats(run.params, scen)
         traces = 8 * steps * TRACE_FLOATS
         what = (f"filters.{run.name}: {n:,} particles" if particles >= traces
                 else f"filters.{run.name}: the traces of {steps:,} steps")

@@ -33,7 +33,8 @@ from .config import FORMAT_VERSION, Experiment
 from .errors import UserError
 from .fsutil import FolderLock, atomic_write, close_inherited_locks
 from .filters import FILTERS, LOAD_SECONDS
-from .metrics import METRICS, localization_metrics, slam_metrics, trial_metrics
+from .kinds import kind_of
+from .metrics import METRICS
 from .rng import state_from_seed
 from .scenarios import SCENARIOS
 
@@ -72,13 +73,7 @@ def trial_data(exp: Experiment, trial: int):
 
 def metrics_of(exp: Experiment, model, truth, out) -> dict:
     """A filter run's metrics for the experiment's kind of scenario."""
-    kind = getattr(SCENARIOS[exp.scenario], "KIND", "scalar")
-    if kind == "slam":
-        return slam_metrics(truth.pose, model.landmarks, out)
-    if kind == "localization":
-        return localization_metrics(truth.pose, out, model.bound, model.kidnaps,
-                                    model.score_from, model.report_step, model.area)
-    return trial_metrics(truth, out)
+    return kind_of(exp.scenario).score(model, truth, out)
 
 
 def run_filter(exp: Experiment, trial: int, run, model, y, diag: bool = True,
