@@ -457,7 +457,18 @@ def validate(config: Path = typer.Argument(..., help="Experiment YAML file."),
 
 @app.command("list")
 def list_(configs: Path = typer.Option(Path("configs"), "--configs",
-                                       help="Folder of experiment files to list.")):
+                                       help="Folder of experiment files to list (and where the "
+                                       "contract's scenarios find their world files)."),
+          check: bool = typer.Option(False, "--check", help="Run the contract over every "
+                                     "registered filter and scenario, plug-ins included: "
+                                     "documented, deterministic from the seed, finite; exit 1 "
+                                     "when one breaks it."),
+          executor: str = typer.Option("local", "--executor", help="--check: also run the "
+                                       "contract's trials on this executor ('dask') and compare."),
+          workers: int = typer.Option(1, "--workers", "-w", min=1, help="--check with "
+                                      "--executor dask: workers of the local cluster."),
+          scheduler: Optional[str] = typer.Option(None, "--scheduler", help="--check with "
+                                                  "--executor dask: a scheduler tcp://HOST:PORT.")):
     """List scenarios, filters, resampling schemes and configs, one line each."""
     from . import plugins
     from .config import read_yaml
@@ -492,6 +503,34 @@ def list_(configs: Path = typer.Option(Path("configs"), "--configs",
         out.print(f"  {path.name:<28} {tag}{what}", markup=False)
     for problem in plugins.PROBLEMS:
         _warn(f"{problem}; left out")
+    if check:
+        with _guard():
+            _check_contract(configs, executor, workers, scheduler)
+
+
+def _check_contract(configs: Path, executor: str, workers: int, scheduler: str | None) -> None:
+    import time
+    from .contract import check_all
+    if not configs.is_dir():
+        raise UserError(f"--configs {configs}: no such folder (the contract's scenarios read "
+                        "their world files from it, as configs/ of pfbench's repository)")
+    t0 = time.perf_counter()
+    ex_cm = _executor(executor, workers, scheduler)     # checks the name
+    if executor == "local":      # the in-process run is the reference: nothing to compare
+        ex_cm = contextlib.nullcontext()
+    with ex_cm as ex:
+        with _bar() as bar:
+            task = bar.add_task("contract", total=None)
+            n, problems = check_all(configs, ex, lambda done, total: bar.update(
+                task, completed=done, total=total))
+        where = f", and under {ex.describe()}" if ex is not None else ""
+    for p in problems:
+        err.print(f"pfbench: contract: {p}", markup=False)
+    err.print(f"contract: {n} probes cover every filter and scenario{where}: "
+              + (f"{len(problems)} problem(s)" if problems else "all kept")
+              + f" ({time.perf_counter() - t0:.0f} s)", markup=False)
+    if problems:
+        raise typer.Exit(1)
 
 
 @app.command()

@@ -125,3 +125,70 @@ def test_the_built_ins_are_the_entry_points_pyproject_declares():
         assert FILTERS[name] is FILTER_BUILTIN[name]
     for name, value in eps["pfbench.scenarios"].items():
         assert importlib.import_module(value) is SCENARIO_BUILTIN[name] is SCENARIOS[name]
+
+
+EXAMPLE_CONFIG = EXAMPLE / "configs" / "bearings_road.yaml"
+
+
+def test_a_plugin_scenario_runs_the_built_in_filters_and_the_plugin_filter(site, tmp_path):
+    res = _pfbench(site, "list", cwd=tmp_path)
+    line = next(l for l in res.stdout.splitlines() if l.strip().startswith("bearings_road"))
+    assert "plug-in: pfbench-example" in line
+    res = _pfbench(site, "run", str(EXAMPLE_CONFIG), "--out", "a", "--trials", "4",
+                   "--set", "scenario.steps=25", cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    a = pd.read_csv(tmp_path / "a/trials.csv")
+    assert set(a["filter"]) == {"pf@500", "mpf@500", "ekf", "ukf"} and len(a) == 16
+    assert a["rmse"].notna().all() and (a["rmse"] > 0).all()
+    # a bearing of 2 degrees from 2 m away: every filter follows the target within metres
+    assert (a.groupby("filter")["rmse"].mean() < 15).all()
+    assert (tmp_path / "a/table.md").is_file() and (tmp_path / "a/figures/rmse.png").is_file()
+    # the plug-in's scenario keys are checked like a built-in scenario's
+    res = _pfbench(site, "validate", str(EXAMPLE_CONFIG), "--set", "scenario.ofset_m=3",
+                   cwd=tmp_path)
+    assert res.returncode == 2 and "did you mean 'offset_m'" in res.stderr
+
+
+def test_plugins_run_through_sweep_and_the_dask_executor(site, tmp_path):
+    common = ["--trials", "3", "--set", "scenario.steps=20"]
+    res = _pfbench(site, "sweep", str(EXAMPLE_CONFIG), "--out", "sw", "--trials", "3",
+                   "--set", "filters.mpf.iterations=5,30", "--set", "scenario.steps=20",
+                   cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    sw = pd.read_csv(tmp_path / "sw/trials.csv")
+    assert sorted(sw["filters.mpf.iterations"].unique()) == [5, 30]
+    assert len(sw) == 2 * 3 * 4
+    res = _pfbench(site, "run", str(EXAMPLE_CONFIG), "--out", "local", *common, cwd=tmp_path)
+    assert res.returncode == 0, res.stderr
+    res = _pfbench(site, "run", str(EXAMPLE_CONFIG), "--out", "dask", "--executor", "dask",
+                   "--workers", "2", "--no-figures", *common, cwd=tmp_path)
+    if "needs Dask distributed" in res.stderr:
+        pytest.skip("Dask distributed is not installed")
+    assert res.returncode == 0, res.stderr
+    local, dask = (pd.read_csv(tmp_path / f"{d}/trials.csv").drop(columns=["wall_s", "crc"])
+                   for d in ("local", "dask"))
+    pd.testing.assert_frame_equal(local, dask, check_exact=True)
+
+
+def test_the_contract_covers_the_plugins_under_dask(site, tmp_path):
+    res = _pfbench(site, "list", "--check", "--configs", str(ROOT / "configs"), "--executor",
+                   "dask", "--workers", "2", cwd=tmp_path)
+    if "needs Dask distributed" in res.stderr:
+        pytest.skip("Dask distributed is not installed")
+    assert res.returncode == 0, res.stderr
+    from pfbench.contract import probes
+    n = len(probes()[0]) + 2       # + metropolis_pf and bearings_road
+    assert f"contract: {n} probes cover every filter and scenario, and under 2 Dask worker(s)" \
+        in res.stderr and "all kept" in res.stderr
+
+
+def test_a_plugin_that_breaks_the_contract_is_named(site, tmp_path):
+    # the example filter, its generator seeded from the clock instead of the state it is given
+    path = site / "pfbench_example" / "filters.py"
+    path.write_text(path.read_text().replace(
+        "np.random.default_rng(np.asarray(state, dtype=np.uint64))", "np.random.default_rng()"))
+    res = _pfbench(site, "list", "--check", "--configs", str(ROOT / "configs"), cwd=tmp_path)
+    assert res.returncode == 1
+    lines = [l for l in res.stderr.splitlines() if l.startswith("pfbench: contract:")]
+    assert lines and all("metropolis_pf" in l for l in lines), res.stderr
+    assert "the same seed gave different numbers" in lines[0]
