@@ -214,11 +214,6 @@ def _validate_filters(raw: Any, scenario: str) -> tuple[FilterRun, ...]:
                                FILTER_COMMON, path)
         params = check_section({k: v for k, v in spec.items() if k not in FILTER_COMMON},
                                ftype.schema, path)
-        if "kappa" in params:
-            L = 3 if params.get("augmented", True) else 1
-            if L + params["kappa"] <= 0:
-                raise ConfigError(f"{path}.kappa", f"expected kappa > {-L} (L + kappa > 0 with "
-                                  f"L = {L}), got {params['kappa']!r}")
         broken = ftype.check(params) if ftype.check else None
         if broken:
             raise ConfigError(f"{path}.{broken[0]}", broken[1])

@@ -5,6 +5,8 @@ import numpy as np
 from numba import njit, types
 
 from ..scenarios.base import ModelFn
+from .keys import gaussian_noise_keys
+from .types import FilterType
 
 _F = types.float64[::1]
 
@@ -69,3 +71,7 @@ def run(model, y, params, particles, state, diag=True):
         model.prior_mean, model.prior_var, q_mean, Q, R, out["xhat"], out["pvar"])
     out["lik_evals_per_step"] = 1.0
     return out
+
+
+EKF = FilterType("ekf", "extended Kalman filter", gaussian_noise_keys("the EKF"), run,
+                 particles=False, cost="1")

@@ -20,11 +20,15 @@ import numpy as np
 from numba import njit, types
 
 from ..angles import wrap
-from ..resampling import SCHEME_CODES, resample, stepwise_ewa_plan
+from ..resampling import SCHEME_CODES, SCHEMES, resample, stepwise_ewa_plan
 from ..rng import STATE, normal
+from ..schema import Key
 from ._common import normalise
-from .swarm import (afsa_centres, afsa_propose, afsa_select, argmax, ba_accept, ba_propose, fa_move,
-                    ifa_move, pso_accept, pso_propose)
+from .keys import ewa_keys, pf_keys
+from .swarm import (AFSA, ALGORITHMS, BA, FA, IFA, NO_SWARM, afsa_centres, afsa_propose,
+                    afsa_select, argmax, ba_accept, ba_propose, fa_move, ifa_move, keys, pack,
+                    pso_accept, pso_propose)
+from .types import FilterType
 
 _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
@@ -33,7 +37,6 @@ _I = types.int64[::1]
 _I2 = types.int64[:, ::1]
 _B2 = types.int8[:, ::1]
 
-REFINE = {"none": 0, "fa": 1, "ifa": 2, "ba": 3, "pso": 4, "afsa": 5}
 EWA = len(SCHEME_CODES)
 DIRECTIONAL = EWA + 1
 _SYSTEMATIC = SCHEME_CODES["systematic"]
@@ -393,10 +396,8 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
     motion : 0 = the steered vehicle, ctrl = [V, G], qctrl = [sigma_V, sigma_G] the noise each
     particle draws on its controls (veh : [V, dt, L, ...]); 1 = odometry form, ctrl = [ds, dtheta]
     per step, theta += dtheta, x += ds cos(theta), y += ds sin(theta), each particle adding pose
-    noise qctrl = [sigma_xy, sigma_theta]. R : [sigma_r^2, sigma_b^2]; refine : a value of REFINE
-    with its parameters
-    sp (fa [beta0, gamma, alpha]; ifa [beta0, gamma]; ba [fmin, fmax, A0, r0, alpha, gamma];
-    pso [w, c1, c2]); scheme : a resampling code, EWA, or DIRECTIONAL (afsa2014's directional
+    noise qctrl = [sigma_xy, sigma_theta]. R : [sigma_r^2, sigma_b^2]; refine : a swarm
+    algorithm (swarm.ALGORITHMS) or NO_SWARM, with its parameters sp (swarm.pack); scheme : a resampling code, EWA, or DIRECTIONAL (afsa2014's directional
     resampling with the bulletin board, copies' noise dnoise (3,); see ``directional_resample``).
     assoc : 0 = known identities (M = the number of landmarks, slot = identity); 1 = nearest
         neighbour (M = the map capacity): an observation joins the landmark nearest in Mahalanobis
@@ -530,7 +531,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
             ids = obs_id[k]
             zs = obs_z[k]
             nev = 0
-            if refine > 0 and iters > 0:
+            if refine != NO_SWARM and iters > 0:
                 # headings as continuous values around the cloud's circular mean
                 th0 = circular_mean(P)
                 for i in range(N):
@@ -550,8 +551,8 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                 nev += N
                 for it in range(iters):
                     M0 = ll.max()
-                    if refine == 1 or refine == 2:
-                        if refine == 1:
+                    if refine == FA or refine == IFA:
+                        if refine == FA:
                             for i in range(N):
                                 fit[i] = math.exp(ll[i] - M0)
                             fa_move(X, fit, 3, sp[0], sp[1], sp[2], scale, s)
@@ -583,7 +584,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                         _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll, assoc, nl, gate_augment,
                                  pc)
                         nev += N
-                    elif refine == 3:
+                    elif refine == BA:
                         if it == 0:
                             V[:] = 0.0
                             A[:] = sp[2]
@@ -595,7 +596,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                                  gate_augment, pc)
                         nev += N
                         ba_accept(X, ll, C, llc, A, rr, 3, sp[4], sp[5], sp[3], it + 1, s)
-                    elif refine == 5:
+                    elif refine == AFSA:
                         # AFSA in units of the predicted cloud's spread (visual and step too)
                         for i in range(N):
                             for d in range(3):
@@ -618,7 +619,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
                                 P[i, d] = mean[d] + scale[d] * Xs[3 * i + d]
                             ll[i] = math.log(fit[i]) + M0 if fit[i] > 0.0 else -np.inf
                         nev += 4 * N
-                    else:
+                    else:   # PSO
                         if it == 0:
                             V[:] = 0.0
                             Pb[:] = X
@@ -845,20 +846,6 @@ def run(model, data, params, particles, state, diag=True):
     R = np.array([pick("range_noise_m", model.noise[2]) ** 2,
                   (pick("bearing_noise_deg", model.noise[3] / deg) * deg) ** 2])
     refine = params["refine"]
-    if refine == "fa":
-        sp = (params["beta0"], params["gamma"], params["alpha"])
-    elif refine == "ifa":
-        sp = (params["beta0"], params["gamma"])
-    elif refine == "ba":
-        sp = (params["freq_min"], params["freq_max"], params["loudness"], params["pulse_rate"],
-              params["loudness_decay"], params["pulse_growth"])
-    elif refine == "pso":
-        sp = (params["inertia"], params["c1"], params["c2"])
-    elif refine == "afsa":
-        sp = (params["visual"], params["step"], params["crowding"], float(params["tries"]),
-              float(params["greedy"]))
-    else:
-        sp = (0.0,)
     scheme = {"stepwise_ewa": EWA, "directional": DIRECTIONAL, **SCHEME_CODES}[params["resampling"]]
     threshold = np.inf if params["resample"] == "always" else params["neff_ratio"] * particles
     dnoise = np.array([params["directional_noise_m"], params["directional_noise_m"],
@@ -873,7 +860,7 @@ def run(model, data, params, particles, state, diag=True):
     out["underflow_steps"] = fastslam_kernel(
         data.ctrl, data.obs_n, data.obs_id, data.obs_z, model.vehicle, int(model.sensor[2]), qctrl,
         R, model.start, M, particles, int(params["predict_noise"]),
-        int(params["update"] == "joseph"), scheme, threshold, REFINE[refine], np.array(sp, dtype=np.float64), params["iterations"],
+        int(params["update"] == "joseph"), scheme, threshold, ALGORITHMS.get(refine, NO_SWARM), pack(refine, params), params["iterations"],
         params["ewa_beta"], params["ewa_mu"], int(params["ewa_correction"] == "as_printed"),
         dnoise, int(nearest), params["gate_reject"], params["gate_augment"],
         int(params["gate_pose"] and nearest), motion, state,
@@ -888,3 +875,58 @@ def run(model, data, params, particles, state, diag=True):
         out["started_per_particle"] = stats[3] / particles
         out["map_duplicates"] = stats[4]
     return out
+
+
+def fastslam_keys() -> dict:
+    swarm = {}
+    for algo in ("fa", "ba", "afsa", "pso"):     # IFA takes FA's keys but alpha
+        swarm.update(keys(algo, unit="in units of the predicted cloud's spread", prefix=True))
+    return {
+        "refine": Key("choice", "none", "swarm refinement of the predicted poses at each "
+                      "observation (ifa2021: BA-, FA-, IFA-FastSLAM; afsa2014: PSO-, AFSA-FastSLAM)",
+                      choices=("none",) + tuple(ALGORITHMS)),
+        "iterations": Key("int", 1, "swarm iterations per observation", min=0),
+        **swarm,
+        "predict_noise": Key("bool", True, "each particle draws its own noisy controls (FastSLAM "
+                             "1.0 needs it; the classic simulator's default turns it off)"),
+        "speed_noise_mps": Key("float", None, "speed noise the particles draw (default: the "
+                               "scenario's)", min=0.0, nullable=True),
+        "steer_noise_deg": Key("float", None, "steering noise the particles draw (default: the "
+                               "scenario's)", min=0.0, nullable=True),
+        "range_noise_m": Key("float", None, "range noise the filter assumes (default: the "
+                             "scenario's)", min=0.0, min_exclusive=True, nullable=True),
+        "bearing_noise_deg": Key("float", None, "bearing noise the filter assumes (default: the "
+                                 "scenario's)", min=0.0, min_exclusive=True, nullable=True),
+        "association": Key("choice", "known", "data association: 'known' (the sensor reports "
+                           "landmark identities) or 'nearest' (nearest neighbour in Mahalanobis "
+                           "distance, with the two gates)", choices=("known", "nearest")),
+        "gate_reject": Key("float", 4.0, "nearest: squared Mahalanobis distance up to which an "
+                           "observation joins a landmark (the classic simulator's 4)", min=0.0,
+                           min_exclusive=True),
+        "gate_augment": Key("float", 25.0, "nearest: squared distance beyond which it starts a new "
+                            "landmark; in between it is dropped (the classic simulator's 25)",
+                            min=0.0, min_exclusive=True),
+        "gate_pose": Key("bool", True, "nearest: the gates' distance includes the pose "
+                         "uncertainty each particle gained since its last update (motion noise, "
+                         "a resampled copy's noise); false: the plain FastSLAM 1.0 distance, "
+                         "which rejects true matches when the motion noise exceeds the sensor's"),
+        "max_landmarks": Key("int", 0, "nearest: map capacity per particle (0: three times the "
+                             "world's landmarks)", min=0),
+        "update": Key("choice", "joseph", "landmark covariance update: 'joseph' form or "
+                      "'symmetric' ((I - KH) P, symmetrised)", choices=("joseph", "symmetric")),
+        "resampling": Key("choice", "systematic", "resampling scheme ('stepwise_ewa': ifa2021's; "
+                          "'directional': afsa2014's bulletin-board resampling)",
+                          choices=tuple(SCHEMES) + ("stepwise_ewa", "directional")),
+        "directional_noise_m": Key("float", 0.05, "directional resampling: position noise of the "
+                                   "board's copies (afsa2014 gives none; our default)", min=0.0),
+        "directional_noise_deg": Key("float", 0.5, "directional resampling: heading noise of the "
+                                     "board's copies", min=0.0),
+        "resample": Key("choice", "neff", "'neff': when ESS < neff_ratio * N; 'always'",
+                        choices=("neff", "always")),
+        "neff_ratio": pf_keys()["neff_ratio"],
+        **ewa_keys(),
+    }
+
+
+FASTSLAM = FilterType("fastslam", "FastSLAM 1.0 with per-landmark EKFs, optional swarm pose "
+                      "refinement (FA, IFA, BA, PSO, AFSA)", fastslam_keys(), run, kind="slam")

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit, types
+from .types import FilterType
 
 _F = types.float64[::1]
 
@@ -34,3 +35,7 @@ def run(model, y, params, particles, state, diag=True):
                   model.prior_var, out["xhat"], out["pvar"])
     out["lik_evals_per_step"] = 1.0
     return out
+
+
+KF = FilterType("kf", "exact Kalman filter (linear_gaussian scenario only)", {}, run,
+                particles=False, scenarios=("linear_gaussian",), cost="1")

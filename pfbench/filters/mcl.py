@@ -51,6 +51,9 @@ from ..resampling import SCHEME_CODES, resample
 from ..rng import STATE, fill_normal, normal, uniform
 from .. import vecmath as vm
 from ..scenarios.beacon_field import init_particles, noisy_odometry, odometry_with
+from ..schema import Key
+from .keys import pf_keys
+from .types import FilterType
 
 _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
@@ -522,3 +525,59 @@ def run(model, data, params, particles, state, diag=True, snapshots=()):
         out["resampled"], out["injected"], out["pmean"], out["n"], *out["snapshots"])
     out["lik_evals_per_step"] = float(np.mean(out["n"]))
     return out
+
+
+def mcl_keys() -> dict:
+    pf = pf_keys()
+    return {
+        "resampling": pf["resampling"],
+        "resample": pf["resample"],
+        "neff_ratio": pf["neff_ratio"],
+        "reset": Key("choice", "none", "particle injection: 'none' (MCL), 'srl' (sensor "
+                     "resetting), 'asrl' (adaptive sensor resetting, asrl2008), 'augmented' "
+                     "(augmented MCL with alpha_slow / alpha_fast)",
+                     choices=("none", "srl", "asrl", "augmented")),
+        "srl_fraction": Key("float", 0.1, "srl: fraction of the particles replaced by sensor "
+                            "draws when the mean likelihood is below srl_threshold", min=0.0,
+                            max=1.0),
+        "srl_threshold": Key("float", 0.01, "srl: mean-likelihood threshold (a density in the "
+                             "measurement's units)", min=0.0),
+        "asrl_mu": Key("float", 1.0, "asrl: gain mu of n_s = N max(0, 1 - p_mean / (mu "
+                       "p_t^c))", min=0.0, min_exclusive=True),
+        "asrl_pt": Key("float", 0.5, "asrl: per-component likelihood threshold p_t", min=0.0,
+                       min_exclusive=True),
+        "alpha_slow": Key("float", 0.05, "augmented: rate of the long-term likelihood average",
+                          min=0.0, max=1.0),
+        "alpha_fast": Key("float", 0.5, "augmented: rate of the short-term average (> "
+                          "alpha_slow)", min=0.0, max=1.0),
+        "inject": Key("choice", "uniform", "augmented: injected poses uniform over the field or "
+                      "drawn from the sensor model", choices=("uniform", "sensor")),
+        "sampling": Key("choice", "fixed", "'fixed': the particle count stays at 'particles'; "
+                        "'kld': KLD-sampling (Fox 2003), the count adapts each step, at most "
+                        "'particles' (with reset none or augmented)", choices=("fixed", "kld")),
+        "kld_epsilon": Key("float", 0.05, "kld: bound epsilon on the Kullback-Leibler error",
+                           min=0.0, min_exclusive=True),
+        "kld_delta": Key("float", 0.01, "kld: probability delta that the error exceeds it",
+                         min=0.0, max=0.5, min_exclusive=True),
+        "kld_bin_m": Key("float", 0.5, "kld: histogram bin size in x and y (Fox 2003: 0.5 m)",
+                         min=0.0, min_exclusive=True),
+        "kld_bin_deg": Key("float", 10.0, "kld: histogram bin size in heading (Fox 2003: 10 deg)",
+                           min=0.0, max=360.0, min_exclusive=True),
+        "kld_min": Key("int", 50, "kld: fewest particles a step draws", min=1),
+    }
+
+
+def mcl_check(params) -> tuple[str, str] | None:
+    """Cross-key rules of mcl: (key, message) of the first one broken."""
+    if params["sampling"] == "kld" and params["reset"] in ("srl", "asrl"):
+        return "reset", ("KLD-sampling resamples while it draws; it combines with reset 'none' "
+                         "or 'augmented', not with sensor resetting")
+    if params["reset"] == "augmented" and params["alpha_fast"] <= params["alpha_slow"]:
+        return "alpha_fast", (f"expected alpha_fast > alpha_slow ({params['alpha_slow']!r}), "
+                              f"got {params['alpha_fast']!r}")
+    return None
+
+
+MCL = FilterType("mcl", "Monte Carlo localization, optionally with sensor resetting (SRL, ASRL) "
+                 "or augmented-MCL injection, or KLD-sampling", mcl_keys(), run,
+                 kind="localization", check=mcl_check)

@@ -10,10 +10,13 @@ import math
 import numpy as np
 from numba import njit, types
 
+from ..schema import Key
 from ..resampling import SCHEME_CODES, resample
 from ..rng import STATE
 from ..scenarios.base import ModelFn, add_process_noise
 from ._common import floored, mh_move, resampled_step, start, weigh
+from .keys import pf_keys
+from .types import FilterType
 
 _F = types.float64[::1]
 _I = types.int64[::1]
@@ -115,3 +118,10 @@ def run(model, y, params, particles, state, diag=True):
     # steps that resample
     out["lik_evals_per_step"] = particles * (1.0 + mh * float(np.mean(out["resampled"][1:])))
     return out
+
+
+PF = FilterType("pf", "bootstrap particle filter (SIR)", pf_keys(), run)
+PFMH = FilterType(
+    "pfmh", "bootstrap PF with Metropolis-Hastings moves after resampling (PF+MH)",
+    {**pf_keys(), "mh_steps": Key("int", 1, "MH moves per particle after each resampling "
+                                  "(proposal: the transition prior)", min=1)}, run)

@@ -36,8 +36,12 @@ from ..angles import wrap
 from ..resampling import SCHEME_CODES, resample
 from ..rng import STATE, normal, uniform
 from ..scenarios.beacon_field import init_particles
+from ..schema import Key
 from .mcl import _estimate, _snapshot, pose_loglik, snapshot_arrays
+from .keys import sigma_check, sigma_keys
+from .types import FilterType
 from .ukf import ut_weights
+from .upf import upf_keys
 
 _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
@@ -451,3 +455,27 @@ def run(model, data, params, particles, state, diag=True, snapshots=()):
     out["lik_evals_per_step"] = float(N * (1 + 13) + N * params["mh_steps"]
                                       * np.mean(out["resampled"]))
     return out
+
+
+def sspf_field_keys() -> dict:
+    upf = upf_keys("weight_change", 1)
+    return {
+        **{k: upf[k] for k in ("resampling", "resample", "neff_ratio", "sigma", "mh_steps")},
+        **sigma_keys(),
+        "init_std_m": Key("float", 1.0, "initial position standard deviation of every particle's "
+                          "UKF (the particles start uniform over the field; our choice)", min=0.0,
+                          min_exclusive=True),
+        "init_std_deg": Key("float", 30.0, "initial heading standard deviation of every "
+                            "particle's UKF (our choice)", min=0.0, min_exclusive=True),
+        "jitter_m": Key("float", 0.05, "position noise added to the motion model's (the weight's "
+                        "transition density needs it: odometry moves a pose along a surface)",
+                        min=0.0, min_exclusive=True),
+        "jitter_deg": Key("float", 1.0, "heading noise added likewise", min=0.0,
+                          min_exclusive=True),
+    }
+
+
+SSPF_FIELD = FilterType(
+    "sspf_field", "SSPF for localization (sspf2008): a UKF proposal per particle (pose and "
+    "odometry noise), weight-change-triggered residual resampling, MH move; 'type: sspf' on a "
+    "localization scenario", sspf_field_keys(), run, kind="localization", check=sigma_check)

@@ -21,6 +21,75 @@ import numpy as np
 from numba import njit, types
 
 from ..rng import STATE, normal, uniform
+from ..schema import Key
+
+# The swarm algorithms, one numbering for every kernel that moves particles with them.
+FA, IFA, BA, PSO, AFSA = 0, 1, 2, 3, 4
+NO_SWARM = -1
+ALGORITHMS = {"fa": FA, "ifa": IFA, "ba": BA, "pso": PSO, "afsa": AFSA}
+
+
+def keys(algo: str, unit: str = "state units", prefix: bool = False) -> dict:
+    """The config keys of swarm algorithm ``algo``. ``unit``: what AFSA's visual range and step
+    are measured in; ``prefix``: start each doc line with the algorithm's name (a filter that
+    takes several algorithms' keys)."""
+    declared = {
+        "fa": {
+            "beta0": Key("float", 1.0, "maximum attractiveness (ifa2021: 1)", min=0.0),
+            "gamma": Key("float", 1.0, "light absorption, per squared state unit (ifa2021: 1)",
+                         min=0.0),
+            "alpha": Key("float", 0.2, "fixed random-step size (FA-PF's reference gives none; "
+                         "our default)", min=0.0)},
+        "ba": {
+            "freq_min": Key("float", 0.0, "lowest frequency"),
+            "freq_max": Key("float", 1.0, "highest frequency"),
+            "loudness": Key("float", 1.0, "initial loudness A0 (acceptance probability)", min=0.0),
+            "pulse_rate": Key("float", 0.5, "pulse rate r0 (1 - r: chance of a local walk around "
+                              "the best bat)", min=0.0, max=1.0),
+            "loudness_decay": Key("float", 0.9, "A <- decay A on acceptance", min=0.0, max=1.0),
+            "pulse_growth": Key("float", 0.9, "r <- r0 (1 - exp(-growth k)) at iteration k on "
+                                "acceptance", min=0.0)},
+        "pso": {
+            "inertia": Key("float", 0.7, "velocity inertia w", min=0.0),
+            "c1": Key("float", 1.5, "pull toward the particle's own best", min=0.0),
+            "c2": Key("float", 1.5, "pull toward the swarm's best", min=0.0)},
+        "afsa": {
+            "visual": Key("float", 1.0, f"visual range ({unit})", min=0.0, min_exclusive=True),
+            "step": Key("float", 0.5, f"largest move per behaviour ({unit})", min=0.0),
+            "crowding": Key("float", 0.618, "crowding factor delta", min=0.0),
+            "tries": Key("int", 5, "prey: neighbours tried before a random step", min=1),
+            "greedy": Key("bool", True, "keep a fish where it is when no behaviour improves it")},
+    }
+    declared["ifa"] = {k: declared["fa"][k] for k in ("beta0", "gamma")}
+    out = declared[algo]
+    if prefix:
+        from dataclasses import replace
+        out = {k: replace(key, doc=f"{algo.upper()}: {key.doc}") for k, key in out.items()}
+    return out
+
+
+def pack(algo: str, params) -> np.ndarray:
+    """The parameter array p the kernels read for swarm algorithm ``algo``:
+    fa [beta0, gamma, alpha]; ifa [beta0, gamma] and, where the filter has the key, brightness
+    (0: exp(-d^2/2), 1: 1/(1+d)); ba [fmin, fmax, A0, r0, decay, growth]; pso [w, c1, c2];
+    afsa [visual, step, delta, tries, greedy]."""
+    if algo == "fa":
+        vals = (params["beta0"], params["gamma"], params["alpha"])
+    elif algo == "ifa":
+        vals = (params["beta0"], params["gamma"])
+        if "brightness" in params:
+            vals += (0.0 if params["brightness"] == "gaussian" else 1.0,)
+    elif algo == "ba":
+        vals = (params["freq_min"], params["freq_max"], params["loudness"], params["pulse_rate"],
+                params["loudness_decay"], params["pulse_growth"])
+    elif algo == "pso":
+        vals = (params["inertia"], params["c1"], params["c2"])
+    elif algo == "afsa":
+        vals = (params["visual"], params["step"], params["crowding"], float(params["tries"]),
+                float(params["greedy"]))
+    else:
+        vals = (0.0,)
+    return np.array(vals, dtype=np.float64)
 
 _F = types.float64[::1]
 _I = types.int64[::1]

@@ -14,17 +14,19 @@ import math
 import numpy as np
 from numba import njit, types
 
-from ..resampling import SCHEME_CODES, resample, stepwise_ewa_plan
+from ..resampling import SCHEME_CODES, SCHEMES, resample, stepwise_ewa_plan
 from ..rng import STATE, normal
+from ..schema import Key
 from ..scenarios.base import NOISE_GAUSSIAN, ModelFn, add_process_noise
 from ._common import resampled_step, start, weigh
-from .swarm import (afsa_centres, afsa_propose, afsa_select, argmax, ba_accept, ba_propose,
-                    fa_move, ifa_move, pso_accept, pso_propose)
+from .keys import ewa_keys, pf_keys
+from .swarm import (ALGORITHMS, BA, FA, IFA, PSO, afsa_centres, afsa_propose, afsa_select, argmax,
+                    ba_accept, ba_propose, fa_move, ifa_move, keys, pack, pso_accept, pso_propose)
+from .types import FilterType
 
 _F = types.float64[::1]
 _I = types.int64[::1]
 
-ALGORITHMS = {"fa": 0, "ifa": 1, "ba": 2, "pso": 3, "afsa": 4}
 EWA = len(SCHEME_CODES)          # the stepwise EWA scheme's code, after the standard ones
 
 SWARM_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64, types.int64,
@@ -103,10 +105,10 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, algo, p, it
         nev = N
         for it in range(iters):
             M = ll.max()
-            if algo == 0:                                   # FA: brightness = likelihood
+            if algo == FA:                                  # FA: brightness = likelihood
                 _shifted_exp(ll, M, fit)
                 fa_move(xn, fit, 1, p[0], p[1], p[2], unit, s)
-            elif algo == 1:                                 # IFA: distance brightness
+            elif algo == IFA:                               # IFA: distance brightness
                 # d_i: distance of (h(x_i), x_i) to (y_t, f(xhat_{t-1}) + noise mean), each
                 # coordinate in units of its noise standard deviation; -2 ll = (y - h)^2 / R
                 one[0] = xhat[t - 1]
@@ -119,7 +121,7 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, algo, p, it
                     else:
                         fit[i] = 1.0 / (1.0 + math.sqrt(-2.0 * ll[i] + e * e / Qv))
                 ifa_move(xn, fit, 1, p[0], p[1], R, unit, s)
-            elif algo == 2:                                 # BA
+            elif algo == BA:
                 if it == 0:
                     V[:] = 0.0
                     A[:] = p[2]
@@ -130,7 +132,7 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, algo, p, it
                 nev += N
                 ba_accept(xn, ll, C[:N], llC[:N], A, r, 1, p[4], p[5], p[3], it + 1, s)
                 continue
-            elif algo == 3:                                 # PSO
+            elif algo == PSO:
                 if it == 0:
                     V[:] = 0.0
                     P[:] = xn
@@ -187,23 +189,6 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, algo, p, it
     return events
 
 
-def params_vector(kind: str, params) -> np.ndarray:
-    """The kernel's parameter array p for swarm filter ``kind``."""
-    if kind == "fa":
-        vals = (params["beta0"], params["gamma"], params["alpha"])
-    elif kind == "ifa":
-        vals = (params["beta0"], params["gamma"], 0.0 if params["brightness"] == "gaussian" else 1.0)
-    elif kind == "ba":
-        vals = (params["freq_min"], params["freq_max"], params["loudness"], params["pulse_rate"],
-                params["loudness_decay"], params["pulse_growth"])
-    elif kind == "pso":
-        vals = (params["inertia"], params["c1"], params["c2"])
-    else:
-        vals = (params["visual"], params["step"], params["crowding"], float(params["tries"]),
-                float(params["greedy"]))
-    return np.array(vals, dtype=np.float64)
-
-
 def make_run(kind: str):
     """The ``run`` of swarm filter ``kind`` (a key of ALGORITHMS)."""
     def run(model, y, params, particles, state, diag=True):
@@ -217,7 +202,7 @@ def make_run(kind: str):
         scheme = EWA if params["resampling"] == "stepwise_ewa" else SCHEME_CODES[params["resampling"]]
         out["underflow_steps"] = swarm_pf_kernel(
             model.transition, model.observe, model.theta, model.noise, y, model.prior_mean,
-            model.prior_var, particles, ALGORITHMS[kind], params_vector(kind, params),
+            model.prior_var, particles, ALGORITHMS[kind], pack(kind, params),
             params["iterations"], scheme, threshold,
             int(params["estimate"] == "after_resampling"), params["ewa_beta"], params["ewa_mu"],
             int(params["ewa_correction"] == "as_printed"), int(diag), state, out["xhat"], out["ess"], out["resampled"], out["div_l1"],
@@ -225,3 +210,42 @@ def make_run(kind: str):
         out["lik_evals_per_step"] = float(np.mean(evals[1:]))
         return out
     return run
+
+
+def swarm_pf_keys(algo: str, resampling: str = "systematic", **own) -> dict:
+    """The keys of the swarm PF of algorithm ``algo`` (its swarm's keys, then ``own``)."""
+    pf = pf_keys()
+    return {
+        "iterations": Key("int", 1, "swarm iterations per step (each evaluates the likelihood of "
+                          "every moved particle)", min=0),
+        **keys(algo),
+        **own,
+        "resampling": Key("choice", resampling, "resampling scheme; 'stepwise_ewa' is ifa2021's "
+                          "stepwise EWA resampling", choices=tuple(SCHEMES) + ("stepwise_ewa",)),
+        "resample": pf["resample"],
+        "neff_ratio": pf["neff_ratio"],
+        "estimate": pf["estimate"],
+        **ewa_keys(),
+    }
+
+
+FA_PF = FilterType(
+    "fa", "firefly-algorithm PF (FA-PF): fireflies toward brighter (likelier) particles; O(N^2) "
+    "per iteration", swarm_pf_keys("fa"), make_run("fa"), cost="N^2")
+IFA_PF = FilterType(
+    "ifa", "improved firefly PF (IFA-PF, ifa2021): distance brightness, adaptive step, stepwise "
+    "EWA resampling; O(N^2) per iteration",
+    swarm_pf_keys("ifa", "stepwise_ewa", brightness=Key(
+        "choice", "gaussian", "how the distance d (measurement and predicted state, each in units "
+        "of its noise standard deviation) becomes a brightness: 'gaussian' exp(-d^2 / 2) or "
+        "'inverse' 1 / (1 + d); ifa2021 leaves it open", choices=("gaussian", "inverse"))),
+    make_run("ifa"), cost="N^2")
+BA_PF = FilterType(
+    "ba", "bat-algorithm PF (BA-PF): frequency-tuned velocities, loudness and pulse rate",
+    swarm_pf_keys("ba"), make_run("ba"))
+PSO_PF = FilterType(
+    "pso", "particle-swarm PF (PSO-PF): moves toward personal and global best likelihood",
+    swarm_pf_keys("pso"), make_run("pso"))
+AFSA_PF = FilterType(
+    "afsa", "artificial-fish-swarm PF (AFSA-PF): prey, swarm and follow behaviours; O(N^2) per "
+    "iteration", swarm_pf_keys("afsa"), make_run("afsa"), cost="N^2")

@@ -12,8 +12,11 @@ import math
 import numpy as np
 from numba import njit, types
 
+from ..schema import Key
 from ..scenarios.base import ModelFn
 from .ekf import noise_moments
+from .keys import gaussian_noise_keys, sigma_check, sigma_keys
+from .types import FilterType
 
 _F = types.float64[::1]
 
@@ -130,3 +133,11 @@ def run(model, y, params, particles, state, diag=True):
         out["xhat"], out["pvar"])
     out["lik_evals_per_step"] = 7.0 if aug else 3.0
     return out
+
+
+UKF = FilterType(
+    "ukf", "unscented Kalman filter (scaled sigma points, optional noise augmentation)",
+    {**sigma_keys(),
+     "augmented": Key("bool", True, "augment the state with the process and measurement noise"),
+     **gaussian_noise_keys("the UKF")},
+    run, particles=False, cost="1", check=sigma_check)

@@ -18,12 +18,15 @@ import math
 import numpy as np
 from numba import njit, types
 
-from ..resampling import SCHEME_CODES, resample
+from ..schema import Key
+from ..resampling import SCHEME_CODES, SCHEMES, resample
 from ..rng import STATE, normal, uniform
 from ..scenarios.base import ModelFn, process_logpdf
 from ._common import floored, resampled_step, start, weigh
 from .ekf import noise_moments
 from .pf import log_floor
+from .keys import floor_key, gaussian_noise_keys, pf_keys, sigma_check, sigma_keys
+from .types import FilterType
 from .ukf import ut_weights
 
 _F = types.float64[::1]
@@ -237,3 +240,34 @@ def run(model, y, params, particles, state, diag=True):
     # 7 sigma points through h per particle, plus the particle itself; an MH sweep adds one more
     out["lik_evals_per_step"] = particles * (8.0 + mh * float(np.mean(out["resampled"][1:])))
     return out
+
+
+def upf_keys(resample: str, mh_steps: int) -> dict:
+    """The keys of the UPF family with the defaults of a variant (sspf: weight_change, 1)."""
+    pf = pf_keys()
+    return {
+        "resampling": Key("choice", "residual", "resampling scheme", choices=tuple(SCHEMES)),
+        "resample": Key("choice", resample, "'always'; 'neff': when ESS < neff_ratio * N; "
+                        "'weight_change': when K = sum W_k (W_k - W_{k-1})^2 > sigma / N^2 "
+                        "(sspf2008)", choices=("always", "neff", "weight_change")),
+        "neff_ratio": pf["neff_ratio"],
+        "sigma": Key("float", 1.0, "threshold of the weight-change trigger in units of 1 / N^2 "
+                     "(sspf2008 gives no value; 1 / N^2 is the K of weights split evenly over half "
+                     "the particles, an ESS of N / 2)", min=0.0, min_exclusive=True),
+        "mh_steps": Key("int", mh_steps, "independence Metropolis-Hastings moves per particle "
+                        "after each resampling, with the particle's UKF proposal", min=0),
+        "estimate": pf["estimate"],
+        "likelihood_floor": floor_key(),
+        "prior_argument": Key("choice", "transition", "where the weight's transition density is "
+                              "evaluated: 'transition' (w = x_t - f(x_{t-1}), the model) or "
+                              "'increment' (x_t - x_{t-1}, as the Gamma benchmark's reference "
+                              "implementation does)", choices=("transition", "increment")),
+        **sigma_keys(),
+        **gaussian_noise_keys("the proposal's UKF"),
+    }
+
+
+UPF = FilterType("upf", "unscented particle filter (a UKF per particle as the proposal)",
+                 upf_keys("always", 0), run, check=sigma_check)
+SSPF = FilterType("sspf", "SSPF (sspf2008): UPF + weight-change-triggered residual resampling + "
+                  "MH move", upf_keys("weight_change", 1), run, check=sigma_check)
