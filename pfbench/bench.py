@@ -26,7 +26,7 @@ from .errors import UserError
 from .filters.pf import pf_kernel
 from .rng import state_from_seed
 from .scenarios import ungm
-from .scenarios.base import ModelFn, simulate
+from .models.scalar import ModelFn, simulate
 
 T = 100
 Q, R, P0, X0 = 10.0, 1.0, 2.0, 0.1

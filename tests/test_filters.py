@@ -8,7 +8,7 @@ from pfbench.config import Params
 from pfbench.filters import FILTERS
 from pfbench.rng import state_from_seed
 from pfbench.scenarios import linear_gaussian, ungm
-from pfbench.scenarios.base import simulate
+from pfbench.models.scalar import simulate
 
 from .conftest import default_params
 
@@ -159,7 +159,7 @@ def test_particles_with_nan_likelihood_get_zero_weight_without_an_event():
     # carry the estimate, and the step is not an underflow event.
     from numba import njit
 
-    from pfbench.scenarios.base import MODEL_SIG, ScalarModel
+    from pfbench.models.scalar import MODEL_SIG, ScalarModel
 
     @njit(MODEL_SIG)
     def nan_above_zero(x, t, theta, out):

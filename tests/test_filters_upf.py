@@ -8,7 +8,7 @@ from pfbench.filters import FILTERS
 from pfbench.filters._common import mh_move
 from pfbench.rng import standard_gamma, state_from_seed
 from pfbench.scenarios import linear_gaussian, upf_gamma
-from pfbench.scenarios.base import process_logpdf, simulate
+from pfbench.models.scalar import process_logpdf, simulate
 
 from .conftest import default_params
 

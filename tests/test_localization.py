@@ -42,7 +42,7 @@ def test_convergence_and_recovery_steps():
 
 from pfbench.config import Params  # noqa: E402
 from pfbench.filters import FILTERS  # noqa: E402
-from pfbench.filters.mcl import sensor_pose  # noqa: E402
+from pfbench.models.beacons import sensor_pose  # noqa: E402
 from pfbench.rng import state_from_seed  # noqa: E402
 from pfbench.scenarios import beacon_field as bf  # noqa: E402
 

@@ -163,7 +163,7 @@ def test_swarm_pf_without_iterations_is_the_bootstrap_pf_bit_for_bit(kind):
     from pfbench.config import Params
     from pfbench.filters import FILTERS
     from pfbench.scenarios import ungm
-    from pfbench.scenarios.base import simulate
+    from pfbench.models.scalar import simulate
 
     model = ungm.build({k: v.default for k, v in ungm.SCHEMA.items()})
     _, y = simulate(model, state_from_seed(np.random.SeedSequence(1)))

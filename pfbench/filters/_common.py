@@ -7,7 +7,7 @@ import numpy as np
 from numba import njit, types
 
 from ..rng import STATE, fill_normal, uniform
-from ..scenarios.base import ModelFn, add_process_noise
+from ..models.scalar import ModelFn, add_process_noise
 
 _F = types.float64[::1]
 _I = types.int64[::1]

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, types
 
-from ..scenarios.base import ModelFn
+from ..models.scalar import ModelFn
 from .keys import gaussian_noise_keys
 from .types import FilterType
 

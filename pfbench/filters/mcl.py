@@ -48,9 +48,11 @@ from numba import njit, types
 
 from ..angles import wrap
 from ..resampling import SCHEME_CODES, resample
-from ..rng import STATE, fill_normal, normal, uniform
+from ..rng import STATE, fill_normal, uniform
 from .. import vecmath as vm
-from ..scenarios.beacon_field import init_particles, noisy_odometry, odometry_with
+from ..models.beacons import loglik_const, sensor_pose
+from ..models.odometry import noisy_odometry, odometry_with
+from ..models.pose import init_particles, snapshot, snapshot_arrays
 from ..schema import Key
 from .keys import pf_keys
 from .types import FilterType
@@ -62,82 +64,11 @@ _I = types.int64[::1]
 _I2 = types.int64[:, ::1]
 
 RESET = {"none": 0, "srl": 1, "asrl": 2, "augmented": 3}
-LOG_2PI = math.log(2.0 * math.pi)
-
-
-@njit(types.float64(types.float64, types.float64, types.float64, _F2, types.int64, _I, _F2,
-                    types.int64, types.float64, types.float64), cache=True)
-def pose_quad(x, y, th, bc, n, ids, zs, sensor, sr, sb):
-    """-1/2 the sum of the squared normalised residuals of the n observations (ids, zs) of a step
-    seen from a pose: log p(z | pose) up to loglik_const."""
-    acc = 0.0
-    for j in range(n):
-        b = ids[j]
-        dx, dy = bc[b, 0] - x, bc[b, 1] - y
-        v = (zs[j, 0] - math.sqrt(dx * dx + dy * dy)) / sr
-        acc -= 0.5 * v * v
-        if sensor == 1:
-            u = wrap(zs[j, 1] - (math.atan2(dy, dx) - th)) / sb
-            acc -= 0.5 * u * u
-    return acc
-
-
-@njit(types.float64(types.int64, types.int64, types.float64, types.float64), cache=True)
-def loglik_const(n, sensor, sr, sb):
-    """The Gaussian normalisation of n observations' log-likelihood."""
-    c = -math.log(sr) - 0.5 * LOG_2PI
-    if sensor == 1:
-        c += -math.log(sb) - 0.5 * LOG_2PI
-    return n * c
-
-
-@njit(types.float64(types.float64, types.float64, types.float64, _F2, types.int64, _I, _F2,
-                    types.int64, types.float64, types.float64), cache=True)
-def pose_loglik(x, y, th, bc, n, ids, zs, sensor, sr, sb):
-    """log p(z | pose) of the n observations (ids, zs) of a step."""
-    return pose_quad(x, y, th, bc, n, ids, zs, sensor, sr, sb) + loglik_const(n, sensor, sr, sb)
-
-
-@njit(types.void(_F, types.int64, _F2, types.int64, _I, _F2, types.float64, types.float64, _F,
-                 STATE), cache=True)
-def sensor_pose(area, sensor, bc, n, ids, zs, sr, sb, out, s):
-    """A pose drawn from the sensor model of the step's observations into out (3,): consistent
-    with one observation chosen at random (uniform over the field when there is none)."""
-    if n == 0:
-        out[0] = area[0] * uniform(s)
-        out[1] = area[1] * uniform(s)
-        out[2] = math.pi * (2.0 * uniform(s) - 1.0)
-        return
-    j = min(int(uniform(s) * n), n - 1)
-    b = ids[j]
-    r = max(zs[j, 0] + sr * normal(s), 0.0)
-    a = math.pi * (2.0 * uniform(s) - 1.0)        # direction from the robot to the beacon
-    out[0] = bc[b, 0] - r * math.cos(a)
-    out[1] = bc[b, 1] - r * math.sin(a)
-    if sensor == 1:
-        out[2] = wrap(a - (zs[j, 1] + sb * normal(s)))
-    else:
-        out[2] = math.pi * (2.0 * uniform(s) - 1.0)
-
-
-@njit(types.void(_F2, _F, types.int64, _F), cache=True)
-def _estimate(P, W, n, out):
-    """The weighted mean pose of P[:n] (circular mean heading) into out."""
-    ex = 0.0
-    ey = 0.0
-    ec = 0.0
-    es = 0.0
-    for i in range(n):
-        ex += W[i] * P[i, 0]
-        ey += W[i] * P[i, 1]
-        ec += W[i] * math.cos(P[i, 2])
-        es += W[i] * math.sin(P[i, 2])
-    out[0], out[1], out[2] = ex, ey, math.atan2(es, ec)
 
 
 @njit(types.void(_F2, _F, types.int64, _F2, _F), cache=True)
 def _estimate_rows(P, W, n, CS, out):
-    """_estimate of particles stored as rows, P (3, N), with the headings' cosines and sines
+    """estimate_pose of particles stored as rows, P (3, N), with the headings' cosines and sines
     given, CS (2, N)."""
     ex = 0.0
     ey = 0.0
@@ -316,22 +247,6 @@ def kld_sample(P, W, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob, i
     return m, injected
 
 
-@njit(types.int64(types.int64, _F2, types.int64, _I, _F3, _I, types.int64, types.boolean),
-      cache=True)
-def _snapshot(t, P, n, snap_t, snap, snap_n, si, rows):
-    """Copy the particles P[:n] (P[:, :n] with ``rows``: stored as rows x, y, heading) into
-    snap[si] (N, 3) when step t is the next snapshot step; return the index of the next
-    snapshot."""
-    if si < snap_t.size and snap_t[si] == t:
-        if rows:
-            snap[si, :n] = P[:, :n].T
-        else:
-            snap[si, :n] = P[:n]
-        snap_n[si] = n
-        return si + 1
-    return si
-
-
 MCL_SIG = types.int64(
     _F2, _I, _I2, _F3, _F2, _F, types.int64, _F, types.int64, types.float64, types.float64,
     types.int64, types.float64, types.int64, types.int64, _F, types.int64, types.int64, _F, _F,
@@ -377,7 +292,7 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
     _trig(P, 0, N, CS)
     fresh = True            # the log-weights are all zero (a resampled or initial set)
     _estimate_rows(P, W, N, CS, est[0])
-    si = _snapshot(0, P, N, snap_t, snap, snap_n, 0, True)
+    si = snapshot(0, P, N, snap_t, snap, snap_n, 0, True)
     for t in range(T):
         if kld:
             # resample (the last step's weighted set) and move in one loop, as many as the bins
@@ -433,7 +348,7 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
         ess[t] = 1.0 / S2
         fresh = False
         _estimate_rows(P, W, n, CS, est[t + 1])
-        si = _snapshot(t + 1, P, n, snap_t, snap, snap_n, si, True)
+        si = snapshot(t + 1, P, n, snap_t, snap, snap_n, si, True)
         if reset == 3 and m > 0:
             # the averages follow the likelihood per measurement component, pm^(1/c): steps see
             # different numbers of beacons, and a product over more of them is not less likely
@@ -493,12 +408,6 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
             W[:] = 1.0 / N
             fresh = True
     return events
-
-
-def snapshot_arrays(snapshots, particles: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(steps, particles (S, N, 3), counts (S,)) buffers for the snapshots at ``snapshots``."""
-    steps = np.asarray(sorted(set(snapshots)), dtype=np.int64)
-    return steps, np.zeros((steps.size, particles, 3)), np.zeros(steps.size, dtype=np.int64)
 
 
 def run(model, data, params, particles, state, diag=True, snapshots=()):

@@ -13,7 +13,7 @@ from numba import njit, types
 from ..schema import Key
 from ..resampling import SCHEME_CODES, resample
 from ..rng import STATE
-from ..scenarios.base import ModelFn, add_process_noise
+from ..models.scalar import ModelFn, add_process_noise
 from ._common import floored, mh_move, resampled_step, start, weigh
 from .keys import pf_keys
 from .types import FilterType

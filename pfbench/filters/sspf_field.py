@@ -35,9 +35,9 @@ from numba import njit, types
 from ..angles import wrap
 from ..resampling import SCHEME_CODES, resample
 from ..rng import STATE, normal, uniform
-from ..scenarios.beacon_field import init_particles
+from ..models.beacons import pose_loglik
+from ..models.pose import estimate_pose, init_particles, snapshot, snapshot_arrays
 from ..schema import Key
-from .mcl import _estimate, _snapshot, pose_loglik, snapshot_arrays
 from .keys import sigma_check, sigma_keys
 from .types import FilterType
 from .ukf import ut_weights
@@ -207,8 +207,8 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sens
     xm = np.empty(3)
     d = np.empty(3)
     events = 0
-    _estimate(X, W, N, est[0])
-    si = _snapshot(0, X, N, snap_t, snap, snap_n, 0, False)
+    estimate_pose(X, W, N, est[0])
+    si = snapshot(0, X, N, snap_t, snap, snap_n, 0, False)
     for t in range(T):
         u = ctrl[t]
         noise_sd(u, motion, mnoise, sd)
@@ -377,8 +377,8 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sens
             dw = W[i] - Wprev[i]
             Kc += W[i] * dw * dw
         ess[t] = 1.0 / S2
-        _estimate(X, W, N, est[t + 1])
-        si = _snapshot(t + 1, X, N, snap_t, snap, snap_n, si, False)
+        estimate_pose(X, W, N, est[t + 1])
+        si = snapshot(t + 1, X, N, snap_t, snap, snap_n, si, False)
         accepted[t] = np.nan
         go = trigger == 0 or (trigger == 1 and ess[t] < threshold) or (trigger == 2 and
                                                                         Kc > threshold)

@@ -17,7 +17,7 @@ from numba import njit, types
 from ..resampling import SCHEME_CODES, SCHEMES, resample, stepwise_ewa_plan
 from ..rng import STATE, normal
 from ..schema import Key
-from ..scenarios.base import NOISE_GAUSSIAN, ModelFn, add_process_noise
+from ..models.scalar import NOISE_GAUSSIAN, ModelFn, add_process_noise
 from ._common import resampled_step, start, weigh
 from .keys import ewa_keys, pf_keys
 from .swarm import (ALGORITHMS, BA, FA, IFA, PSO, afsa_centres, afsa_propose, afsa_select, argmax,

@@ -13,7 +13,7 @@ import numpy as np
 from numba import njit, types
 
 from ..schema import Key
-from ..scenarios.base import ModelFn
+from ..models.scalar import ModelFn
 from .ekf import noise_moments
 from .keys import gaussian_noise_keys, sigma_check, sigma_keys
 from .types import FilterType

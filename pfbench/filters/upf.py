@@ -21,7 +21,7 @@ from numba import njit, types
 from ..schema import Key
 from ..resampling import SCHEME_CODES, SCHEMES, resample
 from ..rng import STATE, normal, uniform
-from ..scenarios.base import ModelFn, process_logpdf
+from ..models.scalar import ModelFn, process_logpdf
 from ._common import floored, resampled_step, start, weigh
 from .ekf import noise_moments
 from .pf import log_floor

@@ -33,7 +33,9 @@ import numpy as np
 from numba import njit, types
 
 from ..angles import wrap
-from ..rng import STATE, normal, uniform
+from ..rng import STATE, uniform
+from ..models.beacons import sense_beacons
+from ..models.odometry import noisy_odometry
 from ..schema import ConfigError, Key
 from .waypoint_course import load_world, next_waypoint
 
@@ -193,95 +195,6 @@ _F3 = types.float64[:, :, ::1]
 _I = types.int64[::1]
 _I2 = types.int64[:, ::1]
 
-
-_ODO = types.UniTuple(types.float64, 3)
-
-
-@njit(_ODO(types.float64, types.float64, types.float64, types.int64, _F, types.float64,
-           types.float64, types.float64), cache=True, inline="always")
-def _odometry(rot1, trans, rot2, motion, mnoise, n1, n2, n3):
-    """The odometry [rot1, trans, rot2] with the motion noise made of standard normal draws n1,
-    n2 (and n3 for rot-trans-rot) (see the module)."""
-    if motion == 0:
-        return rot1, trans + mnoise[0] * n1, rot2 + mnoise[1] * n2
-    a1, a2, a3, a4 = mnoise[0], mnoise[1], mnoise[2], mnoise[3]
-    return (rot1 + (a1 * abs(rot1) + a2 * abs(trans)) * n1,
-            trans + (a3 * abs(trans) + a4 * (abs(rot1) + abs(rot2))) * n2,
-            rot2 + (a1 * abs(rot2) + a2 * abs(trans)) * n3)
-
-
-@njit(_ODO(types.float64, types.float64, types.float64, types.int64, _F, _F, types.int64),
-      cache=True, inline="always")
-def odometry_with(rot1, trans, rot2, motion, mnoise, z, o):
-    """The odometry with the noise of the draws z[o], z[o + 1] (and z[o + 2] for
-    rot-trans-rot), in order."""
-    return _odometry(rot1, trans, rot2, motion, mnoise, z[o], z[o + 1],
-                     z[o + 2] if motion != 0 else 0.0)
-
-
-@njit(_ODO(types.float64, types.float64, types.float64, types.int64, _F, STATE), cache=True,
-      inline="always")
-def noisy_odometry(rot1, trans, rot2, motion, mnoise, s):
-    """The odometry [rot1, trans, rot2] with one draw of the motion noise (see the module)."""
-    n1 = normal(s)
-    n2 = normal(s)
-    return _odometry(rot1, trans, rot2, motion, mnoise, n1, n2,
-                     normal(s) if motion != 0 else 0.0)
-
-
-@njit(types.void(_F2, _F, _F, STATE), cache=True)
-def init_particles(P, area, init, s):
-    """The filters' initial particles P (N, 3): uniform over the field and heading (init[0] = 0),
-    or Gaussian around the start init[1:4] with spreads init[4] (m) and init[5] (rad)."""
-    for i in range(P.shape[0]):
-        if init[0] == 0.0:
-            P[i, 0] = area[0] * uniform(s)
-            P[i, 1] = area[1] * uniform(s)
-            P[i, 2] = math.pi * (2.0 * uniform(s) - 1.0)
-        else:
-            P[i, 0] = init[1] + init[4] * normal(s)
-            P[i, 1] = init[2] + init[4] * normal(s)
-            P[i, 2] = wrap(init[3] + init[5] * normal(s))
-
-
-@njit(types.int64(_F2, types.float64, types.float64, types.float64, types.int64, _F, STATE, _I,
-                  _F2), cache=True)
-def sense_beacons(bc, x, y, th, sensor, sense, s, ids, zs):
-    """Fill the observations seen from (x, y, th) into ids / zs; return how many."""
-    rmax, half_fov, sr, sb, nearest = sense[0], sense[1], sense[2], sense[3], sense[4]
-    n = 0
-    best = -1
-    bd = np.inf
-    cand = 0
-    for b in range(bc.shape[0]):
-        dx, dy = bc[b, 0] - x, bc[b, 1] - y
-        r = math.hypot(dx, dy)
-        if r > rmax:
-            continue
-        if sensor == 0:
-            # one answer: the nearest, or uniformly among those in range (reservoir sampling)
-            if nearest > 0.5:
-                if r < bd:
-                    bd = r
-                    best = b
-            else:
-                cand += 1
-                if uniform(s) * cand < 1.0:
-                    best = b
-            continue
-        brg = wrap(math.atan2(dy, dx) - th)
-        if abs(brg) > half_fov:
-            continue
-        ids[n] = b
-        zs[n, 0] = r + sr * normal(s)
-        zs[n, 1] = wrap(brg + sb * normal(s))
-        n += 1
-    if sensor == 0 and best >= 0:
-        ids[0] = best
-        zs[0, 0] = math.hypot(bc[best, 0] - x, bc[best, 1] - y) + sr * normal(s)
-        zs[0, 1] = 0.0
-        n = 1
-    return n
 
 
 @njit(types.void(_F, _F2, _F2, _F, _F, types.int64, _F, types.int64, _F, _I, _F2, STATE, _F2,

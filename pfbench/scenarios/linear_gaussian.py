@@ -10,7 +10,7 @@ import numpy as np
 from numba import njit
 
 from ..schema import Key
-from .base import MODEL_SIG, simulate, NOISE_GAUSSIAN, ScalarModel
+from ..models.scalar import MODEL_SIG, simulate, NOISE_GAUSSIAN, ScalarModel
 
 NAME = "linear_gaussian"
 KIND = "scalar"

@@ -12,7 +12,7 @@ offset / (offset^2 + (x - s)^2)) and the position is barely observable. A filter
 h there (the EKF) now and then loses the target, which shows in the spread of its errors.
 
 The model functions are numba ``@njit`` functions with pfbench's scalar signature
-(``pfbench.scenarios.base.MODEL_SIG``): pfbench's compiled filters call them for the whole
+(``pfbench.models.scalar.MODEL_SIG``): pfbench's compiled filters call them for the whole
 particle set at once. ``cache=True`` keeps them in numba's on-disk cache beside pfbench's kernels.
 """
 from __future__ import annotations
@@ -22,7 +22,7 @@ import math
 import numpy as np
 from numba import njit
 
-from pfbench.scenarios.base import MODEL_SIG, NOISE_GAUSSIAN, ScalarModel, simulate
+from pfbench.models.scalar import MODEL_SIG, NOISE_GAUSSIAN, ScalarModel, simulate
 from pfbench.schema import Key
 
 NAME = "bearings_road"

@@ -1,0 +1,68 @@
+"""Beliefs over a robot's pose (x, y, heading) on a field [0, area[0]] x [0, area[1]]: the
+filters' initial particles, the weighted mean pose, and snapshots of a particle set."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, types
+
+from ..angles import wrap
+from ..rng import STATE, normal, uniform
+
+_F = types.float64[::1]
+_F2 = types.float64[:, ::1]
+_F3 = types.float64[:, :, ::1]
+_I = types.int64[::1]
+
+
+@njit(types.void(_F2, _F, _F, STATE), cache=True)
+def init_particles(P, area, init, s):
+    """The filters' initial particles P (N, 3): uniform over the field and heading (init[0] = 0),
+    or Gaussian around the start init[1:4] with spreads init[4] (m) and init[5] (rad)."""
+    for i in range(P.shape[0]):
+        if init[0] == 0.0:
+            P[i, 0] = area[0] * uniform(s)
+            P[i, 1] = area[1] * uniform(s)
+            P[i, 2] = math.pi * (2.0 * uniform(s) - 1.0)
+        else:
+            P[i, 0] = init[1] + init[4] * normal(s)
+            P[i, 1] = init[2] + init[4] * normal(s)
+            P[i, 2] = wrap(init[3] + init[5] * normal(s))
+
+
+@njit(types.void(_F2, _F, types.int64, _F), cache=True)
+def estimate_pose(P, W, n, out):
+    """The weighted mean pose of P[:n] (circular mean heading) into out."""
+    ex = 0.0
+    ey = 0.0
+    ec = 0.0
+    es = 0.0
+    for i in range(n):
+        ex += W[i] * P[i, 0]
+        ey += W[i] * P[i, 1]
+        ec += W[i] * math.cos(P[i, 2])
+        es += W[i] * math.sin(P[i, 2])
+    out[0], out[1], out[2] = ex, ey, math.atan2(es, ec)
+
+
+@njit(types.int64(types.int64, _F2, types.int64, _I, _F3, _I, types.int64, types.boolean),
+      cache=True)
+def snapshot(t, P, n, snap_t, snap, snap_n, si, rows):
+    """Copy the particles P[:n] (P[:, :n] with ``rows``: stored as rows x, y, heading) into
+    snap[si] (N, 3) when step t is the next snapshot step; return the index of the next
+    snapshot."""
+    if si < snap_t.size and snap_t[si] == t:
+        if rows:
+            snap[si, :n] = P[:, :n].T
+        else:
+            snap[si, :n] = P[:n]
+        snap_n[si] = n
+        return si + 1
+    return si
+
+
+def snapshot_arrays(snapshots, particles: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(steps, particles (S, N, 3), counts (S,)) buffers for the snapshots at ``snapshots``."""
+    steps = np.asarray(sorted(set(snapshots)), dtype=np.int64)
+    return steps, np.zeros((steps.size, particles, 3)), np.zeros(steps.size, dtype=np.int64)
