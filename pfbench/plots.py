@@ -29,7 +29,7 @@ from .kinds import kind_of  # noqa: E402
 _META = {"Software": None}
 
 
-def _save(fig, path: Path) -> None:
+def save_figure(fig, path: Path) -> None:
     """Save ``fig`` to ``path`` through a temporary file (removed if the save fails)."""
     try:
         write_through_temp(path, lambda tmp: fig.savefig(tmp, dpi=110, metadata=_META),
@@ -54,7 +54,7 @@ def rmse_boxplot(exp: Experiment, rows: pd.DataFrame, path: Path) -> None:
     ax.set_title(f"{exp.name}: RMSE over {len(rows['trial'].unique())} trials")
     ax.grid(axis="y", alpha=0.3)
     fig.tight_layout()
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def slam_trial_figures(exp: Experiment, folder: Path, trial: int = 0) -> list[Path]:
@@ -81,7 +81,7 @@ def slam_trial_figures(exp: Experiment, folder: Path, trial: int = 0) -> list[Pa
     ax.grid(alpha=0.3)
     fig.tight_layout()
     course = folder / "course.png"
-    _save(fig, course)
+    save_figure(fig, course)
 
     dt = float(model.vehicle[1])
     t = np.arange(truth.pose.shape[0]) * dt
@@ -106,7 +106,7 @@ def slam_trial_figures(exp: Experiment, folder: Path, trial: int = 0) -> list[Pa
         ax.grid(alpha=0.3)
     fig.tight_layout()
     errors = folder / "errors.png"
-    _save(fig, errors)
+    save_figure(fig, errors)
 
     fig, ax = plt.subplots(figsize=(8.0, 3.8))
     K = data.obs_n.shape[0]
@@ -124,7 +124,7 @@ def slam_trial_figures(exp: Experiment, folder: Path, trial: int = 0) -> list[Pa
     ax.grid(alpha=0.3)
     fig.tight_layout()
     ess = folder / "ess.png"
-    _save(fig, ess)
+    save_figure(fig, ess)
     return [course, errors, ess]
 
 
@@ -192,7 +192,7 @@ def localization_error_figure(exp: Experiment, trials: list[int], path: Path) ->
         ax2.grid(alpha=0.3, which="both")
     axes[-1, 0].set_xlabel("step")
     fig.tight_layout()
-    _save(fig, path)
+    save_figure(fig, path)
     return medians
 
 
@@ -239,7 +239,7 @@ def particle_figure(exp: Experiment, path: Path, trial: int = 0) -> None:
     fig.suptitle(f"{exp.name}, trial {trial}: particles (blue), beacons (black), true pose (red "
                  "circle), estimate (green x)", fontsize=9)
     fig.tight_layout()
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 # localization figures re-run at most this many trials
@@ -270,4 +270,43 @@ def localization_figures(exp: Experiment, rows: pd.DataFrame, folder: Path) -> l
     paths = [folder / "errors.png", folder / "particles.png"]
     localization_error_figure(exp, [int(k) for k in trials], paths[0])
     particle_figure(exp, paths[1], int(trials[0]))
+    return paths
+
+
+def sweep_figures(summ: pd.DataFrame, keys: list[str], out_dir: Path, title: str) -> list[Path]:
+    """One figure per metric against the first swept key; a line per filter run (and per value
+    of the other swept keys) with its 95% band; a log axis where the values span decades."""
+    folder = out_dir / "figures"
+    folder.mkdir(parents=True, exist_ok=True)
+    x = keys[0]
+    others = keys[1:]
+    paths = []
+    numeric = pd.to_numeric(summ[x], errors="coerce")
+    for m, ylabel in (("rmse", "RMSE per trial"), ("wall_s", "wall time per trial (s)"),
+                      ("heading_rmse", "heading RMSE (rad)"),
+                      ("landmark_error", "landmark error (m)")):
+        if f"{m}_mean" not in summ or summ[f"{m}_mean"].isna().all():
+            continue
+        fig, ax = plt.subplots(figsize=(7.2, 4.2))
+        for vals, g in summ.groupby(others + ["label", "particles"], sort=False, dropna=False):
+            vals = vals if isinstance(vals, tuple) else (vals,)
+            g = g.assign(_x=pd.to_numeric(g[x], errors="coerce")).sort_values("_x")
+            name = " ".join([f"{k.split('.')[-1]}={v}" for k, v in zip(others, vals)]
+                            + [str(vals[len(others)])]
+                            + ([f"N={int(vals[-1])}"] if vals[-1] == vals[-1] else []))
+            line, = ax.plot(g["_x"], g[f"{m}_mean"], "o-", ms=4, label=name)
+            ax.fill_between(g["_x"], g[f"{m}_ci_lo"], g[f"{m}_ci_hi"], color=line.get_color(),
+                            alpha=0.18)
+        pos = numeric[numeric > 0]
+        if len(pos) and pos.max() / pos.min() >= 100:
+            ax.set_xscale("log")
+        ax.set_xlabel(x)
+        ax.set_ylabel(ylabel)
+        ax.set_title(f"{title}: {ylabel} (mean and 95% band)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        path = folder / f"{m}.png"
+        save_figure(fig, path)
+        paths.append(path)
     return paths

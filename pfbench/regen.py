@@ -73,7 +73,10 @@ def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: st
     from . import sweep as sw
     summ = sw.summary(trials_df, keys)
     atomic_write(folder / "summary.csv", summ.to_csv(index=False, lineterminator="\n"))
-    return summ, (sw.figures(summ, keys, folder, name) if figures else [])
+    if not figures:
+        return summ, []
+    from .plots import sweep_figures
+    return summ, sweep_figures(summ, keys, folder, name)
 
 
 def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int | None = None,

@@ -252,7 +252,7 @@ def comparison(e: Entry) -> list[str]:
                 if why not in reasons:
                     reasons.append(why)
                 v = f"not comparable ({reasons.index(why) + 1})"
-            row += [tb._ours_cell(r, q), tb._fmt(r[f"paper_{q.key}"], 6), v]
+            row += [tb.ours_cell(r, q), tb.fmt(r[f"paper_{q.key}"], 6), v]
         cells.append(row)
     out = _table_md(head, cells)
     if reasons:
@@ -333,8 +333,8 @@ def _sweep_section(e: Entry, where: Path) -> list[str]:
             "milliseconds per trial:", ""]
     head = keys + ["Filter", "N", "RMSE mean [95% CI]", "ms/trial"]
     cells = [[_fmt_value(r[k]) for k in keys] + [r["label"], _n(r["particles"]),
-             f"{tb._fmt(r['rmse_mean'])} [{tb._fmt(r['rmse_ci_lo'])}, "
-             f"{tb._fmt(r['rmse_ci_hi'])}]", tb._fmt(1e3 * r["wall_s_mean"], 3)]
+             f"{tb.fmt(r['rmse_mean'])} [{tb.fmt(r['rmse_ci_lo'])}, "
+             f"{tb.fmt(r['rmse_ci_hi'])}]", tb.fmt(1e3 * r["wall_s_mean"], 3)]
              for _, r in s.iterrows()]
     out += _table_md(head, cells) + [""]
     return out + _figures(e.folder, where) + [""]

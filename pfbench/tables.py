@@ -264,8 +264,8 @@ def per_trial(exp: Experiment, table: Table, by_key: dict) -> tuple[str, list[st
     cells = []
     for name, label, vals in spec.rows:
         run = _run_by_label(exp, label)
-        cells.append([f"paper: {name}"] + [_fmt(v, 3) for v in vals]
-                     + [""] * (R - len(vals)) + [_fmt(float(np.mean(vals)), 3)])
+        cells.append([f"paper: {name}"] + [fmt(v, 3) for v in vals]
+                     + [""] * (R - len(vals)) + [fmt(float(np.mean(vals)), 3)])
         if run is None:
             continue
         g = by_key[run.key].sort_values("trial")
@@ -273,13 +273,13 @@ def per_trial(exp: Experiment, table: Table, by_key: dict) -> tuple[str, list[st
             v = g[metric].to_numpy(float)
             s = summarize(v)
             what = f"ours: {label}" + ("" if metric == spec.metric else f", {metric}")
-            cells.append([what] + [_fmt(x, 3) for x in v[:R]] + ["-"] * (R - min(R, v.size))
-                         + [f"{_fmt(s['mean'], 3)} [{_fmt(s['ci_lo'], 3)}, "
-                            f"{_fmt(s['ci_hi'], 3)}]"])
+            cells.append([what] + [fmt(x, 3) for x in v[:R]] + ["-"] * (R - min(R, v.size))
+                         + [f"{fmt(s['mean'], 3)} [{fmt(s['ci_lo'], 3)}, "
+                            f"{fmt(s['ci_hi'], 3)}]"])
     return spec.title, head, cells
 
 
-def _fmt(v, digits=4) -> str:
+def fmt(v, digits=4) -> str:
     if v is None or (isinstance(v, float) and math.isnan(v)):
         return "-"
     if isinstance(v, float):
@@ -313,15 +313,15 @@ def display_columns(exp: Experiment, tab: pd.DataFrame) -> tuple[list[str], list
     for _, r in tab.iterrows():
         n = r["particles"]
         row = [r["label"], "-" if n is None or n != n else str(int(n)), str(int(r["trials"])),
-               f"{_fmt(r['rmse_mean'])} [{_fmt(r['rmse_ci_lo'])}, {_fmt(r['rmse_ci_hi'])}]",
-               f"{_fmt(r['rmse_var'])} [{_fmt(r['rmse_var_ci_lo'])}, {_fmt(r['rmse_var_ci_hi'])}]"]
+               f"{fmt(r['rmse_mean'])} [{fmt(r['rmse_ci_lo'])}, {fmt(r['rmse_ci_hi'])}]",
+               f"{fmt(r['rmse_var'])} [{fmt(r['rmse_var_ci_lo'])}, {fmt(r['rmse_var_ci_hi'])}]"]
         for q in quantities:
-            row += (([] if q.metric == "rmse" else [_ours_cell(r, q)])
-                    + [_fmt(r[f"paper_{q.key}"], 6), _fmt(r[f"ratio_{q.key}"], 3),
+            row += (([] if q.metric == "rmse" else [ours_cell(r, q)])
+                    + [fmt(r[f"paper_{q.key}"], 6), fmt(r[f"ratio_{q.key}"], 3),
                        r[f"verdict_{q.key}"] or "-"])
         row += (_paired_cells(exp, r) if exp.compare["baseline"] else [])
-        row += [_fmt(r["mean_ess"]), _fmt(r["distinct_frac"], 3), _fmt(r["lik_evals_per_step"]),
-                _fmt(r["wall_ms_per_trial"], 3)]
+        row += [fmt(r["mean_ess"]), fmt(r["distinct_frac"], 3), fmt(r["lik_evals_per_step"]),
+                fmt(r["wall_ms_per_trial"], 3)]
         cells.append(row)
     return head, cells
 
@@ -331,11 +331,11 @@ def _ours_head(q: Quantity) -> str:
     return f"{what} [95% CI]"
 
 
-def _ours_cell(r, q: Quantity) -> str:
+def ours_cell(r, q: Quantity) -> str:
     v = r.get(f"ours_{q.key}", math.nan)
     if v != v:
         return "-"
-    return f"{_fmt(v)} [{_fmt(r[f'ours_lo_{q.key}'])}, {_fmt(r[f'ours_hi_{q.key}'])}]"
+    return f"{fmt(v)} [{fmt(r[f'ours_lo_{q.key}'])}, {fmt(r[f'ours_hi_{q.key}'])}]"
 
 
 def console_tables(exp: Experiment, tab: pd.DataFrame) -> list[tuple[str, list[str], list[list[str]]]]:
@@ -359,8 +359,8 @@ def console_tables(exp: Experiment, tab: pd.DataFrame) -> list[tuple[str, list[s
                 n = r["particles"]
                 v = r[f"verdict_{q.key}"] or "-"
                 comp.append([q.title, r["label"], "-" if n is None or n != n else str(int(n)),
-                             str(int(r["trials"])), _ours_cell(r, q),
-                             _fmt(r[f"paper_{q.key}"], 6),
+                             str(int(r["trials"])), ours_cell(r, q),
+                             fmt(r[f"paper_{q.key}"], 6),
                              "not comparable (table.md)" if v.startswith("not comparable") else v])
     for _, r in tab.iterrows():
         n = r["particles"]
@@ -368,16 +368,16 @@ def console_tables(exp: Experiment, tab: pd.DataFrame) -> list[tuple[str, list[s
         if not long:
             row = who + [str(int(r["trials"]))]
             if not quantities:
-                row.append(f"{_fmt(r['rmse_mean'])} [{_fmt(r['rmse_ci_lo'])}, "
-                           f"{_fmt(r['rmse_ci_hi'])}]")
+                row.append(f"{fmt(r['rmse_mean'])} [{fmt(r['rmse_ci_lo'])}, "
+                           f"{fmt(r['rmse_ci_hi'])}]")
             for q in quantities:
-                row += [_ours_cell(r, q), _fmt(r[f"paper_{q.key}"], 6),
+                row += [ours_cell(r, q), fmt(r[f"paper_{q.key}"], 6),
                         r[f"verdict_{q.key}"] or "-"]
             comp.append(row)
-        diag.append(who + [_fmt(r["rmse_var"])]
+        diag.append(who + [fmt(r["rmse_var"])]
                     + (_paired_cells(exp, r) if exp.compare["baseline"] else [])
-                    + [_fmt(r["mean_ess"]), _fmt(r["distinct_frac"], 3),
-                           _fmt(r["lik_evals_per_step"]), _fmt(r["wall_ms_per_trial"], 3)])
+                    + [fmt(r["mean_ess"]), fmt(r["distinct_frac"], 3),
+                           fmt(r["lik_evals_per_step"]), fmt(r["wall_ms_per_trial"], 3)])
     out = [("", comp_head, comp), ("diagnostics", diag_head, diag)]
     if tab.attrs.get("per_trial"):
         title, head, cells = tab.attrs["per_trial"]
@@ -398,9 +398,9 @@ def footnotes(exp: Experiment, tab: pd.DataFrame) -> list[str]:
     """Lines that explain the table: the floor row, underflow events."""
     notes = rankings(exp, tab)
     for f in tab.attrs.get("factors", []):
-        notes.append(f"{f['quantity']}, {f['to']} / {f['from']}: paper {_fmt(f['paper'], 3)} "
-                     f"({_fmt(f['paper_from'], 4)} -> {_fmt(f['paper_to'], 4)}); ours "
-                     f"{_fmt(f['ours'], 3)} [{_fmt(f['lo'], 3)}, {_fmt(f['hi'], 3)}] (paired "
+        notes.append(f"{f['quantity']}, {f['to']} / {f['from']}: paper {fmt(f['paper'], 3)} "
+                     f"({fmt(f['paper_from'], 4)} -> {fmt(f['paper_to'], 4)}); ours "
+                     f"{fmt(f['ours'], 3)} [{fmt(f['lo'], 3)}, {fmt(f['hi'], 3)}] (paired "
                      f"trials): {f['verdict'] or '-'}.")
     if exp.compare["paper_runs"]:
         notes.append(f"The paper's values come from {exp.compare['paper_runs']} runs: a verdict's "
