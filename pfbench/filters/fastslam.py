@@ -15,11 +15,13 @@ Memory: two buffers of N x M x 5 floats (means and covariances), 80 N M bytes.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
-from numba import njit, types
+from numba import njit, typeof, types
 
 from ..angles import wrap
+from ..models.pose import estimate_pose
 from ..resampling import SCHEME_CODES, SCHEMES, resample, stepwise_ewa_plan
 from ..rng import STATE, normal
 from ..schema import Key
@@ -376,421 +378,415 @@ def map_error(W, mu, seen, nl, src, assoc, lm_true, first):
     return acc / cnt if cnt else np.nan
 
 
-FASTSLAM_SIG = types.int64(
-    _F2, _I, _I2, _F3, _F, types.int64, _F, _F, _F, types.int64, types.int64, types.int64,
-    types.int64, types.int64, types.float64, types.int64, _F, types.int64, types.float64,
-    types.float64, types.int64, _F, types.int64, types.float64, types.float64, types.int64,
-    types.int64, STATE, _F2, _F, _I, _F2, _I, _F, _F, _F2, _F2, _F, types.int64)
+class Options(NamedTuple):
+    """FastSLAM's settings, as the jitted steps read them (``options`` builds it from a config).
 
-
-@njit(FASTSLAM_SIG, cache=True)
-def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, N, predict_noise,
-                    joseph, scheme, threshold, refine, sp, iters, ewa_beta, ewa_mu, ewa_printed,
-                    dnoise, assoc, gate_reject, gate_augment, gate_pose, motion, s, est, ess,
-                    resampled, lm_est, lm_seen, evals, assoc_stats, lm_true, div, lm_trace,
-                    diag):
-    """Run FastSLAM over one trial; fill est (T+1, 3) the weighted pose estimate at every control
-    step, ess / resampled / evals (K,) per observation, lm_est (M, 2) and lm_seen (M,) the final
-    weighted map. Returns the number of observation steps whose weights all underflowed.
-
-    motion : 0 = the steered vehicle, ctrl = [V, G], qctrl = [sigma_V, sigma_G] the noise each
-    particle draws on its controls (veh : [V, dt, L, ...]); 1 = odometry form, ctrl = [ds, dtheta]
-    per step, theta += dtheta, x += ds cos(theta), y += ds sin(theta), each particle adding pose
-    noise qctrl = [sigma_xy, sigma_theta]. R : [sigma_r^2, sigma_b^2]; refine : a swarm
-    algorithm (swarm.ALGORITHMS) or NO_SWARM, with its parameters sp (swarm.pack); scheme : a resampling code, EWA, or DIRECTIONAL (afsa2014's directional
-    resampling with the bulletin board, copies' noise dnoise (3,); see ``directional_resample``).
-    assoc : 0 = known identities (M = the number of landmarks, slot = identity); 1 = nearest
-        neighbour (M = the map capacity): an observation joins the landmark nearest in Mahalanobis
-        distance if its squared distance is <= gate_reject, starts a new landmark if every one
-        is > gate_augment, and is dropped in between. assoc_stats (5,) gets [associations,
-        wrong associations (the slot was started from another true landmark), observations
-        dropped as ambiguous, landmarks started] summed over particles and observations, and
-        the final map's duplicates (see lm_true).
-    lm_true (M_true, 2): the true landmarks, for lm_trace (K,): the mean distance of the
-        highest-weight particle's mapped landmarks to the true ones after each observation's update
-        (nearest: each true landmark by the first slot started from it), and for assoc_stats[4]:
-        the slots of the final map started from a true landmark that already had one (duplicates).
-    div (K, 2): after each observation that resampled, the particles' mean pairwise L1 pose
-        distance (|dx| + |dy| + |wrapped dtheta|) and the fraction of distinct poses (NaN where it
-        did not resample). div and lm_trace are filled only with diag = 1 (NaN otherwise).
-    gate_pose : 1 = the gates' distance includes each particle's pose uncertainty since its last
-        observation update (see ``mahalanobis2``): the motion noise it drew since then, plus the
-        noise of a directional or mutated copy; 0 = the plain FastSLAM 1.0 distance.
+    every : control steps per observation; N : particles; M : map slots per particle
+    dt, L : the steered vehicle's time step and wheelbase; motion : 0 steered vehicle, 1 odometry
+    q0, q1 : the control noise each particle draws (steered: sigma_V, sigma_G; odometry:
+        sigma_xy, sigma_theta); predict_noise : 1 to draw it
+    Rr, Rb : the variances of the range and bearing noise the filter assumes
+    joseph : 1 Joseph-form landmark updates, 0 the symmetrised simple form
+    assoc : 0 known identities, 1 nearest neighbour with gate_reject and gate_augment; gate_pose :
+        1 the gates' distance includes the pose uncertainty since the last update
+    refine : a swarm algorithm (swarm.ALGORITHMS) or NO_SWARM; iters : its iterations
+    scheme : a resampling code, EWA or DIRECTIONAL; threshold : resample when ESS < threshold;
+        ewa_beta, ewa_mu, ewa_printed : the stepwise EWA's settings
+    diag : 1 to fill the diagnostics that cost time (diversity, the map-error trace)
     """
-    T = ctrl.shape[0]
-    K = obs_n.shape[0]
-    dt, L = veh[1], veh[2]
-    Rr, Rb = R[0], R[1]
+
+    every: int
+    N: int
+    M: int
+    dt: float
+    L: float
+    motion: int
+    q0: float
+    q1: float
+    predict_noise: int
+    Rr: float
+    Rb: float
+    joseph: int
+    assoc: int
+    gate_reject: float
+    gate_augment: float
+    gate_pose: int
+    refine: int
+    iters: int
+    scheme: int
+    threshold: float
+    ewa_beta: float
+    ewa_mu: float
+    ewa_printed: int
+    diag: int
+
+
+OPTIONS = typeof(Options(1, 1, 1, 1.0, 1.0, 0, 1.0, 1.0, 1, 1.0, 1.0, 1, 0, 1.0, 1.0, 1, 0, 1, 0,
+                         1.0, 1.0, 1.0, 0, 1))
+
+
+class ParticleSet(NamedTuple):
+    """Particles with their maps: pose P (N, 3); per map slot the landmark's EKF, mean mu (N, M, 2)
+    and covariance sig (N, M, 3: xx, xy, yy), whether it is in use, seen (N, M); nl (N,) the slots
+    in use (nearest-neighbour association); src (N, M) the true landmark each slot was started
+    from (for the association statistics)."""
+
+    P: np.ndarray
+    mu: np.ndarray
+    sig: np.ndarray
+    seen: np.ndarray
+    nl: np.ndarray
+    src: np.ndarray
+
+
+PARTICLES = types.NamedTuple((_F2, _F3, _F3, _B2, _I, _I2), ParticleSet)
+
+
+@njit(PARTICLES(types.int64, types.int64, _F), cache=True)
+def new_particles(N, M, start):
+    """N particles at the pose ``start`` with empty maps of M slots."""
     P = np.empty((N, 3))
     for i in range(N):
         P[i, 0], P[i, 1], P[i, 2] = start[0], start[1], start[2]
-    mu = np.zeros((N, M, 2))
-    sig = np.zeros((N, M, 3))
-    seen = np.zeros((N, M), dtype=np.int8)
-    mu2 = np.zeros((N, M, 2))
-    sig2 = np.zeros((N, M, 3))
-    seen2 = np.zeros((N, M), dtype=np.int8)
-    nl = np.zeros(N, dtype=np.int64)          # landmarks in each particle's map (nearest mode)
-    nl2 = np.zeros(N, dtype=np.int64)
-    src = np.full((N, M), -1, dtype=np.int64)  # the true landmark each slot was started from
-    src2 = np.full((N, M), -1, dtype=np.int64)
-    pc = np.zeros((N, 6))     # pose uncertainty since the last update: [xx, xy, xt, yy, yt, tt]
-    pcm = np.zeros(6)         # the cloud's mean of it at the last observation
-    M_true = lm_true.shape[0]
-    first = np.zeros(M_true, dtype=np.int8)
-    n_assoc = 0.0
-    n_wrong = 0.0
-    n_drop = 0.0
-    n_new = 0.0
-    # bulletin boards (directional resampling): the best particle of the last observation, in
-    # use, and of this one, for the next
-    bP = np.zeros(3)
-    bmu = np.zeros((M, 2))
-    bsig = np.zeros((M, 3))
-    bseen = np.zeros(M, dtype=np.int8)
-    bsrc = np.full(M, -1, dtype=np.int64)
-    nP = np.zeros(3)
-    nmu = np.zeros((M, 2))
-    nsig = np.zeros((M, 3))
-    nseen = np.zeros(M, dtype=np.int8)
-    nsrc = np.full(M, -1, dtype=np.int64)
-    bnl = 0
-    nnl = 0
-    have_board = False
-    xbar_prev = np.zeros(3)
-    xbar = np.zeros(3)
-    shift = np.zeros(3)
-    P2 = np.empty((N, 3))
-    lw = np.zeros(N)
-    w = np.full(N, 1.0)
-    Wn = np.full(N, 1.0 / N)
-    idx = np.empty(N, dtype=np.int64)
-    mutant = np.empty(N, dtype=np.int8)
-    ll = np.empty(N)
-    llc = np.empty(N)
-    fit = np.empty(N)
-    V = np.empty(3 * N)
-    Pb = np.empty(3 * N)
-    Pfit = np.empty(N)
-    A = np.empty(N)
-    rr = np.empty(N)
-    C = np.empty(3 * N)
-    scale = np.ones(3)
-    mean = np.zeros(3)
-    Xs = np.empty(3 * N)          # AFSA: poses in units of the cloud's spread
-    Xc = np.empty(3 * N)
-    nf = np.empty(N)
-    fitc = np.empty(N)
-    C3 = np.empty(9 * N)
-    ll3 = np.empty(3 * N)
-    fit3 = np.empty(3 * N)
-    events = 0
-    est[0, 0], est[0, 1], est[0, 2] = start[0], start[1], start[2]
-    k = 0
-    for t in range(T):
-        Vc, Gc = ctrl[t, 0], ctrl[t, 1]
-        if motion == 1:
-            # the simulator's order: the heading noise turns this step's move
-            for i in range(N):
-                th = P[i, 2] + Gc
-                if predict_noise:
-                    th += qctrl[1] * normal(s)
-                P[i, 0] += Vc * math.cos(th)
-                P[i, 1] += Vc * math.sin(th)
-                if predict_noise:
-                    P[i, 0] += qctrl[0] * normal(s)
-                    P[i, 1] += qctrl[0] * normal(s)
-                P[i, 2] = wrap(th)
-            if gate_pose:
-                # C <- F C F^T + G Q G^T, F = d(pose)/d(pose), G Q G^T of the heading noise
-                # turning the move and the additive position noise
-                for i in range(N):
-                    c, sn_ = math.cos(P[i, 2]), math.sin(P[i, 2])
-                    fx, fy = -Vc * sn_, Vc * c
-                    propagate_pose_cov(pc[i], fx, fy, fx, fy, 1.0, qctrl[1] ** 2, 0.0, 0.0, 0.0,
-                                       0.0, qctrl[0] ** 2)
-        else:
-            for i in range(N):
-                v, g = Vc, Gc
-                if predict_noise:
-                    v += qctrl[0] * normal(s)
-                    g += qctrl[1] * normal(s)
-                P[i, 0] += v * dt * math.cos(P[i, 2] + g)
-                P[i, 1] += v * dt * math.sin(P[i, 2] + g)
-                P[i, 2] = wrap(P[i, 2] + v * dt * math.sin(g) / L)
-            if gate_pose:
-                # the control noise (sigma_V, sigma_G) through the steered model's Jacobian
-                cg, sg = math.cos(Gc), math.sin(Gc)
-                for i in range(N):
-                    ca, sa = math.cos(P[i, 2] + Gc), math.sin(P[i, 2] + Gc)
-                    propagate_pose_cov(pc[i], -Vc * dt * sa, Vc * dt * ca, dt * ca, dt * sa,
-                                       dt * sg / L, qctrl[0] ** 2, -Vc * dt * sa, Vc * dt * ca,
-                                       Vc * dt * cg / L, qctrl[1] ** 2, 0.0)
-        if (t + 1) % every == 0 and k < K:
-            n = obs_n[k]
-            ids = obs_id[k]
-            zs = obs_z[k]
-            nev = 0
-            if refine != NO_SWARM and iters > 0:
-                # headings as continuous values around the cloud's circular mean
-                th0 = circular_mean(P)
-                for i in range(N):
-                    P[i, 2] = th0 + wrap(P[i, 2] - th0)
-                X = P.reshape(3 * N)
-                # the unit of each coordinate's random step: the predicted cloud's spread
-                for d in range(3):
-                    m1 = 0.0
-                    m2 = 0.0
-                    for i in range(N):
-                        m1 += P[i, d]
-                        m2 += P[i, d] * P[i, d]
-                    m1 /= N
-                    mean[d] = m1
-                    scale[d] = math.sqrt(max(m2 / N - m1 * m1, 1e-12))
-                _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll, assoc, nl, gate_augment, pc)
-                nev += N
-                for it in range(iters):
-                    M0 = ll.max()
-                    if refine == FA or refine == IFA:
-                        if refine == FA:
-                            for i in range(N):
-                                fit[i] = math.exp(ll[i] - M0)
-                            fa_move(X, fit, 3, sp[0], sp[1], sp[2], scale, s)
-                        else:
-                            # IFA brightness: innovations' Mahalanobis sum and the pose's
-                            # distance from the predicted cloud in units of its spread
-                            mx = 0.0
-                            my = 0.0
-                            mt = 0.0
-                            for i in range(N):
-                                mx += P[i, 0]
-                                my += P[i, 1]
-                                mt += P[i, 2]
-                            mx /= N
-                            my /= N
-                            mt /= N
-                            vx = 1e-12
-                            vy = 1e-12
-                            vt = 1e-12
-                            for i in range(N):
-                                vx += (P[i, 0] - mx) ** 2 / N
-                                vy += (P[i, 1] - my) ** 2 / N
-                                vt += (P[i, 2] - mt) ** 2 / N
-                            for i in range(N):
-                                d2 = ((P[i, 0] - mx) ** 2 / vx + (P[i, 1] - my) ** 2 / vy
-                                      + (P[i, 2] - mt) ** 2 / vt)
-                                fit[i] = math.exp(ll[i] - M0 - 0.5 * d2)
-                            ifa_move(X, fit, 3, sp[0], sp[1], Rr, scale, s)
-                        _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll, assoc, nl, gate_augment,
-                                 pc)
-                        nev += N
-                    elif refine == BA:
-                        if it == 0:
-                            V[:] = 0.0
-                            A[:] = sp[2]
-                            rr[:] = sp[3]
-                        g = argmax(ll)
-                        ba_propose(X, V, A, rr, C, 3, g, sp[0], sp[1], scale, s)
-                        Cp = C.reshape((N, 3))
-                        _fitness(Cp, mu, sig, seen, ids, zs, n, Rr, Rb, llc, assoc, nl,
-                                 gate_augment, pc)
-                        nev += N
-                        ba_accept(X, ll, C, llc, A, rr, 3, sp[4], sp[5], sp[3], it + 1, s)
-                    elif refine == AFSA:
-                        # AFSA in units of the predicted cloud's spread (visual and step too)
-                        for i in range(N):
-                            for d in range(3):
-                                Xs[3 * i + d] = (P[i, d] - mean[d]) / scale[d]
-                            fit[i] = math.exp(ll[i] - M0)
-                        afsa_centres(Xs, fit, 3, sp[0], Xc, nf)
-                        _fitness_scaled(Xc, mean, scale, mu, sig, seen, ids, zs, n, Rr, Rb, llc,
-                                        assoc, nl, gate_augment, pc)
-                        for i in range(N):
-                            fitc[i] = math.exp(llc[i] - M0)
-                        afsa_propose(Xs, fit, Xc, fitc, nf, 3, sp[0], sp[1], sp[2], int(sp[3]), s,
-                                     C3)
-                        _fitness_scaled(C3, mean, scale, mu, sig, seen, ids, zs, n, Rr, Rb, ll3,
-                                        assoc, nl, gate_augment, pc)
-                        for r in range(3 * N):
-                            fit3[r] = math.exp(ll3[r] - M0)
-                        afsa_select(Xs, fit, C3, fit3, 3, int(sp[4]))
-                        for i in range(N):
-                            for d in range(3):
-                                P[i, d] = mean[d] + scale[d] * Xs[3 * i + d]
-                            ll[i] = math.log(fit[i]) + M0 if fit[i] > 0.0 else -np.inf
-                        nev += 4 * N
-                    else:   # PSO
-                        if it == 0:
-                            V[:] = 0.0
-                            Pb[:] = X
-                            Pfit[:] = ll
-                        g = argmax(Pfit)
-                        pso_propose(X, V, Pb, Pfit, 3, g, sp[0], sp[1], sp[2], s)
-                        _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, ll, assoc, nl, gate_augment,
-                                 pc)
-                        nev += N
-                        pso_accept(X, ll, Pb, Pfit, 3)
-                for i in range(N):
-                    P[i, 2] = wrap(P[i, 2])
-            # weights and map updates
-            mx = -np.inf
-            for i in range(N):
-                px, py, pth = P[i, 0], P[i, 1], P[i, 2]
-                for j in range(n):
-                    if assoc:
-                        m, d2 = nearest_landmark(px, py, pth, i, mu, sig, nl[i], zs[j, 0],
-                                                 zs[j, 1], Rr, Rb, pc[i])
-                        if d2 <= gate_reject:
-                            n_assoc += 1.0
-                            if src[i, m] != ids[j]:
-                                n_wrong += 1.0
-                            lw[i] += ekf_landmark_update(px, py, pth, mu[i, m], sig[i, m],
-                                                         zs[j, 0], zs[j, 1], Rr, Rb, joseph)
-                            continue
-                        if d2 <= gate_augment:   # between the gates: ambiguous, dropped
-                            n_drop += 1.0
-                            continue
-                        if nl[i] >= M:          # the map is full: the observation is dropped
-                            n_drop += 1.0
-                            continue
-                        m = nl[i]
-                        nl[i] += 1
-                        n_new += 1.0
-                        src[i, m] = ids[j]
-                        init_landmark(px, py, pth, zs[j, 0], zs[j, 1], Rr, Rb, mu[i, m],
-                                      sig[i, m])
-                        seen[i, m] = 1
-                        continue
-                    m = ids[j]
-                    if seen[i, m]:
-                        lw[i] += ekf_landmark_update(px, py, pth, mu[i, m], sig[i, m], zs[j, 0],
-                                                     zs[j, 1], Rr, Rb, joseph)
-                    else:
-                        init_landmark(px, py, pth, zs[j, 0], zs[j, 1], Rr, Rb, mu[i, m],
-                                      sig[i, m])
-                        seen[i, m] = 1
-                mx = max(mx, lw[i])
-            nev += N
-            evals[k] = nev
-            if gate_pose:
-                for d in range(6):
-                    pcm[d] = pc[:, d].mean()
-            pc[:] = 0.0         # the poses are now tied to their maps again
-            Ssum, S2, sx, under = normalise(lw, w, P[:, 0].copy(), mx)
-            events += int(under)
-            ess[k] = Ssum * Ssum / S2
-            for i in range(N):
-                Wn[i] = w[i] / Ssum
-            lm_trace[k] = (map_error(Wn, mu, seen, nl, src, assoc, lm_true, first) if diag
-                           else np.nan)
-            resampled[k] = 0
-            if scheme == DIRECTIONAL:
-                # this observation's weighted estimate and best particle (the next board)
-                xbar[0] = 0.0
-                xbar[1] = 0.0
-                cs = 0.0
-                sn = 0.0
-                b = 0
-                for i in range(N):
-                    xbar[0] += Wn[i] * P[i, 0]
-                    xbar[1] += Wn[i] * P[i, 1]
-                    cs += Wn[i] * math.cos(P[i, 2])
-                    sn += Wn[i] * math.sin(P[i, 2])
-                    if Wn[i] > Wn[b]:
-                        b = i
-                xbar[2] = math.atan2(sn, cs)
-                nP[:] = P[b]
-                nmu[:] = mu[b]
-                nsig[:] = sig[b]
-                nseen[:] = seen[b]
-                nsrc[:] = src[b]
-                nnl = nl[b]
-                if not have_board:
-                    bP[:] = nP
-                    bmu[:] = nmu
-                    bsig[:] = nsig
-                    bseen[:] = nseen
-                    bsrc[:] = nsrc
-                    bnl = nnl
-                    xbar_prev[:] = xbar
-                    have_board = True
-            if ess[k] < threshold:
-                if scheme == DIRECTIONAL:
-                    shift[0] = xbar[0] - xbar_prev[0]
-                    shift[1] = xbar[1] - xbar_prev[1]
-                    shift[2] = wrap(xbar[2] - xbar_prev[2])
-                    directional_resample(Wn, P, mu, sig, seen, nl, src, bP, bmu, bsig, bseen, bnl,
-                                         bsrc, shift, dnoise, _SYSTEMATIC, s, P2,
-                                         mu2, sig2, seen2, nl2, src2)
-                    if gate_pose:
-                        # a copy sits off the board's map by the board's motion since its
-                        # update and by the copy's noise
-                        for i in range(N - N // 2, N):
-                            pc[i] = pcm
-                            pc[i, 0] += dnoise[0] ** 2
-                            pc[i, 3] += dnoise[1] ** 2
-                            pc[i, 5] += dnoise[2] ** 2
-                else:
-                    if scheme == EWA:
-                        stepwise_ewa_plan(Wn, ewa_beta, ewa_printed, idx, mutant)
-                    else:
-                        resample(scheme, w, Ssum, s, idx)
-                        mutant[:] = 0
-                    for i in range(N):
-                        j = idx[i]
-                        for d in range(3):
-                            P2[i, d] = P[j, d]
-                        if mutant[i]:
-                            for d in range(3):
-                                P2[i, d] += P2[i, d] * ewa_mu * normal(s)
-                            P2[i, 2] = wrap(P2[i, 2])
-                            if gate_pose:
-                                for d in range(3):
-                                    pc[i, (0, 3, 5)[d]] = (P[j, d] * ewa_mu) ** 2
-                        mu2[i] = mu[j]
-                        sig2[i] = sig[j]
-                        seen2[i] = seen[j]
-                        nl2[i] = nl[j]
-                        src2[i] = src[j]
-                P, P2 = P2, P           # the new set becomes the current one
-                mu, mu2 = mu2, mu
-                sig, sig2 = sig2, sig
-                seen, seen2 = seen2, seen
-                nl, nl2 = nl2, nl
-                src, src2 = src2, src
-                lw[:] = 0.0
-                Wn[:] = 1.0 / N
-                resampled[k] = 1
-                if diag:
-                    div[k, 0], div[k, 1] = pose_diversity(P)
-                else:
-                    div[k, 0], div[k, 1] = np.nan, np.nan
-            else:
-                div[k, 0], div[k, 1] = np.nan, np.nan
-            if scheme == DIRECTIONAL:     # the board for the next observation
-                bP, nP = nP, bP
-                bmu, nmu = nmu, bmu
-                bsig, nsig = nsig, bsig
-                bseen, nseen = nseen, bseen
-                bsrc, nsrc = nsrc, bsrc
-                bnl = nnl
-                xbar_prev[:] = xbar
-            k += 1
-        # the weighted pose estimate (circular mean for the heading)
-        ex = 0.0
-        ey = 0.0
-        ec = 0.0
-        es = 0.0
+    return ParticleSet(P, np.zeros((N, M, 2)), np.zeros((N, M, 3)),
+                       np.zeros((N, M), dtype=np.int8), np.zeros(N, dtype=np.int64),
+                       np.full((N, M), -1, dtype=np.int64))
+
+
+@njit(types.void(PARTICLES, types.int64, PARTICLES, types.int64), cache=True)
+def copy_particle(a, i, b, j):
+    """Particle i of a becomes particle j of b (its pose and its map)."""
+    b.P[j] = a.P[i]
+    b.mu[j] = a.mu[i]
+    b.sig[j] = a.sig[i]
+    b.seen[j] = a.seen[i]
+    b.nl[j] = a.nl[i]
+    b.src[j] = a.src[i]
+
+
+@njit(types.void(_F2, _F2, types.float64, types.float64, OPTIONS, STATE), cache=True)
+def predict(P, pc, Vc, Gc, o, s):
+    """Move every particle by the controls (Vc, Gc), each with its own draw of the control noise,
+    and grow its pose uncertainty pc (N, 6: xx, xy, xt, yy, yt, tt) by the motion's."""
+    N = P.shape[0]
+    if o.motion == 1:
+        # the simulator's order: the heading noise turns this step's move
         for i in range(N):
-            ex += Wn[i] * P[i, 0]
-            ey += Wn[i] * P[i, 1]
-            ec += Wn[i] * math.cos(P[i, 2])
-            es += Wn[i] * math.sin(P[i, 2])
-        est[t + 1, 0], est[t + 1, 1], est[t + 1, 2] = ex, ey, math.atan2(es, ec)
-    assoc_stats[0], assoc_stats[1], assoc_stats[2], assoc_stats[3] = n_assoc, n_wrong, n_drop, n_new
-    if assoc:
-        # the final map: the highest-weight particle's, each slot compared with the true landmark
-        # it was started from (lm_est has a row per true landmark)
+            th = P[i, 2] + Gc
+            if o.predict_noise:
+                th += o.q1 * normal(s)
+            P[i, 0] += Vc * math.cos(th)
+            P[i, 1] += Vc * math.sin(th)
+            if o.predict_noise:
+                P[i, 0] += o.q0 * normal(s)
+                P[i, 1] += o.q0 * normal(s)
+            P[i, 2] = wrap(th)
+        if o.gate_pose:
+            # C <- F C F^T + G Q G^T, F = d(pose)/d(pose), G Q G^T of the heading noise
+            # turning the move and the additive position noise
+            for i in range(N):
+                c, sn_ = math.cos(P[i, 2]), math.sin(P[i, 2])
+                fx, fy = -Vc * sn_, Vc * c
+                propagate_pose_cov(pc[i], fx, fy, fx, fy, 1.0, o.q1 ** 2, 0.0, 0.0, 0.0,
+                                   0.0, o.q0 ** 2)
+        return
+    dt, L = o.dt, o.L
+    for i in range(N):
+        v, g = Vc, Gc
+        if o.predict_noise:
+            v += o.q0 * normal(s)
+            g += o.q1 * normal(s)
+        P[i, 0] += v * dt * math.cos(P[i, 2] + g)
+        P[i, 1] += v * dt * math.sin(P[i, 2] + g)
+        P[i, 2] = wrap(P[i, 2] + v * dt * math.sin(g) / L)
+    if o.gate_pose:
+        # the control noise (sigma_V, sigma_G) through the steered model's Jacobian
+        cg, sg = math.cos(Gc), math.sin(Gc)
+        for i in range(N):
+            ca, sa = math.cos(P[i, 2] + Gc), math.sin(P[i, 2] + Gc)
+            propagate_pose_cov(pc[i], -Vc * dt * sa, Vc * dt * ca, dt * ca, dt * sa,
+                               dt * sg / L, o.q0 ** 2, -Vc * dt * sa, Vc * dt * ca,
+                               Vc * dt * cg / L, o.q1 ** 2, 0.0)
+
+
+class SwarmWork(NamedTuple):
+    """Scratch arrays of the swarm refinement (N particles, poses flat: 3 N)."""
+
+    ll: np.ndarray      # (N,) fitness: each pose's log-likelihood under its own map
+    llc: np.ndarray     # (N,) the candidates' fitness
+    fit: np.ndarray     # (N,) brightness / fitness in (0, 1]
+    V: np.ndarray       # (3 N,) BA and PSO velocities
+    Pb: np.ndarray      # (3 N,) PSO: each particle's best pose
+    Pfit: np.ndarray    # (N,) PSO: its fitness
+    A: np.ndarray       # (N,) BA loudness
+    rr: np.ndarray      # (N,) BA pulse rate
+    C: np.ndarray       # (3 N,) BA candidates
+    scale: np.ndarray   # (3,) the predicted cloud's spread per coordinate
+    mean: np.ndarray    # (3,) and its mean
+    Xs: np.ndarray      # (3 N,) AFSA: poses in units of the spread
+    Xc: np.ndarray      # (3 N,) AFSA: neighbourhood centres
+    nf: np.ndarray      # (N,) AFSA: neighbours
+    fitc: np.ndarray    # (N,) AFSA: the centres' fitness
+    C3: np.ndarray      # (9 N,) AFSA: the three behaviours' candidates
+    ll3: np.ndarray     # (3 N,) their log-likelihoods
+    fit3: np.ndarray    # (3 N,) their fitness
+
+
+SWARM_WORK = types.NamedUniTuple(_F, 18, SwarmWork)
+
+
+@njit(SWARM_WORK(types.int64), cache=True)
+def new_swarm_work(N):
+    return SwarmWork(np.empty(N), np.empty(N), np.empty(N), np.empty(3 * N), np.empty(3 * N),
+                     np.empty(N), np.empty(N), np.empty(N), np.empty(3 * N), np.ones(3),
+                     np.zeros(3), np.empty(3 * N), np.empty(3 * N), np.empty(N), np.empty(N),
+                     np.empty(9 * N), np.empty(3 * N), np.empty(3 * N))
+
+
+@njit(types.void(_F2, SWARM_WORK), cache=True)
+def cloud_units(P, wk):
+    """Headings as continuous values around the cloud's circular mean; the cloud's mean and
+    spread per coordinate (the unit of each coordinate's random step) into wk.mean, wk.scale."""
+    N = P.shape[0]
+    th0 = circular_mean(P)
+    for i in range(N):
+        P[i, 2] = th0 + wrap(P[i, 2] - th0)
+    for d in range(3):
+        m1 = 0.0
+        m2 = 0.0
+        for i in range(N):
+            m1 += P[i, d]
+            m2 += P[i, d] * P[i, d]
+        m1 /= N
+        wk.mean[d] = m1
+        wk.scale[d] = math.sqrt(max(m2 / N - m1 * m1, 1e-12))
+
+
+@njit(types.void(_F2, _F, types.float64, _F), cache=True)
+def ifa_brightness(P, ll, M0, fit):
+    """IFA's brightness: the innovations' likelihood and the pose's distance from the predicted
+    cloud in units of its spread."""
+    N = P.shape[0]
+    mx = 0.0
+    my = 0.0
+    mt = 0.0
+    for i in range(N):
+        mx += P[i, 0]
+        my += P[i, 1]
+        mt += P[i, 2]
+    mx /= N
+    my /= N
+    mt /= N
+    vx = 1e-12
+    vy = 1e-12
+    vt = 1e-12
+    for i in range(N):
+        vx += (P[i, 0] - mx) ** 2 / N
+        vy += (P[i, 1] - my) ** 2 / N
+        vt += (P[i, 2] - mt) ** 2 / N
+    for i in range(N):
+        d2 = ((P[i, 0] - mx) ** 2 / vx + (P[i, 1] - my) ** 2 / vy + (P[i, 2] - mt) ** 2 / vt)
+        fit[i] = math.exp(ll[i] - M0 - 0.5 * d2)
+
+
+_OBS = (_I, _F2, types.int64)      # a step's observations: ids, zs (n, 2), n
+
+
+@njit(types.int64(PARTICLES, _F2, *_OBS, OPTIONS, _F, SWARM_WORK, STATE), cache=True)
+def afsa_iteration(ps, pc, ids, zs, n, o, sp, wk, s):
+    """One AFSA iteration over the poses, in units of the predicted cloud's spread (visual and
+    step too); returns the likelihood evaluations."""
+    P, N = ps.P, ps.P.shape[0]
+    M0 = wk.ll.max()
+    for i in range(N):
+        for d in range(3):
+            wk.Xs[3 * i + d] = (P[i, d] - wk.mean[d]) / wk.scale[d]
+        wk.fit[i] = math.exp(wk.ll[i] - M0)
+    afsa_centres(wk.Xs, wk.fit, 3, sp[0], wk.Xc, wk.nf)
+    _fitness_scaled(wk.Xc, wk.mean, wk.scale, ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb,
+                    wk.llc, o.assoc, ps.nl, o.gate_augment, pc)
+    for i in range(N):
+        wk.fitc[i] = math.exp(wk.llc[i] - M0)
+    afsa_propose(wk.Xs, wk.fit, wk.Xc, wk.fitc, wk.nf, 3, sp[0], sp[1], sp[2], int(sp[3]), s,
+                 wk.C3)
+    _fitness_scaled(wk.C3, wk.mean, wk.scale, ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb,
+                    wk.ll3, o.assoc, ps.nl, o.gate_augment, pc)
+    for r in range(3 * N):
+        wk.fit3[r] = math.exp(wk.ll3[r] - M0)
+    afsa_select(wk.Xs, wk.fit, wk.C3, wk.fit3, 3, int(sp[4]))
+    for i in range(N):
+        for d in range(3):
+            P[i, d] = wk.mean[d] + wk.scale[d] * wk.Xs[3 * i + d]
+        wk.ll[i] = math.log(wk.fit[i]) + M0 if wk.fit[i] > 0.0 else -np.inf
+    return 4 * N
+
+
+@njit(types.int64(PARTICLES, _F2, *_OBS, OPTIONS, _F, SWARM_WORK, STATE), cache=True)
+def refine_poses(ps, pc, ids, zs, n, o, sp, wk, s):
+    """The swarm refinement of the predicted poses (ifa2021, afsa2014): ``o.iters`` iterations of
+    the swarm algorithm ``o.refine`` (parameters sp, swarm.pack), the fitness of a pose its
+    observations' likelihood under the particle's own map; returns the likelihood evaluations."""
+    P, N = ps.P, ps.P.shape[0]
+    cloud_units(P, wk)
+    X = P.reshape(3 * N)
+    _fitness(P, ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb, wk.ll, o.assoc, ps.nl,
+             o.gate_augment, pc)
+    nev = N
+    for it in range(o.iters):
+        if o.refine == FA or o.refine == IFA:
+            M0 = wk.ll.max()
+            if o.refine == FA:
+                for i in range(N):
+                    wk.fit[i] = math.exp(wk.ll[i] - M0)
+                fa_move(X, wk.fit, 3, sp[0], sp[1], sp[2], wk.scale, s)
+            else:
+                ifa_brightness(P, wk.ll, M0, wk.fit)
+                ifa_move(X, wk.fit, 3, sp[0], sp[1], o.Rr, wk.scale, s)
+            _fitness(P, ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb, wk.ll, o.assoc, ps.nl,
+                     o.gate_augment, pc)
+            nev += N
+        elif o.refine == BA:
+            if it == 0:
+                wk.V[:] = 0.0
+                wk.A[:] = sp[2]
+                wk.rr[:] = sp[3]
+            ba_propose(X, wk.V, wk.A, wk.rr, wk.C, 3, argmax(wk.ll), sp[0], sp[1], wk.scale, s)
+            _fitness(wk.C.reshape((N, 3)), ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb,
+                     wk.llc, o.assoc, ps.nl, o.gate_augment, pc)
+            nev += N
+            ba_accept(X, wk.ll, wk.C, wk.llc, wk.A, wk.rr, 3, sp[4], sp[5], sp[3], it + 1, s)
+        elif o.refine == AFSA:
+            nev += afsa_iteration(ps, pc, ids, zs, n, o, sp, wk, s)
+        else:   # PSO
+            if it == 0:
+                wk.V[:] = 0.0
+                wk.Pb[:] = X
+                wk.Pfit[:] = wk.ll
+            pso_propose(X, wk.V, wk.Pb, wk.Pfit, 3, argmax(wk.Pfit), sp[0], sp[1], sp[2], s)
+            _fitness(P, ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb, wk.ll, o.assoc, ps.nl,
+                     o.gate_augment, pc)
+            nev += N
+            pso_accept(X, wk.ll, wk.Pb, wk.Pfit, 3)
+    for i in range(N):
+        P[i, 2] = wrap(P[i, 2])
+    return nev
+
+
+@njit(types.float64(PARTICLES, _F2, *_OBS, OPTIONS, _F, _F), cache=True)
+def update_maps(ps, pc, ids, zs, n, o, lw, stats):
+    """Each particle's map takes the step's observations: a landmark already mapped gets an EKF
+    update and multiplies the particle's weight (lw, log) by the innovation's likelihood; a new one
+    is started by the inverse model. Nearest-neighbour association (o.assoc) joins an observation
+    to the nearest landmark within gate_reject, starts one beyond gate_augment, drops it in
+    between or when the map is full; stats (4,) counts [associations, wrong ones, dropped,
+    started]. Returns the largest log-weight."""
+    mx = -np.inf
+    M = ps.mu.shape[1]
+    for i in range(ps.P.shape[0]):
+        px, py, pth = ps.P[i, 0], ps.P[i, 1], ps.P[i, 2]
+        for j in range(n):
+            if o.assoc:
+                m, d2 = nearest_landmark(px, py, pth, i, ps.mu, ps.sig, ps.nl[i], zs[j, 0],
+                                         zs[j, 1], o.Rr, o.Rb, pc[i])
+                if d2 <= o.gate_reject:
+                    stats[0] += 1.0
+                    if ps.src[i, m] != ids[j]:
+                        stats[1] += 1.0
+                    lw[i] += ekf_landmark_update(px, py, pth, ps.mu[i, m], ps.sig[i, m],
+                                                 zs[j, 0], zs[j, 1], o.Rr, o.Rb, o.joseph)
+                    continue
+                if d2 <= o.gate_augment or ps.nl[i] >= M:
+                    stats[2] += 1.0     # between the gates (ambiguous), or the map is full
+                    continue
+                m = ps.nl[i]
+                ps.nl[i] += 1
+                stats[3] += 1.0
+                ps.src[i, m] = ids[j]
+            else:
+                m = ids[j]
+                if ps.seen[i, m]:
+                    lw[i] += ekf_landmark_update(px, py, pth, ps.mu[i, m], ps.sig[i, m], zs[j, 0],
+                                                 zs[j, 1], o.Rr, o.Rb, o.joseph)
+                    continue
+            init_landmark(px, py, pth, zs[j, 0], zs[j, 1], o.Rr, o.Rb, ps.mu[i, m], ps.sig[i, m])
+            ps.seen[i, m] = 1
+        mx = max(mx, lw[i])
+    return mx
+
+
+@njit(types.void(_F, PARTICLES, PARTICLES, _F), cache=True)
+def note_board(Wn, ps, board, xbar):
+    """Directional resampling's bookkeeping: this observation's weighted pose estimate into xbar
+    and its best particle onto the board (a set of one)."""
+    N = Wn.size
+    xbar[0] = 0.0
+    xbar[1] = 0.0
+    cs = 0.0
+    sn = 0.0
+    b = 0
+    for i in range(N):
+        xbar[0] += Wn[i] * ps.P[i, 0]
+        xbar[1] += Wn[i] * ps.P[i, 1]
+        cs += Wn[i] * math.cos(ps.P[i, 2])
+        sn += Wn[i] * math.sin(ps.P[i, 2])
+        if Wn[i] > Wn[b]:
+            b = i
+    xbar[2] = math.atan2(sn, cs)
+    copy_particle(ps, b, board, 0)
+
+
+@njit(types.void(PARTICLES, PARTICLES, _F2, _F, _F, _F, types.float64, OPTIONS, PARTICLES, _F,
+                 _F, _F, _I, types.int8[::1], STATE), cache=True)
+def resample_set(ps, out, pc, pcm, Wn, w, Ssum, o, board, xbar, xbar_prev, dnoise, idx, mutant,
+                 s):
+    """Draw the new particle set into ``out`` (maps copied with their particles): directional
+    resampling from the board, the stepwise EWA's plan with its mutations, or a standard scheme.
+    pc: the new particles' pose uncertainty (a copy's noise; zero otherwise); pcm: the cloud's
+    mean uncertainty at the update."""
+    N = Wn.size
+    if o.scheme == DIRECTIONAL:
+        shift = np.empty(3)
+        shift[0] = xbar[0] - xbar_prev[0]
+        shift[1] = xbar[1] - xbar_prev[1]
+        shift[2] = wrap(xbar[2] - xbar_prev[2])
+        directional_resample(Wn, ps.P, ps.mu, ps.sig, ps.seen, ps.nl, ps.src, board.P[0],
+                             board.mu[0], board.sig[0], board.seen[0], board.nl[0], board.src[0],
+                             shift, dnoise, _SYSTEMATIC, s, out.P, out.mu, out.sig, out.seen,
+                             out.nl, out.src)
+        if o.gate_pose:
+            # a copy sits off the board's map by the board's motion since its update and by the
+            # copy's noise
+            for i in range(N - N // 2, N):
+                pc[i] = pcm
+                pc[i, 0] += dnoise[0] ** 2
+                pc[i, 3] += dnoise[1] ** 2
+                pc[i, 5] += dnoise[2] ** 2
+        return
+    if o.scheme == EWA:
+        stepwise_ewa_plan(Wn, o.ewa_beta, o.ewa_printed, idx, mutant)
+    else:
+        resample(o.scheme, w, Ssum, s, idx)
+        mutant[:] = 0
+    for i in range(N):
+        j = idx[i]
+        copy_particle(ps, j, out, i)
+        if mutant[i]:
+            for d in range(3):
+                out.P[i, d] += out.P[i, d] * o.ewa_mu * normal(s)
+            out.P[i, 2] = wrap(out.P[i, 2])
+            if o.gate_pose:
+                for d in range(3):
+                    pc[i, (0, 3, 5)[d]] = (ps.P[j, d] * o.ewa_mu) ** 2
+
+
+@njit(types.void(PARTICLES, _F, OPTIONS, _F2, _I, _F), cache=True)
+def final_map(ps, Wn, o, lm_est, lm_seen, assoc_stats):
+    """The final map into lm_est (M_true, 2), lm_seen. Known identities: per landmark, the
+    weighted mean over the particles that have it. Nearest neighbour: the highest-weight
+    particle's map, each true landmark by the first slot started from it; assoc_stats[4] the
+    slots started from a true landmark that already had one (duplicates)."""
+    N, M = ps.mu.shape[0], ps.mu.shape[1]
+    if o.assoc:
         b = 0
         for i in range(N):
             if Wn[i] > Wn[b]:
@@ -798,29 +794,120 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, veh, every, qctrl, R, start, M, 
         lm_seen[:] = 0
         lm_est[:] = np.nan
         dup = 0
-        for m in range(nl[b]):
-            t_id = src[b, m]
+        for m in range(ps.nl[b]):
+            t_id = ps.src[b, m]
             if lm_seen[t_id] == 0:      # the first slot started from it
                 lm_seen[t_id] = 1
-                lm_est[t_id, 0] = mu[b, m, 0]
-                lm_est[t_id, 1] = mu[b, m, 1]
+                lm_est[t_id, 0] = ps.mu[b, m, 0]
+                lm_est[t_id, 1] = ps.mu[b, m, 1]
             else:
                 dup += 1
         assoc_stats[4] = dup
-        return events
-    # the final map: per landmark, the weighted mean over the particles that have it
+        return
     for m in range(M):
         wsum = 0.0
         ax = 0.0
         ay = 0.0
         for i in range(N):
-            if seen[i, m]:
+            if ps.seen[i, m]:
                 wsum += Wn[i]
-                ax += Wn[i] * mu[i, m, 0]
-                ay += Wn[i] * mu[i, m, 1]
+                ax += Wn[i] * ps.mu[i, m, 0]
+                ay += Wn[i] * ps.mu[i, m, 1]
         lm_seen[m] = 1 if wsum > 0.0 else 0
         lm_est[m, 0] = ax / wsum if wsum > 0.0 else np.nan
         lm_est[m, 1] = ay / wsum if wsum > 0.0 else np.nan
+
+
+FASTSLAM_SIG = types.int64(
+    _F2, _I, _I2, _F3, OPTIONS, _F, _F, _F, _F2, STATE, _F2, _F, _I, _F2, _I, _F, _F, _F2, _F)
+
+
+@njit(FASTSLAM_SIG, cache=True)
+def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, o, start, sp, dnoise, lm_true, s, est, ess,
+                    resampled, lm_est, lm_seen, evals, assoc_stats, div, lm_trace):
+    """Run FastSLAM over one trial (controls ctrl (T, 2), observations obs_* (K, ...) every
+    o.every control steps; settings o, see ``Options``); fill est (T+1, 3) the weighted pose
+    estimate at every control step, ess / resampled / evals (K,) per observation, lm_est (M, 2)
+    and lm_seen (M,) the final map. Returns the number of observation steps whose weights all
+    underflowed.
+
+    sp : the swarm's parameters (swarm.pack); dnoise (3,) : the noise of directional resampling's
+        copies (see ``directional_resample``)
+    assoc_stats (5,) : [associations, wrong associations (the slot was started from another true
+        landmark), observations dropped, landmarks started] summed over particles and
+        observations, and the final map's duplicates (see ``final_map``)
+    lm_true (M_true, 2) : the true landmarks, for lm_trace (K,): the mean distance of the
+        highest-weight particle's mapped landmarks to the true ones after each observation's
+        update, and for the duplicates
+    div (K, 2) : after each observation that resampled, the particles' mean pairwise L1 pose
+        distance and the fraction of distinct poses (NaN where it did not resample). div and
+        lm_trace are filled only with o.diag (NaN otherwise).
+    """
+    T, K, N, M = ctrl.shape[0], obs_n.shape[0], o.N, o.M
+    ps, spare = new_particles(N, M, start), new_particles(N, M, start)
+    pc = np.zeros((N, 6))     # pose uncertainty since the last update: [xx, xy, xt, yy, yt, tt]
+    pcm = np.zeros(6)         # the cloud's mean of it at the last observation
+    wk = new_swarm_work(N)
+    # directional resampling's bulletin boards: the best particle of the last observation, in
+    # use, and of this one, for the next; the weighted estimates xbar_prev and xbar
+    board, next_board = new_particles(1, M, start), new_particles(1, M, start)
+    have_board = False
+    xbar_prev = np.zeros(3)
+    xbar = np.zeros(3)
+    first = np.zeros(lm_true.shape[0], dtype=np.int8)
+    stats = np.zeros(4)
+    lw = np.zeros(N)
+    w = np.full(N, 1.0)
+    Wn = np.full(N, 1.0 / N)
+    idx = np.empty(N, dtype=np.int64)
+    mutant = np.empty(N, dtype=np.int8)
+    events = 0
+    est[0, 0], est[0, 1], est[0, 2] = start[0], start[1], start[2]
+    k = 0
+    for t in range(T):
+        predict(ps.P, pc, ctrl[t, 0], ctrl[t, 1], o, s)
+        if (t + 1) % o.every == 0 and k < K:
+            n, ids, zs = obs_n[k], obs_id[k], obs_z[k]
+            nev = 0
+            if o.refine != NO_SWARM and o.iters > 0:
+                nev += refine_poses(ps, pc, ids, zs, n, o, sp, wk, s)
+            mx = update_maps(ps, pc, ids, zs, n, o, lw, stats)
+            evals[k] = nev + N
+            if o.gate_pose:
+                for d in range(6):
+                    pcm[d] = pc[:, d].mean()
+            pc[:] = 0.0         # the poses are now tied to their maps again
+            Ssum, S2, sx, under = normalise(lw, w, ps.P[:, 0].copy(), mx)
+            events += int(under)
+            ess[k] = Ssum * Ssum / S2
+            for i in range(N):
+                Wn[i] = w[i] / Ssum
+            lm_trace[k] = (map_error(Wn, ps.mu, ps.seen, ps.nl, ps.src, o.assoc, lm_true, first)
+                           if o.diag else np.nan)
+            resampled[k] = 0
+            div[k, 0], div[k, 1] = np.nan, np.nan
+            if o.scheme == DIRECTIONAL:
+                note_board(Wn, ps, next_board, xbar)
+                if not have_board:
+                    copy_particle(next_board, 0, board, 0)
+                    xbar_prev[:] = xbar
+                    have_board = True
+            if ess[k] < o.threshold:
+                resample_set(ps, spare, pc, pcm, Wn, w, Ssum, o, board, xbar, xbar_prev, dnoise,
+                             idx, mutant, s)
+                ps, spare = spare, ps       # the new set becomes the current one
+                lw[:] = 0.0
+                Wn[:] = 1.0 / N
+                resampled[k] = 1
+                if o.diag:
+                    div[k, 0], div[k, 1] = pose_diversity(ps.P)
+            if o.scheme == DIRECTIONAL:     # the board for the next observation
+                board, next_board = next_board, board
+                xbar_prev[:] = xbar
+            k += 1
+        estimate_pose(ps.P, Wn, N, est[t + 1])
+    assoc_stats[:4] = stats
+    final_map(ps, Wn, o, lm_est, lm_seen, assoc_stats)
     return events
 
 
@@ -857,15 +944,21 @@ def run(model, data, params, particles, state, diag=True):
     stats = np.zeros(5)
     div = np.empty((K, 2))
     out["lm_trace"] = np.empty(K)
+    o = Options(
+        every=int(model.sensor[2]), N=int(particles), M=int(M), dt=float(model.vehicle[1]),
+        L=float(model.vehicle[2]), motion=int(motion), q0=float(qctrl[0]), q1=float(qctrl[1]),
+        predict_noise=int(params["predict_noise"]), Rr=float(R[0]), Rb=float(R[1]),
+        joseph=int(params["update"] == "joseph"), assoc=int(nearest),
+        gate_reject=float(params["gate_reject"]), gate_augment=float(params["gate_augment"]),
+        gate_pose=int(params["gate_pose"] and nearest), refine=ALGORITHMS.get(refine, NO_SWARM),
+        iters=int(params["iterations"]), scheme=int(scheme), threshold=float(threshold),
+        ewa_beta=float(params["ewa_beta"]), ewa_mu=float(params["ewa_mu"]),
+        ewa_printed=int(params["ewa_correction"] == "as_printed"), diag=int(diag))
     out["underflow_steps"] = fastslam_kernel(
-        data.ctrl, data.obs_n, data.obs_id, data.obs_z, model.vehicle, int(model.sensor[2]), qctrl,
-        R, model.start, M, particles, int(params["predict_noise"]),
-        int(params["update"] == "joseph"), scheme, threshold, ALGORITHMS.get(refine, NO_SWARM), pack(refine, params), params["iterations"],
-        params["ewa_beta"], params["ewa_mu"], int(params["ewa_correction"] == "as_printed"),
-        dnoise, int(nearest), params["gate_reject"], params["gate_augment"],
-        int(params["gate_pose"] and nearest), motion, state,
-        out["pose"], out["ess"], out["resampled"], out["lm_est"], out["lm_seen"], evals, stats,
-        np.ascontiguousarray(model.landmarks, dtype=np.float64), div, out["lm_trace"], int(diag))
+        data.ctrl, data.obs_n, data.obs_id, data.obs_z, o, model.start, pack(refine, params),
+        dnoise, np.ascontiguousarray(model.landmarks, dtype=np.float64), state, out["pose"],
+        out["ess"], out["resampled"], out["lm_est"], out["lm_seen"], evals, stats, div,
+        out["lm_trace"])
     out["div_l1"], out["distinct"] = div[:, 0], div[:, 1]
     out["lik_evals_per_step"] = float(evals.mean()) if K else 0.0
     if nearest:
