@@ -42,9 +42,10 @@ from __future__ import annotations
 
 import math
 from statistics import NormalDist
+from typing import NamedTuple
 
 import numpy as np
-from numba import njit, types
+from numba import njit, typeof, types
 
 from ..angles import wrap
 from ..resampling import SCHEME_CODES, resample
@@ -247,23 +248,160 @@ def kld_sample(P, W, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob, i
     return m, injected
 
 
+class MclOptions(NamedTuple):
+    """MCL's settings, as the jitted steps read them.
+
+    motion : the odometry noise model (0 additive, 1 rot-trans-rot; mnoise its parameters)
+    sensor : 0 ranges, 1 ranges and bearings; sr, sb their noise standard deviations
+    N : particles (KLD-sampling: the most); threshold : resample when ESS < threshold; scheme :
+    the resampling code; reset : RESET's code of the injection; inject_sensor : augmented MCL
+    draws injected poses from the sensor model (else uniform over the field); kld : 1 for
+    KLD-sampling
+    """
+
+    motion: int
+    sensor: int
+    sr: float
+    sb: float
+    N: int
+    threshold: float
+    scheme: int
+    reset: int
+    inject_sensor: int
+    kld: int
+
+
+MCL_OPTIONS = typeof(MclOptions(0, 0, 1.0, 1.0, 1, 1.0, 0, 0, 0, 0))
+
+
+@njit(types.void(_F2, _F2, _F, _F, MCL_OPTIONS, _F, STATE), cache=True, error_model="numpy")
+def move_particles(P, CS, Z, u, o, mnoise, s):
+    """Move every particle (rows P, CS) by the odometry u with its own draw of the motion noise
+    (all draws first, in order, into Z)."""
+    fill_normal(s, Z)
+    if o.motion == 0:
+        _move_odometry(P[0], P[1], P[2], CS[0], CS[1], Z, u[0], u[1], u[2], mnoise, o.N)
+    else:
+        _move_rot_trans_rot(P[0], P[1], P[2], CS[0], CS[1], Z, u[0], u[1], u[2], mnoise, o.N)
+
+
+@njit(types.UniTuple(types.float64, 3)(_F2, types.int64, _F2, types.int64, _I, _F2, MCL_OPTIONS,
+                                       _F, _F, _F, types.boolean), cache=True, error_model="numpy")
+def weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh):
+    """Weigh the n particles by the step's m observations: log-weights lw, normalised weights W.
+    Returns (p_mean, the mean likelihood of the moved particles; the ESS; 1 when every weight
+    underflowed and was reset). ``fresh``: the log-weights are all zero (a resampled or initial
+    set), so the likelihoods are the weights."""
+    mx = -np.inf
+    lmax = -np.inf
+    _loglik(P[0], P[1], P[2], n, bc, m, ids, zs, o.sensor, o.sr, o.sb,
+            loglik_const(m, o.sensor, o.sr, o.sb), ll)
+    for i in range(n):
+        lw[i] += ll[i]
+        mx = max(mx, lw[i])
+        lmax = max(lmax, ll[i])
+    # p_mean by log-sum-exp; on a fresh set these terms are the weights themselves
+    acc = _exp_sum(ll, lmax, n, W)
+    pm = math.exp(lmax) * acc / n if np.isfinite(lmax) else 0.0
+    under = 0.0
+    if not np.isfinite(mx):
+        under = 1.0
+        lw[:n] = 0.0
+        mx = 0.0
+        fresh = False
+    S = acc
+    if not fresh:
+        S = _exp_sum(lw, mx, n, W)
+    for i in range(n):
+        W[i] /= S
+    S2 = 0.0
+    for i in range(n):
+        S2 += W[i] * W[i]
+    return pm, 1.0 / S2, under
+
+
+@njit(types.UniTuple(types.float64, 3)(types.float64, types.float64, types.float64, types.int64,
+                                       MCL_OPTIONS, _F), cache=True, error_model="numpy")
+def likelihood_averages(w_slow, w_fast, pm, m, o, rp):
+    """Augmented MCL's long- and short-term averages after a step with m observations and mean
+    likelihood pm; returns them with the injection probability max(0, 1 - w_fast / w_slow). The
+    averages follow the likelihood per measurement component, pm^(1/c): steps see different
+    numbers of beacons, and a product over more of them is not less likely in the sense the
+    averages compare."""
+    q = pm ** (1.0 / (m * (2 if o.sensor == 1 else 1)))
+    if w_slow == 0.0:
+        w_slow = q
+        w_fast = q
+    else:
+        w_slow += rp[4] * (q - w_slow)
+        w_fast += rp[5] * (q - w_fast)
+    return w_slow, w_fast, max(0.0, 1.0 - w_fast / w_slow) if w_slow > 0.0 else 0.0
+
+
+@njit(types.void(_F2, _F2, _F2, _F2, _F, MCL_OPTIONS, _I, STATE), cache=True,
+      error_model="numpy")
+def resample_rows(P, CS, P2, CS2, W, o, idx, s):
+    """The resampled set (rows, with the headings' cosines and sines) into P2, CS2."""
+    resample(o.scheme, W, 1.0, s, idx)
+    for i in range(o.N):
+        k = idx[i]
+        P2[0, i], P2[1, i], P2[2, i] = P[0, k], P[1, k], P[2, k]
+        CS2[0, i], CS2[1, i] = CS[0, k], CS[1, k]
+
+
+@njit(types.int64(_F2, _F2, _F, _F2, types.int64, _I, _F2, MCL_OPTIONS, _F, types.float64,
+                  types.float64, _I, _F, STATE), cache=True, error_model="numpy")
+def inject(P, CS, area, bc, m, ids, zs, o, rp, pm, prob, perm, pose, s):
+    """Replace particles by poses drawn from the sensor model (or the field): augmented MCL each
+    with probability prob; SRL srl_fraction of them when pm < srl_threshold; ASRL
+    n_s = N max(0, 1 - pm / (mu p_t^c)) of them. Returns how many."""
+    N = o.N
+    k = 0
+    if o.reset == 3:
+        drawn_from = m if o.inject_sensor else 0      # no observation: uniform over the field
+        for i in range(N):
+            if uniform(s) < prob:
+                sensor_pose(area, o.sensor, bc, drawn_from, ids, zs, o.sr, o.sb, pose, s)
+                P[0, i], P[1, i], P[2, i] = pose[0], pose[1], pose[2]
+                _trig(P, i, i + 1, CS)
+                k += 1
+        return k
+    if m == 0 or not (o.reset == 1 or o.reset == 2):
+        return 0
+    if o.reset == 1:
+        k = int(round(rp[0] * N)) if pm < rp[1] else 0
+    else:
+        c = m * (2 if o.sensor == 1 else 1)
+        k = min(int(round(N * max(0.0, 1.0 - pm / (rp[2] * rp[3] ** c)))), N)
+    # replace k particles chosen at random (a partial Fisher-Yates shuffle: resampling leaves
+    # the set ordered by its sources)
+    for i in range(N):
+        perm[i] = i
+    for r in range(k):
+        j = r + min(int(uniform(s) * (N - r)), N - r - 1)
+        perm[r], perm[j] = perm[j], perm[r]
+        sensor_pose(area, o.sensor, bc, m, ids, zs, o.sr, o.sb, pose, s)
+        P[0, perm[r]], P[1, perm[r]], P[2, perm[r]] = pose[0], pose[1], pose[2]
+        _trig(P, perm[r], perm[r] + 1, CS)
+    return k
+
+
 MCL_SIG = types.int64(
-    _F2, _I, _I2, _F3, _F2, _F, types.int64, _F, types.int64, types.float64, types.float64,
-    types.int64, types.float64, types.int64, types.int64, _F, types.int64, types.int64, _F, _F,
-    STATE, _F2, _F, _I, _I, _F, _I, _I, _F3, _I)
+    _F2, _I, _I2, _F3, _F2, _F, MCL_OPTIONS, _F, _F, _F, _F, STATE, _F2, _F, _I, _I, _F, _I, _I,
+    _F3, _I)
 
 
 @njit(MCL_SIG, cache=True, error_model="numpy")
-def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr, sb, N, threshold,
-               scheme, reset, rp, inject_sensor, kld, kp, init, s, est, ess, resampled, injected, pmean,
-               count, snap_t, snap, snap_n):
-    """Run MCL over one trial; est (T+1, 3) the weighted pose estimate (est[0]: of the initial
-    uniform cloud), ess / resampled / injected / pmean / count (T,) per step. rp: [srl_fraction,
-    srl_threshold, mu, p_t, alpha_slow, alpha_fast]. kld = 1: KLD-sampling with kp (see
-    kld_sample), N the largest count; init: the initial belief (init_particles). snap_t: increasing steps at which the particles (after
-    the step's move, before resampling; step 0: the initial cloud) are copied into snap (S, N, 3),
-    their count into snap_n. Returns the steps whose weights all underflowed."""
-    T = ctrl.shape[0]
+def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s, est, ess,
+               resampled, injected, pmean, count, snap_t, snap, snap_n):
+    """Run MCL over one trial (settings o, see ``MclOptions``); est (T+1, 3) the weighted pose
+    estimate (est[0]: of the initial cloud), ess / resampled / injected / pmean / count (T,) per
+    step. rp: [srl_fraction, srl_threshold, mu, p_t, alpha_slow, alpha_fast]. o.kld: KLD-sampling
+    with kp (see kld_sample), o.N the largest count; init: the initial belief (init_particles).
+    snap_t: increasing steps at which the particles (after the step's move, before resampling;
+    step 0: the initial cloud) are copied into snap (S, N, 3), their count into snap_n. Returns
+    the steps whose weights all underflowed."""
+    T, N = ctrl.shape[0], o.N
     # the particles as rows x, y, heading (3, N), so that the passes over them vectorise
     P0 = np.empty((N, 3))
     init_particles(P0, area, init, s)
@@ -276,7 +414,7 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
     perm = np.empty(N, dtype=np.int64)
     ll = np.empty(N)
     pose = np.empty(3)
-    occ = np.zeros(kld_bins(area, kp) if kld else 1, dtype=np.uint8)
+    occ = np.zeros(kld_bins(area, kp) if o.kld else 1, dtype=np.uint8)
     touched = np.empty(N, dtype=np.int64)
     cum = np.empty(N)
     w_slow = 0.0
@@ -287,20 +425,19 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
     # (sspf2008's odometry) reuses them, and the estimate never recomputes them
     CS = np.empty((2, N))
     CS2 = np.empty((2, N))
-    nd = 2 if motion == 0 else 3
-    Z = np.empty(N * nd)
+    Z = np.empty(N * (2 if o.motion == 0 else 3))
     _trig(P, 0, N, CS)
     fresh = True            # the log-weights are all zero (a resampled or initial set)
     _estimate_rows(P, W, N, CS, est[0])
     si = snapshot(0, P, N, snap_t, snap, snap_n, 0, True)
     for t in range(T):
-        if kld:
+        if o.kld:
             # resample (the last step's weighted set) and move in one loop, as many as the bins
             # the moved particles occupy call for
             tp = max(t - 1, 0)
-            n, k = kld_sample(P, W, n, ctrl[t], motion, mnoise, area, kp, N, occ, touched, prob,
-                              inject_sensor, sensor, bc, obs_n[tp] if t > 0 else 0, obs_id[tp],
-                              obs_z[tp], sr, sb, s, P2, cum)
+            n, k = kld_sample(P, W, n, ctrl[t], o.motion, mnoise, area, kp, N, occ, touched, prob,
+                              o.inject_sensor, o.sensor, bc, obs_n[tp] if t > 0 else 0,
+                              obs_id[tp], obs_z[tp], o.sr, o.sb, s, P2, cum)
             P, P2 = P2, P
             _trig(P, 0, n, CS)
             lw[:n] = 0.0
@@ -308,101 +445,29 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr,
             resampled[t] = 1
             injected[t] = k
         else:
-            fill_normal(s, Z)       # the draws of every particle's move, in order
-            if motion == 0:
-                _move_odometry(P[0], P[1], P[2], CS[0], CS[1], Z, ctrl[t, 0], ctrl[t, 1],
-                               ctrl[t, 2], mnoise, N)
-            else:
-                _move_rot_trans_rot(P[0], P[1], P[2], CS[0], CS[1], Z, ctrl[t, 0], ctrl[t, 1],
-                                    ctrl[t, 2], mnoise, N)
+            move_particles(P, CS, Z, ctrl[t], o, mnoise, s)
         count[t] = n
-        m = obs_n[t]
-        ids = obs_id[t]
-        zs = obs_z[t]
-        mx = -np.inf
-        lmax = -np.inf
-        _loglik(P[0], P[1], P[2], n, bc, m, ids, zs, sensor, sr, sb,
-                loglik_const(m, sensor, sr, sb), ll)
-        for i in range(n):
-            lw[i] += ll[i]
-            mx = max(mx, lw[i])
-            lmax = max(lmax, ll[i])
-        # the mean likelihood of the predicted particles, p_mean (log-sum-exp); on a fresh set
-        # these terms are the weights themselves
-        acc = _exp_sum(ll, lmax, n, W)
-        pm = math.exp(lmax) * acc / n if np.isfinite(lmax) else 0.0
+        m, ids, zs = obs_n[t], obs_id[t], obs_z[t]
+        pm, ess[t], under = weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh)
         pmean[t] = pm
-        if not np.isfinite(mx):
-            events += 1
-            lw[:n] = 0.0
-            mx = 0.0
-            fresh = False
-        S = acc
-        if not fresh:
-            S = _exp_sum(lw, mx, n, W)
-        for i in range(n):
-            W[i] /= S
-        S2 = 0.0
-        for i in range(n):
-            S2 += W[i] * W[i]
-        ess[t] = 1.0 / S2
+        events += int(under)
         fresh = False
         _estimate_rows(P, W, n, CS, est[t + 1])
         si = snapshot(t + 1, P, n, snap_t, snap, snap_n, si, True)
-        if reset == 3 and m > 0:
-            # the averages follow the likelihood per measurement component, pm^(1/c): steps see
-            # different numbers of beacons, and a product over more of them is not less likely
-            # in the sense the averages compare (a step without observations leaves them)
-            q = pm ** (1.0 / (m * (2 if sensor == 1 else 1)))
-            if w_slow == 0.0:
-                w_slow = q
-                w_fast = q
-            else:
-                w_slow += rp[4] * (q - w_slow)
-                w_fast += rp[5] * (q - w_fast)
-            prob = max(0.0, 1.0 - w_fast / w_slow) if w_slow > 0.0 else 0.0
-        if kld:
+        if o.reset == 3 and m > 0:
+            w_slow, w_fast, prob = likelihood_averages(w_slow, w_fast, pm, m, o, rp)
+        if o.kld:
             continue            # the next step's sampling resamples (and injects)
         resampled[t] = 0
-        if ess[t] < threshold:
-            resample(scheme, W, 1.0, s, idx)
-            for i in range(N):
-                k = idx[i]
-                P2[0, i], P2[1, i], P2[2, i] = P[0, k], P[1, k], P[2, k]
-                CS2[0, i], CS2[1, i] = CS[0, k], CS[1, k]
+        if ess[t] < o.threshold:
+            resample_rows(P, CS, P2, CS2, W, o, idx, s)
             P, P2 = P2, P
             CS, CS2 = CS2, CS
             lw[:] = 0.0
             W[:] = 1.0 / N
             fresh = True
             resampled[t] = 1
-        # injection
-        k = 0
-        if reset == 3:
-            drawn_from = m if inject_sensor else 0      # no observation: uniform over the field
-            for i in range(N):
-                if uniform(s) < prob:
-                    sensor_pose(area, sensor, bc, drawn_from, ids, zs, sr, sb, pose, s)
-                    P[0, i], P[1, i], P[2, i] = pose[0], pose[1], pose[2]
-                    _trig(P, i, i + 1, CS)
-                    k += 1
-        elif m > 0 and (reset == 1 or reset == 2):
-            if reset == 1:
-                k = int(round(rp[0] * N)) if pm < rp[1] else 0
-            else:
-                c = m * (2 if sensor == 1 else 1)
-                k = min(int(round(N * max(0.0, 1.0 - pm / (rp[2] * rp[3] ** c)))), N)
-            # replace k particles chosen at random (a partial Fisher-Yates shuffle: resampling
-            # leaves the set ordered by its sources)
-            for i in range(N):
-                perm[i] = i
-            for r in range(k):
-                j = r + min(int(uniform(s) * (N - r)), N - r - 1)
-                perm[r], perm[j] = perm[j], perm[r]
-                sensor_pose(area, sensor, bc, m, ids, zs, sr, sb, pose, s)
-                P[0, perm[r]], P[1, perm[r]], P[2, perm[r]] = pose[0], pose[1], pose[2]
-                _trig(P, perm[r], perm[r] + 1, CS)
-        injected[t] = k
+        injected[t] = inject(P, CS, area, bc, m, ids, zs, o, rp, pm, prob, perm, pose, s)
         if injected[t] > 0 and resampled[t] == 0:
             lw[:] = 0.0        # injected particles join a set of equal weights
             W[:] = 1.0 / N
@@ -426,12 +491,15 @@ def run(model, data, params, particles, state, diag=True, snapshots=()):
                    min(params["kld_min"], particles)])
     out["n"] = np.empty(T, dtype=np.int64)
     out["snapshots"] = snapshot_arrays(snapshots, particles)
+    o = MclOptions(
+        motion=int(model.motion), sensor=int(model.sensor), sr=float(model.sense[2]),
+        sb=float(model.sense[3]), N=int(particles), threshold=float(threshold),
+        scheme=SCHEME_CODES[params["resampling"]], reset=RESET[params["reset"]],
+        inject_sensor=int(params["inject"] == "sensor"), kld=int(kld))
     out["underflow_steps"] = mcl_kernel(
-        data.ctrl, data.obs_n, data.obs_id, data.obs_z, model.beacons, model.area, model.motion,
-        model.mnoise, model.sensor, float(model.sense[2]), float(model.sense[3]), particles,
-        threshold, SCHEME_CODES[params["resampling"]], RESET[params["reset"]], rp,
-        int(params["inject"] == "sensor"), int(kld), kp, model.init, state, out["pose"], out["ess"],
-        out["resampled"], out["injected"], out["pmean"], out["n"], *out["snapshots"])
+        data.ctrl, data.obs_n, data.obs_id, data.obs_z, model.beacons, model.area, o, model.mnoise,
+        rp, kp, model.init, state, out["pose"], out["ess"], out["resampled"], out["injected"],
+        out["pmean"], out["n"], *out["snapshots"])
     out["lik_evals_per_step"] = float(np.mean(out["n"]))
     return out
 

@@ -28,9 +28,10 @@ min(1, p(z|x*) p(x*|x_prev) q(x) / (p(z|x) p(x|x_prev) q(x*))). The estimate is 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
-from numba import njit, types
+from numba import njit, typeof, types
 
 from ..angles import wrap
 from ..resampling import SCHEME_CODES, resample
@@ -142,293 +143,406 @@ def _pose_diff(Y, j, xm, d):
     d[2] = wrap(Y[j, 2] - xm[2])
 
 
+class FieldOptions(NamedTuple):
+    """The SSPF's settings, as the jitted steps read them.
+
+    motion : the odometry noise model (0 additive, 1 rot-trans-rot; mnoise its parameters)
+    sensor : 0 ranges, 1 ranges and bearings; sr, sb their noise standard deviations
+    N : particles; trigger : resample 0 always, 1 when ESS < threshold, 2 when the weight change
+    K > threshold; scheme : the resampling code; mh_steps : MH moves per particle after it
+    sq : the sigma points' spread sqrt(L + lambda) (L = 6: the pose and three odometry noises)
+    jit_m, jit_rad : the jitter added to the motion's covariance
+    """
+
+    motion: int
+    sensor: int
+    sr: float
+    sb: float
+    N: int
+    trigger: int
+    threshold: float
+    scheme: int
+    mh_steps: int
+    sq: float
+    jit_m: float
+    jit_rad: float
+
+
+FIELD_OPTIONS = typeof(FieldOptions(0, 0, 1.0, 1.0, 1, 0, 1.0, 0, 1, 1.0, 1.0, 1.0))
+
+
+class Proposals(NamedTuple):
+    """The particles: pose X (N, 3) and covariance Pc (N, 3, 3); the proposal each was drawn from,
+    mean mprop (N, 3) and Cholesky factor Lprop (N, 3, 3); the transition density's mean
+    f(x_prev, u) fpre (N, 3) and Cholesky factor Lq (N, 3, 3); ltgt (N,) log p(z | x) +
+    log p(x | x_prev) and lqs (N,) log q(x) at the particle."""
+
+    X: np.ndarray
+    Pc: np.ndarray
+    mprop: np.ndarray
+    Lprop: np.ndarray
+    fpre: np.ndarray
+    Lq: np.ndarray
+    ltgt: np.ndarray
+    lqs: np.ndarray
+
+
+PROPOSALS = types.NamedTuple((_F2, _F3, _F2, _F3, _F2, _F3, _F, _F), Proposals)
+
+
+@njit(PROPOSALS(types.int64), cache=True)
+def new_proposals(N):
+    return Proposals(np.empty((N, 3)), np.zeros((N, 3, 3)), np.empty((N, 3)), np.zeros((N, 3, 3)),
+                     np.empty((N, 3)), np.zeros((N, 3, 3)), np.empty(N), np.empty(N))
+
+
+class UkfWork(NamedTuple):
+    """One particle's UKF: weights Wm, Wc (13,); sigma points through the motion Y (13, 3) and
+    the sensor Z (13, nz); predicted mean xm (3,) and covariance Pm, updated Pn, a Cholesky
+    factor L3; the step's observations zobs (nz,), which are bearings isb (nz,), their predicted
+    mean zm, covariance S with its factor LS, cross-covariance C (3, nz) and gain K (3, nz);
+    scratch rowb (nz,), Q (3, 3), d (3,); the odometry noises' standard deviations sd (3,)."""
+
+    Wm: np.ndarray
+    Wc: np.ndarray
+    Y: np.ndarray
+    Z: np.ndarray
+    xm: np.ndarray
+    Pm: np.ndarray
+    Pn: np.ndarray
+    L3: np.ndarray
+    zobs: np.ndarray
+    isb: np.ndarray
+    zm: np.ndarray
+    S: np.ndarray
+    LS: np.ndarray
+    C: np.ndarray
+    K: np.ndarray
+    rowb: np.ndarray
+    Q: np.ndarray
+    d: np.ndarray
+    sd: np.ndarray
+
+
+UKF_WORK = types.NamedTuple((_F, _F, _F2, _F2, _F, _F2, _F2, _F2, _F, _I, _F, _F2, _F2, _F2, _F2,
+                             _F, _F2, _F, _F), UkfWork)
+
+
+@njit(UKF_WORK(types.int64, types.int64), cache=True)
+def new_ukf_work(ns, nzmax):
+    return UkfWork(np.empty(ns), np.empty(ns), np.empty((ns, 3)), np.empty((ns, nzmax)),
+                   np.empty(3), np.empty((3, 3)), np.empty((3, 3)), np.zeros((3, 3)),
+                   np.empty(nzmax), np.zeros(nzmax, dtype=np.int64), np.empty(nzmax),
+                   np.empty((nzmax, nzmax)), np.zeros((nzmax, nzmax)), np.empty((3, nzmax)),
+                   np.empty((3, nzmax)), np.empty(nzmax), np.empty((3, 3)), np.empty(3),
+                   np.empty(3))
+
+
+@njit(types.int64(_F2, types.int64, FIELD_OPTIONS, UKF_WORK), cache=True)
+def observation_vector(zs, m, o, wk):
+    """The step's m observations as one vector wk.zobs (ranges, and bearings flagged in wk.isb);
+    returns its length."""
+    r = 0
+    for j in range(m):
+        wk.zobs[r] = zs[j, 0]
+        wk.isb[r] = 0
+        r += 1
+        if o.sensor == 1:
+            wk.zobs[r] = zs[j, 1]
+            wk.isb[r] = 1
+            r += 1
+    return r
+
+
+@njit(types.void(_F, _F2, _F, FIELD_OPTIONS, UKF_WORK), cache=True)
+def predict_moments(x, P, u, o, wk):
+    """The sigma points of [pose, odometry noise] (pose x, covariance P; the noises' deviations
+    wk.sd) through the motion u into wk.Y, and their mean wk.xm and covariance wk.Pm (plus the
+    jitter)."""
+    Lg = 6
+    ns = 2 * Lg + 1
+    L3, Y, sq = wk.L3, wk.Y, o.sq
+    if not chol(P, 3, L3):
+        for a in range(3):
+            for b in range(3):
+                L3[a, b] = 0.0
+        L3[0, 0] = L3[1, 1] = o.jit_m
+        L3[2, 2] = o.jit_rad
+    for j in range(ns):
+        px, py, pt = x[0], x[1], x[2]
+        w0 = w1 = w2 = 0.0
+        if j > 0:
+            k = (j - 1) % Lg
+            sgn = 1.0 if j <= Lg else -1.0
+            if k < 3:
+                px += sgn * sq * L3[0, k]
+                py += sgn * sq * L3[1, k]
+                pt += sgn * sq * L3[2, k]
+            elif k == 3:
+                w0 = sgn * sq * wk.sd[0]
+            elif k == 4:
+                w1 = sgn * sq * wk.sd[1]
+            else:
+                w2 = sgn * sq * wk.sd[2]
+        Y[j, 0], Y[j, 1], Y[j, 2] = move(px, py, pt, u, w0, w1, w2)
+    xm, Pm, Wm, Wc, d = wk.xm, wk.Pm, wk.Wm, wk.Wc, wk.d
+    xm[0] = 0.0
+    xm[1] = 0.0
+    dt = 0.0
+    for j in range(ns):
+        xm[0] += Wm[j] * Y[j, 0]
+        xm[1] += Wm[j] * Y[j, 1]
+        dt += Wm[j] * wrap(Y[j, 2] - Y[0, 2])
+    xm[2] = wrap(Y[0, 2] + dt)
+    for a in range(3):
+        for b in range(3):
+            Pm[a, b] = 0.0
+    for j in range(ns):
+        _pose_diff(Y, j, xm, d)
+        for a in range(3):
+            for b in range(3):
+                Pm[a, b] += Wc[j] * d[a] * d[b]
+    Pm[0, 0] += o.jit_m * o.jit_m
+    Pm[1, 1] += o.jit_m * o.jit_m
+    Pm[2, 2] += o.jit_rad * o.jit_rad
+
+
+@njit(types.void(_F2, _I, _F2, types.int64, types.int64, FIELD_OPTIONS, UKF_WORK), cache=True)
+def sensor_moments(bc, ids, zs, m, nz, o, wk):
+    """The sigma points through the sensor (wk.Z), their mean wk.zm, covariance wk.S (plus the
+    sensor noise) and cross-covariance with the pose wk.C."""
+    ns = wk.Y.shape[0]
+    Y, Z, zm, S, C, isb, Wm, Wc, d = wk.Y, wk.Z, wk.zm, wk.S, wk.C, wk.isb, wk.Wm, wk.Wc, wk.d
+    for j in range(ns):
+        r = 0
+        for q in range(m):
+            dx = bc[ids[q], 0] - Y[j, 0]
+            dy = bc[ids[q], 1] - Y[j, 1]
+            Z[j, r] = math.hypot(dx, dy)
+            r += 1
+            if o.sensor == 1:
+                Z[j, r] = wrap(math.atan2(dy, dx) - Y[j, 2])
+                r += 1
+    for r in range(nz):
+        v = 0.0
+        for j in range(ns):
+            v += Wm[j] * (wrap(Z[j, r] - Z[0, r]) if isb[r] else Z[j, r])
+        zm[r] = wrap(Z[0, r] + v) if isb[r] else v
+    for a in range(nz):
+        for b in range(nz):
+            S[a, b] = 0.0
+        S[a, a] = o.sb * o.sb if isb[a] else o.sr * o.sr
+        for b in range(3):
+            C[b, a] = 0.0
+    for j in range(ns):
+        _pose_diff(Y, j, wk.xm, d)
+        for a in range(nz):
+            da = wrap(Z[j, a] - zm[a]) if isb[a] else Z[j, a] - zm[a]
+            for b in range(nz):
+                db = wrap(Z[j, b] - zm[b]) if isb[b] else Z[j, b] - zm[b]
+                S[a, b] += Wc[j] * da * db
+            for b in range(3):
+                C[b, a] += Wc[j] * d[b] * da
+
+
+@njit(types.void(types.int64, UKF_WORK), cache=True)
+def kalman_update(nz, wk):
+    """The UKF's measurement update of wk.xm, wk.Pn (from wk.Pm) with gain K = C S^-1; leaves
+    them predicted when S is not positive definite."""
+    xm, Pn, Pm, K, C, zm, isb = wk.xm, wk.Pn, wk.Pm, wk.K, wk.C, wk.zm, wk.isb
+    if not chol(wk.S, nz, wk.LS):
+        return
+    for b in range(3):
+        for a in range(nz):
+            wk.rowb[a] = C[b, a]
+        chol_solve(wk.LS, nz, wk.rowb)
+        for a in range(nz):
+            K[b, a] = wk.rowb[a]
+    for b in range(3):
+        v = 0.0
+        for a in range(nz):
+            inn = wk.zobs[a] - zm[a]
+            if isb[a]:
+                inn = wrap(inn)
+            v += K[b, a] * inn
+        xm[b] += v
+    xm[2] = wrap(xm[2])
+    for a in range(3):
+        for b in range(3):
+            v = 0.0
+            for q in range(nz):
+                v += K[a, q] * C[b, q]
+            Pn[a, b] = Pm[a, b] - v
+    for a in range(3):
+        for b in range(a):
+            v = 0.5 * (Pn[a, b] + Pn[b, a])
+            Pn[a, b] = v
+            Pn[b, a] = v
+
+
+@njit(types.float64(PROPOSALS, types.int64, _F, _F2, _I, _F2, types.int64, FIELD_OPTIONS,
+                    UKF_WORK, _F, STATE), cache=True)
+def draw_particle(pp, i, u, bc, ids, zs, m, o, wk, jit, s):
+    """Draw particle i from its proposal N(wk.xm, wk.Pn) and keep the proposal with it; returns
+    its weight's log factor p(z | x) p(x | x_prev) / q(x)."""
+    Pn, L3, xm = wk.Pn, wk.L3, wk.xm
+    if not chol(Pn, 3, L3):     # numerically indefinite: keep the predicted covariance
+        for a in range(3):
+            for b in range(3):
+                Pn[a, b] = wk.Pm[a, b]
+        chol(Pn, 3, L3)
+    n0, n1, n2 = normal(s), normal(s), normal(s)
+    nx = xm[0] + L3[0, 0] * n0
+    ny = xm[1] + L3[1, 0] * n0 + L3[1, 1] * n1
+    nt = wrap(xm[2] + L3[2, 0] * n0 + L3[2, 1] * n1 + L3[2, 2] * n2)
+    lq = lognormal3(nx - xm[0], ny - xm[1], wrap(nt - xm[2]), L3)
+    X = pp.X
+    fx, fy, ft = move(X[i, 0], X[i, 1], X[i, 2], u, 0.0, 0.0, 0.0)
+    transition_cov(X[i, 0], X[i, 1], X[i, 2], u, wk.sd, jit, wk.Q)
+    Li = pp.Lq[i]
+    chol(wk.Q, 3, Li)
+    lp = lognormal3(nx - fx, ny - fy, wrap(nt - ft), Li)
+    ll = pose_loglik(nx, ny, nt, bc, m, ids, zs, o.sensor, o.sr, o.sb)
+    X[i, 0], X[i, 1], X[i, 2] = nx, ny, nt
+    for a in range(3):
+        pp.mprop[i, a] = xm[a]
+        for b in range(3):
+            pp.Pc[i, a, b] = Pn[a, b]
+            pp.Lprop[i, a, b] = L3[a, b]
+    pp.fpre[i, 0], pp.fpre[i, 1], pp.fpre[i, 2] = fx, fy, ft
+    pp.ltgt[i] = ll + lp
+    pp.lqs[i] = lq
+    return ll + lp - lq
+
+
+@njit(types.UniTuple(types.float64, 3)(_F, _F, _F, types.float64), cache=True)
+def weigh(lw, W, Wprev, mx):
+    """Normalised weights W from the log-weights lw (max mx; all -inf: reset to uniform); returns
+    (1 when they underflowed, the ESS, the weight change K = sum W (W - Wprev)^2)."""
+    N = lw.size
+    under = 0.0
+    if not np.isfinite(mx):
+        under = 1.0
+        lw[:] = 0.0
+        mx = 0.0
+    tot = 0.0
+    for i in range(N):
+        W[i] = math.exp(lw[i] - mx) if np.isfinite(lw[i]) else 0.0
+        tot += W[i]
+    S2 = 0.0
+    Kc = 0.0
+    for i in range(N):
+        W[i] /= tot
+        S2 += W[i] * W[i]
+        dw = W[i] - Wprev[i]
+        Kc += W[i] * dw * dw
+    return under, 1.0 / S2, Kc
+
+
+@njit(types.void(PROPOSALS, PROPOSALS, _I), cache=True)
+def copy_resampled(pp, out, idx):
+    """out[i] = pp[idx[i]], every field."""
+    for i in range(idx.size):
+        a = idx[i]
+        out.X[i] = pp.X[a]
+        out.Pc[i] = pp.Pc[a]
+        out.mprop[i] = pp.mprop[a]
+        out.Lprop[i] = pp.Lprop[a]
+        out.fpre[i] = pp.fpre[a]
+        out.Lq[i] = pp.Lq[a]
+        out.ltgt[i] = pp.ltgt[a]
+        out.lqs[i] = pp.lqs[a]
+
+
+@njit(types.int64(PROPOSALS, _F2, _I, _F2, types.int64, FIELD_OPTIONS, STATE), cache=True)
+def mh_moves(pp, bc, ids, zs, m, o, s):
+    """o.mh_steps independence Metropolis-Hastings moves per particle with its ancestor's
+    proposal; returns the moves accepted."""
+    acc = 0
+    X, mprop, fpre = pp.X, pp.mprop, pp.fpre
+    for i in range(X.shape[0]):
+        Lp = pp.Lprop[i]
+        for _ in range(o.mh_steps):
+            n0, n1, n2 = normal(s), normal(s), normal(s)
+            nx = mprop[i, 0] + Lp[0, 0] * n0
+            ny = mprop[i, 1] + Lp[1, 0] * n0 + Lp[1, 1] * n1
+            nt = wrap(mprop[i, 2] + Lp[2, 0] * n0 + Lp[2, 1] * n1 + Lp[2, 2] * n2)
+            lq = lognormal3(nx - mprop[i, 0], ny - mprop[i, 1], wrap(nt - mprop[i, 2]), Lp)
+            lt = (pose_loglik(nx, ny, nt, bc, m, ids, zs, o.sensor, o.sr, o.sb)
+                  + lognormal3(nx - fpre[i, 0], ny - fpre[i, 1], wrap(nt - fpre[i, 2]),
+                               pp.Lq[i]))
+            la = (lt - lq) - (pp.ltgt[i] - pp.lqs[i])
+            if la >= 0.0 or uniform(s) < math.exp(la):
+                X[i, 0], X[i, 1], X[i, 2] = nx, ny, nt
+                pp.ltgt[i] = lt
+                pp.lqs[i] = lq
+                acc += 1
+    return acc
+
+
 SSPF_SIG = types.int64(
-    _F2, _I, _I2, _F3, _F2, _F, types.int64, _F, types.int64, types.float64, types.float64,
-    types.int64, types.int64, types.float64, types.int64, types.int64, _F, _F, _F, _F, STATE, _F2,
-    _F, _I, _F, _I, _F3, _I)
+    _F2, _I, _I2, _F3, _F2, _F, FIELD_OPTIONS, _F, _F, _F, _F, _F, STATE, _F2, _F, _I, _F, _I, _F3,
+    _I)
 
 
 @njit(SSPF_SIG, cache=True)
-def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, motion, mnoise, sensor, sr, sb, N,
-                      trigger, threshold, scheme, mh_steps, up, init, jit, start, s, est, ess, resampled,
-                      accepted, snap_t, snap, snap_n):
-    """Run the SSPF over one trial. up: [alpha, beta, kappa] of the sigma points; init: initial
-    standard deviations [m, rad]; jit: the jitter [m, rad]; trigger 0 always, 1 ESS < threshold,
-    2 K > threshold; start: the initial belief (init_particles). Fills est (T+1, 3), ess / resampled / accepted (MH acceptance rate, NaN
-    without a move) (T,); snapshots as mcl_kernel's. Returns the steps whose weights all
-    underflowed."""
-    T = ctrl.shape[0]
-    B = bc.shape[0]
-    nzmax = 2 * B
-    Lg = 6
-    ns = 2 * Lg + 1
-    Wm = np.empty(ns)
-    Wc = np.empty(ns)
-    sq = ut_weights(Lg, up[0], up[1], up[2], Wm, Wc)
-
-    X = np.empty((N, 3))
-    Pc = np.zeros((N, 3, 3))
-    init_particles(X, area, start, s)
+def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, up, init, jit, start, s,
+                      est, ess, resampled, accepted, snap_t, snap, snap_n):
+    """Run the SSPF over one trial (settings o, see ``FieldOptions``). up: [alpha, beta, kappa] of
+    the sigma points; init: initial standard deviations [m, rad]; jit: the jitter [m, rad];
+    start: the initial belief (init_particles). Fills est (T+1, 3), ess / resampled / accepted
+    (MH acceptance rate, NaN without a move) (T,); snapshots as mcl_kernel's. Returns the steps
+    whose weights all underflowed."""
+    T, N = ctrl.shape[0], o.N
+    wk = new_ukf_work(13, 2 * bc.shape[0])
+    ut_weights(6, up[0], up[1], up[2], wk.Wm, wk.Wc)
+    pp, spare = new_proposals(N), new_proposals(N)
+    init_particles(pp.X, area, start, s)
     for i in range(N):
-        Pc[i, 0, 0] = init[0] * init[0]
-        Pc[i, 1, 1] = init[0] * init[0]
-        Pc[i, 2, 2] = init[1] * init[1]
-    mprop = np.empty((N, 3))       # the proposal each particle was drawn from: mean, Cholesky
-    Lprop = np.zeros((N, 3, 3))
-    fpre = np.empty((N, 3))        # the transition density's mean f(x_prev, u) and Cholesky
-    Lq = np.zeros((N, 3, 3))
-    ltgt = np.empty(N)             # log p(z | x) + log p(x | x_prev) of the particle
-    lqs = np.empty(N)              # log q(x)
-    # resampling buffers
-    X2, Pc2, mprop2, Lprop2 = np.empty_like(X), np.empty_like(Pc), np.empty_like(mprop), \
-        np.empty_like(Lprop)
-    fpre2, Lq2, ltgt2, lqs2 = np.empty_like(fpre), np.empty_like(Lq), np.empty_like(ltgt), \
-        np.empty_like(lqs)
-
+        pp.Pc[i, 0, 0] = init[0] * init[0]
+        pp.Pc[i, 1, 1] = init[0] * init[0]
+        pp.Pc[i, 2, 2] = init[1] * init[1]
     lw = np.zeros(N)
     W = np.full(N, 1.0 / N)
     Wprev = np.full(N, 1.0 / N)
     idx = np.empty(N, dtype=np.int64)
-    sd = np.empty(3)
-    Y = np.empty((ns, 3))
-    Z = np.empty((ns, nzmax))
-    zm = np.empty(nzmax)
-    zobs = np.empty(nzmax)
-    isb = np.zeros(nzmax, dtype=np.int64)
-    S = np.empty((nzmax, nzmax))
-    LS = np.zeros((nzmax, nzmax))
-    C = np.empty((3, nzmax))
-    K = np.empty((3, nzmax))
-    rowb = np.empty(nzmax)
-    Pm = np.empty((3, 3))
-    Pn = np.empty((3, 3))
-    L3 = np.zeros((3, 3))
-    Q = np.empty((3, 3))
-    xm = np.empty(3)
-    d = np.empty(3)
     events = 0
-    estimate_pose(X, W, N, est[0])
-    si = snapshot(0, X, N, snap_t, snap, snap_n, 0, False)
+    estimate_pose(pp.X, W, N, est[0])
+    si = snapshot(0, pp.X, N, snap_t, snap, snap_n, 0, False)
     for t in range(T):
-        u = ctrl[t]
-        noise_sd(u, motion, mnoise, sd)
-        m = obs_n[t]
-        ids = obs_id[t]
-        zs = obs_z[t]
-        nz = m * (2 if sensor == 1 else 1)
-        r = 0
-        for j in range(m):
-            zobs[r] = zs[j, 0]
-            isb[r] = 0
-            r += 1
-            if sensor == 1:
-                zobs[r] = zs[j, 1]
-                isb[r] = 1
-                r += 1
+        u, m, ids, zs = ctrl[t], obs_n[t], obs_id[t], obs_z[t]
+        noise_sd(u, o.motion, mnoise, wk.sd)
+        nz = observation_vector(zs, m, o, wk)
         mx = -np.inf
-        for i in range(N):
-            # sigma points of [pose, noise] through the motion
-            if not chol(Pc[i], 3, L3):
-                for a in range(3):
-                    for b in range(3):
-                        L3[a, b] = 0.0
-                L3[0, 0] = L3[1, 1] = jit[0]
-                L3[2, 2] = jit[1]
-            for j in range(ns):
-                px, py, pt = X[i, 0], X[i, 1], X[i, 2]
-                w0 = w1 = w2 = 0.0
-                if j > 0:
-                    k = (j - 1) % Lg
-                    sgn = 1.0 if j <= Lg else -1.0
-                    if k < 3:
-                        px += sgn * sq * L3[0, k]
-                        py += sgn * sq * L3[1, k]
-                        pt += sgn * sq * L3[2, k]
-                    elif k == 3:
-                        w0 = sgn * sq * sd[0]
-                    elif k == 4:
-                        w1 = sgn * sq * sd[1]
-                    else:
-                        w2 = sgn * sq * sd[2]
-                Y[j, 0], Y[j, 1], Y[j, 2] = move(px, py, pt, u, w0, w1, w2)
-            xm[0] = 0.0
-            xm[1] = 0.0
-            dt = 0.0
-            for j in range(ns):
-                xm[0] += Wm[j] * Y[j, 0]
-                xm[1] += Wm[j] * Y[j, 1]
-                dt += Wm[j] * wrap(Y[j, 2] - Y[0, 2])
-            xm[2] = wrap(Y[0, 2] + dt)
-            for a in range(3):
-                for b in range(3):
-                    Pm[a, b] = 0.0
-            for j in range(ns):
-                _pose_diff(Y, j, xm, d)
-                for a in range(3):
-                    for b in range(3):
-                        Pm[a, b] += Wc[j] * d[a] * d[b]
-            Pm[0, 0] += jit[0] * jit[0]
-            Pm[1, 1] += jit[0] * jit[0]
-            Pm[2, 2] += jit[1] * jit[1]
-            # the measurement update
-            for a in range(3):
-                for b in range(3):
-                    Pn[a, b] = Pm[a, b]
+        for i in range(N):      # each particle's UKF proposal, and a draw from it
+            predict_moments(pp.X[i], pp.Pc[i], u, o, wk)
+            wk.Pn[:] = wk.Pm
             if nz > 0:
-                for j in range(ns):
-                    r = 0
-                    for q in range(m):
-                        dx = bc[ids[q], 0] - Y[j, 0]
-                        dy = bc[ids[q], 1] - Y[j, 1]
-                        Z[j, r] = math.hypot(dx, dy)
-                        r += 1
-                        if sensor == 1:
-                            Z[j, r] = wrap(math.atan2(dy, dx) - Y[j, 2])
-                            r += 1
-                for r in range(nz):
-                    v = 0.0
-                    for j in range(ns):
-                        v += Wm[j] * (wrap(Z[j, r] - Z[0, r]) if isb[r] else Z[j, r])
-                    zm[r] = wrap(Z[0, r] + v) if isb[r] else v
-                for a in range(nz):
-                    for b in range(nz):
-                        S[a, b] = 0.0
-                    S[a, a] = sb * sb if isb[a] else sr * sr
-                    for b in range(3):
-                        C[b, a] = 0.0
-                for j in range(ns):
-                    _pose_diff(Y, j, xm, d)
-                    for a in range(nz):
-                        da = wrap(Z[j, a] - zm[a]) if isb[a] else Z[j, a] - zm[a]
-                        for b in range(nz):
-                            db = wrap(Z[j, b] - zm[b]) if isb[b] else Z[j, b] - zm[b]
-                            S[a, b] += Wc[j] * da * db
-                        for b in range(3):
-                            C[b, a] += Wc[j] * d[b] * da
-                if chol(S, nz, LS):
-                    for b in range(3):
-                        for a in range(nz):
-                            rowb[a] = C[b, a]
-                        chol_solve(LS, nz, rowb)
-                        for a in range(nz):
-                            K[b, a] = rowb[a]
-                    for b in range(3):
-                        v = 0.0
-                        for a in range(nz):
-                            inn = zobs[a] - zm[a]
-                            if isb[a]:
-                                inn = wrap(inn)
-                            v += K[b, a] * inn
-                        xm[b] += v
-                    xm[2] = wrap(xm[2])
-                    for a in range(3):
-                        for b in range(3):
-                            v = 0.0
-                            for q in range(nz):
-                                v += K[a, q] * C[b, q]
-                            Pn[a, b] = Pm[a, b] - v
-                    for a in range(3):
-                        for b in range(a):
-                            v = 0.5 * (Pn[a, b] + Pn[b, a])
-                            Pn[a, b] = v
-                            Pn[b, a] = v
-            if not chol(Pn, 3, L3):     # numerically indefinite: keep the predicted covariance
-                for a in range(3):
-                    for b in range(3):
-                        Pn[a, b] = Pm[a, b]
-                chol(Pn, 3, L3)
-            # draw from the proposal; the transition density at the particle's previous pose
-            n0, n1, n2 = normal(s), normal(s), normal(s)
-            nx = xm[0] + L3[0, 0] * n0
-            ny = xm[1] + L3[1, 0] * n0 + L3[1, 1] * n1
-            nt = wrap(xm[2] + L3[2, 0] * n0 + L3[2, 1] * n1 + L3[2, 2] * n2)
-            lq = lognormal3(nx - xm[0], ny - xm[1], wrap(nt - xm[2]), L3)
-            fx, fy, ft = move(X[i, 0], X[i, 1], X[i, 2], u, 0.0, 0.0, 0.0)
-            transition_cov(X[i, 0], X[i, 1], X[i, 2], u, sd, jit, Q)
-            Li = Lq[i]
-            chol(Q, 3, Li)
-            lp = lognormal3(nx - fx, ny - fy, wrap(nt - ft), Li)
-            ll = pose_loglik(nx, ny, nt, bc, m, ids, zs, sensor, sr, sb)
-            X[i, 0], X[i, 1], X[i, 2] = nx, ny, nt
-            for a in range(3):
-                mprop[i, a] = xm[a]
-                for b in range(3):
-                    Pc[i, a, b] = Pn[a, b]
-                    Lprop[i, a, b] = L3[a, b]
-            fpre[i, 0], fpre[i, 1], fpre[i, 2] = fx, fy, ft
-            ltgt[i] = ll + lp
-            lqs[i] = lq
-            lw[i] += ll + lp - lq
+                sensor_moments(bc, ids, zs, m, nz, o, wk)
+                kalman_update(nz, wk)
+            lw[i] += draw_particle(pp, i, u, bc, ids, zs, m, o, wk, jit, s)
             if lw[i] > mx:
                 mx = lw[i]
-        if not np.isfinite(mx):
-            events += 1
-            lw[:] = 0.0
-            mx = 0.0
-        tot = 0.0
-        for i in range(N):
-            W[i] = math.exp(lw[i] - mx) if np.isfinite(lw[i]) else 0.0
-            tot += W[i]
-        S2 = 0.0
-        Kc = 0.0
-        for i in range(N):
-            W[i] /= tot
-            S2 += W[i] * W[i]
-            dw = W[i] - Wprev[i]
-            Kc += W[i] * dw * dw
-        ess[t] = 1.0 / S2
-        estimate_pose(X, W, N, est[t + 1])
-        si = snapshot(t + 1, X, N, snap_t, snap, snap_n, si, False)
+        under, ess[t], Kc = weigh(lw, W, Wprev, mx)
+        events += int(under)
+        estimate_pose(pp.X, W, N, est[t + 1])
+        si = snapshot(t + 1, pp.X, N, snap_t, snap, snap_n, si, False)
         accepted[t] = np.nan
-        go = trigger == 0 or (trigger == 1 and ess[t] < threshold) or (trigger == 2 and
-                                                                        Kc > threshold)
-        if not go:
+        resampled[t] = 0
+        if not (o.trigger == 0 or (o.trigger == 1 and ess[t] < o.threshold)
+                or (o.trigger == 2 and Kc > o.threshold)):
             Wprev[:] = W
-            resampled[t] = 0
             continue
-        resample(scheme, W, 1.0, s, idx)
-        for i in range(N):
-            a = idx[i]
-            X2[i] = X[a]
-            Pc2[i] = Pc[a]
-            mprop2[i] = mprop[a]
-            Lprop2[i] = Lprop[a]
-            fpre2[i] = fpre[a]
-            Lq2[i] = Lq[a]
-            ltgt2[i] = ltgt[a]
-            lqs2[i] = lqs[a]
-        X, X2 = X2, X
-        Pc, Pc2 = Pc2, Pc
-        mprop, mprop2 = mprop2, mprop
-        Lprop, Lprop2 = Lprop2, Lprop
-        fpre, fpre2 = fpre2, fpre
-        Lq, Lq2 = Lq2, Lq
-        ltgt, ltgt2 = ltgt2, ltgt
-        lqs, lqs2 = lqs2, lqs
+        resample(o.scheme, W, 1.0, s, idx)
+        copy_resampled(pp, spare, idx)
+        pp, spare = spare, pp
         lw[:] = 0.0
         W[:] = 1.0 / N
         Wprev[:] = W
         resampled[t] = 1
-        acc = 0
-        for i in range(N):
-            Lp = Lprop[i]
-            for _ in range(mh_steps):
-                n0, n1, n2 = normal(s), normal(s), normal(s)
-                nx = mprop[i, 0] + Lp[0, 0] * n0
-                ny = mprop[i, 1] + Lp[1, 0] * n0 + Lp[1, 1] * n1
-                nt = wrap(mprop[i, 2] + Lp[2, 0] * n0 + Lp[2, 1] * n1 + Lp[2, 2] * n2)
-                lq = lognormal3(nx - mprop[i, 0], ny - mprop[i, 1], wrap(nt - mprop[i, 2]), Lp)
-                lt = (pose_loglik(nx, ny, nt, bc, m, ids, zs, sensor, sr, sb)
-                      + lognormal3(nx - fpre[i, 0], ny - fpre[i, 1], wrap(nt - fpre[i, 2]),
-                                   Lq[i]))
-                la = (lt - lq) - (ltgt[i] - lqs[i])
-                if la >= 0.0 or uniform(s) < math.exp(la):
-                    X[i, 0], X[i, 1], X[i, 2] = nx, ny, nt
-                    ltgt[i] = lt
-                    lqs[i] = lq
-                    acc += 1
-        if mh_steps > 0:
-            accepted[t] = acc / (N * mh_steps)
+        acc = mh_moves(pp, bc, ids, zs, m, o, s)
+        if o.mh_steps > 0:
+            accepted[t] = acc / (N * o.mh_steps)
     return events
 
 
@@ -441,15 +555,20 @@ def run(model, data, params, particles, state, diag=True, snapshots=()):
     out = {"pose": np.empty((T + 1, 3)), "ess": np.empty(T),
            "resampled": np.zeros(T, dtype=np.int64), "mh_accept": np.empty(T),
            "snapshots": snapshot_arrays(snapshots, N)}
+    sq = ut_weights(6, params["alpha"], params["beta"], params["kappa"], np.empty(13),
+                    np.empty(13))
+    o = FieldOptions(
+        motion=int(model.motion), sensor=int(model.sensor), sr=float(model.sense[2]),
+        sb=float(model.sense[3]), N=int(N), trigger=int(trig), threshold=float(threshold),
+        scheme=SCHEME_CODES[params["resampling"]], mh_steps=int(params["mh_steps"]),
+        sq=float(sq), jit_m=float(params["jitter_m"]),
+        jit_rad=float(math.radians(params["jitter_deg"])))
     out["underflow_steps"] = sspf_field_kernel(
-        data.ctrl, data.obs_n, data.obs_id, data.obs_z, model.beacons, model.area, model.motion,
-        model.mnoise, model.sensor, float(model.sense[2]), float(model.sense[3]), N, trig,
-        threshold, SCHEME_CODES[params["resampling"]], params["mh_steps"],
-        np.array([params["alpha"], params["beta"], params["kappa"]]),
+        data.ctrl, data.obs_n, data.obs_id, data.obs_z, model.beacons, model.area, o,
+        model.mnoise, np.array([params["alpha"], params["beta"], params["kappa"]]),
         np.array([params["init_std_m"], math.radians(params["init_std_deg"])]),
         np.array([params["jitter_m"], math.radians(params["jitter_deg"])]), model.init, state,
-        out["pose"],
-        out["ess"], out["resampled"], out["mh_accept"], *out["snapshots"])
+        out["pose"], out["ess"], out["resampled"], out["mh_accept"], *out["snapshots"])
     out["n"] = np.full(T, N)
     # the likelihood at the drawn particle, plus the UKF's sigma points, plus the MH proposals
     out["lik_evals_per_step"] = float(N * (1 + 13) + N * params["mh_steps"]

@@ -10,9 +10,10 @@ filters, which the equal-compute PF rows of the tables put in perspective.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
-from numba import njit, types
+from numba import njit, typeof, types
 
 from ..resampling import SCHEME_CODES, SCHEMES, resample, stepwise_ewa_plan
 from ..rng import STATE, normal
@@ -28,12 +29,6 @@ _F = types.float64[::1]
 _I = types.int64[::1]
 
 EWA = len(SCHEME_CODES)          # the stepwise EWA scheme's code, after the standard ones
-
-SWARM_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64, types.int64,
-                        types.int64, _F, types.int64, types.int64, types.float64, types.int64,
-                        types.float64, types.float64, types.int64, types.int64, STATE, _F, _F, _I,
-                        _F, _F, _F)
-
 
 @njit(types.void(ModelFn, _F, types.float64, types.float64, types.float64, _F, _F, _F),
       cache=True)
@@ -51,138 +46,199 @@ def _shifted_exp(ll, M, out):
         out[i] = math.exp(ll[i] - M)
 
 
-@njit(SWARM_SIG, cache=True)
-def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, algo, p, iters, scheme,
-                    threshold, estimate_after, ewa_beta, ewa_mu, ewa_printed, diag, s,
-                    xhat, ess, resampled, div_l1, distinct, evals):
-    """Run a swarm-optimised PF over y (T+1,); fill the (T+1,) traces; return the underflow count.
+class SwarmOptions(NamedTuple):
+    """A swarm PF's settings, as the jitted steps read them.
 
-    algo : a value of ALGORITHMS; p : its parameters
-        fa [beta0, gamma, alpha]; ifa [beta0, gamma, brightness (0: exp(-d^2/2), 1: 1/(1+d))];
-        ba [fmin, fmax, A0, r0, alpha, gamma];
-        pso [w, c1, c2]; afsa [visual, step, delta, tries, greedy]
-    scheme : a resampling scheme code, or EWA (stepwise EWA with ewa_beta, mutation ewa_mu, the
-        bias correction inside the recursion when ewa_printed)
-    evals : (T+1,) filled with the likelihood evaluations of each step
+    N : particles; algo : the swarm algorithm (swarm.ALGORITHMS); iters : its iterations a step
+    scheme : a resampling code, or EWA (stepwise EWA with ewa_beta, mutation ewa_mu, the bias
+    correction inside the recursion when ewa_printed); threshold : resample when ESS < threshold
+    estimate_after : 1 to estimate after resampling; diag : 1 to fill the costly diagnostics
     """
-    T = y.size - 1
-    R = noise[3]
-    half_inv_R = 0.5 / R
+
+    N: int
+    algo: int
+    iters: int
+    scheme: int
+    threshold: float
+    estimate_after: int
+    ewa_beta: float
+    ewa_mu: float
+    ewa_printed: int
+    diag: int
+
+
+SWARM_OPTIONS = typeof(SwarmOptions(1, 0, 1, 0, 1.0, 0, 0.8, 0.01, 0, 1))
+
+
+class Work(NamedTuple):
+    """Scratch of the swarm moves (N particles): h at up to 3 N points hx; the moved particles'
+    log-likelihood ll and fitness fit; BA and PSO velocities V; PSO's bests P, Pfit; BA's loudness
+    A and pulse rate r; candidates C (3 N) and their log-likelihood llC; AFSA's centres Xc, their
+    llc, fitc, and neighbour counts nf; one, onef, unit: a state, its f, a unit step (1,)."""
+
+    hx: np.ndarray
+    ll: np.ndarray
+    fit: np.ndarray
+    V: np.ndarray
+    P: np.ndarray
+    Pfit: np.ndarray
+    A: np.ndarray
+    r: np.ndarray
+    C: np.ndarray
+    llC: np.ndarray
+    Xc: np.ndarray
+    llc: np.ndarray
+    fitc: np.ndarray
+    nf: np.ndarray
+    one: np.ndarray
+    onef: np.ndarray
+    unit: np.ndarray
+
+
+WORK = types.NamedUniTuple(_F, 17, Work)
+
+
+@njit(WORK(types.int64), cache=True)
+def new_work(N):
+    return Work(np.empty(3 * N), np.empty(N), np.empty(N), np.empty(N), np.empty(N), np.empty(N),
+                np.empty(N), np.empty(N), np.empty(3 * N), np.empty(3 * N), np.empty(N),
+                np.empty(N), np.empty(N), np.empty(N), np.empty(1), np.empty(1), np.ones(1))
+
+
+@njit(types.void(ModelFn, _F, types.float64, types.float64, _F, _F, types.float64,
+                 types.float64, WORK), cache=True)
+def ifa_brightness(f, theta, tt, xprev_hat, noise, xn, M, kind, wk):
+    """IFA's brightness of the particles xn: d_i, the distance of (h(x_i), x_i) to (y_t,
+    f(xhat_{t-1}) + noise mean), each coordinate in units of its noise standard deviation
+    (-2 ll = (y - h)^2 / R); kind 0: exp(-d^2/2), scaled by exp(-M) (ratios and order unchanged),
+    1: 1 / (1 + d)."""
     Qv = noise[1] if noise[0] == NOISE_GAUSSIAN else noise[1] / (noise[2] * noise[2])
     qmean = 0.0 if noise[0] == NOISE_GAUSSIAN else noise[1] / noise[2]
+    wk.one[0] = xprev_hat
+    f(wk.one, tt, theta, wk.onef)
+    xbar = wk.onef[0] + qmean
+    for i in range(xn.size):
+        e = xn[i] - xbar
+        if kind == 0.0:
+            wk.fit[i] = math.exp(wk.ll[i] - M - 0.5 * e * e / Qv)
+        else:
+            wk.fit[i] = 1.0 / (1.0 + math.sqrt(-2.0 * wk.ll[i] + e * e / Qv))
+
+
+@njit(types.int64(ModelFn, ModelFn, _F, types.float64, types.float64, _F, types.float64, _F,
+                  SWARM_OPTIONS, _F, WORK, types.int64, STATE), cache=True)
+def swarm_iteration(f, h, theta, tt, yt, noise, xprev_hat, xn, o, p, wk, it, s):
+    """One iteration of the swarm algorithm o.algo (parameters p, swarm.pack) over the particles
+    xn, the fitness their likelihood (wk.ll, kept up to date); returns the likelihood
+    evaluations."""
+    N = xn.size
+    R = noise[3]
+    half_inv_R = 0.5 / R
+    M = wk.ll.max()
+    if o.algo == FA:                                  # FA: brightness = likelihood
+        _shifted_exp(wk.ll, M, wk.fit)
+        fa_move(xn, wk.fit, 1, p[0], p[1], p[2], wk.unit, s)
+    elif o.algo == IFA:                               # IFA: distance brightness
+        ifa_brightness(f, theta, tt, xprev_hat, noise, xn, M, p[2], wk)
+        ifa_move(xn, wk.fit, 1, p[0], p[1], R, wk.unit, s)
+    elif o.algo == BA:
+        if it == 0:
+            wk.V[:] = 0.0
+            wk.A[:] = p[2]
+            wk.r[:] = p[3]
+        ba_propose(xn, wk.V, wk.A, wk.r, wk.C[:N], 1, argmax(wk.ll), p[0], p[1], wk.unit, s)
+        _loglik(h, theta, tt, yt, half_inv_R, wk.C[:N], wk.hx[:N], wk.llC[:N])
+        ba_accept(xn, wk.ll, wk.C[:N], wk.llC[:N], wk.A, wk.r, 1, p[4], p[5], p[3], it + 1, s)
+        return N
+    elif o.algo == PSO:
+        if it == 0:
+            wk.V[:] = 0.0
+            wk.P[:] = xn
+            wk.Pfit[:] = wk.ll
+        pso_propose(xn, wk.V, wk.P, wk.Pfit, 1, argmax(wk.Pfit), p[0], p[1], p[2], s)
+        _loglik(h, theta, tt, yt, half_inv_R, xn, wk.hx[:N], wk.ll)
+        pso_accept(xn, wk.ll, wk.P, wk.Pfit, 1)
+        return N
+    else:                                             # AFSA
+        afsa_centres(xn, wk.fit, 1, p[0], wk.Xc, wk.nf)
+        _loglik(h, theta, tt, yt, half_inv_R, wk.Xc, wk.hx[:N], wk.llc)
+        # one shift for the fish and their centres, so that no fitness overflows (a centre can
+        # be far likelier than every fish when the noise is small)
+        M = max(M, wk.llc.max())
+        _shifted_exp(wk.ll, M, wk.fit)
+        _shifted_exp(wk.llc, M, wk.fitc)
+        afsa_propose(xn, wk.fit, wk.Xc, wk.fitc, wk.nf, 1, p[0], p[1], p[2], int(p[3]), s, wk.C)
+        _loglik(h, theta, tt, yt, half_inv_R, wk.C, wk.hx, wk.llC)
+        # the choice only compares fitnesses, so it takes the log-likelihoods: exact where
+        # exp(ll - M) would underflow to a tie at 0 (or overflow)
+        afsa_select(xn, wk.ll, wk.C, wk.llC, 1, int(p[4]))
+        return 4 * N
+    _loglik(h, theta, tt, yt, half_inv_R, xn, wk.hx[:N], wk.ll)   # FA and IFA moved: re-weigh
+    return N
+
+
+@njit(types.void(_F, _F, _F, types.float64, _F, _I, types.int8[::1], SWARM_OPTIONS, STATE),
+      cache=True)
+def resample_swarm(x, xn, w, S, lw, idx, mutant, o, s):
+    """The resampled set of xn (weights w, sum S) into x: the stepwise EWA's plan with its
+    mutations, or a standard scheme; the log-weights lw reset."""
+    N = x.size
+    if o.scheme == EWA:
+        for i in range(N):
+            w[i] /= S
+        stepwise_ewa_plan(w, o.ewa_beta, o.ewa_printed, idx, mutant)
+        for i in range(N):
+            v = xn[idx[i]]
+            x[i] = v + v * o.ewa_mu * normal(s) if mutant[i] else v
+    else:
+        resample(o.scheme, w, S, s, idx)
+        for i in range(N):
+            x[i] = xn[idx[i]]
+    for i in range(N):
+        lw[i] = 0.0
+
+
+SWARM_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64,
+                        SWARM_OPTIONS, _F, STATE, _F, _F, _I, _F, _F, _F)
+
+
+@njit(SWARM_SIG, cache=True)
+def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, p, s, xhat, ess, resampled,
+                    div_l1, distinct, evals):
+    """Run a swarm-optimised PF over y (T+1,) (settings o, see ``SwarmOptions``; the swarm's
+    parameters p, swarm.pack); fill the (T+1,) traces and evals, the likelihood evaluations of
+    each step; return the underflow count."""
+    T, N = y.size - 1, o.N
+    half_inv_R = 0.5 / noise[3]
     x = np.empty(N)
     start(s, prior_mean, prior_var, x, xhat, ess, resampled, div_l1, distinct)
     xn = np.empty(N)
-    hx = np.empty(3 * N)
-    ll = np.empty(N)
-    fit = np.empty(N)
     lw = np.zeros(N)
     w = np.empty(N)
     idx = np.empty(N, dtype=np.int64)
     mutant = np.empty(N, dtype=np.int8)
-    V = np.empty(N)
-    P = np.empty(N)
-    Pfit = np.empty(N)
-    A = np.empty(N)
-    r = np.empty(N)
-    C = np.empty(3 * N)
-    llC = np.empty(3 * N)
-    Xc = np.empty(N)
-    llc = np.empty(N)
-    fitc = np.empty(N)
-    nf = np.empty(N)
-    one = np.empty(1)
-    onef = np.empty(1)
-    unit = np.ones(1)
+    wk = new_work(N)
     events = 0
     evals[0] = 0.0
     for t in range(1, T + 1):
-        tt = float(t)
-        yt = y[t]
+        tt, yt = float(t), y[t]
         f(x, tt, theta, xn)
         add_process_noise(s, noise, xn)
-        _loglik(h, theta, tt, yt, half_inv_R, xn, hx[:N], ll)
+        _loglik(h, theta, tt, yt, half_inv_R, xn, wk.hx[:N], wk.ll)
         nev = N
-        for it in range(iters):
-            M = ll.max()
-            if algo == FA:                                  # FA: brightness = likelihood
-                _shifted_exp(ll, M, fit)
-                fa_move(xn, fit, 1, p[0], p[1], p[2], unit, s)
-            elif algo == IFA:                               # IFA: distance brightness
-                # d_i: distance of (h(x_i), x_i) to (y_t, f(xhat_{t-1}) + noise mean), each
-                # coordinate in units of its noise standard deviation; -2 ll = (y - h)^2 / R
-                one[0] = xhat[t - 1]
-                f(one, tt, theta, onef)
-                xbar = onef[0] + qmean
-                for i in range(N):
-                    e = xn[i] - xbar
-                    if p[2] == 0.0:   # exp(-d^2/2), scaled by exp(-M): ratios and order unchanged
-                        fit[i] = math.exp(ll[i] - M - 0.5 * e * e / Qv)
-                    else:
-                        fit[i] = 1.0 / (1.0 + math.sqrt(-2.0 * ll[i] + e * e / Qv))
-                ifa_move(xn, fit, 1, p[0], p[1], R, unit, s)
-            elif algo == BA:
-                if it == 0:
-                    V[:] = 0.0
-                    A[:] = p[2]
-                    r[:] = p[3]
-                g = argmax(ll)
-                ba_propose(xn, V, A, r, C[:N], 1, g, p[0], p[1], unit, s)
-                _loglik(h, theta, tt, yt, half_inv_R, C[:N], hx[:N], llC[:N])
-                nev += N
-                ba_accept(xn, ll, C[:N], llC[:N], A, r, 1, p[4], p[5], p[3], it + 1, s)
-                continue
-            elif algo == PSO:
-                if it == 0:
-                    V[:] = 0.0
-                    P[:] = xn
-                    Pfit[:] = ll
-                g = argmax(Pfit)
-                pso_propose(xn, V, P, Pfit, 1, g, p[0], p[1], p[2], s)
-                _loglik(h, theta, tt, yt, half_inv_R, xn, hx[:N], ll)
-                nev += N
-                pso_accept(xn, ll, P, Pfit, 1)
-                continue
-            else:                                           # AFSA
-                afsa_centres(xn, fit, 1, p[0], Xc, nf)
-                _loglik(h, theta, tt, yt, half_inv_R, Xc, hx[:N], llc)
-                # one shift for the fish and their centres, so that no fitness overflows (a
-                # centre can be far likelier than every fish when the noise is small)
-                M = max(M, llc.max())
-                _shifted_exp(ll, M, fit)
-                _shifted_exp(llc, M, fitc)
-                afsa_propose(xn, fit, Xc, fitc, nf, 1, p[0], p[1], p[2], int(p[3]), s, C)
-                _loglik(h, theta, tt, yt, half_inv_R, C, hx, llC)
-                nev += 4 * N
-                # the choice only compares fitnesses, so it takes the log-likelihoods: exact
-                # where exp(ll - M) would underflow to a tie at 0 (or overflow)
-                afsa_select(xn, ll, C, llC, 1, int(p[4]))
-                continue
-            _loglik(h, theta, tt, yt, half_inv_R, xn, hx[:N], ll)   # FA and IFA moved: re-weigh
-            nev += N
+        for it in range(o.iters):
+            nev += swarm_iteration(f, h, theta, tt, yt, noise, xhat[t - 1], xn, o, p, wk, it, s)
         evals[t] = nev
         mx = -np.inf
         for i in range(N):
-            l = lw[i] + ll[i]
+            l = lw[i] + wk.ll[i]
             lw[i] = l
             mx = max(mx, l)
         S, est, under = weigh(lw, w, xn, mx, t, ess, resampled, div_l1, distinct)
         events += int(under)
-        if ess[t] < threshold:
-            if scheme == EWA:
-                for i in range(N):
-                    w[i] /= S
-                stepwise_ewa_plan(w, ewa_beta, ewa_printed, idx, mutant)
-                for i in range(N):
-                    v = xn[idx[i]]
-                    x[i] = v + v * ewa_mu * normal(s) if mutant[i] else v
-            else:
-                resample(scheme, w, S, s, idx)
-                for i in range(N):
-                    x[i] = xn[idx[i]]
-            for i in range(N):
-                lw[i] = 0.0
-            est = resampled_step(x, t, est, estimate_after, diag, resampled, div_l1, distinct)
+        if ess[t] < o.threshold:
+            resample_swarm(x, xn, w, S, lw, idx, mutant, o, s)
+            est = resampled_step(x, t, est, o.estimate_after, o.diag, resampled, div_l1, distinct)
         else:
             x[:] = xn
         xhat[t] = est
@@ -200,13 +256,16 @@ def make_run(kind: str):
         threshold = (np.inf if params["resample"] == "always"
                      else params["neff_ratio"] * particles)
         scheme = EWA if params["resampling"] == "stepwise_ewa" else SCHEME_CODES[params["resampling"]]
+        o = SwarmOptions(
+            N=int(particles), algo=ALGORITHMS[kind], iters=int(params["iterations"]),
+            scheme=int(scheme), threshold=float(threshold),
+            estimate_after=int(params["estimate"] == "after_resampling"),
+            ewa_beta=float(params["ewa_beta"]), ewa_mu=float(params["ewa_mu"]),
+            ewa_printed=int(params["ewa_correction"] == "as_printed"), diag=int(diag))
         out["underflow_steps"] = swarm_pf_kernel(
             model.transition, model.observe, model.theta, model.noise, y, model.prior_mean,
-            model.prior_var, particles, ALGORITHMS[kind], pack(kind, params),
-            params["iterations"], scheme, threshold,
-            int(params["estimate"] == "after_resampling"), params["ewa_beta"], params["ewa_mu"],
-            int(params["ewa_correction"] == "as_printed"), int(diag), state, out["xhat"], out["ess"], out["resampled"], out["div_l1"],
-            out["distinct"], evals)
+            model.prior_var, o, pack(kind, params), state, out["xhat"], out["ess"],
+            out["resampled"], out["div_l1"], out["distinct"], evals)
         out["lik_evals_per_step"] = float(np.mean(evals[1:]))
         return out
     return run

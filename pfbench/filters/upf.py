@@ -14,9 +14,10 @@ Metropolis-Hastings move per particle with the particle's own UKF proposal.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
-from numba import njit, types
+from numba import njit, typeof, types
 
 from ..schema import Key
 from ..resampling import SCHEME_CODES, SCHEMES, resample
@@ -35,13 +36,6 @@ LOG_2PI = math.log(2.0 * math.pi)
 
 TRIGGER_ESS = 0
 TRIGGER_WEIGHT_CHANGE = 1
-
-UPF_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64, types.int64,
-                      types.float64, types.float64, types.float64, types.float64, types.float64,
-                      types.float64, types.int64, types.int64, types.float64, types.int64,
-                      types.int64, types.float64, types.int64, types.int64, STATE, _F, _F, _I,
-                      _F, _F)
-
 
 @njit(types.float64(types.float64, types.float64, types.float64), cache=True, inline="always")
 def _log_normal(x, m, v):
@@ -62,41 +56,183 @@ def increment_logprior(noise, w):
     return (noise[1] - 1.0) * math.log(abs(w)) - noise[2] * w
 
 
-@njit(UPF_SIG, cache=True)
-def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, q_mean, Qp, Rp, alpha, beta,
-               kappa, scheme, trigger, threshold, estimate_after, mh_steps, log_floor, increment,
-               diag, s, xhat, ess, resampled, div_l1, distinct):
-    """Run the UPF/SSPF over y (T+1,); fill the (T+1,) traces; return the underflow count.
+class UpfOptions(NamedTuple):
+    """The UPF's settings, as the jitted steps read them.
 
-    q_mean, Qp, Rp : Gaussian noise of the proposal's UKF (process mean and variance, measurement
-        variance); the weights use the model's true noise (``noise``).
-    trigger : TRIGGER_ESS (resample when ESS < threshold) or TRIGGER_WEIGHT_CHANGE (K > threshold)
-    mh_steps : independence MH moves per particle after each resampling.
+    N : particles; q_mean, Qp, Rp : the Gaussian noise of the proposal's UKF (process mean and
+    variance, measurement variance); the weights use the model's true noise
+    alpha, beta, kappa : the sigma points' (L = 3: the state and the two noises)
+    scheme : the resampling code; trigger : TRIGGER_ESS (resample when ESS < threshold) or
+    TRIGGER_WEIGHT_CHANGE (K > threshold); estimate_after : 1 to estimate after resampling
+    mh_steps : independence MH moves per particle after each resampling
     log_floor : log of an additive floor on the likelihood (-inf: none; see ``floored``)
-    increment : 1 = evaluate the transition density at x_t - x_{t-1} instead of x_t - f(x_{t-1})
-        (what the benchmark's reference implementation does); 0 = the model's density.
+    increment : 1 = the transition density at x_t - x_{t-1} instead of x_t - f(x_{t-1}) (what
+    the benchmark's reference implementation does); 0 = the model's density
+    diag : 1 to fill the diagnostics that cost time
     """
-    T = y.size - 1
-    R = noise[3]
-    c0 = -0.5 * math.log(R)  # the likelihood's scale R^(-1/2), which a floor compares with
-    L = 3
+
+    N: int
+    q_mean: float
+    Qp: float
+    Rp: float
+    alpha: float
+    beta: float
+    kappa: float
+    scheme: int
+    trigger: int
+    threshold: float
+    estimate_after: int
+    mh_steps: int
+    log_floor: float
+    increment: int
+    diag: int
+
+
+UPF_OPTIONS = typeof(UpfOptions(1, 0.0, 1.0, 1.0, 1.0, 0.0, 2.0, 0, 0, 1.0, 0, 0, 0.0, 0, 1))
+
+
+class Sigma(NamedTuple):
+    """The augmented UKF's sigma points (n = 7): weights Wm, Wc; the process noise's wn and the
+    measurement noise's vn at each point; sq, the points' spread; and per particle (n N) the
+    points chi, through the transition fx and through the sensor hz."""
+
+    Wm: np.ndarray
+    Wc: np.ndarray
+    wn: np.ndarray
+    vn: np.ndarray
+    sq: np.ndarray
+    chi: np.ndarray
+    fx: np.ndarray
+    hz: np.ndarray
+
+
+SIGMA = types.NamedUniTuple(_F, 8, Sigma)
+
+
+@njit(SIGMA(UPF_OPTIONS), cache=True)
+def sigma_points(o):
     n = 7
     Wm = np.empty(n)
     Wc = np.empty(n)
-    sq = ut_weights(L, alpha, beta, kappa, Wm, Wc)
-    wn = np.full(n, q_mean)
-    wn[2] += sq * math.sqrt(Qp)
-    wn[5] -= sq * math.sqrt(Qp)
+    sq = ut_weights(3, o.alpha, o.beta, o.kappa, Wm, Wc)
+    wn = np.full(n, o.q_mean)
+    wn[2] += sq * math.sqrt(o.Qp)
+    wn[5] -= sq * math.sqrt(o.Qp)
     vn = np.zeros(n)
-    vn[3] = sq * math.sqrt(Rp)
+    vn[3] = sq * math.sqrt(o.Rp)
     vn[6] = -vn[3]
+    return Sigma(Wm, Wc, wn, vn, np.full(1, sq), np.empty(n * o.N), np.empty(n * o.N),
+                 np.empty(n * o.N))
 
+
+@njit(types.void(ModelFn, ModelFn, _F, types.float64, types.float64, _F, _F, SIGMA, UPF_OPTIONS,
+                 _F, _F, _F), cache=True)
+def proposals(f, h, theta, tt, yt, x, P, sg, o, fprev, pm, pv):
+    """Each particle's proposal: an augmented UKF step from (x, P) with the measurement yt, all
+    sigma points through f and h in one call each; its mean pm and variance pv, and fprev the
+    prior density's anchor (f(x_prev), the centre sigma point before noise, or x_prev itself in
+    the reference implementation's form)."""
+    n, N, sq = 7, x.size, sg.sq[0]
+    chi, fx, hz, Wm, Wc = sg.chi, sg.fx, sg.hz, sg.Wm, sg.Wc
+    for i in range(N):
+        d = sq * math.sqrt(P[i])
+        b = i * n
+        for j in range(n):
+            chi[b + j] = x[i]
+        chi[b + 1] += d
+        chi[b + 4] -= d
+    f(chi, tt, theta, fx)
+    for i in range(N):
+        b = i * n
+        fprev[i] = x[i] if o.increment else fx[b]
+        mp = 0.0
+        for j in range(n):
+            fx[b + j] += sg.wn[j]
+            mp += Wm[j] * fx[b + j]
+        pm[i] = mp
+    h(fx, tt, theta, hz)
+    for i in range(N):
+        b = i * n
+        mp = pm[i]
+        zm = 0.0
+        for j in range(n):
+            hz[b + j] += sg.vn[j]
+            zm += Wm[j] * hz[b + j]
+        Pp = 0.0
+        S = 0.0
+        C = 0.0
+        for j in range(n):
+            dx = fx[b + j] - mp
+            dz = hz[b + j] - zm
+            Pp += Wc[j] * dx * dx
+            S += Wc[j] * dz * dz
+            C += Wc[j] * dx * dz
+        K = C / S
+        pm[i] = mp + K * (yt - zm)
+        v = Pp - K * K * S
+        pv[i] = v if v > 1e-300 else 1e-300
+
+
+@njit(types.float64(_F, types.float64, UPF_OPTIONS), cache=True)
+def log_prior(noise, w, o):
+    """The transition density's log at w: the model's, or the reference implementation's."""
+    return increment_logprior(noise, w) if o.increment else process_logpdf(noise, w)
+
+
+@njit(types.float64(_F, types.float64, _F, _F, _F, _F, _F, _F, UPF_OPTIONS), cache=True)
+def weigh_draws(noise, yt, xn, hx, fprev, pm, pv, lw, o):
+    """Multiply each weight (log, lw) by p(y | x) p(x | x_prev) / q(x) at the drawn xn (h(xn) in
+    hx); returns the largest log-weight."""
+    R = noise[3]
+    c0 = -0.5 * math.log(R)  # the likelihood's scale R^(-1/2), which a floor compares with
+    mx = -np.inf
+    for i in range(xn.size):
+        d = yt - hx[i]
+        l = lw[i] + (floored(c0 - 0.5 * d * d / R, o.log_floor)
+                     + log_prior(noise, xn[i] - fprev[i], o) - _log_normal(xn[i], pm[i], pv[i]))
+        lw[i] = l
+        mx = max(mx, l)
+    return mx
+
+
+@njit(types.void(ModelFn, _F, types.float64, types.float64, _F, _F, _F, _F, _F, _F, _F, _F,
+                 UPF_OPTIONS, STATE), cache=True)
+def mh_moves(h, theta, tt, yt, noise, x, P, am, fa, ha, prop, hprop, o, s):
+    """o.mh_steps independence MH moves per particle x with its ancestor's proposal N(am, P)
+    (fa: the ancestor's f(x_prev), ha: h(x)); prop, hprop (N,): scratch."""
+    N = x.size
+    R = noise[3]
+    c0 = -0.5 * math.log(R)
+    for _ in range(o.mh_steps):
+        for i in range(N):
+            prop[i] = am[i] + math.sqrt(P[i]) * normal(s)
+        h(prop, tt, theta, hprop)
+        for i in range(N):
+            d0 = yt - ha[i]
+            d1 = yt - hprop[i]
+            dp = log_prior(noise, prop[i] - fa[i], o) - log_prior(noise, x[i] - fa[i], o)
+            log_a = (floored(c0 - 0.5 * d1 * d1 / R, o.log_floor)
+                     - floored(c0 - 0.5 * d0 * d0 / R, o.log_floor) + dp
+                     - _log_normal(prop[i], am[i], P[i]) + _log_normal(x[i], am[i], P[i]))
+            if log_a >= 0.0 or math.log(uniform(s)) < log_a:
+                x[i] = prop[i]
+                ha[i] = hprop[i]
+
+
+UPF_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64, UPF_OPTIONS,
+                      STATE, _F, _F, _I, _F, _F)
+
+
+@njit(UPF_SIG, cache=True)
+def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, s, xhat, ess, resampled, div_l1,
+               distinct):
+    """Run the UPF/SSPF over y (T+1,) (settings o, see ``UpfOptions``); fill the (T+1,) traces;
+    return the underflow count."""
+    T, N = y.size - 1, o.N
+    sg = sigma_points(o)
     x = np.empty(N)
     start(s, prior_mean, prior_var, x, xhat, ess, resampled, div_l1, distinct)
     P = np.full(N, prior_var)
-    chi = np.empty(n * N)
-    fx = np.empty(n * N)
-    hz = np.empty(n * N)
     fprev = np.empty(N)     # f(x_prev) of each particle
     pm = np.empty(N)        # proposal mean and variance of each particle
     pv = np.empty(N)
@@ -113,107 +249,41 @@ def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, q_mean, Qp, Rp, 
     hprop = np.empty(N)
     events = 0
     for t in range(1, T + 1):
-        tt = float(t)
-        yt = y[t]
-        # the proposal: an augmented UKF step per particle, all sigma points in one call each
+        tt, yt = float(t), y[t]
+        proposals(f, h, theta, tt, yt, x, P, sg, o, fprev, pm, pv)
         for i in range(N):
-            d = sq * math.sqrt(P[i])
-            b = i * n
-            for j in range(n):
-                chi[b + j] = x[i]
-            chi[b + 1] += d
-            chi[b + 4] -= d
-        f(chi, tt, theta, fx)
-        for i in range(N):
-            b = i * n
-            # the prior density's anchor: f(x_prev) (the centre sigma point, before noise), or
-            # x_prev itself in the reference implementation's form
-            fprev[i] = x[i] if increment else fx[b]
-            mp = 0.0
-            for j in range(n):
-                fx[b + j] += wn[j]
-                mp += Wm[j] * fx[b + j]
-            pm[i] = mp
-        h(fx, tt, theta, hz)
-        for i in range(N):
-            b = i * n
-            mp = pm[i]
-            zm = 0.0
-            for j in range(n):
-                hz[b + j] += vn[j]
-                zm += Wm[j] * hz[b + j]
-            Pp = 0.0
-            S = 0.0
-            C = 0.0
-            for j in range(n):
-                dx = fx[b + j] - mp
-                dz = hz[b + j] - zm
-                Pp += Wc[j] * dx * dx
-                S += Wc[j] * dz * dz
-                C += Wc[j] * dx * dz
-            K = C / S
-            pm[i] = mp + K * (yt - zm)
-            v = Pp - K * K * S
-            pv[i] = v if v > 1e-300 else 1e-300
             xn[i] = pm[i] + math.sqrt(pv[i]) * normal(s)
         h(xn, tt, theta, hx)
-        mx = -np.inf
-        for i in range(N):
-            d = yt - hx[i]
-            lp = (increment_logprior(noise, xn[i] - fprev[i]) if increment
-                  else process_logpdf(noise, xn[i] - fprev[i]))
-            l = lw[i] + (floored(c0 - 0.5 * d * d / R, log_floor) + lp
-                         - _log_normal(xn[i], pm[i], pv[i]))
-            lw[i] = l
-            mx = max(mx, l)
+        mx = weigh_draws(noise, yt, xn, hx, fprev, pm, pv, lw, o)
         Ssum, est, under = weigh(lw, w, xn, mx, t, ess, resampled, div_l1, distinct)
         events += int(under)
-        if trigger == TRIGGER_ESS:
-            go = ess[t] < threshold
+        if o.trigger == TRIGGER_ESS:
+            go = ess[t] < o.threshold
         else:
             Kc = 0.0
             for i in range(N):
                 Wi = w[i] / Ssum
                 Kc += Wi * (Wi - Wprev[i]) ** 2
-            go = Kc > threshold
-        if go:
-            resample(scheme, w, Ssum, s, idx)
-            for i in range(N):            # each particle takes its ancestor's state and proposal
-                j = idx[i]
-                x[i] = xn[j]
-                P[i] = pv[j]
-                am[i] = pm[j]
-                fa[i] = fprev[j]
-                ha[i] = hx[j]
-                lw[i] = 0.0
-                Wprev[i] = 1.0 / N
-            for _ in range(mh_steps):     # independence MH with the ancestor's proposal
-                for i in range(N):
-                    prop[i] = am[i] + math.sqrt(P[i]) * normal(s)
-                h(prop, tt, theta, hprop)
-                for i in range(N):
-                    d0 = yt - ha[i]
-                    d1 = yt - hprop[i]
-                    if increment:
-                        dp = (increment_logprior(noise, prop[i] - fa[i])
-                              - increment_logprior(noise, x[i] - fa[i]))
-                    else:
-                        dp = (process_logpdf(noise, prop[i] - fa[i])
-                              - process_logpdf(noise, x[i] - fa[i]))
-                    log_a = (floored(c0 - 0.5 * d1 * d1 / R, log_floor)
-                             - floored(c0 - 0.5 * d0 * d0 / R, log_floor) + dp
-                             - _log_normal(prop[i], am[i], P[i])
-                             + _log_normal(x[i], am[i], P[i]))
-                    if log_a >= 0.0 or math.log(uniform(s)) < log_a:
-                        x[i] = prop[i]
-                        ha[i] = hprop[i]
-            est = resampled_step(x, t, est, estimate_after, diag, resampled, div_l1, distinct)
-        else:
+            go = Kc > o.threshold
+        if not go:
             for i in range(N):
                 x[i] = xn[i]
                 P[i] = pv[i]
                 Wprev[i] = w[i] / Ssum
-        xhat[t] = est
+            xhat[t] = est
+            continue
+        resample(o.scheme, w, Ssum, s, idx)
+        for i in range(N):            # each particle takes its ancestor's state and proposal
+            j = idx[i]
+            x[i] = xn[j]
+            P[i] = pv[j]
+            am[i] = pm[j]
+            fa[i] = fprev[j]
+            ha[i] = hx[j]
+            lw[i] = 0.0
+            Wprev[i] = 1.0 / N
+        mh_moves(h, theta, tt, yt, noise, x, P, am, fa, ha, prop, hprop, o, s)
+        xhat[t] = resampled_step(x, t, est, o.estimate_after, o.diag, resampled, div_l1, distinct)
     return events
 
 
@@ -230,13 +300,17 @@ def run(model, y, params, particles, state, diag=True):
     else:
         trigger, threshold = TRIGGER_ESS, np.inf
     mh = int(params["mh_steps"])
+    o = UpfOptions(
+        N=int(particles), q_mean=float(q_mean), Qp=float(Qp), Rp=float(Rp),
+        alpha=float(params["alpha"]), beta=float(params["beta"]), kappa=float(params["kappa"]),
+        scheme=SCHEME_CODES[params["resampling"]], trigger=int(trigger),
+        threshold=float(threshold), estimate_after=int(params["estimate"] == "after_resampling"),
+        mh_steps=mh, log_floor=float(log_floor(params)),
+        increment=int(params["prior_argument"] == "increment"), diag=int(diag))
     out["underflow_steps"] = upf_kernel(
         model.transition, model.observe, model.theta, model.noise, y, model.prior_mean,
-        model.prior_var, particles, q_mean, Qp, Rp, params["alpha"], params["beta"],
-        params["kappa"], SCHEME_CODES[params["resampling"]], trigger, threshold,
-        int(params["estimate"] == "after_resampling"), mh, log_floor(params),
-        int(params["prior_argument"] == "increment"), int(diag), state,
-        out["xhat"], out["ess"], out["resampled"], out["div_l1"], out["distinct"])
+        model.prior_var, o, state, out["xhat"], out["ess"], out["resampled"], out["div_l1"],
+        out["distinct"])
     # 7 sigma points through h per particle, plus the particle itself; an MH sweep adds one more
     out["lik_evals_per_step"] = particles * (8.0 + mh * float(np.mean(out["resampled"][1:])))
     return out
