@@ -20,7 +20,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from .metrics import localization_metrics, slam_metrics, trial_metrics
+from .metrics import METRICS, localization_metrics, slam_metrics, trial_metrics
+
+# The columns every trials file starts and ends with; a kind's metrics go between.
+ID_COLUMNS = ("trial", "filter", "label", "particles")
+END_COLUMNS = ("wall_s", "crc")
 
 # The diagnostics every particle filter's rows carry, whatever the kind.
 _DIAGNOSTICS = ("mean_ess", "resample_count", "underflow_steps", "diverged_steps",
@@ -40,6 +44,9 @@ class Kind:
     step_floats(scenario_params) : float64s a step of the scenario's truth and data take
     figures : the name of the function of pfbench.plots that draws a trial of this kind
         (exp, rows, folder) -> paths, or None
+
+    A trials file of the kind has the columns ``columns``: the trial, the filter run, its
+    ``metrics`` (in the order of pfbench.metrics.METRICS), the wall time and the row's checksum.
     """
 
     name: str
@@ -51,6 +58,22 @@ class Kind:
     particle_floats: Callable
     step_floats: Callable
     figures: str | None = None
+
+    def __post_init__(self):
+        unknown = [m for m in self.metrics if m not in METRICS]
+        if unknown:
+            raise ValueError(f"kind {self.name}: no metric {unknown[0]}")
+        # the metrics in METRICS' order, so that every file of a kind has one column order
+        object.__setattr__(self, "metrics", tuple(m for m in METRICS if m in self.metrics))
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        return (*ID_COLUMNS, *self.metrics, *END_COLUMNS)
+
+    def row(self, model, truth, out) -> dict:
+        """The kind's metrics of one filter run (``score``'s row, the kind's columns only)."""
+        row = self.score(model, truth, out)
+        return {m: row[m] for m in self.metrics}
 
 
 def _slam_particle_floats(params, scen: dict) -> int:
@@ -69,9 +92,9 @@ SCALAR = Kind(
 
 SLAM = Kind(
     "slam", "a robot's pose and a map of point landmarks, estimated together",
-    metrics=("rmse", "mse", "heading_rmse", "position_error", "heading_error", "landmark_error",
-             "association_errors", "dropped_frac", "map_duplicates", "diversity_l1",
-             "distinct_frac") + _DIAGNOSTICS,
+    metrics=("rmse", "mse", "heading_rmse", "position_error", "heading_error", "final_error",
+             "landmark_error", "association_errors", "dropped_frac", "map_duplicates",
+             "diversity_l1", "distinct_frac") + _DIAGNOSTICS,
     headline=("rmse", "position_error", "heading_rmse", "diverged_steps"),
     score=lambda model, truth, out: slam_metrics(truth.pose, model.landmarks, out),
     unit="m",

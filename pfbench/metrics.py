@@ -7,15 +7,15 @@ import numpy as np
 
 # Per-trial metric columns, in the order trials.csv shows them.
 METRICS = {
-    "rmse": "root mean squared error of the estimate over t = 1..T (SLAM: of the position)",
+    "rmse": "root mean squared error of the estimate over t = 1..T (a robot: of its position, m)",
     "mse": "mean squared error over t = 1..T (rmse squared)",
-    "heading_rmse": "SLAM: root mean squared heading error over t = 1..T (wrapped, rad)",
-    "position_error": "SLAM: mean distance between the estimated and the true position over "
-                      "t = 1..T (m)",
-    "heading_error": "SLAM: mean absolute heading error over t = 1..T (wrapped, rad)",
-    "x_error": "localization: mean |x error| over t = 1..T (m; from the scenario's score_from)",
-    "y_error": "localization: mean |y error| over t = 1..T (m; likewise)",
-    "final_error": "localization: position error at the last step (m)",
+    "heading_rmse": "root mean squared heading error over t = 1..T (wrapped, rad)",
+    "position_error": "mean distance between the estimated and the true position over t = 1..T "
+                      "(m)",
+    "heading_error": "mean absolute heading error over t = 1..T (wrapped, rad)",
+    "x_error": "mean absolute x error over t = 1..T (m; from the scenario's score_from)",
+    "y_error": "mean absolute y error over t = 1..T (m; likewise)",
+    "final_error": "position error at the last step (m; SLAM and localization)",
     "error_at_step": "localization: position error at the scenario's report_step (m)",
     "converged": "localization: 1 when the filter converged before the first kidnapping (or the "
                  "end), else 0; its mean over trials is the success rate",
@@ -90,6 +90,7 @@ def _pose_metrics(pose: np.ndarray, out: dict, score_from: int = 1,
            "heading_rmse": float(np.sqrt(np.mean(dth * dth))),
            "position_error": float(np.mean(err[k:])),
            "heading_error": float(np.mean(np.abs(dth))),
+           "final_error": float(err[-1]),
            "mean_ess": float(np.mean(out["ess"])) if out["ess"].size else math.nan,
            "resample_count": float(np.sum(out["resampled"])),
            "underflow_steps": float(out.get("underflow_steps", 0)),
@@ -216,7 +217,7 @@ def localization_metrics(pose: np.ndarray, out: dict, bound: float, kidnaps: np.
             failures += 1
     k = score_from - 1
     row.update({"x_error": float(np.mean(np.abs(d[k:, 0]))),
-                "y_error": float(np.mean(np.abs(d[k:, 1]))), "final_error": float(err[-1]),
+                "y_error": float(np.mean(np.abs(d[k:, 1]))),
                 "error_at_step": float(err[report_step - 1]) if report_step else math.nan,
                 "converged": float(not math.isnan(converge)),
                 "converge_step": converge,

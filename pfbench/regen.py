@@ -197,7 +197,7 @@ def pooled_se(a: np.ndarray, b: np.ndarray) -> float:
     return math.sqrt(var * (1.0 / na + 1.0 / nb))
 
 
-def _committed(folder: Path) -> pd.DataFrame:
+def _committed(folder: Path, exp) -> pd.DataFrame:
     path = folder / "trials.csv"
     if not path.exists():
         raise UserError(f"{path}: no committed trials to check against; run 'pfbench tables' "
@@ -207,7 +207,8 @@ def _committed(folder: Path) -> pd.DataFrame:
     except (UnicodeDecodeError, ValueError, pd.errors.ParserError) as exc:
         raise UserError(f"{path}: not a pfbench trials file ({str(exc).splitlines()[0]})") \
             from None
-    missing = [m for m in METRICS if m not in df.columns]
+    from .runner import trial_columns
+    missing = [m for m in trial_columns(exp) if m not in df.columns]
     if missing:
         raise UserError(f"{path}: written by another version (no column {missing[0]}); "
                         "regenerate it with 'pfbench tables'")
@@ -237,7 +238,7 @@ def check_config(path: Path, results: Path, executor: LocalExecutor, z: float = 
             for cell in cells:
                 k = min(cell.exp.check["trials"], cell.exp.trials)
                 committed = _committed(child(Path(results), name, f"{path}: name") / "cells"
-                                       / cell.name)
+                                       / cell.name, cell.exp)
                 res = run_experiment(replace(cell.exp, trials=k), Path(tmp) / cell.name,
                                      progress=lambda d, n, b=before: progress(b + d, 0),
                                      executor=executor)
@@ -247,7 +248,7 @@ def check_config(path: Path, results: Path, executor: LocalExecutor, z: float = 
             return result
         exp = load(path)
         k = min(exp.check["trials"], exp.trials)
-        committed = _committed(child(Path(results), exp.name, f"{path}: name"))
+        committed = _committed(child(Path(results), exp.name, f"{path}: name"), exp)
         res = run_experiment(replace(exp, trials=k), Path(tmp) / exp.name, progress=progress,
                              executor=executor)
         return compare(pd.DataFrame(res.rows), committed, exp.name, z, CheckResult(exp.name, k))

@@ -33,13 +33,14 @@ from .config import FORMAT_VERSION, Experiment
 from .errors import UserError
 from .fsutil import FolderLock, atomic_write, close_inherited_locks
 from .filters import FILTERS, LOAD_SECONDS
-from .kinds import kind_of
+from .kinds import END_COLUMNS, ID_COLUMNS, kind_of
 from .metrics import METRICS
 from .rng import state_from_seed
 from .scenarios import SCENARIOS
 
-# crc: a checksum of the row's other fields (``row_crc``), checked when a run resumes.
-TRIAL_COLUMNS = ("trial", "filter", "label", "particles", *METRICS, "wall_s", "crc")
+# A trials file's columns: the trial and filter run (ID_COLUMNS), the metrics of its scenario's kind
+# (pfbench.kinds), "wall_s" and "crc", a checksum of the row's other fields (``row_crc``), checked
+# when a run resumes.
 # Columns that may differ between two runs of the same experiment (the timing, and the checksum
 # that covers it).
 TIMING_COLUMNS = ("wall_s", "crc")
@@ -73,7 +74,7 @@ def trial_data(exp: Experiment, trial: int):
 
 def metrics_of(exp: Experiment, model, truth, out) -> dict:
     """A filter run's metrics for the experiment's kind of scenario."""
-    return kind_of(exp.scenario).score(model, truth, out)
+    return kind_of(exp.scenario).row(model, truth, out)
 
 
 def run_filter(exp: Experiment, trial: int, run, model, y, diag: bool = True,
@@ -290,8 +291,13 @@ def make_executor(kind: str, workers: int = 1, scheduler: str | None = None) -> 
 
 # ---------------------------------------------------------------- files
 
-def _fields(r: dict) -> list[str]:
-    return ["" if r[c] is None else str(r[c]) for c in TRIAL_COLUMNS[:-1]]
+def trial_columns(exp: Experiment) -> tuple[str, ...]:
+    """The columns of ``exp``'s trials file: those of its scenario's kind."""
+    return kind_of(exp.scenario).columns
+
+
+def _fields(r: dict, columns: tuple[str, ...]) -> list[str]:
+    return ["" if r[c] is None else str(r[c]) for c in columns[:-1]]
 
 
 def row_crc(fields: list[str]) -> int:
@@ -299,24 +305,25 @@ def row_crc(fields: list[str]) -> int:
     return zlib.crc32("\x1f".join(fields).encode("utf-8", "surrogatepass"))
 
 
-def _csv_text(rows: Iterable[dict], header: bool) -> str:
-    """CSV text of ``rows``; each row gets its checksum (``crc``), in the file and in the dict."""
+def _csv_text(rows: Iterable[dict], header: bool, columns: tuple[str, ...]) -> str:
+    """CSV text of ``rows`` in ``columns``; each row gets its checksum (``crc``), in the file and
+    in the dict."""
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     if header:
-        w.writerow(TRIAL_COLUMNS)
+        w.writerow(columns)
     for r in rows:
-        fields = _fields(r)
+        fields = _fields(r, columns)
         r["crc"] = row_crc(fields)
         w.writerow(fields + [r["crc"]])
     return buf.getvalue()
 
 
-def _parse_row(fields: list[str]) -> dict:
-    row = dict(zip(TRIAL_COLUMNS, fields))
+def _parse_row(fields: list[str], columns: tuple[str, ...]) -> dict:
+    row = dict(zip(columns, fields))
     row["trial"] = int(row["trial"])
     row["particles"] = int(row["particles"]) if row["particles"] else None
-    for c in (*METRICS, "wall_s"):
+    for c in columns[len(ID_COLUMNS):-1]:
         row[c] = float(row[c])
     row["crc"] = int(row["crc"])
     return row
@@ -324,7 +331,16 @@ def _parse_row(fields: list[str]) -> dict:
 
 def _values(row: dict) -> tuple:
     """A row's values without its timing and checksum (two runs of a trial agree on these)."""
-    return tuple(repr(row[c]) for c in TRIAL_COLUMNS if c not in TIMING_COLUMNS)
+    return tuple(repr(v) for c, v in row.items() if c not in TIMING_COLUMNS)
+
+
+def _header_ok(header: tuple) -> bool:
+    """A trials file's header: the id columns, metrics in METRICS' order, wall_s and crc."""
+    n = len(ID_COLUMNS)
+    middle = header[n:-len(END_COLUMNS)]
+    order = [m for m in METRICS if m in middle]
+    return (header[:n] == ID_COLUMNS and header[-len(END_COLUMNS):] == END_COLUMNS
+            and len(header) > n + len(END_COLUMNS) and list(middle) == order)
 
 
 @dataclass
@@ -334,13 +350,14 @@ class TrialsFile:
     rejected: dict[int, str]      # trial -> why its rows cannot be kept
 
 
-def read_trials(path: Path) -> TrialsFile:
+def read_trials(path: Path, columns: tuple[str, ...] | None = None) -> TrialsFile:
     """The rows of a trials file, each checked against its checksum.
 
     A torn last line (an interrupted write) is dropped. A trial with a row whose checksum does
     not match its values (an edited file), a malformed row, or two different rows for one filter
     run is rejected as a whole (it runs again); a row written twice with the same values is kept
-    once. A file that is not a trials file at all is a UserError.
+    once. A file that is not a trials file at all, or (with ``columns``) whose columns are not
+    those, is a UserError.
     """
     path = Path(path)
     try:
@@ -355,8 +372,10 @@ def read_trials(path: Path) -> TrialsFile:
         lines = list(csv.reader(io.StringIO(text)))
     except csv.Error as exc:
         raise UserError(f"{path}: not a pfbench trials file ({exc})") from None
-    if not lines or tuple(lines[0]) != TRIAL_COLUMNS:
+    header = tuple(lines[0]) if lines else ()
+    if not _header_ok(header) or (columns is not None and header != tuple(columns)):
         raise UserError(f"{path}: not a pfbench trials file of this version (columns differ)")
+    columns = header
     rows: dict[tuple[int, str], dict] = {}
     rejected: dict[int, str] = {}
     for n, fields in enumerate(lines[1:], start=2):
@@ -364,11 +383,11 @@ def read_trials(path: Path) -> TrialsFile:
             trial = int(fields[0])
         except (ValueError, IndexError):
             continue                     # no trial to re-run: the row is ignored
-        if len(fields) != len(TRIAL_COLUMNS):
+        if len(fields) != len(columns):
             rejected.setdefault(trial, f"line {n} has {len(fields)} fields")
             continue
         try:
-            row = _parse_row(fields)
+            row = _parse_row(fields, columns)
         except ValueError:
             rejected.setdefault(trial, f"line {n} is malformed")
             continue
@@ -472,7 +491,7 @@ def _resumed(exp: Experiment, out_dir: Path, warn) -> dict[int, list[dict]]:
         raise UserError(f"{out_dir}: cannot resume: those trials come from a different "
                         f"experiment (hash {old_hash}, this config {exp.hash}); run without "
                         "--resume or choose another --out")
-    got = read_trials(source)
+    got = read_trials(source, trial_columns(exp))
     bad = {k: why for k, why in got.rejected.items() if 0 <= k < exp.trials}
     if bad and warn:
         shown = "; ".join(f"trial {k}: {why}" for k, why in sorted(bad.items())[:5])
@@ -490,7 +509,8 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn) -> RunR
     atomic_write(marker, json.dumps({"format": FORMAT_VERSION, "experiment": exp.name,
                                      "experiment_hash": exp.hash, "seed": exp.seed,
                                      "trials": exp.trials, "started": started.isoformat()}) + "\n")
-    atomic_write(partial, _csv_text((r for k in sorted(done) for r in done[k]), header=True))
+    columns = trial_columns(exp)
+    atomic_write(partial, _csv_text((r for k in sorted(done) for r in done[k]), True, columns))
     resumed = set(done)
     todo = (k for k in range(exp.trials) if k not in resumed)    # lazy: no list of all trials
     n_todo = exp.trials - len(resumed)
@@ -502,7 +522,7 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn) -> RunR
         try:
             for chunk in executor.run(exp, todo, n_todo):
                 chunk = [rows for rows in chunk if rows[0]["trial"] not in done]
-                fh.write(_csv_text((r for rows in chunk for r in rows), header=False))
+                fh.write(_csv_text((r for rows in chunk for r in rows), False, columns))
                 fh.flush()
                 for rows in chunk:
                     done[rows[0]["trial"]] = rows
@@ -512,7 +532,7 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn) -> RunR
             raise Interrupted(len(done), total, partial) from None
     wall = time.perf_counter() - t0
     rows = [r for k in sorted(done) for r in done[k]]
-    atomic_write(final, _csv_text(rows, header=True))
+    atomic_write(final, _csv_text(rows, True, columns))
     meta = {
         "format": FORMAT_VERSION, "experiment": exp.name, "config": exp.source,
         "experiment_hash": exp.hash, "paper": exp.paper, "table": exp.table, "seed": exp.seed,

@@ -173,8 +173,8 @@ def summary(exp: Experiment, rows: list[dict] | pd.DataFrame) -> pd.DataFrame:
             s = summarize(g[metric])
             r.update({f"{metric}_{k}": s[k] for k in ("mean", "ci_lo", "ci_hi", "var",
                                                        "var_ci_lo", "var_ci_hi", "se")})
-        for metric in MEAN_COLUMNS:
-            r[metric] = summarize(g[metric])["mean"]
+        for metric in MEAN_COLUMNS:     # NaN where the scenario's kind has no such column
+            r[metric] = summarize(g[metric])["mean"] if metric in g else math.nan
         r["underflow_steps"] = float(g["underflow_steps"].sum())
         dv = g["diverged_steps"] if "diverged_steps" in g else pd.Series(dtype=float)
         r["diverged_steps"] = float(dv.sum())

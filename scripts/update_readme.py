@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
-"""Regenerate the generated blocks of README.md: the config-key reference (from the schemas) and
-the worked example (from the committed results/ifa_pf_ungm/table.csv).
+"""Regenerate the generated blocks of README.md: the config-key reference (from the schemas), the
+trials file's metric columns of each scenario kind (from pfbench.kinds and pfbench.metrics) and the
+worked example (from the committed results/ifa_pf_ungm/table.csv).
 
     python scripts/update_readme.py            # print the blocks
     python scripts/update_readme.py --write    # replace them in README.md
@@ -16,6 +17,8 @@ import pandas as pd
 
 from pfbench.config import CHECK_SCHEMA, COMPARE_SCHEMA, FILTER_COMMON, TOP_SCHEMA
 from pfbench.filters import FILTERS
+from pfbench.kinds import KINDS
+from pfbench.metrics import METRICS
 from pfbench.scenarios import SCENARIOS
 from pfbench.schema import REQUIRED
 
@@ -75,7 +78,19 @@ def example_block() -> str:
     return "\n".join(out + [""])
 
 
-BLOCKS = {"config-keys": keys_block, "example": example_block}
+def metrics_block() -> str:
+    kinds = list(KINDS.values())
+    out = ["", "*Generated from `pfbench/kinds.py` and `pfbench/metrics.py` by `python "
+           "scripts/update_readme.py --write`.*", "",
+           "| column | " + " | ".join(k.name for k in kinds) + " | meaning |",
+           "| --- | " + " | ".join("---" for _ in kinds) + " | --- |"]
+    for m, doc in METRICS.items():
+        marks = " | ".join("x" if m in k.metrics else "" for k in kinds)
+        out.append(f"| `{m}` | {marks} | {doc.replace('|', '/')} |")
+    return "\n".join(out + [""])
+
+
+BLOCKS = {"config-keys": keys_block, "metrics": metrics_block, "example": example_block}
 
 
 def render(text: str) -> str:

@@ -1,43 +1,11 @@
-"""Localization on the beacon field: metrics, scenario, MCL and its resetting variants."""
+"""Localization on the beacon field: the scenario, MCL and its resetting variants, the SSPF."""
 import math
 from statistics import NormalDist
 
 import numpy as np
 import pytest
 
-from pfbench.metrics import localization_metrics, settle_step
-
-
-def _poses(errs):
-    """True poses at the origin and estimates displaced by errs along x: (truth, out)."""
-    T = len(errs)
-    truth = np.zeros((T + 1, 3))
-    est = np.zeros((T + 1, 3))
-    est[1:, 0] = errs
-    return truth, {"pose": est, "ess": np.ones(T), "resampled": np.ones(T),
-                   "lik_evals_per_step": 10.0}
-
-
-def test_settle_step():
-    assert settle_step(np.array([3.0, 0.1, 0.2]), 0.5) == 1
-    assert settle_step(np.array([0.1, 0.9, 0.2, 0.1]), 0.5) == 2
-    assert settle_step(np.array([0.1, 0.9]), 0.5) == 2          # not settled at the end
-    assert settle_step(np.array([0.1, 0.2]), 0.5) == 0
-
-
-def test_convergence_and_recovery_steps():
-    # steps 1..10; kidnapped at step 5 (error jumps) and at step 9 (never recovers)
-    errs = [5.0, 2.0, 0.3, 0.2, 8.0, 6.0, 0.4, 0.1, 7.0, 9.0]
-    truth, out = _poses(errs)
-    m = localization_metrics(truth, out, 0.5, np.array([5, 9]))
-    assert m["converge_step"] == 3
-    assert m["recovery_steps"] == 2          # kidnapped at 5, below the bound from step 7 on
-    assert m["recovery_failures"] == 1
-    assert m["final_error"] == 9.0
-    assert m["x_error"] == pytest.approx(np.mean(errs)) and m["y_error"] == 0.0
-    assert m["rmse"] == pytest.approx(math.sqrt(np.mean(np.square(errs))))
-    none = localization_metrics(truth, out, 0.5, np.array([], dtype=np.int64))
-    assert math.isnan(none["converge_step"]) and math.isnan(none["recovery_failures"])
+from pfbench.metrics import localization_metrics
 
 
 from pfbench.config import Params  # noqa: E402
@@ -270,21 +238,6 @@ def test_type_sspf_on_the_beacon_field_is_the_localization_sspf(tmp_path):
                    "    particles: 100\n    jitter_m: 0.1\n")
     run = load(cfg).filters[0]
     assert run.type == "sspf_field" and run.params["jitter_m"] == 0.1
-
-
-def test_scoring_from_a_later_step_and_the_error_at_a_step():
-    errs = [5.0, 2.0, 0.3, 0.2, 0.4, 0.1]
-    truth, out = _poses(errs)
-    out["pose"][1:, 2] = [1.0, 1.0, 0.1, 0.1, 0.1, 0.1]          # heading errors
-    m = localization_metrics(truth, out, 0.5, np.array([], dtype=np.int64), score_from=3,
-                             report_step=2)
-    assert m["position_error"] == pytest.approx(np.mean(errs[2:]))
-    assert m["x_error"] == pytest.approx(np.mean(errs[2:]))
-    assert m["rmse"] == pytest.approx(math.sqrt(np.mean(np.square(errs[2:]))))
-    assert m["heading_error"] == pytest.approx(0.1)
-    assert m["error_at_step"] == 2.0 and m["converge_step"] == 3 and m["converged"] == 1.0
-    never = localization_metrics(*_poses([5.0, 6.0]), 0.5, np.array([], dtype=np.int64))
-    assert never["converged"] == 0.0 and math.isnan(never["error_at_step"])
 
 
 @pytest.mark.parametrize("name,over", [("mcl", {}), ("mcl", {"sampling": "kld"}),

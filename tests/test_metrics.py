@@ -1,0 +1,96 @@
+"""Metrics: per-trial scores of each scenario kind, and the summaries over trials (means, their
+intervals, paired differences)."""
+import math
+
+import numpy as np
+import pytest
+
+from pfbench.metrics import localization_metrics, paired, settle_step, summarize, t975
+
+
+def test_t_quantiles_against_scipy():
+    stats = pytest.importorskip("scipy.stats")
+    for df in (1, 2, 5, 10, 29, 30, 31, 40, 60, 100, 499, 10_000):
+        assert math.isclose(t975(df), stats.t.ppf(0.975, df), rel_tol=2e-3), df
+
+
+def test_summary_interval_covers_the_true_mean_about_95_percent():
+    rng = np.random.default_rng(0)
+    hits = 0
+    reps = 2000
+    for _ in range(reps):
+        s = summarize(rng.exponential(2.0, size=40))
+        hits += s["ci_lo"] <= 2.0 <= s["ci_hi"]
+    # coverage of the t interval for skewed data at n = 40 is close to 95%: within 2.5 points
+    assert abs(hits / reps - 0.95) < 0.025
+
+
+def test_variance_interval_covers_the_true_variance():
+    rng = np.random.default_rng(1)
+    hits = sum(
+        (lambda s: s["var_ci_lo"] <= 4.0 <= s["var_ci_hi"])(summarize(rng.normal(0, 2, 500)))
+        for _ in range(1000))
+    assert abs(hits / 1000 - 0.95) < 0.03
+
+
+def test_summary_drops_nan_and_handles_tiny_samples():
+    s = summarize([1.0, float("nan"), 3.0])
+    assert s["n"] == 2 and s["mean"] == 2.0
+    assert math.isnan(summarize([])["mean"])
+    assert math.isnan(summarize([1.0])["ci_lo"])
+
+
+def test_paired_difference_and_win_rate():
+    a = np.array([1.0, 2.0, 3.0, 4.0])
+    b = np.array([2.0, 2.0, 1.0, 5.0])
+    p = paired(a, b)
+    assert p["diff_mean"] == pytest.approx(np.mean(a - b))
+    assert p["win_rate"] == pytest.approx((1 + 0.5 + 0 + 1) / 4)
+    assert p["diff_ci_lo"] < p["diff_mean"] < p["diff_ci_hi"]
+
+
+def _poses(errs):
+    """True poses at the origin and estimates displaced by errs along x: (truth, out)."""
+    T = len(errs)
+    truth = np.zeros((T + 1, 3))
+    est = np.zeros((T + 1, 3))
+    est[1:, 0] = errs
+    return truth, {"pose": est, "ess": np.ones(T), "resampled": np.ones(T),
+                   "lik_evals_per_step": 10.0}
+
+
+def test_settle_step():
+    assert settle_step(np.array([3.0, 0.1, 0.2]), 0.5) == 1
+    assert settle_step(np.array([0.1, 0.9, 0.2, 0.1]), 0.5) == 2
+    assert settle_step(np.array([0.1, 0.9]), 0.5) == 2          # not settled at the end
+    assert settle_step(np.array([0.1, 0.2]), 0.5) == 0
+
+
+def test_convergence_and_recovery_steps():
+    # steps 1..10; kidnapped at step 5 (error jumps) and at step 9 (never recovers)
+    errs = [5.0, 2.0, 0.3, 0.2, 8.0, 6.0, 0.4, 0.1, 7.0, 9.0]
+    truth, out = _poses(errs)
+    m = localization_metrics(truth, out, 0.5, np.array([5, 9]))
+    assert m["converge_step"] == 3
+    assert m["recovery_steps"] == 2          # kidnapped at 5, below the bound from step 7 on
+    assert m["recovery_failures"] == 1
+    assert m["final_error"] == 9.0
+    assert m["x_error"] == pytest.approx(np.mean(errs)) and m["y_error"] == 0.0
+    assert m["rmse"] == pytest.approx(math.sqrt(np.mean(np.square(errs))))
+    none = localization_metrics(truth, out, 0.5, np.array([], dtype=np.int64))
+    assert math.isnan(none["converge_step"]) and math.isnan(none["recovery_failures"])
+
+
+def test_scoring_from_a_later_step_and_the_error_at_a_step():
+    errs = [5.0, 2.0, 0.3, 0.2, 0.4, 0.1]
+    truth, out = _poses(errs)
+    out["pose"][1:, 2] = [1.0, 1.0, 0.1, 0.1, 0.1, 0.1]          # heading errors
+    m = localization_metrics(truth, out, 0.5, np.array([], dtype=np.int64), score_from=3,
+                             report_step=2)
+    assert m["position_error"] == pytest.approx(np.mean(errs[2:]))
+    assert m["x_error"] == pytest.approx(np.mean(errs[2:]))
+    assert m["rmse"] == pytest.approx(math.sqrt(np.mean(np.square(errs[2:]))))
+    assert m["heading_error"] == pytest.approx(0.1)
+    assert m["error_at_step"] == 2.0 and m["converge_step"] == 3 and m["converged"] == 1.0
+    never = localization_metrics(*_poses([5.0, 6.0]), 0.5, np.array([], dtype=np.int64))
+    assert never["converged"] == 0.0 and math.isnan(never["error_at_step"])
