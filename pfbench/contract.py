@@ -95,7 +95,7 @@ def experiment(probe: Probe, configs: Path):
 
 
 def _numbers(rows: list[dict]) -> list[dict]:
-    from .runner import TIMING_COLUMNS
+    from .store import TIMING_COLUMNS
     return [{k: v for k, v in r.items() if k not in TIMING_COLUMNS} for r in rows]
 
 

@@ -31,8 +31,9 @@ import pandas as pd
 from .config import load, read_yaml
 from .errors import UserError
 from .metrics import METRICS
-from .fsutil import FolderLock, atomic_write, child, remove_tree, replace_tree
-from .runner import TIMING_COLUMNS, LocalExecutor, run_experiment
+from .fsutil import FolderLock, child, remove_tree, replace_tree
+from .runner import LocalExecutor, run_experiment
+from .store import TIMING_COLUMNS, write_csv
 
 Z_DEFAULT = 4.0
 
@@ -72,7 +73,7 @@ def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: st
     """summary.csv and the figures of a finished sweep; returns (summary, figure paths)."""
     from . import sweep as sw
     summ = sw.summary(trials_df, keys)
-    atomic_write(folder / "summary.csv", summ.to_csv(index=False, lineterminator="\n"))
+    write_csv(folder / "summary.csv", summ)
     if not figures:
         return summ, []
     from .plots import sweep_figures
@@ -207,7 +208,7 @@ def _committed(folder: Path, exp) -> pd.DataFrame:
     except (UnicodeDecodeError, ValueError, pd.errors.ParserError) as exc:
         raise UserError(f"{path}: not a pfbench trials file ({str(exc).splitlines()[0]})") \
             from None
-    from .runner import trial_columns
+    from .store import trial_columns
     missing = [m for m in trial_columns(exp) if m not in df.columns]
     if missing:
         raise UserError(f"{path}: written by another version (no column {missing[0]}); "

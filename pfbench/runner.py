@@ -7,8 +7,6 @@ on run order, the number of workers, or which other filters the experiment has.
 """
 from __future__ import annotations
 
-import csv
-import io
 import itertools
 import json
 import math
@@ -31,19 +29,13 @@ import numpy as np
 from . import __version__
 from .config import FORMAT_VERSION, Experiment
 from .errors import UserError
-from .fsutil import FolderLock, atomic_write, close_inherited_locks
+from .fsutil import FolderLock, close_inherited_locks
 from .filters import FILTERS, LOAD_SECONDS
-from .kinds import END_COLUMNS, ID_COLUMNS, kind_of
-from .metrics import METRICS
+from .kinds import kind_of
 from .rng import state_from_seed
 from .scenarios import SCENARIOS
+from .store import atomic_write, complete_trials, csv_text, read_trials, trial_columns, write_json
 
-# A trials file's columns: the trial and filter run (ID_COLUMNS), the metrics of its scenario's kind
-# (pfbench.kinds), "wall_s" and "crc", a checksum of the row's other fields (``row_crc``), checked
-# when a run resumes.
-# Columns that may differ between two runs of the same experiment (the timing, and the checksum
-# that covers it).
-TIMING_COLUMNS = ("wall_s", "crc")
 
 
 def data_seed(seed: int, trial: int) -> np.random.SeedSequence:
@@ -289,132 +281,6 @@ def make_executor(kind: str, workers: int = 1, scheduler: str | None = None) -> 
     return LocalExecutor(workers)
 
 
-# ---------------------------------------------------------------- files
-
-def trial_columns(exp: Experiment) -> tuple[str, ...]:
-    """The columns of ``exp``'s trials file: those of its scenario's kind."""
-    return kind_of(exp.scenario).columns
-
-
-def _fields(r: dict, columns: tuple[str, ...]) -> list[str]:
-    return ["" if r[c] is None else str(r[c]) for c in columns[:-1]]
-
-
-def row_crc(fields: list[str]) -> int:
-    """The checksum of a trial row: crc32 of its fields as written (every column but ``crc``)."""
-    return zlib.crc32("\x1f".join(fields).encode("utf-8", "surrogatepass"))
-
-
-def _csv_text(rows: Iterable[dict], header: bool, columns: tuple[str, ...]) -> str:
-    """CSV text of ``rows`` in ``columns``; each row gets its checksum (``crc``), in the file and
-    in the dict."""
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    if header:
-        w.writerow(columns)
-    for r in rows:
-        fields = _fields(r, columns)
-        r["crc"] = row_crc(fields)
-        w.writerow(fields + [r["crc"]])
-    return buf.getvalue()
-
-
-def _parse_row(fields: list[str], columns: tuple[str, ...]) -> dict:
-    row = dict(zip(columns, fields))
-    row["trial"] = int(row["trial"])
-    row["particles"] = int(row["particles"]) if row["particles"] else None
-    for c in columns[len(ID_COLUMNS):-1]:
-        row[c] = float(row[c])
-    row["crc"] = int(row["crc"])
-    return row
-
-
-def _values(row: dict) -> tuple:
-    """A row's values without its timing and checksum (two runs of a trial agree on these)."""
-    return tuple(repr(v) for c, v in row.items() if c not in TIMING_COLUMNS)
-
-
-def _header_ok(header: tuple) -> bool:
-    """A trials file's header: the id columns, metrics in METRICS' order, wall_s and crc."""
-    n = len(ID_COLUMNS)
-    middle = header[n:-len(END_COLUMNS)]
-    order = [m for m in METRICS if m in middle]
-    return (header[:n] == ID_COLUMNS and header[-len(END_COLUMNS):] == END_COLUMNS
-            and len(header) > n + len(END_COLUMNS) and list(middle) == order)
-
-
-@dataclass
-class TrialsFile:
-    """What a trials file holds: the rows that check, and the trials that must run again."""
-    rows: list[dict]
-    rejected: dict[int, str]      # trial -> why its rows cannot be kept
-
-
-def read_trials(path: Path, columns: tuple[str, ...] | None = None) -> TrialsFile:
-    """The rows of a trials file, each checked against its checksum.
-
-    A torn last line (an interrupted write) is dropped. A trial with a row whose checksum does
-    not match its values (an edited file), a malformed row, or two different rows for one filter
-    run is rejected as a whole (it runs again); a row written twice with the same values is kept
-    once. A file that is not a trials file at all, or (with ``columns``) whose columns are not
-    those, is a UserError.
-    """
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise UserError(f"{path}: not a pfbench trials file (not UTF-8 text)") from None
-    if "\x00" in text:
-        raise UserError(f"{path}: not a pfbench trials file (binary data in it)")
-    if text and not text.endswith("\n"):
-        text = text[: text.rfind("\n") + 1]
-    try:
-        lines = list(csv.reader(io.StringIO(text)))
-    except csv.Error as exc:
-        raise UserError(f"{path}: not a pfbench trials file ({exc})") from None
-    header = tuple(lines[0]) if lines else ()
-    if not _header_ok(header) or (columns is not None and header != tuple(columns)):
-        raise UserError(f"{path}: not a pfbench trials file of this version (columns differ)")
-    columns = header
-    rows: dict[tuple[int, str], dict] = {}
-    rejected: dict[int, str] = {}
-    for n, fields in enumerate(lines[1:], start=2):
-        try:
-            trial = int(fields[0])
-        except (ValueError, IndexError):
-            continue                     # no trial to re-run: the row is ignored
-        if len(fields) != len(columns):
-            rejected.setdefault(trial, f"line {n} has {len(fields)} fields")
-            continue
-        try:
-            row = _parse_row(fields, columns)
-        except ValueError:
-            rejected.setdefault(trial, f"line {n} is malformed")
-            continue
-        if row["crc"] != row_crc(fields[:-1]):
-            rejected.setdefault(trial, f"line {n} ({row['filter']}): its checksum does not match "
-                                "its values")
-            continue
-        key = (trial, row["filter"])
-        if key in rows and _values(rows[key]) != _values(row):
-            rejected.setdefault(trial, f"line {n} ({row['filter']}): a second row for it with "
-                                "different values")
-            continue
-        rows.setdefault(key, row)
-    return TrialsFile([r for r in rows.values() if r["trial"] not in rejected], rejected)
-
-
-def complete_trials(rows: list[dict], exp: Experiment) -> dict[int, list[dict]]:
-    """Rows grouped by trial, keeping only trials with a row for every filter run of ``exp``."""
-    order = {f.key: i for i, f in enumerate(exp.filters)}
-    by_trial: dict[int, dict[str, dict]] = {}
-    for r in rows:
-        if r["filter"] in order and 0 <= r["trial"]:
-            by_trial.setdefault(r["trial"], {})[r["filter"]] = r
-    return {k: sorted(v.values(), key=lambda r: order[r["filter"]])
-            for k, v in by_trial.items() if len(v) == len(order)}
-
-
 def git_commit(cwd: Path | None = None) -> str | None:
     try:
         out = subprocess.run(["git", "rev-parse", "HEAD"], cwd=cwd, capture_output=True,
@@ -506,11 +372,11 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn) -> RunR
     marker = out_dir / "run.json"
     done = _resumed(exp, out_dir, warn) if resume else {}
     started = datetime.now(timezone.utc)
-    atomic_write(marker, json.dumps({"format": FORMAT_VERSION, "experiment": exp.name,
-                                     "experiment_hash": exp.hash, "seed": exp.seed,
-                                     "trials": exp.trials, "started": started.isoformat()}) + "\n")
+    write_json(marker, {"format": FORMAT_VERSION, "experiment": exp.name,
+                        "experiment_hash": exp.hash, "seed": exp.seed, "trials": exp.trials,
+                        "started": started.isoformat()}, indent=None)
     columns = trial_columns(exp)
-    atomic_write(partial, _csv_text((r for k in sorted(done) for r in done[k]), True, columns))
+    atomic_write(partial, csv_text((r for k in sorted(done) for r in done[k]), True, columns))
     resumed = set(done)
     todo = (k for k in range(exp.trials) if k not in resumed)    # lazy: no list of all trials
     n_todo = exp.trials - len(resumed)
@@ -522,7 +388,7 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn) -> RunR
         try:
             for chunk in executor.run(exp, todo, n_todo):
                 chunk = [rows for rows in chunk if rows[0]["trial"] not in done]
-                fh.write(_csv_text((r for rows in chunk for r in rows), False, columns))
+                fh.write(csv_text((r for rows in chunk for r in rows), False, columns))
                 fh.flush()
                 for rows in chunk:
                     done[rows[0]["trial"]] = rows
@@ -532,7 +398,7 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn) -> RunR
             raise Interrupted(len(done), total, partial) from None
     wall = time.perf_counter() - t0
     rows = [r for k in sorted(done) for r in done[k]]
-    atomic_write(final, _csv_text(rows, True, columns))
+    atomic_write(final, csv_text(rows, True, columns))
     meta = {
         "format": FORMAT_VERSION, "experiment": exp.name, "config": exp.source,
         "experiment_hash": exp.hash, "paper": exp.paper, "table": exp.table, "seed": exp.seed,
@@ -543,7 +409,7 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn) -> RunR
         "host": socket.gethostname(), "platform": platform.platform(), "cpus": os.cpu_count(),
         "git_commit": git_commit(), "versions": versions(), "argv": sys.argv[1:],
     }
-    atomic_write(out_dir / "meta.json", json.dumps(meta, indent=2) + "\n")
+    write_json(out_dir / "meta.json", meta)
     partial.unlink(missing_ok=True)
     marker.unlink(missing_ok=True)
     return RunResult(rows, out_dir, wall, n_todo, meta)

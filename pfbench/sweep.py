@@ -24,7 +24,8 @@ from .config import Experiment, apply_override, read_yaml, validate
 from .errors import UserError
 from .fsutil import FolderLock
 from .metrics import summarize
-from .runner import atomic_write, run_experiment
+from .runner import run_experiment
+from .store import write_csv
 from .schema import ConfigError
 from .yamlio import parse_yaml
 
@@ -171,7 +172,7 @@ def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: boo
             df.insert(0, k, json.dumps(v) if isinstance(v, (list, dict)) else v)
         frames.append(df)
     trials = pd.concat(frames, ignore_index=True)
-    atomic_write(out_dir / "trials.csv", trials.to_csv(index=False, lineterminator="\n"))
+    write_csv(out_dir / "trials.csv", trials)
     return trials
 
 

@@ -10,7 +10,7 @@ import pandas as pd
 from .config import Experiment
 from .metrics import Z975, paired, summarize, t975
 from .papers import PAPERS, Quantity, Table, reported
-from .runner import atomic_write
+from .store import atomic_write, write_csv
 
 # Per-trial metrics summarised as their mean over trials in every table.
 MEAN_COLUMNS = ("mean_ess", "resample_count", "diversity_l1", "distinct_frac",
@@ -461,5 +461,5 @@ def markdown(exp: Experiment, tab: pd.DataFrame, meta: dict | None = None) -> st
 
 def write(exp: Experiment, tab: pd.DataFrame, out_dir: Path, meta: dict | None = None) -> None:
     """Write table.csv and table.md into ``out_dir`` (atomically)."""
-    atomic_write(Path(out_dir) / "table.csv", tab.to_csv(index=False, lineterminator="\n"))
+    write_csv(Path(out_dir) / "table.csv", tab)
     atomic_write(Path(out_dir) / "table.md", markdown(exp, tab, meta))

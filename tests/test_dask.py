@@ -10,7 +10,8 @@ from typer.testing import CliRunner
 from pfbench.cli import app
 from pfbench.config import load
 from pfbench.errors import UserError
-from pfbench.runner import TIMING_COLUMNS, DaskExecutor, run_experiment
+from pfbench.runner import DaskExecutor, run_experiment
+from pfbench.store import TIMING_COLUMNS
 
 from .conftest import SMALL
 

@@ -12,7 +12,8 @@ from pfbench.config import Params, load
 from pfbench.filters import FILTERS
 from pfbench.filters.fastslam import ekf_landmark_update, init_landmark
 from pfbench.rng import state_from_seed
-from pfbench.runner import TIMING_COLUMNS, run_experiment
+from pfbench.runner import run_experiment
+from pfbench.store import TIMING_COLUMNS
 from pfbench.scenarios import waypoint_course as wc
 
 from .conftest import ROOT

@@ -4,7 +4,7 @@ import json
 import numpy as np
 import pandas as pd
 
-from pfbench.runner import TIMING_COLUMNS
+from pfbench.store import TIMING_COLUMNS
 import pytest
 from typer.testing import CliRunner
 

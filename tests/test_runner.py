@@ -7,7 +7,8 @@ from typer.testing import CliRunner
 
 from pfbench.cli import app
 from pfbench.config import load
-from pfbench.runner import TIMING_COLUMNS, run_experiment, run_trial
+from pfbench.runner import run_experiment, run_trial
+from pfbench.store import TIMING_COLUMNS
 
 from .conftest import SMALL
 

@@ -4,7 +4,7 @@ import pytest
 from typer.testing import CliRunner
 
 from pfbench.cli import app
-from pfbench.runner import TIMING_COLUMNS
+from pfbench.store import TIMING_COLUMNS
 from pfbench.schema import ConfigError
 from pfbench.sweep import expand, parse_sets, split_values
 

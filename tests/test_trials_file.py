@@ -11,7 +11,8 @@ from typer.testing import CliRunner
 from pfbench.cli import app
 from pfbench.config import load
 from pfbench.errors import UserError
-from pfbench.runner import row_crc, run_experiment
+from pfbench.runner import run_experiment
+from pfbench.store import row_crc
 
 from .conftest import TINY, one_line_exit_2
 
@@ -65,7 +66,7 @@ def test_resume_re_runs_trials_whose_rows_were_edited_or_duplicated(tmp_path, wr
 
 
 def test_rows_carry_a_checksum_and_an_identical_repeat_is_kept_once(tmp_path, write_config):
-    from pfbench.runner import read_trials
+    from pfbench.store import read_trials
     cfg = write_config(TINY)
     out = tmp_path / "o"
     assert runner.invoke(app, ["run", str(cfg), "--out", str(out), "--no-figures"]).exit_code == 0
@@ -78,7 +79,7 @@ def test_rows_carry_a_checksum_and_an_identical_repeat_is_kept_once(tmp_path, wr
 def test_a_trials_file_carries_its_kinds_columns(tmp_path, write_config):
     from pfbench.kinds import KINDS
     from pfbench.metrics import METRICS
-    from pfbench.runner import read_trials
+    from pfbench.store import read_trials
     exp = load(write_config(TINY))
     run_experiment(exp, tmp_path / "a")
     header = (tmp_path / "a/trials.csv").read_text().splitlines()[0].split(",")
