@@ -767,9 +767,16 @@ def resample_set(ps, out, pc, pcm, Wn, w, Ssum, o, board, xbar, xbar_prev, dnois
     else:
         resample(o.scheme, w, Ssum, s, idx)
         mutant[:] = 0
+    P, P2 = ps.P, out.P
     for i in range(N):
         j = idx[i]
-        copy_particle(ps, j, out, i)
+        for d in range(3):
+            P2[i, d] = P[j, d]
+        out.mu[i] = ps.mu[j]
+        out.sig[i] = ps.sig[j]
+        out.seen[i] = ps.seen[j]
+        out.nl[i] = ps.nl[j]
+        out.src[i] = ps.src[j]
         if mutant[i]:
             for d in range(3):
                 out.P[i, d] += out.P[i, d] * o.ewa_mu * normal(s)
