@@ -60,16 +60,14 @@ def probes() -> tuple[list[Probe], list[str]]:
 
     for name, ft in FILTERS.items():
         problems += _schema_problems(f"filter {name}", ft.schema)
-        fits = [s for s, mod in SCENARIOS.items() if mod.KIND == ft.kind
-                and (ft.scenarios is None or s in ft.scenarios)]
+        fits = [s for s, mod in SCENARIOS.items() if ft.runs_on(s, mod.KIND)]
         if not fits:
             problems.append(f"filter {name}: no registered scenario of kind '{ft.kind}' it runs on")
             continue
         add(name, fits[0], f"filter {name}")
     for name, mod in SCENARIOS.items():
         problems += _schema_problems(f"scenario {name}", mod.SCHEMA)
-        fits = [f for f, ft in FILTERS.items() if ft.kind == mod.KIND
-                and (ft.scenarios is None or name in ft.scenarios)]
+        fits = [f for f, ft in FILTERS.items() if ft.runs_on(name, mod.KIND)]
         if not fits:
             problems.append(f"scenario {name}: no registered filter runs on it")
             continue
@@ -128,6 +126,7 @@ def check_probe(probe: Probe, configs: Path) -> tuple[list[str], object, list[di
         return [f"{who}: the probe {where} does not validate: {exc}"], None, []
     problems: list[str] = []
     rows: list[dict] = []
+    kind = kind_of(probe.scenario)
     try:
         for k in TRIALS:
             model, truth, data = trial_data(exp, k)
@@ -140,7 +139,6 @@ def check_probe(probe: Probe, configs: Path) -> tuple[list[str], object, list[di
             if not _same(first, second):
                 problems.append(f"{who}: {where}, trial {k}: the same seed gave different "
                                 "numbers on a second run")
-            kind = kind_of(probe.scenario)
             for m in kind.headline:
                 v = first[0].get(m)
                 if not isinstance(v, (int, float)) or not math.isfinite(v):

@@ -779,11 +779,11 @@ def resample_set(ps, out, pc, pcm, Wn, w, Ssum, o, board, xbar, xbar_prev, dnois
         out.src[i] = ps.src[j]
         if mutant[i]:
             for d in range(3):
-                out.P[i, d] += out.P[i, d] * o.ewa_mu * normal(s)
-            out.P[i, 2] = wrap(out.P[i, 2])
+                P2[i, d] += P2[i, d] * o.ewa_mu * normal(s)
+            P2[i, 2] = wrap(P2[i, 2])
             if o.gate_pose:
                 for d in range(3):
-                    pc[i, (0, 3, 5)[d]] = (ps.P[j, d] * o.ewa_mu) ** 2
+                    pc[i, (0, 3, 5)[d]] = (P[j, d] * o.ewa_mu) ** 2
 
 
 @njit(types.void(PARTICLES, _F, OPTIONS, _F2, _I, _F), cache=True)

@@ -150,8 +150,6 @@ class FieldOptions(NamedTuple):
     sensor : 0 ranges, 1 ranges and bearings; sr, sb their noise standard deviations
     N : particles; trigger : resample 0 always, 1 when ESS < threshold, 2 when the weight change
     K > threshold; scheme : the resampling code; mh_steps : MH moves per particle after it
-    sq : the sigma points' spread sqrt(L + lambda) (L = 6: the pose and three odometry noises)
-    jit_m, jit_rad : the jitter added to the motion's covariance
     """
 
     motion: int
@@ -163,12 +161,9 @@ class FieldOptions(NamedTuple):
     threshold: float
     scheme: int
     mh_steps: int
-    sq: float
-    jit_m: float
-    jit_rad: float
 
 
-FIELD_OPTIONS = typeof(FieldOptions(0, 0, 1.0, 1.0, 1, 0, 1.0, 0, 1, 1.0, 1.0, 1.0))
+FIELD_OPTIONS = typeof(FieldOptions(0, 0, 1.0, 1.0, 1, 0, 1.0, 0, 1))
 
 
 class Proposals(NamedTuple):
@@ -197,7 +192,8 @@ def new_proposals(N):
 
 
 class UkfWork(NamedTuple):
-    """One particle's UKF: weights Wm, Wc (13,); sigma points through the motion Y (13, 3) and
+    """One particle's UKF: weights Wm, Wc (13,) and the points' spread sq (1,), sqrt(L + lambda)
+    (L = 6: the pose and the three odometry noises); sigma points through the motion Y (13, 3) and
     the sensor Z (13, nz); predicted mean xm (3,) and covariance Pm, updated Pn, a Cholesky
     factor L3; the step's observations zobs (nz,), which are bearings isb (nz,), their predicted
     mean zm, covariance S with its factor LS, cross-covariance C (3, nz) and gain K (3, nz);
@@ -205,6 +201,7 @@ class UkfWork(NamedTuple):
 
     Wm: np.ndarray
     Wc: np.ndarray
+    sq: np.ndarray
     Y: np.ndarray
     Z: np.ndarray
     xm: np.ndarray
@@ -224,13 +221,13 @@ class UkfWork(NamedTuple):
     sd: np.ndarray
 
 
-UKF_WORK = types.NamedTuple((_F, _F, _F2, _F2, _F, _F2, _F2, _F2, _F, _I, _F, _F2, _F2, _F2, _F2,
+UKF_WORK = types.NamedTuple((_F, _F, _F, _F2, _F2, _F, _F2, _F2, _F2, _F, _I, _F, _F2, _F2, _F2, _F2,
                              _F, _F2, _F, _F), UkfWork)
 
 
 @njit(UKF_WORK(types.int64, types.int64), cache=True)
 def new_ukf_work(ns, nzmax):
-    return UkfWork(np.empty(ns), np.empty(ns), np.empty((ns, 3)), np.empty((ns, nzmax)),
+    return UkfWork(np.empty(ns), np.empty(ns), np.empty(1), np.empty((ns, 3)), np.empty((ns, nzmax)),
                    np.empty(3), np.empty((3, 3)), np.empty((3, 3)), np.zeros((3, 3)),
                    np.empty(nzmax), np.zeros(nzmax, dtype=np.int64), np.empty(nzmax),
                    np.empty((nzmax, nzmax)), np.zeros((nzmax, nzmax)), np.empty((3, nzmax)),
@@ -254,20 +251,20 @@ def observation_vector(zs, m, o, wk):
     return r
 
 
-@njit(types.void(_F, _F2, _F, FIELD_OPTIONS, UKF_WORK), cache=True)
-def predict_moments(x, P, u, o, wk):
+@njit(types.void(_F, _F2, _F, _F, UKF_WORK), cache=True)
+def predict_moments(x, P, u, jit, wk):
     """The sigma points of [pose, odometry noise] (pose x, covariance P; the noises' deviations
     wk.sd) through the motion u into wk.Y, and their mean wk.xm and covariance wk.Pm (plus the
-    jitter)."""
+    jitter jit [m, rad])."""
     Lg = 6
     ns = 2 * Lg + 1
-    L3, Y, sq = wk.L3, wk.Y, o.sq
+    L3, Y, sq = wk.L3, wk.Y, wk.sq[0]
     if not chol(P, 3, L3):
         for a in range(3):
             for b in range(3):
                 L3[a, b] = 0.0
-        L3[0, 0] = L3[1, 1] = o.jit_m
-        L3[2, 2] = o.jit_rad
+        L3[0, 0] = L3[1, 1] = jit[0]
+        L3[2, 2] = jit[1]
     for j in range(ns):
         px, py, pt = x[0], x[1], x[2]
         w0 = w1 = w2 = 0.0
@@ -302,9 +299,9 @@ def predict_moments(x, P, u, o, wk):
         for a in range(3):
             for b in range(3):
                 Pm[a, b] += Wc[j] * d[a] * d[b]
-    Pm[0, 0] += o.jit_m * o.jit_m
-    Pm[1, 1] += o.jit_m * o.jit_m
-    Pm[2, 2] += o.jit_rad * o.jit_rad
+    Pm[0, 0] += jit[0] * jit[0]
+    Pm[1, 1] += jit[0] * jit[0]
+    Pm[2, 2] += jit[1] * jit[1]
 
 
 @njit(types.void(_F2, _I, _F2, types.int64, types.int64, FIELD_OPTIONS, UKF_WORK), cache=True)
@@ -495,7 +492,7 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, up, init,
     whose weights all underflowed."""
     T, N = ctrl.shape[0], o.N
     wk = new_ukf_work(13, 2 * bc.shape[0])
-    ut_weights(6, up[0], up[1], up[2], wk.Wm, wk.Wc)
+    wk.sq[0] = ut_weights(6, up[0], up[1], up[2], wk.Wm, wk.Wc)
     pp, spare = new_proposals(N), new_proposals(N)
     init_particles(pp.X, area, start, s)
     for i in range(N):
@@ -515,7 +512,7 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, up, init,
         nz = observation_vector(zs, m, o, wk)
         mx = -np.inf
         for i in range(N):      # each particle's UKF proposal, and a draw from it
-            predict_moments(pp.X[i], pp.Pc[i], u, o, wk)
+            predict_moments(pp.X[i], pp.Pc[i], u, jit, wk)
             wk.Pn[:] = wk.Pm
             if nz > 0:
                 sensor_moments(bc, ids, zs, m, nz, o, wk)
@@ -555,14 +552,10 @@ def run(model, data, params, particles, state, diag=True, snapshots=()):
     out = {"pose": np.empty((T + 1, 3)), "ess": np.empty(T),
            "resampled": np.zeros(T, dtype=np.int64), "mh_accept": np.empty(T),
            "snapshots": snapshot_arrays(snapshots, N)}
-    sq = ut_weights(6, params["alpha"], params["beta"], params["kappa"], np.empty(13),
-                    np.empty(13))
     o = FieldOptions(
         motion=int(model.motion), sensor=int(model.sensor), sr=float(model.sense[2]),
         sb=float(model.sense[3]), N=int(N), trigger=int(trig), threshold=float(threshold),
-        scheme=SCHEME_CODES[params["resampling"]], mh_steps=int(params["mh_steps"]),
-        sq=float(sq), jit_m=float(params["jitter_m"]),
-        jit_rad=float(math.radians(params["jitter_deg"])))
+        scheme=SCHEME_CODES[params["resampling"]], mh_steps=int(params["mh_steps"]))
     out["underflow_steps"] = sspf_field_kernel(
         data.ctrl, data.obs_n, data.obs_id, data.obs_z, model.beacons, model.area, o,
         model.mnoise, np.array([params["alpha"], params["beta"], params["kappa"]]),

@@ -28,3 +28,7 @@ class FilterType:
     cost: str = "N"
     kind: str = "scalar"
     check: Callable | None = None
+
+    def runs_on(self, scenario: str, kind: str) -> bool:
+        """Whether it runs on the scenario ``scenario`` of kind ``kind``."""
+        return self.kind == kind and (self.scenarios is None or scenario in self.scenarios)
