@@ -167,8 +167,8 @@ def check_all(configs: Path = Path("configs"), executor=None, progress=None) -> 
     if executor is not None:
         for probe, exp, rows in done:
             try:
-                chunks = [r for chunk in executor.run(exp, list(TRIALS)) for r in chunk]
-                theirs = sorted((row for trial in chunks for row in trial),
+                chunks = [t for chunk in executor.run(exp, list(TRIALS)) for t in chunk]
+                theirs = sorted((row for trial in chunks for row in trial.rows),
                                 key=lambda r: r["trial"])
             except Exception as exc:
                 problems.append(f"{' and '.join(probe.subjects)}: under {executor.describe()}: "

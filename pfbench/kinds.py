@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from .metrics import METRICS, localization_metrics, slam_metrics, trial_metrics
+from .traces import LocalizationTracer, SlamTracer
 
 # The columns every trials file starts and ends with; a kind's metrics go between.
 ID_COLUMNS = ("trial", "filter", "label", "particles")
@@ -42,8 +43,9 @@ class Kind:
     unit : the unit of its errors, for axis labels ('' for a scalar state)
     particle_floats(params, scenario_params) : float64s a particle holds while its filter runs
     step_floats(scenario_params) : float64s a step of the scenario's truth and data take
-    figures : the name of the function of pfbench.plots that draws a trial of this kind
-        (exp, rows, folder) -> paths, or None
+    figures : the name of the function of pfbench.plots that draws an experiment of this kind
+        (exp, rows, traces, folder) -> paths, or None
+    tracer : what a trial keeps for those figures while it runs (pfbench.traces), or None
 
     A trials file of the kind has the columns ``columns``: the trial, the filter run, its
     ``metrics`` (in the order of pfbench.metrics.METRICS), the wall time and the row's checksum.
@@ -58,6 +60,7 @@ class Kind:
     particle_floats: Callable
     step_floats: Callable
     figures: str | None = None
+    tracer: object | None = None
 
     def __post_init__(self):
         unknown = [m for m in self.metrics if m not in METRICS]
@@ -100,7 +103,7 @@ SLAM = Kind(
     unit="m",
     particle_floats=_slam_particle_floats,
     step_floats=lambda scen: 16 + 3 * len(scen.get("landmarks", ())),
-    figures="slam_figures")
+    figures="slam_figures", tracer=SlamTracer())
 
 LOCALIZATION = Kind(
     "localization", "a robot's pose on a known map: global localization, tracking and kidnapping",
@@ -114,7 +117,7 @@ LOCALIZATION = Kind(
     unit="m",
     particle_floats=lambda params, scen: 64,
     step_floats=lambda scen: 16 + 3 * len(scen.get("beacons", ())),
-    figures="localization_figures")
+    figures="localization_figures", tracer=LocalizationTracer())
 
 KINDS = {k.name: k for k in (SCALAR, SLAM, LOCALIZATION)}
 

@@ -6,8 +6,8 @@ and landmark errors over time (ifa2021 Fig. 6, afsa2014 Fig. 3), and the effecti
 time (afsa2014 Fig. 5). Localization experiments: the position error per step, median and
 interquartile band over the first FIGURE_TRIALS trials (sspf2008's error figure), with the particle
 count over time when KLD-sampling adapts it, and the particles over the field at a few steps of one
-trial. Traces are recomputed by running the trials again: each is a pure function of the
-experiment and the trial index.
+trial. Figures never run a trial: they draw the rows and the traces the run kept
+(``traces.npz``, pfbench.traces).
 """
 from __future__ import annotations
 
@@ -22,8 +22,10 @@ import pandas as pd  # noqa: E402
 
 from .config import Experiment  # noqa: E402
 from .fsutil import write_through_temp  # noqa: E402
-from .runner import build_model, run_filter, trial_data  # noqa: E402
+from .errors import UserError  # noqa: E402
 from .kinds import kind_of  # noqa: E402
+from .store import Traces, read_traces  # noqa: E402
+from .traces import error_runs, runs_in, snapshot_runs  # noqa: E402
 
 # Fixed metadata: the same figure gives the same bytes.
 _META = {"Software": None}
@@ -57,21 +59,24 @@ def rmse_boxplot(exp: Experiment, rows: pd.DataFrame, path: Path) -> None:
     save_figure(fig, path)
 
 
-def slam_trial_figures(exp: Experiment, folder: Path, trial: int = 0) -> list[Path]:
+def slam_trial_figures(exp: Experiment, traces: Traces, folder: Path, trial: int = 0) -> list[Path]:
     """The course with true and estimated paths and maps, the errors over time and the effective
-    sample size over time, for one trial of a SLAM experiment."""
-    model, truth, data = trial_data(exp, trial)
-    runs = [(r, run_filter(exp, trial, r, model, data)[0]) for r in exp.filters]
+    sample size over time, for one trial of a SLAM experiment (from its trace)."""
+    tr = runs_in(traces.trials[trial])
+    shared, world = tr[""], traces.world
+    truth = shared["truth_pose"]
+    runs = [(r, tr[r.key]) for r in exp.filters]
     colors = plt.cm.tab10(np.linspace(0, 1, 10))
     fig, ax = plt.subplots(figsize=(8.0, 6.6))
-    wp = np.vstack([model.waypoints, model.waypoints[:1]])
-    ax.plot(wp[:, 0], wp[:, 1], "o--", color="0.7", ms=4, lw=0.8, label="waypoints")
-    ax.plot(model.landmarks[:, 0], model.landmarks[:, 1], "k*", ms=8, label="landmarks")
-    ax.plot(truth.pose[:, 0], truth.pose[:, 1], "k-", lw=1.6, label="true path")
+    if "waypoints" in world:
+        wp = np.vstack([world["waypoints"], world["waypoints"][:1]])
+        ax.plot(wp[:, 0], wp[:, 1], "o--", color="0.7", ms=4, lw=0.8, label="waypoints")
+    ax.plot(world["landmarks"][:, 0], world["landmarks"][:, 1], "k*", ms=8, label="landmarks")
+    ax.plot(truth[:, 0], truth[:, 1], "k-", lw=1.6, label="true path")
     for i, (r, out) in enumerate(runs):
         c = colors[i % 10]
         ax.plot(out["pose"][:, 0], out["pose"][:, 1], "-", color=c, lw=0.9, label=_run_name(r))
-        seen = out["lm_seen"].astype(bool)
+        seen = out["lm_seen"]
         ax.plot(out["lm_est"][seen, 0], out["lm_est"][seen, 1], "+", color=c, ms=7, mew=1.2)
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
@@ -83,18 +88,16 @@ def slam_trial_figures(exp: Experiment, folder: Path, trial: int = 0) -> list[Pa
     course = folder / "course.png"
     save_figure(fig, course)
 
-    dt = float(model.vehicle[1])
-    t = np.arange(truth.pose.shape[0]) * dt
-    every = int(model.sensor[2])
-    t_obs = (np.arange(1, data.obs_n.shape[0] + 1) * every) * dt
+    t, t_obs = shared["time"], shared["obs_time"]
     fig, axes = plt.subplots(3, 1, figsize=(8.0, 8.4), sharex=True)
     for i, (r, out) in enumerate(runs):
         c = colors[i % 10]
-        err = np.hypot(*(out["pose"][:, :2] - truth.pose[:, :2]).T)
-        dth = np.abs((out["pose"][:, 2] - truth.pose[:, 2] + np.pi) % (2 * np.pi) - np.pi)
+        err = np.hypot(*(out["pose"][:, :2] - truth[:, :2]).T)
+        dth = np.abs((out["pose"][:, 2] - truth[:, 2] + np.pi) % (2 * np.pi) - np.pi)
         axes[0].plot(t, err, lw=0.9, color=c, label=_run_name(r))
         axes[1].plot(t, dth, lw=0.9, color=c)
-        axes[2].plot(t_obs, out["lm_trace"], lw=0.9, color=c)
+        if "lm_trace" in out:
+            axes[2].plot(t_obs, out["lm_trace"], lw=0.9, color=c)
     axes[0].set_ylabel("position error (m)")
     axes[1].set_ylabel("heading error (rad)")
     axes[2].set_ylabel("landmark error (m)")
@@ -109,7 +112,7 @@ def slam_trial_figures(exp: Experiment, folder: Path, trial: int = 0) -> list[Pa
     save_figure(fig, errors)
 
     fig, ax = plt.subplots(figsize=(8.0, 3.8))
-    K = data.obs_n.shape[0]
+    K = t_obs.shape[0]
     win = max(1, K // 50)           # a moving mean, or thousands of jumps hide each other
     for i, (r, out) in enumerate(runs):
         if r.particles is not None and out["ess"].size:
@@ -128,53 +131,37 @@ def slam_trial_figures(exp: Experiment, folder: Path, trial: int = 0) -> list[Pa
     return [course, errors, ess]
 
 
-def _localization_runs(exp: Experiment) -> list:
-    """The filter runs a localization figure shows: all of them up to 6; beyond, each label's
-    smallest and largest particle count."""
-    if len(exp.filters) <= 6:
-        return list(exp.filters)
-    keep = []
-    for label in dict.fromkeys(r.label for r in exp.filters):
-        runs = [r for r in exp.filters if r.label == label]
-        keep += [runs[0]] if len(runs) == 1 else [min(runs, key=lambda r: r.particles),
-                                                  max(runs, key=lambda r: r.particles)]
-    return keep
-
-
-def localization_error_figure(exp: Experiment, trials: list[int], path: Path) -> dict:
-    """Position error per step over trials (median and interquartile band) of each shown run,
-    with the particle count over time when a run adapts it; returns {run key: (T+1,) median}."""
-    runs = _localization_runs(exp)
-    err = {r.key: [] for r in runs}
-    count = {r.key: [] for r in runs}
-    for k in trials:
-        model, truth, data = trial_data(exp, k)
-        for r in runs:
-            out = run_filter(exp, k, r, model, data)[0]
-            err[r.key].append(np.hypot(*(out["pose"][:, :2] - truth.pose[:, :2]).T))
-            count[r.key].append(out["n"])
-    adaptive = [r for r in runs if np.ptp(np.asarray(count[r.key])) > 0]
+def localization_error_figure(exp: Experiment, traces: Traces, path: Path) -> dict:
+    """Position error per step over the traced trials (median and interquartile band) of each
+    shown run, with the particle count over time when a run adapts it; returns {run key: (T+1,)
+    median}."""
+    runs = error_runs(exp)
+    trials = sorted(traces.trials)
+    by_trial = [runs_in(traces.trials[k]) for k in trials]
+    err = {r.key: np.asarray([tr[r.key]["error"] for tr in by_trial], dtype=float) for r in runs}
+    count = {r.key: np.asarray([tr[r.key]["n"] for tr in by_trial]) for r in runs
+             if "n" in by_trial[0][r.key]}
+    adaptive = [r for r in runs if r.key in count and np.ptp(count[r.key]) > 0]
     colors = plt.cm.tab10(np.linspace(0, 1, 10))
     fig, axes = plt.subplots(2 if adaptive else 1, 1, figsize=(8.0, 6.8 if adaptive else 4.4),
                              sharex=True, squeeze=False)
     ax = axes[0, 0]
-    t = np.arange(len(err[runs[0].key][0]))
+    t = np.arange(err[runs[0].key].shape[1])
     medians = {}
     for i, r in enumerate(runs):
-        e = np.asarray(err[r.key])
-        q1, med, q3 = np.percentile(e, [25, 50, 75], axis=0)
+        q1, med, q3 = np.percentile(err[r.key], [25, 50, 75], axis=0)
         medians[r.key] = med
         c = colors[i % 10]
         ax.plot(t, med, color=c, lw=1.2, label=_run_name(r))
         ax.fill_between(t, q1, q3, color=c, alpha=0.18, lw=0)
-    model = build_model(exp)
-    for kstep in model.kidnaps:
+    kidnaps = traces.world["kidnaps"]
+    for kstep in kidnaps:
         ax.axvline(kstep, color="0.3", ls=":", lw=1)
-    ax.axhline(model.bound, color="0.5", ls="--", lw=0.8)
+    ax.axhline(float(traces.world["bound"]), color="0.5", ls="--", lw=0.8)
     ax.set_yscale("log")
     ax.set_ylabel("position error (m)")
     ax.set_title(f"{exp.name}: position error per step, median and interquartile band over "
-                 f"{len(trials)} trials\n" + ("dotted: kidnappings; " if model.kidnaps.size else "")
+                 f"{len(trials)} trials\n" + ("dotted: kidnappings; " if kidnaps.size else "")
                  + "dashed: the convergence bound", fontsize=9)
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3, which="both")
@@ -182,10 +169,9 @@ def localization_error_figure(exp: Experiment, trials: list[int], path: Path) ->
         ax2 = axes[1, 0]
         for i, r in enumerate(runs):
             if r in adaptive:
-                n = np.asarray(count[r.key], dtype=float)
-                ax2.plot(t[1:], n.mean(axis=0), color=colors[i % 10], lw=1.2,
-                         label=f"{_run_name(r)}: mean over trials")
-        if max(np.ptp(np.asarray(count[r.key])) for r in adaptive) > 1000:
+                ax2.plot(t[1:], count[r.key].astype(float).mean(axis=0), color=colors[i % 10],
+                         lw=1.2, label=f"{_run_name(r)}: mean over trials")
+        if max(np.ptp(count[r.key]) for r in adaptive) > 1000:
             ax2.set_yscale("log")
         ax2.set_ylabel("particles")
         ax2.legend(fontsize=7)
@@ -196,80 +182,82 @@ def localization_error_figure(exp: Experiment, trials: list[int], path: Path) ->
     return medians
 
 
-def particle_figure(exp: Experiment, path: Path, trial: int = 0) -> None:
+def particle_figure(exp: Experiment, traces: Traces, path: Path, trial: int = 0) -> None:
     """The particles of each filter (one run per label: the largest count) over the field at a few
     steps of one trial: the start, during global localization, after each kidnapping, the end."""
-    model, truth, data = trial_data(exp, trial)
-    T = data.ctrl.shape[0]
-    steps = [0, 1, 3, 10]
-    for k in model.kidnaps:
-        steps += [int(k), int(k) + 3]
-    steps = sorted({min(t, T) for t in steps} | {T})[:8]
-    runs = {}
-    for r in exp.filters:
-        if r.label not in runs or r.particles > runs[r.label].particles:
-            runs[r.label] = r
-    runs = list(runs.values())[:6]
+    tr = runs_in(traces.trials[trial])
+    world = traces.world
+    steps = tr[""]["steps"]
+    truth = tr[""]["truth_pose_at"]
+    runs = snapshot_runs(exp)
     fig, axes = plt.subplots(len(runs), len(steps), figsize=(1.9 * len(steps) + 0.6,
                                                              1.95 * len(runs) + 0.5),
                              squeeze=False)
     for i, r in enumerate(runs):
-        out = run_filter(exp, trial, r, model, data, snapshots=steps)[0]
-        _, parts, counts = out["snapshots"]
+        out = tr[r.key]
+        has = "snap_xy" in out
+        ends = np.cumsum(out["snap_drawn"]) if has else None
         for j, t in enumerate(steps):
             ax = axes[i, j]
-            P = parts[j, :counts[j]]
-            ax.plot(P[:, 0], P[:, 1], ".", color="tab:blue", ms=1.5, alpha=0.4, mew=0)
-            ax.plot(model.beacons[:, 0], model.beacons[:, 1], "k^", ms=4)
-            ax.plot(*truth.pose[t, :2], "o", mfc="none", mec="red", ms=7, mew=1.2)
-            ax.plot(*out["pose"][t, :2], "x", color="green", ms=6, mew=1.2)
-            ax.set_xlim(0, model.area[0])
-            ax.set_ylim(0, model.area[1])
+            if has:
+                P = out["snap_xy"][ends[j] - out["snap_drawn"][j]:ends[j]]
+                ax.plot(P[:, 0], P[:, 1], ".", color="tab:blue", ms=1.5, alpha=0.4, mew=0)
+            ax.plot(world["beacons"][:, 0], world["beacons"][:, 1], "k^", ms=4)
+            ax.plot(*truth[j, :2], "o", mfc="none", mec="red", ms=7, mew=1.2)
+            ax.plot(*out["pose_at"][j, :2], "x", color="green", ms=6, mew=1.2)
+            ax.set_xlim(0, world["area"][0])
+            ax.set_ylim(0, world["area"][1])
             ax.set_aspect("equal")
             ax.set_xticks([])
             ax.set_yticks([])
             if i == 0:
-                ax.set_title(f"step {t}" + (" (kidnapped)" if t in model.kidnaps else ""),
+                ax.set_title(f"step {t}" + (" (kidnapped)" if t in world["kidnaps"] else ""),
                              fontsize=8)
             if j == 0:
                 ax.set_ylabel(_run_name(r), fontsize=7)
-            if counts[j] != r.particles:
-                ax.text(0.03, 0.03, f"{counts[j]} particles", transform=ax.transAxes,
-                        fontsize=6)
+            if not has:
+                ax.text(0.03, 0.03, "no particles kept", transform=ax.transAxes, fontsize=6)
+            elif out["snap_count"][j] != r.particles or out["snap_drawn"][j] != r.particles:
+                drawn, n = out["snap_drawn"][j], out["snap_count"][j]
+                ax.text(0.03, 0.03, f"{n} particles" + (f" ({drawn} drawn)" if drawn < n else ""),
+                        transform=ax.transAxes, fontsize=6)
     fig.suptitle(f"{exp.name}, trial {trial}: particles (blue), beacons (black), true pose (red "
                  "circle), estimate (green x)", fontsize=9)
     fig.tight_layout()
     save_figure(fig, path)
 
 
-# localization figures re-run at most this many trials
-FIGURE_TRIALS = 50
-
-
 def write_figures(exp: Experiment, rows: list[dict] | pd.DataFrame, out_dir: Path) -> list[Path]:
-    """Write the experiment's figures into ``out_dir/figures``; return their paths."""
+    """Write the experiment's figures into ``out_dir/figures`` from its rows and the traces its
+    run kept (``out_dir/traces.npz``); return their paths."""
+    kind = kind_of(exp.scenario)
+    traces = read_traces(out_dir) if kind.figures else None
+    if kind.figures and (traces is None or not traces.trials):
+        raise UserError(f"{out_dir}: no traces.npz to draw the figures from; run the "
+                        "experiment again with --resume, which keeps its trials")
     folder = Path(out_dir) / "figures"
     folder.mkdir(parents=True, exist_ok=True)
     df = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(rows)
     paths = [folder / "rmse.png"]
     rmse_boxplot(exp, df, paths[0])
-    kind = kind_of(exp.scenario)
     if kind.figures:
-        paths += globals()[kind.figures](exp, df, folder)
+        paths += globals()[kind.figures](exp, df, traces, folder)
     return paths
 
 
-def slam_figures(exp: Experiment, rows: pd.DataFrame, folder: Path) -> list[Path]:
-    """A SLAM experiment's figures of one trial (see slam_trial_figures)."""
-    return slam_trial_figures(exp, folder)
+def slam_figures(exp: Experiment, rows: pd.DataFrame, traces: Traces,
+                 folder: Path) -> list[Path]:
+    """A SLAM experiment's figures of its first trial (see slam_trial_figures)."""
+    return slam_trial_figures(exp, traces, folder, min(traces.trials))
 
 
-def localization_figures(exp: Experiment, rows: pd.DataFrame, folder: Path) -> list[Path]:
-    """A localization experiment's error curves over trials and its particles in one trial."""
-    trials = sorted(rows["trial"].unique())[:FIGURE_TRIALS]
+def localization_figures(exp: Experiment, rows: pd.DataFrame, traces: Traces,
+                         folder: Path) -> list[Path]:
+    """A localization experiment's error curves over the traced trials and its particles in the
+    first."""
     paths = [folder / "errors.png", folder / "particles.png"]
-    localization_error_figure(exp, [int(k) for k in trials], paths[0])
-    particle_figure(exp, paths[1], int(trials[0]))
+    localization_error_figure(exp, traces, paths[0])
+    particle_figure(exp, traces, paths[1], min(traces.trials))
     return paths
 
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from functools import lru_cache, partial
 from pathlib import Path
-from typing import Callable, Iterable
+from typing import Callable, Iterable, NamedTuple
 
 import numpy as np
 
@@ -34,7 +34,9 @@ from .filters import FILTERS, LOAD_SECONDS
 from .kinds import kind_of
 from .rng import state_from_seed
 from .scenarios import SCENARIOS
-from .store import atomic_write, complete_trials, csv_text, read_trials, trial_columns, write_json
+from .store import (atomic_write, clear_staged_traces, complete_trials, csv_text,
+                    finish_traces, read_staged_traces, read_traces, read_trials, stage_trace,
+                    trial_columns, write_json)
 
 
 
@@ -79,21 +81,36 @@ def run_filter(exp: Experiment, trial: int, run, model, y, diag: bool = True,
     return out, time.perf_counter() - t0
 
 
-def run_trial(exp: Experiment, trial: int) -> list[dict]:
-    """One trial: simulate once, run every filter on the same data, one row of metrics each."""
+class Trial(NamedTuple):
+    """A finished trial: its rows (one per filter run) and, when its kind keeps one for the
+    figures, its trace (pfbench.traces)."""
+    rows: list[dict]
+    trace: dict | None = None
+
+
+def run_trial(exp: Experiment, trial: int, traces: bool = False) -> list[dict] | Trial:
+    """One trial: simulate once, run every filter on the same data, one row of metrics each.
+    With ``traces``: a Trial, with the trace the kind keeps of it for the figures."""
     model, truth, data = trial_data(exp, trial)
-    rows = []
+    tracer = kind_of(exp.scenario).tracer if traces else None
+    keep = tracer is not None and tracer.keeps(exp, trial)
+    extras = tracer.extras(exp, model, data, trial) if keep else {}
+    rows, outs = [], {}
     for run in exp.filters:
-        out, wall = run_filter(exp, trial, run, model, data)
+        out, wall = run_filter(exp, trial, run, model, data, **extras.get(run.key, {}))
         row = {"trial": trial, "filter": run.key, "label": run.label, "particles": run.particles}
         row.update(metrics_of(exp, model, truth, out))
         row["wall_s"] = wall
         rows.append(row)
-    return rows
+        if keep:
+            outs[run.key] = out
+    if not traces:
+        return rows
+    return Trial(rows, tracer.keep(exp, trial, model, truth, data, outs) if keep else None)
 
 
-def _run_chunk(exp: Experiment, trials: list[int]) -> list[list[dict]]:
-    return [run_trial(exp, k) for k in trials]
+def _run_chunk(exp: Experiment, trials: list[int], traces: bool = False) -> list[Trial]:
+    return [run_trial(exp, k, True) if traces else Trial(run_trial(exp, k)) for k in trials]
 
 
 # ---------------------------------------------------------------- executors
@@ -120,9 +137,10 @@ def _count(trials) -> int:
     return len(trials) if hasattr(trials, "__len__") else -1
 
 
-def execute(exp: Experiment, trials: Iterable[int], workers: int,
-            count: int | None = None) -> Iterable[list[list[dict]]]:
-    """Yield the rows of chunks of ``trials`` as they finish (in-process or a process pool).
+def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | None = None,
+            traces: bool = False) -> Iterable[list[Trial]]:
+    """Yield chunks of ``trials`` as they finish (in-process or a process pool), each a list of
+    Trial (with its trace where ``traces`` and the kind keeps one).
 
     ``count``: how many trials there are (when ``trials`` is an iterator). Never more workers
     than trials. Workers ignore SIGINT; on Ctrl-C the parent terminates them, keeping what
@@ -132,14 +150,15 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int,
     workers = min(workers, count) if count >= 0 else workers
     if workers <= 1:
         for chunk in _chunks(trials, 1):
-            yield _run_chunk(exp, chunk)
+            yield _run_chunk(exp, chunk, traces)
         return
     import multiprocessing as mp
     ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
     size = max(1, min(25, math.ceil(count / (workers * 6))))
     pool = ctx.Pool(workers, initializer=_worker_init)
     try:
-        yield from pool.imap_unordered(partial(_run_chunk, exp), _chunks(trials, size))
+        yield from pool.imap_unordered(partial(_run_chunk, exp, traces=traces),
+                                       _chunks(trials, size))
         pool.close()
     finally:
         pool.terminate()
@@ -155,9 +174,10 @@ class LocalExecutor:
     def describe(self) -> str:
         return f"{self.workers} worker(s)"
 
-    def run(self, exp: Experiment, trials: Iterable[int],
-            count: int | None = None) -> Iterable[list[list[dict]]]:
-        yield from execute(exp, trials, self.workers, count)
+    def run(self, exp: Experiment, trials: Iterable[int], count: int | None = None,
+            traces: bool = False) -> Iterable[list[Trial]]:
+        """Yield the finished trials in chunks, as they arrive (see execute)."""
+        yield from execute(exp, trials, self.workers, count, traces)
 
     def close(self) -> None:
         pass
@@ -226,13 +246,13 @@ class DaskExecutor(LocalExecutor):
         where = self.scheduler or "a local Dask cluster"
         return f"{n} Dask worker(s) at {where}"
 
-    def run(self, exp: Experiment, trials: Iterable[int],
-            count: int | None = None) -> Iterable[list[list[dict]]]:
+    def run(self, exp: Experiment, trials: Iterable[int], count: int | None = None,
+            traces: bool = False) -> Iterable[list[Trial]]:
         import distributed
         trials = list(trials)
         n = max(1, len(self.client.scheduler_info().get("workers", {})))
         size = max(1, min(25, math.ceil(len(trials) / (n * 6))))
-        futures = [self.client.submit(_run_chunk, exp, chunk, pure=False)
+        futures = [self.client.submit(_run_chunk, exp, chunk, traces, pure=False)
                    for chunk in _chunks(trials, size)]
         try:
             for fut in distributed.as_completed(futures):
@@ -324,7 +344,7 @@ class RunResult:
 def run_experiment(exp: Experiment, out_dir: Path, *, workers: int = 1, resume: bool = False,
                    progress: Callable[[int, int], None] | None = None,
                    executor: LocalExecutor | None = None,
-                   warn: Callable[[str], None] | None = None) -> RunResult:
+                   warn: Callable[[str], None] | None = None, traces: bool = True) -> RunResult:
     """Run every trial of ``exp`` into ``out_dir`` (see DESIGN.md section 3 for the files).
 
     Trials go to ``trials.partial.csv`` as they finish; at the end the sorted ``trials.csv``
@@ -334,11 +354,15 @@ def run_experiment(exp: Experiment, out_dir: Path, *, workers: int = 1, resume: 
     which. ``executor``: where the trials run (default: a LocalExecutor of ``workers``); a trial
     that arrives twice (a re-run chunk) is kept once. The folder is locked (:class:`FolderLock`)
     for the whole run: a second run into it is refused.
+
+    ``traces``: keep what the figures draw of the trials the scenario's kind names
+    (``traces.npz``, pfbench.traces); a resumed trial that should have a trace and has none
+    runs again.
     """
     executor = executor or LocalExecutor(workers)
     out_dir = Path(out_dir)
     with FolderLock(out_dir):
-        return _run_locked(exp, out_dir, workers, resume, progress, executor, warn)
+        return _run_locked(exp, out_dir, workers, resume, progress, executor, warn, traces)
 
 
 def _resumed(exp: Experiment, out_dir: Path, warn) -> dict[int, list[dict]]:
@@ -366,11 +390,30 @@ def _resumed(exp: Experiment, out_dir: Path, warn) -> dict[int, list[dict]]:
     return {k: v for k, v in complete_trials(got.rows, exp).items() if k < exp.trials}
 
 
-def _run_locked(exp, out_dir, workers, resume, progress, executor, warn) -> RunResult:
+def _resumed_traces(exp: Experiment, out_dir: Path, done: dict[int, list[dict]]) -> dict:
+    """The traces of the resumed trials ``done`` (from the unfinished run's staged traces, or a
+    finished run's traces.npz); a trial that should have one and has none leaves ``done``."""
+    tracer = kind_of(exp.scenario).tracer
+    if (out_dir / "trials.partial.csv").exists():
+        found = read_staged_traces(out_dir)
+    else:
+        old = read_traces(out_dir)
+        found = old.trials if old is not None else {}
+    for k in [k for k in done if tracer.keeps(exp, k) and k not in found]:
+        del done[k]
+    return {k: found[k] for k in done if tracer.keeps(exp, k)}
+
+
+def _run_locked(exp, out_dir, workers, resume, progress, executor, warn, traces) -> RunResult:
     partial = out_dir / "trials.partial.csv"
     final = out_dir / "trials.csv"
     marker = out_dir / "run.json"
     done = _resumed(exp, out_dir, warn) if resume else {}
+    traces = traces and kind_of(exp.scenario).tracer is not None
+    kept = _resumed_traces(exp, out_dir, done) if traces and resume else {}
+    clear_staged_traces(out_dir)
+    for k, trace in kept.items():
+        stage_trace(out_dir, k, trace)
     started = datetime.now(timezone.utc)
     write_json(marker, {"format": FORMAT_VERSION, "experiment": exp.name,
                         "experiment_hash": exp.hash, "seed": exp.seed, "trials": exp.trials,
@@ -386,12 +429,16 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn) -> RunR
     t0 = time.perf_counter()
     with open(partial, "a", encoding="utf-8", newline="") as fh:
         try:
-            for chunk in executor.run(exp, todo, n_todo):
-                chunk = [rows for rows in chunk if rows[0]["trial"] not in done]
-                fh.write(csv_text((r for rows in chunk for r in rows), False, columns))
+            for chunk in executor.run(exp, todo, n_todo, traces):
+                chunk = [t for t in chunk if t.rows[0]["trial"] not in done]
+                for t in chunk:       # the trace first: a trial with rows but no trace reruns
+                    if t.trace is not None:
+                        kept[t.rows[0]["trial"]] = t.trace
+                        stage_trace(out_dir, t.rows[0]["trial"], t.trace)
+                fh.write(csv_text((r for t in chunk for r in t.rows), False, columns))
                 fh.flush()
-                for rows in chunk:
-                    done[rows[0]["trial"]] = rows
+                for t in chunk:
+                    done[t.rows[0]["trial"]] = t.rows
                 if progress:
                     progress(len(done), total)
         except KeyboardInterrupt:
@@ -399,6 +446,10 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn) -> RunR
     wall = time.perf_counter() - t0
     rows = [r for k in sorted(done) for r in done[k]]
     atomic_write(final, csv_text(rows, True, columns))
+    if traces:
+        finish_traces(out_dir, kind_of(exp.scenario).tracer.world(exp, build_model(exp)), kept)
+    else:
+        finish_traces(out_dir, {}, {})
     meta = {
         "format": FORMAT_VERSION, "experiment": exp.name, "config": exp.source,
         "experiment_hash": exp.hash, "paper": exp.paper, "table": exp.table, "seed": exp.seed,

@@ -5,25 +5,37 @@ A trials file (``trials.csv``, and ``trials.partial.csv`` while a run is under w
 trial and filter run: the id columns, the metrics of the scenario's kind (pfbench.kinds), the wall
 time and ``crc``, a crc32 of the row's other fields as written. Floats are written in their
 shortest exact form, so they read back bit for bit.
+
+The traces the figures draw (pfbench.traces) go to ``traces.npz``: one array per member,
+``TRIAL/NAME`` for a trial's trace and ``world/NAME`` for the world, written with fixed
+timestamps so that the same run gives the same bytes. While a run is under way each trace goes to
+``traces.partial/trial-K.npz`` as its trial finishes, so that ``--resume`` keeps it.
 """
 from __future__ import annotations
 
 import csv
 import io
 import json
+import zipfile
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable
 
+import numpy as np
+
 from .config import Experiment
 from .errors import UserError
-from .fsutil import atomic_write
+from .fsutil import atomic_write, remove_tree
 from .kinds import END_COLUMNS, ID_COLUMNS, kind_of
 from .metrics import METRICS
 
-__all__ = ["TIMING_COLUMNS", "TrialsFile", "atomic_write", "complete_trials", "csv_text",
-           "read_trials", "row_crc", "trial_columns", "write_csv", "write_json"]
+__all__ = ["TIMING_COLUMNS", "Traces", "TrialsFile", "atomic_write", "clear_staged_traces",
+           "complete_trials", "csv_text", "finish_traces", "read_staged_traces", "read_traces", "read_trials",
+           "row_crc", "stage_trace", "trial_columns", "write_csv", "write_json"]
+
+TRACES = "traces.npz"
+TRACES_PARTIAL = "traces.partial"
 
 # Columns that may differ between two runs of the same experiment (the timing, and the checksum
 # that covers it).
@@ -164,3 +176,87 @@ def complete_trials(rows: list[dict], exp: Experiment) -> dict[int, list[dict]]:
             for k, v in by_trial.items() if len(v) == len(order)}
 
 
+
+
+# ---------------------------------------------------------------- traces
+
+def _npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
+    """A .npz archive of ``arrays`` (compressed; fixed member timestamps: the same arrays give
+    the same bytes; numpy.load reads it)."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
+        for name, a in arrays.items():
+            member = io.BytesIO()
+            np.lib.format.write_array(member, np.asarray(a), allow_pickle=False)
+            info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            z.writestr(info, member.getvalue())
+    return buf.getvalue()
+
+
+def _read_npz(path: Path) -> dict[str, np.ndarray] | None:
+    """The arrays of a .npz file; None when it is missing or damaged."""
+    try:
+        with np.load(path, allow_pickle=False) as f:
+            return {name: f[name] for name in f.files}
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError):
+        return None
+
+
+def stage_trace(out_dir: Path, trial: int, trace: dict) -> None:
+    """Keep one finished trial's trace while the run goes on."""
+    folder = Path(out_dir) / TRACES_PARTIAL
+    folder.mkdir(exist_ok=True)
+    atomic_write(folder / f"trial-{trial}.npz", _npz_bytes(trace))
+
+
+def read_staged_traces(out_dir: Path) -> dict[int, dict]:
+    """The traces an unfinished run staged (damaged ones left out: their trials run again)."""
+    folder = Path(out_dir) / TRACES_PARTIAL
+    found = {}
+    for p in sorted(folder.glob("trial-*.npz")) if folder.is_dir() else ():
+        k = p.stem.removeprefix("trial-")
+        trace = _read_npz(p) if k.isdigit() else None
+        if trace is not None:
+            found[int(k)] = trace
+    return found
+
+
+def clear_staged_traces(out_dir: Path) -> None:
+    remove_tree(Path(out_dir) / TRACES_PARTIAL, Path(out_dir))
+
+
+def finish_traces(out_dir: Path, world: dict, traces: dict[int, dict]) -> None:
+    """Write ``traces.npz`` (the world, then each trial's trace in trial order) and remove the
+    staged ones; without traces, remove an old ``traces.npz``."""
+    path = Path(out_dir) / TRACES
+    if traces:
+        arrays = {f"world/{n}": a for n, a in world.items()}
+        for k in sorted(traces):
+            arrays.update({f"{k}/{n}": a for n, a in traces[k].items()})
+        atomic_write(path, _npz_bytes(arrays))
+    else:
+        path.unlink(missing_ok=True)
+    clear_staged_traces(out_dir)
+
+
+@dataclass
+class Traces:
+    """What ``traces.npz`` holds: the world's arrays and each kept trial's trace."""
+    world: dict[str, np.ndarray]
+    trials: dict[int, dict[str, np.ndarray]]
+
+
+def read_traces(out_dir: Path) -> Traces | None:
+    """The traces of a finished run (None when it kept none, or the file is damaged)."""
+    arrays = _read_npz(Path(out_dir) / TRACES)
+    if arrays is None:
+        return None
+    world, trials = {}, {}
+    for name, a in arrays.items():
+        head, _, rest = name.partition("/")
+        if head == "world":
+            world[rest] = a
+        elif head.isdigit():
+            trials.setdefault(int(head), {})[rest] = a
+    return Traces(world, trials)

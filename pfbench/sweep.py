@@ -165,7 +165,8 @@ def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: boo
                 progress(base + d, total)
 
         res = run_experiment(cell.exp, folder, workers=workers, resume=resume,
-                             progress=cell_progress, executor=executor, warn=warn)
+                             progress=cell_progress, executor=executor, warn=warn,
+                             traces=False)
         done += cell.exp.trials
         df = pd.DataFrame(res.rows)
         for k, v in cell.values.items():

@@ -13,7 +13,7 @@ from pfbench.errors import UserError
 from pfbench.runner import DaskExecutor, run_experiment
 from pfbench.store import TIMING_COLUMNS
 
-from .conftest import SMALL
+from .conftest import ROOT, SMALL
 
 pytest.importorskip("distributed")
 from distributed.comm.core import CommClosedError  # noqa: E402
@@ -24,15 +24,23 @@ def _numbers(path):
     return pd.read_csv(path).drop(columns=list(TIMING_COLUMNS))
 
 
-def test_dask_local_cluster_gives_the_in_process_rows(tmp_path, write_config):
+def test_dask_local_cluster_gives_the_in_process_rows_and_traces(tmp_path, write_config):
     exp = load(write_config(SMALL.replace("trials: 6", "trials: 12")))
+    field = load(write_config(f"trials: 5\nscenario: {{name: beacon_field, world: "
+                              f"{ROOT / 'configs/worlds/beacon_field.yaml'}, steps: 20}}\n"
+                              "filters: {mcl: {particles: 200}}\n", "field.yaml"))
     run_experiment(exp, tmp_path / "local", workers=1)
+    run_experiment(field, tmp_path / "field_local", workers=1)
     with DaskExecutor(2) as ex:
         assert "2 Dask worker(s)" in ex.describe()
         res = run_experiment(exp, tmp_path / "dask", executor=ex)
+        run_experiment(field, tmp_path / "field_dask", executor=ex)
     assert res.ran == 12 and "Dask" in res.meta["executor"]
     pd.testing.assert_frame_equal(_numbers(tmp_path / "local/trials.csv"),
                                   _numbers(tmp_path / "dask/trials.csv"), check_exact=True)
+    # what the figures draw comes back from the workers too
+    assert (tmp_path / "field_dask/traces.npz").read_bytes() == \
+        (tmp_path / "field_local/traces.npz").read_bytes()
 
 
 def test_a_worker_that_dies_mid_run_has_its_trials_run_again_once(tmp_path, write_config):
@@ -49,8 +57,8 @@ def test_a_worker_that_dies_mid_run_has_its_trials_run_again_once(tmp_path, writ
             import threading
             threading.Timer(0.05, os._exit, args=(1,)).start()
 
-        def run_and_kill(e, trials, count=None):
-            for chunk in inner(e, trials, count):
+        def run_and_kill(e, trials, count=None, traces=False):
+            for chunk in inner(e, trials, count, traces):
                 if not killed:
                     victim = sorted(ex.client.scheduler_info()["workers"])[0]
                     try:

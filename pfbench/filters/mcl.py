@@ -557,4 +557,4 @@ def mcl_check(params) -> tuple[str, str] | None:
 
 MCL = FilterType("mcl", "Monte Carlo localization, optionally with sensor resetting (SRL, ASRL) "
                  "or augmented-MCL injection, or KLD-sampling", mcl_keys(), run,
-                 kind="localization", check=mcl_check)
+                 kind="localization", check=mcl_check, snapshots=True)

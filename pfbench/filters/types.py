@@ -17,6 +17,9 @@ class FilterType:
     cost : how the cost of a step grows with the particle count
     kind : the scenario kind it runs on: scalar, slam or localization
     check : params -> (key, message) of a broken rule across keys, or None
+    snapshots : (localization) its run also takes ``snapshots``, steps, and returns
+        out['snapshots'] = (steps (S,), particles (S, N, 3), counts (S,)): the particles at those
+        steps, for the figures
     """
 
     name: str
@@ -28,6 +31,7 @@ class FilterType:
     cost: str = "N"
     kind: str = "scalar"
     check: Callable | None = None
+    snapshots: bool = False
 
     def runs_on(self, scenario: str, kind: str) -> bool:
         """Whether it runs on the scenario ``scenario`` of kind ``kind``."""

@@ -1,0 +1,151 @@
+"""What a figure needs from a trial, kept while the trial runs.
+
+Figures never run a trial again: a scenario kind names the trials whose traces it keeps (the
+SLAM figures draw trial 0; the localization error curves the first FIGURE_TRIALS trials, its
+particle snapshots trial 0) and what it keeps of them. A trace is a flat mapping of names to
+arrays: ``FIELD`` for what the trial shares (``truth_pose``), ``RUN_KEY/FIELD`` for one filter run;
+the world every trial shares (landmarks, beacons) is kept once. Plotted values are stored as
+float32. The runner writes them to ``traces.npz`` in the results folder (pfbench.store) and the
+figures (pfbench.plots) read them from there.
+
+A tracer (one per kind with figures) has:
+
+    keeps(exp, trial) -> bool: whether trial ``trial`` keeps a trace
+    extras(exp, model, data, trial) -> {run key: keyword arguments its filter's run takes}
+    keep(exp, trial, model, truth, data, outs) -> the trace ({run key: output} in ``outs``)
+    world(exp, model) -> the arrays of the world the figures draw
+"""
+from __future__ import annotations
+
+import numpy as np
+
+# localization error curves are drawn over at most this many trials
+FIGURE_TRIALS = 50
+# particles kept per snapshot (evenly strided over the set: after resampling their order is
+# arbitrary, so every k-th particle is a fair sample)
+SNAPSHOT_PARTICLES = 2000
+
+
+def _f32(a) -> np.ndarray:
+    return np.asarray(a, dtype=np.float32)
+
+
+class SlamTracer:
+    """Trial 0: the true path; each run's path, final map, landmark error per observation and
+    effective sample size per update; the time of each step and observation."""
+
+    def keeps(self, exp, trial: int) -> bool:
+        return trial == 0
+
+    def extras(self, exp, model, data, trial: int) -> dict:
+        return {}
+
+    def keep(self, exp, trial, model, truth, data, outs) -> dict:
+        T = truth.pose.shape[0] - 1
+        K = data.obs_n.shape[0]
+        vehicle, sensor = getattr(model, "vehicle", None), getattr(model, "sensor", None)
+        dt = float(vehicle[1]) if vehicle is not None else 1.0
+        every = int(sensor[2]) if sensor is not None else max(1, T // max(K, 1))
+        trace = {"truth_pose": _f32(truth.pose),
+                 "time": _f32(np.arange(T + 1) * dt),
+                 "obs_time": _f32(np.arange(1, K + 1) * every * dt)}
+        for key, out in outs.items():
+            trace[f"{key}/pose"] = _f32(out["pose"])
+            trace[f"{key}/lm_est"] = _f32(out["lm_est"])
+            trace[f"{key}/lm_seen"] = np.asarray(out["lm_seen"]).astype(bool)
+            trace[f"{key}/ess"] = _f32(out.get("ess", np.empty(0)))
+            if "lm_trace" in out:
+                trace[f"{key}/lm_trace"] = _f32(out["lm_trace"])
+        return trace
+
+    def world(self, exp, model) -> dict:
+        world = {"landmarks": _f32(model.landmarks)}
+        if getattr(model, "waypoints", None) is not None:
+            world["waypoints"] = _f32(model.waypoints)
+        return world
+
+
+def error_runs(exp) -> list:
+    """The filter runs a localization error figure shows: all of them up to 6; beyond, each
+    label's smallest and largest particle count."""
+    if len(exp.filters) <= 6:
+        return list(exp.filters)
+    keep = []
+    for label in dict.fromkeys(r.label for r in exp.filters):
+        runs = [r for r in exp.filters if r.label == label]
+        keep += [runs[0]] if len(runs) == 1 else [min(runs, key=lambda r: r.particles),
+                                                  max(runs, key=lambda r: r.particles)]
+    return keep
+
+
+def snapshot_runs(exp) -> list:
+    """The filter runs whose particles a snapshot figure shows: one per label (its largest
+    particle count), at most 6."""
+    runs = {}
+    for r in exp.filters:
+        if r.label not in runs or (r.particles or 0) > (runs[r.label].particles or 0):
+            runs[r.label] = r
+    return list(runs.values())[:6]
+
+
+def snapshot_steps(T: int, kidnaps) -> list[int]:
+    """The steps a snapshot figure shows: the start, early in global localization, after each
+    kidnapping, the end (at most 8)."""
+    steps = [0, 1, 3, 10]
+    for k in kidnaps:
+        steps += [int(k), int(k) + 3]
+    return sorted({min(t, T) for t in steps} | {T})[:8]
+
+
+class LocalizationTracer:
+    """The first FIGURE_TRIALS trials: each shown run's position error per step and particle
+    count per step (error_runs). Trial 0 also: the particles of snapshot_runs at snapshot_steps
+    (at most SNAPSHOT_PARTICLES of each), their estimates and the true pose there."""
+
+    def keeps(self, exp, trial: int) -> bool:
+        return trial < FIGURE_TRIALS
+
+    def extras(self, exp, model, data, trial: int) -> dict:
+        if trial != 0:
+            return {}
+        from .filters import FILTERS
+        steps = snapshot_steps(data.ctrl.shape[0], model.kidnaps)
+        return {r.key: {"snapshots": steps} for r in snapshot_runs(exp)
+                if FILTERS[r.type].snapshots}
+
+    def keep(self, exp, trial, model, truth, data, outs) -> dict:
+        trace = {}
+        for r in error_runs(exp):
+            out = outs[r.key]
+            trace[f"{r.key}/error"] = _f32(np.hypot(*(out["pose"][:, :2] - truth.pose[:, :2]).T))
+            if "n" in out:
+                trace[f"{r.key}/n"] = np.asarray(out["n"], dtype=np.int32)
+        if trial == 0:
+            steps = np.asarray(snapshot_steps(data.ctrl.shape[0], model.kidnaps))
+            trace["steps"] = steps
+            trace["truth_pose_at"] = _f32(truth.pose[steps])
+            for r in snapshot_runs(exp):
+                out = outs[r.key]
+                trace[f"{r.key}/pose_at"] = _f32(out["pose"][steps])
+                if "snapshots" in out:
+                    _, parts, counts = out["snapshots"]
+                    kept = [parts[j, :counts[j]:max(1, -(-int(counts[j]) // SNAPSHOT_PARTICLES)),
+                                  :2] for j in range(len(steps))]
+                    trace[f"{r.key}/snap_xy"] = _f32(np.concatenate(kept))
+                    trace[f"{r.key}/snap_drawn"] = np.array([len(p) for p in kept])
+                    trace[f"{r.key}/snap_count"] = np.asarray(counts, dtype=np.int64)
+        return trace
+
+    def world(self, exp, model) -> dict:
+        return {"beacons": _f32(model.beacons), "area": np.asarray(model.area, dtype=float),
+                "kidnaps": np.asarray(model.kidnaps, dtype=np.int64),
+                "bound": np.asarray(float(model.bound))}
+
+
+def runs_in(trace: dict) -> dict[str, dict]:
+    """A trace's arrays by run key, {key: {field: array}}; what the trial shares under ''."""
+    out: dict[str, dict] = {}
+    for name, a in trace.items():
+        key, _, field = name.rpartition("/")
+        out.setdefault(key, {})[field] = a
+    return out
