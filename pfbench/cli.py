@@ -198,17 +198,18 @@ def _load(config: Path, trials=None, seed=None, sets=()):
     return load(config, {"trials": trials, "seed": seed}, sets)
 
 
-def _print_table(exp, tab):
+def _print_table(cmp):
     from .tables import console_tables, footnotes
+    exp = cmp.exp
     title = exp.name + (f"  ({exp.paper} {exp.table})" if exp.paper else "")
-    for name, head, cells in console_tables(exp, tab):
+    for name, head, cells in console_tables(cmp):
         t = RichTable(title=f"{title}: {name}" if name else title, title_justify="left")
         for h in head:
             t.add_column(h, overflow="fold")
         for row in cells:
             t.add_row(*row)
         out.print(t)
-    for note in footnotes(exp, tab):
+    for note in footnotes(cmp):
         out.print(note, markup=False)
     out.print("Intervals: 95% over trials. Every column, and the paper's notes: table.md.",
               markup=False)
@@ -255,8 +256,8 @@ def run(
                     res = run_experiment(exp, folder, workers=workers, resume=resume,
                                          progress=progress, executor=ex, warn=_warn)
             from .regen import write_experiment
-            tab, figures = write_experiment(exp, res, folder, not no_figures)
-        _print_table(exp, tab)
+            cmp, figures = write_experiment(exp, res, folder, not no_figures)
+        _print_table(cmp)
         note = f" ({exp.trials - res.ran} resumed)" if res.ran < exp.trials else ""
         err.print(f"{res.ran} trials in {res.wall_s:.1f} s{note}; wrote {folder}/trials.csv, "
                   "table.csv, table.md, meta.json"

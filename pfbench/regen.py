@@ -56,16 +56,17 @@ def is_sweep(path: Path) -> bool:
 
 
 def write_experiment(exp, res, folder: Path, figures: bool = True) -> tuple:
-    """The summary table (table.csv / table.md) and figures of a finished run; returns (summary,
+    """The comparison (table.csv / table.md) and figures of a finished run; returns (comparison,
     figure paths)."""
     from . import tables
-    tab = tables.summary(exp, res.rows)
-    tables.write(exp, tab, folder, res.meta)
+    from .compare import compare
+    cmp = compare(exp, res.rows)
+    tables.write(cmp, folder, res.meta)
     paths = []
     if figures:
         from .plots import write_figures
         paths = write_figures(exp, res.rows, folder)
-    return tab, paths
+    return cmp, paths
 
 
 def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: str,

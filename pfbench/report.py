@@ -21,6 +21,7 @@ import pandas as pd
 
 from . import __version__
 from . import tables as tb
+from .compare import Comparison, compare
 from .config import Experiment, load
 from .errors import UserError
 from .papers import CHOICES, FINDINGS, PAPERS, reported
@@ -38,8 +39,9 @@ class Entry:
     sweep_keys: list | None = None  # swept key paths, for a sweep
     cells: list | None = None       # a sweep's cells
     status: str = "ok"              # 'ok', or why the results cannot be reported
-    table: pd.DataFrame | None = None   # the summary (experiments) or summary.csv (sweeps)
+    table: pd.DataFrame | None = None   # the comparison's table, or a sweep's summary.csv
     meta: dict | None = None
+    comparison: Comparison | None = None   # an experiment's, computed from its trials
 
     @property
     def name(self) -> str:
@@ -86,7 +88,8 @@ def _read(e: Entry) -> None:
     if why:
         e.status = why
         return
-    e.table = tb.summary(e.exp, pd.read_csv(trials))
+    e.comparison = compare(e.exp, pd.read_csv(trials))
+    e.table = e.comparison.table
 
 
 def _meta(folder: Path) -> dict | None:
@@ -204,7 +207,7 @@ def verdict_counts(e: Entry) -> dict[str, int]:
     if table is None or e.table is None:
         return counts
     verdicts = [r[f"verdict_{q.key}"] for q in table.quantities for _, r in e.table.iterrows()]
-    verdicts += [f["verdict"] for f in e.table.attrs.get("factors", [])]
+    verdicts += [f["verdict"] for f in (e.comparison.factors if e.comparison else [])]
     for v in verdicts:
         if not isinstance(v, str) or not v:
             continue
@@ -217,10 +220,10 @@ def verdict_counts(e: Entry) -> dict[str, int]:
 
 def ranking_counts(e: Entry) -> tuple[int, int]:
     """(comparisons in the same order as the paper's, comparisons)."""
-    if e.table is None:
+    if e.comparison is None:
         return 0, 0
-    comps = tb.ranking_comparisons(e.exp, e.table)
-    return sum(c[4] for c in comps), len(comps)
+    comps = e.comparison.rankings
+    return sum(c.same for c in comps), len(comps)
 
 
 # ---- the document
@@ -285,11 +288,11 @@ def _experiment_section(e: Entry, where: Path) -> list[str]:
         return out
     if table is not None:
         out += comparison(e) + [""]
-        if e.table.attrs.get("per_trial"):
-            title, head, cells = e.table.attrs["per_trial"]
+        if e.comparison.per_trial is not None:
+            title, head, cells = tb.per_trial_cells(e.comparison.per_trial)
             out += [f"{title}:", ""] + _table_md(head, cells) + [""]
         # the baseline's paired columns are in table.md, not here: their legend goes too
-        notes = [n for n in tb.footnotes(e.exp, e.table) if not n.startswith("'RMSE - ")]
+        notes = [n for n in tb.footnotes(e.comparison) if not n.startswith("'RMSE - ")]
         if notes:
             out += ["Measured here:", ""] + [f"- {n}" for n in notes] + [""]
         if table.notes:

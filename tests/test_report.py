@@ -8,6 +8,7 @@ from typer.testing import CliRunner
 
 from pfbench import report, tables
 from pfbench.cli import app
+from pfbench.compare import compare
 from pfbench.config import load
 from pfbench.papers import CHOICES, FINDINGS, PAPERS
 
@@ -46,7 +47,8 @@ def test_report_puts_the_papers_tables_beside_ours(small_results):
     assert "## `sspf2008`" in text and "## `ifa2021`" not in text
     # every number of the comparison is the table pfbench run computes from the trials
     exp = load(configs / "sspf_upf_gamma.yaml")
-    tab = tables.summary(exp, pd.read_csv(results / "sspf_upf_gamma" / "trials.csv"))
+    cmp = compare(exp, pd.read_csv(results / "sspf_upf_gamma" / "trials.csv"))
+    tab = cmp.table
     pf = tab[tab["filter"] == "pf@200"].iloc[0]
     q = next(q for q in PAPERS["sspf2008"].tables["table1"].quantities if q.key == "mse_mean")
     section = text.split("### Table 1: `sspf_upf_gamma`")[1].split("###")[0]
@@ -56,7 +58,8 @@ def test_report_puts_the_papers_tables_beside_ours(small_results):
     summ = next(line for line in text.splitlines() if "`sspf_upf_gamma`" in line
                 and line.startswith("| sspf2008"))
     counts = report.verdict_counts(report.Entry(configs / "sspf_upf_gamma.yaml", exp,
-                                                results / "sspf_upf_gamma", table=tab))
+                                                results / "sspf_upf_gamma", table=tab,
+                                                comparison=cmp))
     assert counts["values"] == 8
     assert summ.split(" | ")[4:8] == [str(counts[k]) for k in ("values", "reproduced", "differ",
                                                                "not comparable")]

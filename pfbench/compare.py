@@ -1,0 +1,318 @@
+"""Trials -> the comparison with a paper: statistics of every filter run over the trials, the
+paper's values beside ours with verdicts, the factors between rows, the per-run table and the
+rankings. Numbers only: pfbench.tables renders a comparison (console, table.md), pfbench.report
+puts it in the report.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from .config import Experiment
+from .metrics import Z975, paired, summarize, t975
+from .papers import Quantity, Table, reported
+
+# Per-trial metrics summarised as their mean over trials in every table.
+MEAN_COLUMNS = ("mean_ess", "resample_count", "diversity_l1", "distinct_frac",
+                "lik_evals_per_step")
+
+
+@dataclass(frozen=True)
+class Ranking:
+    """The order of a paper's rows by a quantity at one particle count, the paper's and ours."""
+    quantity: Quantity
+    particles: int | None
+    paper: list[str]
+    ours: list[str]
+
+    @property
+    def same(self) -> bool:
+        return self.paper == self.ours
+
+
+@dataclass(frozen=True)
+class PerTrialRow:
+    """One row of a per-run table: the paper's runs, or our first trials, with the mean (and,
+    for ours, its 95% interval over all trials)."""
+    what: str
+    values: np.ndarray
+    mean: float
+    lo: float | None = None
+    hi: float | None = None
+
+
+@dataclass(frozen=True)
+class PerTrial:
+    """A paper's table of single runs (runs as columns) beside our first trials."""
+    title: str
+    runs: int
+    rows: list[PerTrialRow]
+
+
+@dataclass
+class Comparison:
+    """What an experiment's trials say, beside its paper's table where it has one.
+
+    table : one row per filter run: statistics over trials (rmse_mean, rmse_ci_lo, ...), the
+        paired difference to the baseline run, and per reported quantity Q: ours_Q, its
+        interval ours_lo_Q / ours_hi_Q, paper_Q, ratio_Q and verdict_Q
+    factors : the paper's factors between two of its rows beside ours (dicts)
+    per_trial : the paper's per-run table beside our first trials, or None
+    rankings : the paper's orders of its rows beside ours
+    """
+    exp: Experiment
+    table: pd.DataFrame
+    factors: list[dict] = field(default_factory=list)
+    per_trial: PerTrial | None = None
+    rankings: list[Ranking] = field(default_factory=list)
+
+    @property
+    def reported(self) -> Table | None:
+        """The paper's table this experiment compares with (None: no paper)."""
+        return reported(self.exp.paper, self.exp.table)
+
+
+def verdict(paper: float | None, ours: float, lo: float, hi: float, *, rel_tol: float = 0.0,
+            floor: float | None = None, not_comparable: str | None = None) -> str:
+    """Compare a paper value with ours (point ``ours``, 95% interval [lo, hi]).
+
+    'reproduced' when the paper's value lies in our interval (or within ``rel_tol`` of ours; for
+    a range (lo, hi) the paper gives, when our interval meets it);
+    'differs (x R)' otherwise, R = ours / paper, noting when the paper's value is below ``floor``
+    (the lower 95% bound of what a near-optimal filter reaches); 'not comparable: reason' if set.
+    """
+    if paper is None or (isinstance(paper, float) and math.isnan(paper)):
+        return ""
+    if not_comparable:
+        return f"not comparable: {not_comparable}"
+    if math.isnan(ours):
+        return "not comparable: no finite result"
+    if isinstance(paper, tuple):          # the paper gives a range
+        if lo <= paper[1] and paper[0] <= hi:
+            return "reproduced (our interval meets the paper's range)"
+        return f"differs (x{ours / (0.5 * (paper[0] + paper[1])):.2f} the range's middle)"
+    if lo <= paper <= hi:
+        return "reproduced"
+    ratio = ours / paper if paper else math.inf
+    if rel_tol > 0 and abs(ratio - 1.0) <= rel_tol:
+        return f"reproduced (within {rel_tol:.0%})"
+    text = f"differs (x{ratio:.2f})"
+    if floor is not None and paper < floor:
+        text += "; paper below the model's floor"
+    return text
+
+
+def _stat(s: dict, q: Quantity, paper_runs: int | None = None) -> tuple[float, float, float]:
+    """(our value, interval) for quantity q. With ``paper_runs``, the interval is widened by the
+    sampling error a batch of that many runs has (what the paper's own value carries): half-width
+    1.96 sqrt(se_ours^2 + se_batch^2), se_batch scaled from ours by sqrt(n_ours / paper_runs)."""
+    if q.stat == "mean":
+        v, lo, hi, se = s["mean"], s["ci_lo"], s["ci_hi"], s["se"]
+    else:
+        v, lo, hi, se = s["var"], s["var_ci_lo"], s["var_ci_hi"], s["var_se"]
+    if paper_runs and s["n"] > 1:
+        half = Z975 * se * math.sqrt(1.0 + s["n"] / paper_runs)
+        lo, hi = v - half, v + half
+    return v, lo, hi
+
+
+def _quantity(q: Quantity, g: pd.DataFrame, base: pd.DataFrame | None,
+              paper_runs: int | None) -> tuple[float, float, float, float, float]:
+    """(ours, verdict interval lo, hi, our own interval lo, hi) of quantity q for one filter run
+    (g: its trials; base: its baseline run's trials, or None)."""
+    nan = math.nan
+    if q.metric in ("gain_mean", "gain_var"):
+        if base is None:
+            return nan, nan, nan, nan, nan
+        a = g.set_index("trial")["rmse"]
+        b = base.set_index("trial")["rmse"].reindex(a.index)
+        if q.metric == "gain_mean":
+            p = paired(a.values, b.values)
+            mb = float(b.mean())
+            v, lo, hi = (-100 * p["diff_mean"] / mb, -100 * p["diff_ci_hi"] / mb,
+                         -100 * p["diff_ci_lo"] / mb)
+        else:
+            sa, sb = summarize(a.values), summarize(b.values)
+            v = 100 * (1 - sa["var"] / sb["var"])
+            lo = 100 * (1 - sa["var_ci_hi"] / sb["var_ci_lo"]) if sb["var_ci_lo"] > 0 else -math.inf
+            hi = 100 * (1 - sa["var_ci_lo"] / sb["var_ci_hi"])
+        return v, lo, hi, lo, hi
+    s = summarize(_metric_values(q.metric, g, base) * q.scale)
+    v, lo, hi = _stat(s, q)
+    _, vlo, vhi = _stat(s, q, paper_runs)
+    return v, vlo, vhi, lo, hi
+
+
+def _metric_values(metric: str, g: pd.DataFrame, base: pd.DataFrame | None):
+    """Per-trial values of ``metric`` for one filter run (g); 'time_ratio' is the wall time over the
+    baseline run's on the same trial (NaN without a baseline)."""
+    if metric != "time_ratio":
+        return g[metric]
+    if base is None:
+        return pd.Series([math.nan] * len(g))
+    a = g.set_index("trial")["wall_s"]
+    return a / base.set_index("trial")["wall_s"].reindex(a.index)
+
+
+def rankings(exp: Experiment, tab: pd.DataFrame) -> list[Ranking]:
+    """For a table whose paper claims an order of its rows: per ranked quantity and particle count
+    with two or more rows, the paper's order and ours (``tab``: a comparison's table)."""
+    table = reported(exp.paper, exp.table)
+    if table is None or table.ranking is None:
+        return []
+    keys = (table.ranking,) if isinstance(table.ranking, str) else tuple(table.ranking)
+    out = []
+    counts = sorted({n for (_, n) in table.values}, key=lambda v: (v is None, v or 0))
+    for q in (q for key in keys for q in table.quantities if q.key == key):
+        for n in counts:
+            labels = [lab for (lab, m) in table.values
+                      if m == n and q.key in table.values[(lab, m)]]
+            ours = {}
+            for lab in labels:
+                # a paper that gives no particle count (n None) is matched by label alone
+                r = tab[(tab["label"] == lab) & ((tab["particles"] == n) if n is not None else True)]
+                if len(r):
+                    ours[lab] = float(r.iloc[0][f"ours_{q.key}"])
+            if len(ours) < 2:
+                continue
+            paper_order = sorted(ours, key=lambda lab: table.values[(lab, n)][q.key])
+            our_order = sorted(ours, key=lambda lab: ours[lab])
+            out.append(Ranking(q, n, paper_order, our_order))
+    return out
+
+
+
+def baseline_runs(exp: Experiment) -> dict[str, str]:
+    """For each filter run, the key of the baseline run it is paired with (the baseline filter at the
+    same particle count, or its only run); empty without compare.baseline."""
+    name = exp.compare["baseline"]
+    if name is None:
+        return {}
+    base = [f for f in exp.filters if f.name == name]
+    out = {}
+    for f in exp.filters:
+        same = [b for b in base if b.particles == f.particles]
+        pick = same[0] if same else base[0] if len(base) == 1 else None
+        if pick is not None and pick.key != f.key:
+            out[f.key] = pick.key
+    return out
+
+
+def compare(exp: Experiment, rows: list[dict] | pd.DataFrame) -> Comparison:
+    """The comparison of an experiment's trials (rows of a trials file) with its paper."""
+    df = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(rows)
+    table: Table | None = reported(exp.paper, exp.table)
+    by_key = {f.key: df[df["filter"] == f.key] for f in exp.filters}
+    floor = None
+    if exp.compare["floor"] is not None:
+        floor = summarize(by_key[exp.compare["floor"]]["rmse"])["ci_lo"]
+    pairs = baseline_runs(exp)
+    out = []
+    for run in exp.filters:
+        g = by_key[run.key]
+        r = {"filter": run.key, "label": run.label, "particles": run.particles, "trials": len(g)}
+        for metric in ("rmse", "mse"):
+            s = summarize(g[metric])
+            r.update({f"{metric}_{k}": s[k] for k in ("mean", "ci_lo", "ci_hi", "var",
+                                                       "var_ci_lo", "var_ci_hi", "se")})
+        for metric in MEAN_COLUMNS:     # NaN where the scenario's kind has no such column
+            r[metric] = summarize(g[metric])["mean"] if metric in g else math.nan
+        r["underflow_steps"] = float(g["underflow_steps"].sum())
+        dv = g["diverged_steps"] if "diverged_steps" in g else pd.Series(dtype=float)
+        r["diverged_steps"] = float(dv.sum())
+        r["diverged_trials"] = float((dv > 0).sum())
+        r["wall_ms_per_trial"] = 1e3 * float(g["wall_s"].mean()) if len(g) else math.nan
+        r["baseline"] = pairs.get(run.key)
+        if run.key in pairs:
+            a = g.set_index("trial")["rmse"]
+            b = by_key[pairs[run.key]].set_index("trial")["rmse"].reindex(a.index)
+            r.update({f"rmse_{k}": v for k, v in paired(a.values, b.values).items()})
+        else:
+            r.update(rmse_diff_mean=math.nan, rmse_diff_ci_lo=math.nan, rmse_diff_ci_hi=math.nan,
+                     rmse_win_rate=math.nan)
+        if table is not None:
+            values = (table.values.get((run.label, run.particles))
+                      or table.values.get((run.label, None), {}))
+            for q in table.quantities:
+                paper = values.get(q.key)
+                ours, lo, hi, r[f"ours_lo_{q.key}"], r[f"ours_hi_{q.key}"] = _quantity(
+                    q, g, by_key.get(pairs.get(run.key)), exp.compare["paper_runs"])
+                r[f"ours_{q.key}"] = ours
+                if isinstance(paper, tuple):      # a range: shown as such, ratio to its middle
+                    r[f"paper_{q.key}"] = f"{paper[0]:g}-{paper[1]:g}"
+                    r[f"ratio_{q.key}"] = ours / (0.5 * (paper[0] + paper[1]))
+                else:
+                    r[f"paper_{q.key}"] = paper
+                    r[f"ratio_{q.key}"] = ours / paper if paper else math.nan
+                floored_q = q.metric == "rmse" and q.stat == "mean"  # the floor is an RMSE level
+                r[f"verdict_{q.key}"] = verdict(
+                    paper, ours, lo, hi, rel_tol=exp.compare["rel_tol"] if floored_q else 0.0,
+                    floor=floor if floored_q and run.key != exp.compare["floor"] else None,
+                    not_comparable=(table.cell_notes.get((run.label, run.particles, q.key))
+                                    or q.not_comparable or table.not_comparable))
+        out.append(r)
+    tab = pd.DataFrame(out)
+    if table is None:
+        return Comparison(exp, tab)
+    return Comparison(exp, tab, factors(exp, table, by_key), per_trial(exp, table, by_key),
+                      rankings(exp, tab))
+
+
+def _run_by_label(exp: Experiment, label: str):
+    return next((f for f in exp.filters if f.label == label), None)
+
+
+def factors(exp: Experiment, table: Table, by_key: dict) -> list[dict]:
+    """The paper's factor between two of its rows for a quantity (e.g. AFSA's error over PSO's)
+    beside ours: the ratio of the means over paired trials, with a 95% interval by the delta
+    method on the paired per-trial values."""
+    rows = []
+    for key, a_label, b_label in table.factors:
+        q = next(q for q in table.quantities if q.key == key)
+        a_run, b_run = _run_by_label(exp, a_label), _run_by_label(exp, b_label)
+        if a_run is None or b_run is None:
+            continue
+        pa = table.values.get((a_label, a_run.particles), {}).get(key)
+        pb = table.values.get((b_label, b_run.particles), {}).get(key)
+        a = by_key[a_run.key].set_index("trial")[q.metric]
+        b = by_key[b_run.key].set_index("trial")[q.metric].reindex(a.index)
+        ok = a.notna() & b.notna()
+        a, b = a[ok].to_numpy(float), b[ok].to_numpy(float)
+        n = a.size
+        if n < 2 or a.mean() == 0:
+            continue
+        ma, mb = a.mean(), b.mean()
+        ratio = mb / ma
+        cov = np.cov(np.vstack([a, b])) / n          # of the two means
+        var = (cov[1, 1] - 2 * ratio * cov[0, 1] + ratio * ratio * cov[0, 0]) / (ma * ma)
+        half = t975(n - 1) * math.sqrt(max(var, 0.0))
+        paper = pb / pa if pa and pb is not None else math.nan
+        rows.append({"quantity": q.title, "from": a_label, "to": b_label, "paper_from": pa,
+                     "paper_to": pb, "paper": paper, "ours": ratio, "lo": ratio - half,
+                     "hi": ratio + half,
+                     "verdict": verdict(paper, ratio, ratio - half, ratio + half)})
+    return rows
+
+
+def per_trial(exp: Experiment, table: Table, by_key: dict) -> PerTrial | None:
+    """The paper's per-run table beside our first trials (and our mean over all)."""
+    spec = table.per_trial
+    if spec is None:
+        return None
+    rows = []
+    for name, label, vals in spec.rows:
+        run = _run_by_label(exp, label)
+        rows.append(PerTrialRow(f"paper: {name}", np.asarray(vals, dtype=float),
+                                float(np.mean(vals))))
+        if run is None:
+            continue
+        g = by_key[run.key].sort_values("trial")
+        for metric in (spec.metric, *spec.also):
+            v = g[metric].to_numpy(float)
+            s = summarize(v)
+            what = f"ours: {label}" + ("" if metric == spec.metric else f", {metric}")
+            rows.append(PerTrialRow(what, v[:spec.runs], s["mean"], s["ci_lo"], s["ci_hi"]))
+    return PerTrial(spec.title, spec.runs, rows)
