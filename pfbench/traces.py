@@ -121,14 +121,18 @@ class LocalizationTracer:
             if "n" in out:
                 trace[f"{r.key}/n"] = np.asarray(out["n"], dtype=np.int32)
         if trial == 0:
+            from .filters import FILTERS
             steps = np.asarray(snapshot_steps(data.ctrl.shape[0], model.kidnaps))
             trace["steps"] = steps
             trace["truth_pose_at"] = _f32(truth.pose[steps])
             for r in snapshot_runs(exp):
                 out = outs[r.key]
                 trace[f"{r.key}/pose_at"] = _f32(out["pose"][steps])
-                if "snapshots" in out:
-                    _, parts, counts = out["snapshots"]
+                if FILTERS[r.type].snapshots:       # asked for them (extras)
+                    got, parts, counts = out["snapshots"]
+                    if list(got) != list(steps):
+                        raise ValueError(f"filter {r.type}: snapshots at steps {list(got)}, "
+                                         f"asked for {list(steps)}")
                     kept = [parts[j, :counts[j]:max(1, -(-int(counts[j]) // SNAPSHOT_PARTICLES)),
                                   :2] for j in range(len(steps))]
                     trace[f"{r.key}/snap_xy"] = _f32(np.concatenate(kept))

@@ -110,3 +110,24 @@ def test_the_contract_holds_under_the_dask_executor():
     with DaskExecutor(2) as ex:
         n, problems = contract.check_all(CONFIGS, ex)
     assert n == len(PROBES) and problems == []
+
+
+def test_a_filter_that_claims_snapshots_it_does_not_take_breaks_the_contract(monkeypatch):
+    # what the figures draw is kept in the probe's first trial, as in a results folder's run
+    from pfbench.filters.mcl import MCL
+
+    def run(model, data, params, particles, state, diag=True):    # takes no snapshots
+        return MCL.run(model, data, params, particles, state, diag)
+
+    def probe(ftype):
+        monkeypatch.setitem(FILTERS, ftype.name, ftype)
+        return contract.check_probe(contract.Probe(ftype.name, "beacon_field",
+                                                   [f"filter {ftype.name}"]), CONFIGS)[0]
+
+    claims = FilterType("claims", "says it keeps snapshots", MCL.schema, run,
+                        kind="localization", snapshots=True)
+    problems = probe(claims)
+    assert len(problems) == 1 and "raised TypeError" in problems[0] and "snapshots" in \
+        problems[0], problems
+    honest = FilterType("honest", "keeps none", MCL.schema, run, kind="localization")
+    assert probe(honest) == []
