@@ -1,7 +1,7 @@
 """``pfbench bench``: throughput of the bootstrap PF kernel on UNGM, beside references timed in
 the same run.
 
-Workload (the C reference's, ../shared/bench): UNGM with Q = 10, R = 1, T = 100, truth from
+Workload (that of the C reference program ``--c-ref`` times): UNGM with Q = 10, R = 1, T = 100, truth from
 x_0 = 0.1, particle prior N(0, 2), systematic resampling every step, weighted-mean estimate. The
 pfbench kernel is the one ``pfbench run`` uses, with the per-step diagnostics off. Implementations:
 ``pfbench`` (single trial, one thread; and a batch of trials over threads), ``numpy`` (vectorised
@@ -440,7 +440,7 @@ def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None, 
     parts = set(only) or set(PARTS)
     if c_ref is not None and not Path(c_ref).is_file():
         raise UserError(f"--c-ref {c_ref}: no such file (build it: gcc -O3 -march=native "
-                        "-fopenmp -o ungm_ref ungm_ref.c -lm)")
+                        "-fopenmp -o ungm_ref bench/ungm_ref.c -lm)")
     if c_ref is not None and "ungm" not in parts:
         raise UserError("--c-ref times the UNGM rows: add --only ungm")
     threads = threads or os.cpu_count() or 1

@@ -58,7 +58,7 @@ class _OneLineErrors(TyperGroup):
 app = typer.Typer(cls=_OneLineErrors, add_completion=False, no_args_is_help=True,
                   pretty_exceptions_enable=False,
                   help="Reproduce the tables of particle-filter papers from YAML experiments.")
-err = Console(stderr=True, highlight=False)
+err = Console(stderr=True, highlight=False, emoji=False)   # no :100: -> an emoji
 
 
 class _Out:
@@ -67,7 +67,7 @@ class _Out:
     def print(self, *args, **kwargs):
         # Wide enough that a table piped to a file keeps one line per row (rich assumes 80 columns).
         width = None if sys.stdout.isatty() else 320
-        Console(file=sys.stdout, highlight=False, width=width).print(*args, **kwargs)
+        Console(file=sys.stdout, highlight=False, emoji=False, width=width).print(*args, **kwargs)
 
 
 out = _Out()
@@ -193,6 +193,12 @@ def _stop_on_interrupt(bar, before: str = "", after: str = ""):
         raise typer.Exit(130) from None
 
 
+def _use_papers(folders) -> None:
+    """The --papers folders, looked in first for a config's paper file."""
+    from .papers import search_folders
+    search_folders([_path(f, "--papers") for f in folders])
+
+
 def _load(config: Path, trials=None, seed=None, sets=()):
     from .config import load
     return load(config, {"trials": trials, "seed": seed}, sets)
@@ -235,9 +241,13 @@ def run(
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler "
                                             "tcp://HOST:PORT (default with --executor dask: a "
                                             "local cluster of --workers processes)."),
+    papers: List[str] = typer.Option([], "--papers", help="A folder of paper files "
+                                      "(PAPER.yaml), looked in before papers/ beside the config "
+                                      "and configs/papers/; repeatable."),
 ):
     """Run an experiment: Monte Carlo trials, then the table beside the paper's values."""
     with _guard():
+        _use_papers(papers)
         out_dir = _path(out_dir, "--out")
         from .fsutil import FolderLock
         exp = _load(config, trials, seed, set_)
@@ -281,9 +291,13 @@ def sweep(
     executor: str = typer.Option("local", "--executor", help="'local' or 'dask' (see run)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler "
                                             "tcp://HOST:PORT (see run)."),
+    papers: List[str] = typer.Option([], "--papers", help="A folder of paper files "
+                                      "(PAPER.yaml), looked in before papers/ beside the config "
+                                      "and configs/papers/; repeatable."),
 ):
     """Run an experiment over the cartesian product of values of some of its keys."""
     with _guard():
+        _use_papers(papers)
         out_dir = _path(out_dir, "--out")
         from . import sweep as sw
         from .fsutil import FolderLock
@@ -338,12 +352,16 @@ def tables_(
     executor: str = typer.Option("local", "--executor", help="'local' or 'dask' (see run)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler "
                                             "tcp://HOST:PORT (see run)."),
+    papers: List[str] = typer.Option([], "--papers", help="A folder of paper files "
+                                      "(PAPER.yaml), looked in before papers/ beside the config "
+                                      "and configs/papers/; repeatable."),
 ):
     """Regenerate every config's results, or check them (--check) against the committed ones."""
     import math
     import time
 
     with _guard():
+        _use_papers(papers)
         configs, results = _path(configs, "--configs"), _path(results, "--results")
         from . import regen
         from .fsutil import FolderLock
@@ -383,7 +401,7 @@ def tables_(
                 before += n
         if not check:
             from . import report as rp
-            path, _ = rp.write(configs, results)
+            path, _ = rp.write(configs, results, warn=_warn)
             err.print(f"wrote {path}", markup=False)
             return
         t = RichTable(title=f"pfbench tables --check: {len(files)} configs against {results}",
@@ -414,13 +432,17 @@ def report(
                                             "RESULTS/REPORT.md)."),
     check: bool = typer.Option(False, "--check", help="Write nothing; exit 1 when the file is "
                                "not what the results give."),
+    papers: List[str] = typer.Option([], "--papers", help="A folder of paper files "
+                                      "(PAPER.yaml), looked in before papers/ beside the config "
+                                      "and configs/papers/; repeatable."),
 ):
     """Write the reproduction report: every paper's tables beside ours, from the results."""
     with _guard():
+        _use_papers(papers)
         configs, results = _path(configs, "--configs"), _path(results, "--results")
         out_file = _path(out_file, "--out")
         from . import report as rp
-        path, same = rp.write(configs, results, out_file, check=check)
+        path, same = rp.write(configs, results, out_file, check=check, warn=_warn)
         if not check:
             err.print(f"wrote {path}", markup=False)
         elif same:
@@ -433,9 +455,13 @@ def report(
 
 @app.command()
 def validate(config: Path = typer.Argument(..., help="Experiment YAML file."),
-             set_: List[str] = typer.Option([], "--set", help="KEY.PATH=VALUE override.")):
-    """Check a config against the schema; run nothing."""
+             set_: List[str] = typer.Option([], "--set", help="KEY.PATH=VALUE override."),
+             papers: List[str] = typer.Option([], "--papers", help="A folder of paper files "
+                                      "(PAPER.yaml), looked in before papers/ beside the config "
+                                      "and configs/papers/; repeatable.")):
+    """Check a config (and its paper file) against the schema; run nothing."""
     with _guard():
+        _use_papers(papers)
         from .config import read_yaml
         from .resources import check_fits, human
         raw, _ = read_yaml(config)

@@ -13,7 +13,7 @@ import pandas as pd
 
 from .config import Experiment
 from .metrics import Z975, paired, summarize, t975
-from .papers import Quantity, Table, reported
+from .papers import Quantity, Table
 
 # Per-trial metrics summarised as their mean over trials in every table.
 MEAN_COLUMNS = ("mean_ess", "resample_count", "diversity_l1", "distinct_frac",
@@ -72,7 +72,7 @@ class Comparison:
     @property
     def reported(self) -> Table | None:
         """The paper's table this experiment compares with (None: no paper)."""
-        return reported(self.exp.paper, self.exp.table)
+        return self.exp.reported
 
 
 def verdict(paper: float | None, ours: float, lo: float, hi: float, *, rel_tol: float = 0.0,
@@ -160,10 +160,10 @@ def _metric_values(metric: str, g: pd.DataFrame, base: pd.DataFrame | None):
 def rankings(exp: Experiment, tab: pd.DataFrame) -> list[Ranking]:
     """For a table whose paper claims an order of its rows: per ranked quantity and particle count
     with two or more rows, the paper's order and ours (``tab``: a comparison's table)."""
-    table = reported(exp.paper, exp.table)
+    table = exp.reported
     if table is None or table.ranking is None:
         return []
-    keys = (table.ranking,) if isinstance(table.ranking, str) else tuple(table.ranking)
+    keys = table.ranking
     out = []
     counts = sorted({n for (_, n) in table.values}, key=lambda v: (v is None, v or 0))
     for q in (q for key in keys for q in table.quantities if q.key == key):
@@ -204,7 +204,7 @@ def baseline_runs(exp: Experiment) -> dict[str, str]:
 def compare(exp: Experiment, rows: list[dict] | pd.DataFrame) -> Comparison:
     """The comparison of an experiment's trials (rows of a trials file) with its paper."""
     df = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(rows)
-    table: Table | None = reported(exp.paper, exp.table)
+    table: Table | None = exp.reported
     by_key = {f.key: df[df["filter"] == f.key] for f in exp.filters}
     floor = None
     if exp.compare["floor"] is not None:

@@ -16,7 +16,8 @@ from typing import Any, Iterator, Mapping
 from .filters import FILTERS, KIND_TYPES
 from .fsutil import name_problem
 from .kinds import kind_of
-from .papers import PAPERS
+from .papers import Paper, Table
+from .papers import find as find_paper
 from .plugins import FILTER_GROUP, SCENARIO_GROUP, problem_for
 from .scenarios import SCENARIOS
 from .schema import ConfigError, Key, check_mapping, check_section, describe, did_you_mean
@@ -83,6 +84,14 @@ class Experiment:
     compare: Params
     check: Params
     raw: dict = field(repr=False, compare=False, hash=False)
+    reference: Paper | None = field(default=None, repr=False, compare=False, hash=False)
+
+    @property
+    def reported(self) -> Table | None:
+        """The paper's table this experiment is compared with (None: it names none)."""
+        if self.reference is None or self.table is None:
+            return None
+        return self.reference.tables[self.table]
 
     @property
     def hash(self) -> str:
@@ -145,9 +154,11 @@ def apply_override(raw: dict, assignment: str) -> None:
 TOP_SCHEMA = {
     "name": Key("str", None, "experiment name, the results folder results/<name>: one plain folder "
                 "name (default: the file name)", nullable=True, check=name_problem),
-    "paper": Key("choice", None, "the paper whose table this reproduces", choices=tuple(PAPERS),
+    "paper": Key("str", None, "the paper whose table this reproduces: the key of a paper file "
+                 "(PAPER.yaml in --papers folders, papers/ beside the config, or configs/papers/)",
                  nullable=True),
-    "table": Key("str", None, "the table of that paper (a key of pfbench.papers)", nullable=True),
+    "table": Key("str", None, "the table of that paper (a key of its file's tables)",
+                 nullable=True),
     "description": Key("str", None, "one line on what the experiment shows", nullable=True),
     "seed": Key("int", 0, "base seed of numpy.random.SeedSequence (0 is a valid seed)", min=0),
     "trials": Key("int", 100, "Monte Carlo trials (independent truths and filter runs)", min=1),
@@ -275,10 +286,11 @@ def validate(raw: Any, source: str = "config") -> Experiment:
         raise ConfigError("compare.baseline", f"no filter '{compare['baseline']}'"
                           + did_you_mean(compare["baseline"], names) + f"; filters: {', '.join(names)}")
     check = check_section(raw.get("check") or {}, CHECK_SCHEMA, "check")
+    reference = find_paper(top["paper"], source) if top["paper"] is not None else None
     if top["table"] is not None:
-        if top["paper"] is None:
+        if reference is None:
             raise ConfigError("table", "needs 'paper' too")
-        tables = PAPERS[top["paper"]].tables
+        tables = reference.tables
         if top["table"] not in tables:
             raise ConfigError("table", f"paper {top['paper']} has no table '{top['table']}'"
                               + did_you_mean(top["table"], tables) + f"; tables: {', '.join(tables)}")
@@ -290,7 +302,8 @@ def validate(raw: Any, source: str = "config") -> Experiment:
                       description=top["description"] or "", seed=top["seed"],
                       trials=top["trials"], scenario=scen_name,
                       scenario_params=Params(scen_params), filters=filters,
-                      compare=Params(compare), check=Params(check), raw=copy.deepcopy(raw))
+                      compare=Params(compare), check=Params(check), raw=copy.deepcopy(raw),
+                      reference=reference)
 
 
 def load(path: str | Path, overrides: dict[str, Any] | None = None,

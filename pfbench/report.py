@@ -5,7 +5,7 @@ Each config of ``configs/`` is matched with its results folder; its table is rec
 Per paper the report gives: each table as the paper printed it beside ours with intervals and
 verdicts, the rankings and factors, the paper's notes (why a value cannot be held against ours),
 the figures, the choices the paper left open with the values our configs use, and a short summary
-whose numbers are filled in from the results (``papers.FINDINGS``). A config whose results are
+whose numbers are filled in from the results (the paper file's findings). A config whose results are
 missing, or were made from a different version of the config, is named as such, never silently
 reported.
 """
@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import os
 import re
+from typing import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,7 +25,8 @@ from . import tables as tb
 from .compare import Comparison, compare
 from .config import Experiment, load
 from .errors import UserError
-from .papers import CHOICES, FINDINGS, PAPERS, reported
+from . import papers as pp
+from .schema import did_you_mean
 from .regen import config_files, is_sweep
 
 TITLE = "pfbench reproduction report"
@@ -158,30 +160,68 @@ def _fmt_value(v) -> str:
 
 # ---- numbers in the findings: {config:run:column} or {config:run:column:ci}
 
-_FIELD = re.compile(r"\{([\w.-]+):([\w.@-]+):(\w+)(:ci)?\}")
+def fill(text: str, entries: dict[str, Entry], problems: list[str] | None = None) -> str:
+    """Replace each {config:run:column[:ci]} by the value in that experiment's table (its 95%
+    interval too with :ci); '(not run)' where its results are missing. A reference to an
+    experiment, run or column that does not exist is a UserError, or with ``problems``, shown
+    as '(broken reference)' and its reason appended there."""
+    def one(m) -> str:
+        try:
+            return _value(m, entries)
+        except UserError as exc:
+            if problems is None:
+                raise
+            problems.append(str(exc))
+            if m.group(1) not in entries:       # a config of another folder, or a typo
+                return f"({m.group(1)}: not among these configs)"
+            return f"(broken reference {m.group(0)[1:-1]})"
+    return pp.REF.sub(one, text)
 
 
-def fill(text: str, entries: dict[str, Entry]) -> str:
-    """Replace each {config:run:column[:ci]} by the value in that config's table (its 95%
-    interval too with :ci); '(not run)' where the results are missing."""
-    def one(m: re.Match) -> str:
-        name, run, col, ci = m.groups()
-        e = entries.get(name)
-        if e is None or e.table is None:
-            return "(not run)"
-        rows = e.table[e.table["filter"] == run]
-        if rows.empty or col not in rows.columns:
-            raise KeyError(f"{m.group(0)}: no run {run!r} or column {col!r} in {name}")
-        r = rows.iloc[0]
-        v = r[col]
-        if isinstance(v, str):
-            return v
-        text = _num(float(v))
-        if ci:
-            lo, hi = _interval_columns(col)
-            text += f" [{_num(float(r[lo]))}, {_num(float(r[hi]))}]"
-        return text
-    return _FIELD.sub(one, text)
+def _value(m, entries: dict[str, Entry]) -> str:
+    name, run, col, ci = m.groups()
+    e = entries.get(name)
+    if e is None:
+        raise UserError(f"{m.group(0)}: no experiment '{name}' among the configs"
+                        + did_you_mean(name, list(entries)))
+    if e.table is None:
+        return "(not run)"
+    runs = list(e.table["filter"]) if "filter" in e.table else []
+    if run not in runs:
+        raise UserError(f"{m.group(0)}: no filter run '{run}' in {name}"
+                        + did_you_mean(run, runs) + f"; runs: {', '.join(runs)}")
+    if col not in e.table.columns:
+        raise UserError(f"{m.group(0)}: no column '{col}' in {name}'s table"
+                        + did_you_mean(col, list(e.table.columns)))
+    r = e.table[e.table["filter"] == run].iloc[0]
+    v = r[col]
+    if isinstance(v, str):
+        return v
+    text = _num(float(v))
+    if ci:
+        lo, hi = _interval_columns(col)
+        if lo not in e.table.columns:
+            raise UserError(f"{m.group(0)}: '{col}' has no interval (no column {lo})")
+        text += f" [{_num(float(r[lo]))}, {_num(float(r[hi]))}]"
+    return text
+
+
+def findings(paper: pp.Paper, entries: dict[str, Entry],
+             warn: Callable[[str], None] | None = None) -> list[str]:
+    """A paper's findings with their references filled in. A broken reference (an experiment,
+    run or column that does not exist) is shown as such and told to ``warn`` with the paper
+    file and the finding's line; without ``warn`` it is a UserError."""
+    out = []
+    for i, f in enumerate(paper.findings):
+        problems: list[str] = []
+        where = f"{paper.source}:{f.line}" if f.line else paper.source
+        try:
+            out.append(fill(f.text, entries, problems if warn else None))
+        except UserError as exc:
+            raise UserError(f"{where}: findings[{i}]: {exc}") from None
+        for p in problems:
+            warn(f"{where}: findings[{i}]: {p}")
+    return out
 
 
 def _num(v: float) -> str:
@@ -202,7 +242,7 @@ def _interval_columns(col: str) -> tuple[str, str]:
 
 def verdict_counts(e: Entry) -> dict[str, int]:
     """Paper values compared, by outcome: reproduced, differ, not comparable."""
-    table = reported(e.exp.paper, e.exp.table)
+    table = e.exp.reported
     counts = {"values": 0, "reproduced": 0, "differ": 0, "not comparable": 0}
     if table is None or e.table is None:
         return counts
@@ -240,7 +280,7 @@ def _n(v) -> str:
 def comparison(e: Entry) -> list[str]:
     """The paper's table beside ours: per filter run and reported quantity, ours with its 95%
     interval, the paper's value and the verdict; reasons for 'not comparable' listed once."""
-    table = reported(e.exp.paper, e.exp.table)
+    table = e.exp.reported
     head = ["Filter", "N", "Trials"]
     for q in table.quantities:
         head += [f"{q.title}: ours [95% CI]", "paper", "verdict"]
@@ -281,7 +321,7 @@ def _provenance(e: Entry) -> str:
 
 
 def _experiment_section(e: Entry, where: Path) -> list[str]:
-    table = reported(e.exp.paper, e.exp.table)
+    table = e.exp.reported
     out = _head(e, f"{_table_name(e.exp.table)}: `{e.path.stem}`",
                 f"The paper's table: {table.caption}." if table else None)
     if e.status != "ok":
@@ -343,8 +383,8 @@ def _sweep_section(e: Entry, where: Path) -> list[str]:
     return out + _figures(e.folder, where) + [""]
 
 
-def _choices(paper: str, entries: list[Entry]) -> list[str]:
-    choices = CHOICES.get(paper, ())
+def _choices(paper: pp.Paper, entries: list[Entry]) -> list[str]:
+    choices = paper.choices
     if not choices:
         return []
     out = ["### Choices the paper left open, and the values used", "",
@@ -376,17 +416,23 @@ def _summary_row(e: Entry) -> list[str]:
             f"{agree} of {total}" if total else "-"]
 
 
-def build(configs: Path, results: Path, out: Path) -> str:
-    """The report's text (links relative to ``out``'s folder)."""
-    order = {k: i for i, k in enumerate(PAPERS)}
-    entries = sorted(collect(configs, results),
-                     key=lambda e: (order.get(e.exp.paper, len(order)), e.cells is not None,
-                                    e.exp.table or "", e.path.stem))
+def build(configs: Path, results: Path, out: Path,
+          warn: Callable[[str], None] | None = None) -> str:
+    """The report's text (links relative to ``out``'s folder). ``warn`` hears of each broken
+    reference of a paper's findings (without it, one is a UserError)."""
+    entries = collect(configs, results)
+    # the papers the configs name, and surveys (findings, no tables) measured through others'
+    papers = {e.exp.reference.key: e.exp.reference for e in entries if e.exp.reference}
+    for key, path in pp.available(pp.folders_for_configs(configs)).items():
+        if key not in papers:
+            p = pp.read(path)
+            if not p.tables and p.findings:
+                papers[key] = p
+    order = {k: i for i, k in enumerate(sorted(papers))}
+    entries.sort(key=lambda e: (order.get(e.exp.paper, len(order)), e.cells is not None,
+                                e.exp.table or "", e.path.stem))
     by_name = {e.name: e for e in entries}
     where = Path(out).parent
-    # a paper with configs here, or a survey (no tables of its own) measured through others'
-    papers = [k for k in PAPERS if any(e.exp.paper == k for e in entries)
-              or (not PAPERS[k].tables and FINDINGS.get(k))]
     lines = [f"# {TITLE}", "",
              f"Written by `pfbench report` (pfbench {__version__}) from the configs in "
              f"`{configs.as_posix()}` and the trials in `{results.as_posix()}`. Every table is "
@@ -402,18 +448,17 @@ def build(configs: Path, results: Path, out: Path) -> str:
     lines += _table_md(["Paper", "Table", "Config", "Trials", "Paper values", "Reproduced",
                         "Differ", "Not comparable", "Rankings as the paper's"],
                        [_summary_row(e) for e in entries]) + [""]
-    for paper in papers:
-        p = PAPERS[paper]
-        mine = [e for e in entries if e.exp.paper == paper]
-        lines += [f"## `{paper}`: {p.citation}", ""]
-        findings = FINDINGS.get(paper, ())
-        if findings:
+    for key in sorted(papers):
+        p = papers[key]
+        mine = [e for e in entries if e.exp.paper == key]
+        lines += [f"## `{key}`: {p.citation}", ""]
+        if p.findings:
             lines += ["What reproduced and what did not:", ""]
-            lines += [f"- {fill(text, by_name)}" for text in findings] + [""]
+            lines += [f"- {text}" for text in findings(p, by_name, warn)] + [""]
         for e in mine:
             lines += _sweep_section(e, where) if e.cells else _experiment_section(e, where)
-        lines += _choices(paper, mine or entries)   # a survey's choices live in others' configs
-    others = [e for e in entries if e.exp.paper not in PAPERS]
+        lines += _choices(p, mine or entries)   # a survey's choices live in others' configs
+    others = [e for e in entries if e.exp.reference is None]
     if others:
         lines += ["## Other experiments", ""]
         for e in others:
@@ -421,20 +466,20 @@ def build(configs: Path, results: Path, out: Path) -> str:
     return "\n".join(lines).rstrip() + "\n"
 
 
-def write(configs: Path, results: Path, out: Path | None = None, check: bool = False
-          ) -> tuple[Path, bool]:
+def write(configs: Path, results: Path, out: Path | None = None, check: bool = False,
+          warn: Callable[[str], None] | None = None) -> tuple[Path, bool]:
     """Write the report (default results/REPORT.md), or with ``check`` only compare it with the
     file; return (its path, whether the file held this text before). Writing holds the results
-    folder's lock (not while 'pfbench tables' rewrites the results)."""
+    folder's lock (not while 'pfbench tables' rewrites the results). ``warn``: see build."""
     from .fsutil import FolderLock, atomic_write
     out = Path(out) if out else Path(results) / "REPORT.md"
     if not Path(results).is_dir():
         raise UserError(f"{results}: no such results folder; run 'pfbench tables' first")
     if check:
-        text = build(Path(configs), Path(results), out)
+        text = build(Path(configs), Path(results), out, warn)
         return out, out.exists() and out.read_text(encoding="utf-8") == text
     with FolderLock(results, "--results"):      # not while 'tables' rewrites them
-        text = build(Path(configs), Path(results), out)
+        text = build(Path(configs), Path(results), out, warn)
         same = out.exists() and out.read_text(encoding="utf-8") == text
         atomic_write(out, text)
     return out, same

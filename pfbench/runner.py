@@ -1,6 +1,6 @@
 """Trials -> rows; seeding; executors; the results folder.
 
-Seeding (DESIGN.md section 3): trial k's randomness is the SeedSequence child ``(seed, spawn_key=(k,))``
+Seeding: trial k's randomness is the SeedSequence child ``(seed, spawn_key=(k,))``
 (what ``SeedSequence(seed).spawn(n)[k]`` gives); inside it the data come from child ``(k, 0)`` and
 filter run F from child ``(k, 1, crc32(F.key))``. Seeds depend on (base seed, trial, filter key), never
 on run order, the number of workers, or which other filters the experiment has.
@@ -345,7 +345,7 @@ def run_experiment(exp: Experiment, out_dir: Path, *, workers: int = 1, resume: 
                    progress: Callable[[int, int], None] | None = None,
                    executor: LocalExecutor | None = None,
                    warn: Callable[[str], None] | None = None, traces: bool = True) -> RunResult:
-    """Run every trial of ``exp`` into ``out_dir`` (see DESIGN.md section 3 for the files).
+    """Run every trial of ``exp`` into ``out_dir`` (the README's "Results" lists the files).
 
     Trials go to ``trials.partial.csv`` as they finish; at the end the sorted ``trials.csv``
     replaces it. ``resume`` keeps the finished trials of a partial (or a complete) earlier run of

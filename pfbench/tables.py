@@ -8,7 +8,7 @@ import pandas as pd
 
 from .compare import Comparison, PerTrial, Ranking
 from .config import Experiment
-from .papers import PAPERS, Quantity
+from .papers import Quantity
 from .store import atomic_write, write_csv
 
 
@@ -199,7 +199,7 @@ def markdown(cmp: Comparison, meta: dict | None = None) -> str:
     if exp.description:
         lines += [exp.description, ""]
     if table is not None:
-        lines += [f"Paper: `{exp.paper}` {exp.table}: {PAPERS[exp.paper].citation}.", "",
+        lines += [f"Paper: `{exp.paper}` {exp.table}: {exp.reference.citation}.", "",
                   f"Table: {table.caption}.", ""]
     trials = int(tab["trials"].max()) if len(tab) else 0
     lines += [f"Scenario `{exp.scenario}`; {trials} trials; seed {exp.seed}; experiment hash "

@@ -7,6 +7,7 @@ import numpy as np
 from pfbench.compare import verdict
 from pfbench.metrics import summarize
 
+from .conftest import ROOT
 from .test_tables import _afsa_cfg, _afsa_rows
 
 
@@ -55,10 +56,10 @@ def test_time_ratio_is_per_trial_against_the_baseline():
 def test_factor_interval_covers_the_true_ratio_about_95_percent(write_config):
     # paired trials with correlated noise; the delta-method interval on the ratio of the means
     from pfbench.config import load
-    from pfbench.papers import PAPERS
+    from pfbench import papers
     from pfbench.compare import factors
     exp = load(_afsa_cfg(write_config, 60))
-    table = PAPERS["afsa2014"].tables["table1"]
+    table = papers.find("afsa2014", ROOT / "configs" / "x.yaml").tables["table1"]
     rng = np.random.default_rng(6)
     hits, reps = 0, 1000
     for _ in range(reps):

@@ -10,7 +10,8 @@ from pfbench import report, tables
 from pfbench.cli import app
 from pfbench.compare import compare
 from pfbench.config import load
-from pfbench.papers import CHOICES, FINDINGS, PAPERS
+from pfbench import papers
+from pfbench.errors import UserError
 
 from .conftest import ROOT, SMALL
 
@@ -50,7 +51,7 @@ def test_report_puts_the_papers_tables_beside_ours(small_results):
     cmp = compare(exp, pd.read_csv(results / "sspf_upf_gamma" / "trials.csv"))
     tab = cmp.table
     pf = tab[tab["filter"] == "pf@200"].iloc[0]
-    q = next(q for q in PAPERS["sspf2008"].tables["table1"].quantities if q.key == "mse_mean")
+    q = next(q for q in exp.reported.quantities if q.key == "mse_mean")
     section = text.split("### Table 1: `sspf_upf_gamma`")[1].split("###")[0]
     row = next(line for line in section.splitlines() if line.startswith("| PF | 200 | 12 |"))
     assert tables.ours_cell(pf, q) in row and pf["verdict_mse_mean"] in row
@@ -68,7 +69,8 @@ def test_report_puts_the_papers_tables_beside_ours(small_results):
                      r"\(sspf_upf_gamma\) \|", text)
     # the findings: numbers filled in, a config that was not run says so
     assert "{" not in text.split("## `sspf2008`")[1].split("###")[0]
-    assert "(not run)" in text                 # sspf_global is not in this folder
+    assert "(sspf_global: not among these configs)" in text     # not in this folder
+    assert "sspf2008.yaml:" in r.output and "no experiment 'sspf_global'" in r.output
     # a sweep without a paper
     assert "## Other experiments" in text and "### Sweep: `swept`" in text
     assert "`scenario.steps`" in text
@@ -103,22 +105,27 @@ def test_every_choice_key_applies_to_a_config_of_its_paper():
     entries = [report.Entry(p, load(p), ROOT / "results" / p.stem)
                for p in sorted((ROOT / "configs").glob("*.yaml"))
                if "sweep:" not in p.read_text()]
-    for paper, choices in CHOICES.items():
+    for path in sorted((ROOT / "configs" / "papers").glob("*.yaml")):
+        paper = papers.read(path)
         # a survey's choices (review2007) live in the configs of the papers it surveys
-        mine = [e for e in entries if e.exp.paper == paper] or entries
-        for what, keys in choices:
+        mine = [e for e in entries if e.exp.paper == paper.key] or entries
+        for what, keys in paper.choices:
             for key in keys:
-                assert any(report.config_value(e, key) for e in mine), (paper, key)
+                assert any(report.config_value(e, key) for e in mine), (paper.key, key)
 
 
 def test_every_finding_fills_from_the_committed_results():
     entries = {e.name: e for e in report.collect(ROOT / "configs", ROOT / "results")}
     assert all(e.status == "ok" for e in entries.values()), \
         [(e.name, e.status) for e in entries.values()]
-    for paper, texts in FINDINGS.items():
-        for text in texts:
-            filled = report.fill(text, entries)     # KeyError for an unknown run or column
-            assert "{" not in filled and "(not run)" not in filled, (paper, filled)
+    found = 0
+    for path in sorted((ROOT / "configs" / "papers").glob("*.yaml")):
+        paper = papers.read(path)
+        # a UserError for an unknown experiment, run or column
+        for filled in report.findings(paper, entries):
+            assert "{" not in filled and "(not run)" not in filled, (paper.key, filled)
+            found += 1
+    assert found >= 10
 
 
 def test_fill_formats_a_value_and_its_interval():
@@ -130,9 +137,14 @@ def test_fill_formats_a_value_and_its_interval():
     assert report.fill("{x:pf@50:rmse_mean:ci}", entries) == "3.64 [3.55, 3.73]"
     assert report.fill("{x:pf@50:ours_x:ci} {x:pf@50:verdict_x}", entries) == \
         "2 [1.5, 2.5] reproduced"
+    entries["y"] = report.Entry(ROOT / "y.yaml", None, ROOT / "y")      # not run yet
     assert report.fill("{y:pf@50:rmse_mean}", entries) == "(not run)"
-    with pytest.raises(KeyError):
+    with pytest.raises(UserError, match="no filter run 'pf@51' in x .did you mean 'pf@50'"):
         report.fill("{x:pf@51:rmse_mean}", entries)
+    with pytest.raises(UserError, match="no column 'rmse_men'.*did you mean 'rmse_mean'"):
+        report.fill("{x:pf@50:rmse_men}", entries)
+    with pytest.raises(UserError, match="no experiment 'z'"):
+        report.fill("{z:pf@50:rmse_mean}", entries)
 
 
 def test_report_check_fails_when_the_file_is_out_of_date(small_results, tmp_path):

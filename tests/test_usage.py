@@ -61,3 +61,10 @@ def test_validate_of_a_sweep_applies_set(write_config):
     assert res.exit_code == 0, res.output
     assert "6 cells" in res.output and "3 trials each" in res.output
     one_line_exit_2(runner.invoke(app, ["validate", str(cfg), "--set", "trials=0"]))
+
+
+def test_a_line_number_is_printed_as_written_not_as_an_emoji(write_config):
+    # rich turns ':100:' into an emoji unless told not to
+    cfg = write_config("#\n" * 99 + "trails: 5\nscenario: {name: ungm}\nfilters: {ukf: {}}\n")
+    line = one_line_exit_2(runner.invoke(app, ["validate", str(cfg)]))
+    assert f"{cfg}:100: trails: unknown key" in line

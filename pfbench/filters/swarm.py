@@ -242,7 +242,7 @@ def _toward(X, i, D, tgt, toff, step, u, C, coff):
 @njit(types.void(_F, _F, _F, _F, _F, types.int64, types.float64, types.float64, types.float64,
                  types.int64, STATE, _F), cache=True)
 def afsa_propose(X, fit, Xc, fitc, nf, D, visual, step, delta, tries, s, C):
-    """Three candidates per fish (PAPERS.md section 2) into C (3 N D,): rows [0, N) prey,
+    """Three candidates per fish (afsa2014's prey, swarm and follow) into C (3 N D,): rows [0, N) prey,
     [N, 2N) swarm, [2N, 3N) follow.
 
     prey: up to ``tries`` random neighbours j within visual; move a random fraction of ``step``

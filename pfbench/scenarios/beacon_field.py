@@ -1,4 +1,4 @@
-"""The 40 m x 40 m beacon field of sspf2008 and asrl2008 (PAPERS.md section 4): localization of a
+"""The 40 m x 40 m beacon field of sspf2008 and asrl2008 (configs/papers/): localization of a
 robot whose initial pose is unknown, optionally kidnapped.
 
 Motion: per step the odometry reports [rot1, trans, rot2] (turn, move, turn):

@@ -1,4 +1,4 @@
-"""The 50 m x 60 m landmark world of afsa2014 (PAPERS.md section 2): FastSLAM with unknown data
+"""The 50 m x 60 m landmark world of afsa2014 (configs/papers/afsa2014.yaml): FastSLAM with unknown data
 association, odometry-form motion.
 
 Motion: per step the odometry reports [ds, dtheta], the robot turns by dtheta and moves ds,

@@ -1,4 +1,4 @@
-"""Univariate nonlinear growth model (UNGM), PAPERS.md section 1.
+"""Univariate nonlinear growth model (UNGM), the benchmark of ifa2021 Table 1 and sspf2008.
 
     x_t = 0.5 x_{t-1} + 25 x_{t-1} / (1 + x_{t-1}^2) + 8 cos(1.2 t') + w_t,   w_t ~ N(0, Q)
     y_t = x_t^2 / 20 + v_t,                                                 v_t ~ N(0, R)

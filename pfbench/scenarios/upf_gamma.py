@@ -1,5 +1,6 @@
 """The Gamma-noise benchmark of van der Merwe, Doucet, de Freitas & Wan, "The Unscented Particle
-Filter" (2000), whose settings and values match ``sspf2008`` Table 1 (PAPERS.md section 1).
+Filter" (2000), whose settings and values match ``sspf2008`` Table 1
+(configs/papers/sspf2008.yaml).
 
     x_t = 1 + sin(w pi t) + 0.5 x_{t-1} + v_t,   v_t ~ Gamma(shape 3, rate 2)
     y_t = x_t^2 / 5 + n_t   (t <= 30),   y_t = x_t / 2 - 2 + n_t   (t > 30),   n_t ~ N(0, 1e-5)

@@ -1,4 +1,4 @@
-"""The waypoint course of ifa2021 Table 3 (PAPERS.md section 3): FastSLAM on a 100 m x 80 m course.
+"""The waypoint course of ifa2021 Table 3 (configs/papers/ifa2021.yaml): FastSLAM on a 100 m x 80 m course.
 
 Vehicle (the steered model of the classic FastSLAM simulators):
     x += V dt cos(theta + G),  y += V dt sin(theta + G),  theta += V dt sin(G) / L

@@ -1,0 +1,189 @@
+"""Paper files: read strictly, found beside a config or with --papers, the package holds no
+paper's values, and the README's example paper is judged by pfbench run."""
+import re
+
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from pfbench import papers
+from pfbench.cli import app
+from pfbench.config import load
+from pfbench.regen import config_files, is_sweep
+from pfbench.schema import ConfigError
+
+from .conftest import ROOT, one_line_exit_2
+
+runner = CliRunner()
+PAPERS = ROOT / "configs" / "papers"
+
+GOOD = """\
+paper: smith2024
+citation: Smith and Lee, 2024
+tables:
+  table2:
+    caption: UNGM, RMSE
+    quantities:
+      rmse_mean: {title: RMSE, metric: rmse, stat: mean}
+    values:
+      - {label: PF, particles: 100, rmse_mean: 4.9}
+      - {label: UKF, rmse_mean: 7.5}
+    ranking: [rmse_mean]
+findings:
+  - "PF: {smith_ungm:pf@100:rmse_mean:ci}"
+"""
+
+
+@pytest.fixture(autouse=True)
+def _no_search_folders():
+    yield
+    papers.search_folders([])
+
+
+def test_every_paper_file_reads_and_every_config_finds_its_table():
+    keys = sorted(p.stem for p in PAPERS.glob("*.yaml"))
+    assert keys == ["afsa2014", "asrl2008", "ifa2021", "review2007", "sspf2008"]
+    for key in keys:
+        paper = papers.read(PAPERS / f"{key}.yaml")
+        assert paper.key == key and paper.citation
+    named = set()
+    for path in config_files(ROOT / "configs"):
+        if not is_sweep(path):
+            exp = load(path)
+            if exp.paper:
+                named.add(exp.paper)
+                assert exp.reference.key == exp.paper
+                assert (exp.reported is not None) == (exp.table is not None)
+    assert named == {"afsa2014", "asrl2008", "ifa2021", "sspf2008"}
+
+
+def _numbers(node, out):
+    if isinstance(node, dict):
+        for v in node.values():
+            _numbers(v, out)
+    elif isinstance(node, list):
+        for v in node:
+            _numbers(v, out)
+    elif isinstance(node, float) and not isinstance(node, bool):
+        out.add(node)
+    return out
+
+
+def test_the_package_holds_no_paper_values_and_points_outside_nowhere():
+    values = set()
+    for p in PAPERS.glob("*.yaml"):
+        values |= _numbers(yaml.safe_load(p.read_text()), set())
+    # the printed values with four or more significant digits are specific enough to search for
+    specific = {f"{v:.4g}" for v in values if not v.is_integer()
+                and len(f"{v:.4g}".replace(".", "").lstrip("0")) >= 4}
+    assert len(specific) >= 30
+    sources = {p: p.read_text() for p in (ROOT / "pfbench").rglob("*.py")}
+    for text in specific:
+        hits = [str(p) for p, src in sources.items()
+                if re.search(rf"(?<![\d.]){re.escape(text)}(?!\d)", src)]
+        assert not hits, (text, hits)
+    for p, src in {**sources, ROOT / "README.md": (ROOT / "README.md").read_text()}.items():
+        for word in ("PAPERS.md", "DESIGN.md", "../shared"):
+            assert word not in src, (p, word)
+
+
+@pytest.mark.parametrize("edit, where, message", [
+    (("  table2:\n    caption", "  table2:\n    captoin: x\n    caption"), 5,
+     r"tables\.table2\.captoin: unknown key \(did you mean 'caption'\?\)"),
+    (("rmse_mean: 4.9}", "rmse_men: 4.9}"), 9,
+     r"rmse_men: no quantity 'rmse_men' \(did you mean 'rmse_mean'\?\)"),
+    (("metric: rmse,", "metric: rmes,"), 7, r"metric: expected one of .* \(did you mean 'rmse'"),
+    (("rmse_mean: 7.5}", "rmse_mean: [9, 2]}"), 10, r"a range is \[low, high\]"),
+    (("ranking: [rmse_mean]", "ranking: [rmse]"), 11, r"ranking\[0\]: no quantity 'rmse'"),
+    (("paper: smith2024", "paper: smith2025"), 1, r"the key is the file's name"),
+    (("{smith_ungm:pf@100:rmse_mean:ci}", "{smith_ungm:pf@100}"), 13, r"is not a reference"),
+    (("- {label: UKF, rmse_mean: 7.5}", "- {label: PF, particles: 100, rmse_mean: 7.5}"), 10,
+     r"a second row for PF at 100 particles"),
+])
+def test_a_broken_paper_file_is_named_with_its_line_and_key(tmp_path, edit, where, message):
+    path = tmp_path / "smith2024.yaml"
+    assert edit[0] in GOOD
+    path.write_text(GOOD.replace(*edit))
+    with pytest.raises(ConfigError, match=message) as exc:
+        papers.read(path)
+    assert str(exc.value).startswith(f"{path}:{where}: "), str(exc.value)
+
+
+def test_a_factor_or_cell_note_names_rows_and_columns_that_exist(tmp_path):
+    path = tmp_path / "smith2024.yaml"
+    path.write_text(GOOD.replace("    ranking:", "    factors:\n      - {quantity: rmse_mean, "
+                                 "from: PF, to: UFK}\n    ranking:"))
+    with pytest.raises(ConfigError, match=r"factors\[0\]\.to: no row label 'UFK' \(did you "
+                                          "mean 'UKF'"):
+        papers.read(path)
+
+
+def test_a_config_finds_its_paper_beside_it_or_in_a_papers_folder(tmp_path):
+    cfg = tmp_path / "work" / "smith_ungm.yaml"
+    cfg.parent.mkdir()
+    cfg.write_text("paper: smith2024\ntable: table2\ntrials: 2\nscenario: {name: ungm}\n"
+                   "filters:\n  pf: {label: PF, particles: 100}\n")
+    with pytest.raises(ConfigError, match="no paper file smith2024.yaml in .*--papers"):
+        load(cfg)
+    elsewhere = tmp_path / "mine"
+    elsewhere.mkdir()
+    (elsewhere / "smith2024.yaml").write_text(GOOD)
+    papers.search_folders([elsewhere])
+    assert load(cfg).reported.caption == "UNGM, RMSE"
+    papers.search_folders([])
+    (cfg.parent / "papers").mkdir()
+    (cfg.parent / "papers" / "smith2024.yaml").write_text(GOOD.replace("UNGM, RMSE", "beside"))
+    assert load(cfg).reported.caption == "beside"
+    # a table the paper does not have
+    cfg.write_text(cfg.read_text().replace("table: table2", "table: table3"))
+    with pytest.raises(ConfigError, match="has no table 'table3' .did you mean 'table2'"):
+        load(cfg)
+    # the command line: one line, exit 2, for a missing folder or a broken paper file
+    line = one_line_exit_2(runner.invoke(app, ["validate", str(cfg), "--papers",
+                                               str(tmp_path / "nope")]))
+    assert "--papers" in line and "no such folder" in line
+    (cfg.parent / "papers" / "smith2024.yaml").write_text(GOOD.replace("caption:", "captoin:"))
+    line = one_line_exit_2(runner.invoke(app, ["validate", str(cfg)]))
+    assert "smith2024.yaml:5: tables.table2.captoin: unknown key" in line
+
+
+def _readme_example() -> tuple[str, str]:
+    text = (ROOT / "README.md").read_text()
+    section = text.split("### Adding a paper", 1)[1].split("\n### ", 1)[0]
+    blocks = re.findall(r"```yaml\n(.*?)```", section, re.S)
+    paper = next(b for b in blocks if b.startswith("# papers/"))
+    config = next(b for b in blocks if not b.startswith("# papers/"))
+    return paper, config
+
+
+def test_the_readmes_paper_is_judged_by_run_and_report(tmp_path):
+    paper, config = _readme_example()
+    name = re.match(r"# papers/(\w+)\.yaml", paper).group(1)
+    stem = re.match(r"# (\w+)\.yaml", config).group(1)
+    (tmp_path / "papers").mkdir()
+    (tmp_path / "papers" / f"{name}.yaml").write_text(paper)
+    cfg = tmp_path / f"{stem}.yaml"
+    cfg.write_text(config)
+    results = tmp_path / "results"
+    res = runner.invoke(app, ["run", str(cfg), "--out", str(results / stem), "--no-figures"])
+    assert res.exit_code == 0, res.output
+    assert name in res.output
+    table = (results / stem / "table.csv").read_text()
+    assert "verdict_rmse_mean" in table and ("reproduced" in table or "differs" in table)
+    res = runner.invoke(app, ["report", "--configs", str(tmp_path), "--results", str(results)])
+    assert res.exit_code == 0, res.output
+    report = (results / "REPORT.md").read_text()
+    mine = report.split(f"## `{name}`")[1]
+    finding = next(line for line in mine.splitlines() if line.startswith("- The PF at N = 100"))
+    assert re.fullmatch(r"- The PF at N = 100 averages [\d.]+ \[[\d.]+, [\d.]+\] against the "
+                        r"paper's 4\.9\.", finding), finding
+    # a finding that names a run the config does not have: the report says so, and a warning
+    # names the paper file's line
+    (tmp_path / "papers" / f"{name}.yaml").write_text(paper.replace("pf@100", "pf@101"))
+    res = runner.invoke(app, ["report", "--configs", str(tmp_path), "--results", str(results)])
+    assert res.exit_code == 0, res.output
+    n = paper.splitlines().index(next(l for l in paper.splitlines() if "pf@100" in l)) + 1
+    assert f"{name}.yaml:{n}: findings[0]: " in res.output
+    assert "no filter run 'pf@101' in smith_ungm (did you mean 'pf@100'?)" in res.output
+    assert "(broken reference smith_ungm:pf@101:rmse_mean:ci)" in \
+        (results / "REPORT.md").read_text()
