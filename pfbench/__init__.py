@@ -10,4 +10,15 @@ from . import _cache
 
 CACHE_DIR = _cache.configure(__version__)
 
-__all__ = ["__version__", "CACHE_DIR"]
+_API = ("Result", "load_results", "run_experiment")
+
+
+def __getattr__(name):
+    """The Python API (pfbench.api), imported on first use: ``import pfbench`` stays light."""
+    if name in _API:
+        from . import api
+        return getattr(api, name)
+    raise AttributeError(f"module 'pfbench' has no attribute {name!r}")
+
+
+__all__ = ["__version__", "CACHE_DIR", "Result", "load_results", "run_experiment"]

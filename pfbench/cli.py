@@ -251,7 +251,7 @@ def run(
         out_dir = _path(out_dir, "--out")
         from .fsutil import FolderLock
         exp = _load(config, trials, seed, set_)
-        from .runner import run_experiment
+        from .api import run_experiment
         folder = out_dir or Path("results") / exp.name
         workers = _workers_that_fit([(exp, str(config))], workers, executor)
         runs = ", ".join(f.key for f in exp.filters)
@@ -263,15 +263,15 @@ def run(
             with _bar() as bar:
                 progress = _progress(bar, exp.trials, header)
                 with _stop_on_interrupt(bar):
-                    res = run_experiment(exp, folder, workers=workers, resume=resume,
-                                         progress=progress, executor=ex, warn=_warn)
-            from .regen import write_experiment
-            cmp, figures = write_experiment(exp, res, folder, not no_figures)
-        _print_table(cmp)
-        note = f" ({exp.trials - res.ran} resumed)" if res.ran < exp.trials else ""
-        err.print(f"{res.ran} trials in {res.wall_s:.1f} s{note}; wrote {folder}/trials.csv, "
+                    res = run_experiment(exp, out=folder, workers=workers, resume=resume,
+                                         figures=not no_figures, progress=progress,
+                                         executor=ex, warn=_warn)
+        _print_table(res.comparison)
+        ran = res.meta["trials_run_now"]
+        note = f" ({exp.trials - ran} resumed)" if ran < exp.trials else ""
+        err.print(f"{ran} trials in {res.meta['wall_s']:.1f} s{note}; wrote {folder}/trials.csv, "
                   "table.csv, table.md, meta.json"
-                  + (f" and {len(figures)} figures" if figures else ""), markup=False)
+                  + (f" and {len(res.figures)} figures" if res.figures else ""), markup=False)
 
 
 @app.command()

@@ -1,0 +1,179 @@
+"""pfbench from Python: run an experiment into pandas DataFrames, or read a results folder.
+
+    import pfbench
+    res = pfbench.run_experiment("configs/ifa_pf_ungm.yaml", trials=50)
+    res.table[["label", "particles", "rmse_mean", "rmse_ci_lo", "rmse_ci_hi"]]
+    res.trials.groupby("label")["rmse"].describe()
+
+Nothing is written unless ``out`` names a results folder; then the folder holds what ``pfbench
+run`` writes (the CLI calls this function). ``load_results`` reads such a folder back.
+"""
+from __future__ import annotations
+
+import copy
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterable, Mapping
+
+import pandas as pd
+
+from .errors import UserError
+
+__all__ = ["Result", "load_results", "run_experiment"]
+
+
+@dataclass
+class Result:
+    """What an experiment gave.
+
+    trials : one row per trial and filter run: ``trial``, ``filter`` (the run's key, such as
+        ``pf@50``), ``label``, ``particles``, the metrics of the scenario's kind, ``wall_s``
+    table : one row per filter run: the statistics over trials (``rmse_mean``, ``rmse_ci_lo``,
+        ...), and beside a paper's table ``paper_Q``, ``ours_Q``, ``verdict_Q`` for each of its
+        quantities Q (a sweep's results: its summary, one row per cell and filter run)
+    meta : the experiment's name, hash, seed, trials, versions, wall time, ...
+    experiment : the validated config (None when a results folder's config is gone or changed)
+    folder : the results folder, or None when nothing was written
+    comparison : the comparison the table comes from (pfbench.compare; None for a sweep, or a
+        results folder without its config)
+    figures : the figures drawn into the results folder
+    """
+    trials: pd.DataFrame
+    table: pd.DataFrame
+    meta: dict
+    experiment: Any = None
+    folder: Path | None = None
+    comparison: Any = None
+    figures: list = field(default_factory=list)
+
+
+def _experiment(config, trials, seed, overrides):
+    from .config import Experiment, apply_override, load, validate
+    from .schema import ConfigError, describe
+    if isinstance(config, Experiment):          # validated already (the CLI's)
+        if trials is not None or seed is not None or tuple(overrides):
+            raise UserError("trials, seed and overrides go with a config file or mapping")
+        return config
+    if isinstance(config, (str, Path)):
+        return load(config, {"trials": trials, "seed": seed}, tuple(overrides))
+    if not isinstance(config, Mapping):
+        raise UserError(f"config: expected a path or a mapping, got {describe(config)}")
+    data = copy.deepcopy(dict(config))
+    for assignment in overrides:
+        apply_override(data, assignment)
+    for k, v in (("trials", trials), ("seed", seed)):
+        if v is not None:
+            data[k] = v
+    # relative files (a world) and papers/ resolve against the current folder
+    try:
+        return validate(data, "config")
+    except ConfigError as err:
+        raise ConfigError(err.path, err.message, source="config (a mapping)",
+                          line=None) from None
+
+
+def _frame(rows: list[dict], columns: Iterable[str]) -> pd.DataFrame:
+    cols = [c for c in columns if c != "crc"]
+    return pd.DataFrame([{c: r.get(c) for c in cols} for r in rows], columns=cols)
+
+
+def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
+                   seed: int | None = None, workers: int = 1, overrides: Iterable[str] = (),
+                   out: str | Path | None = None, resume: bool = False, figures: bool = True,
+                   executor=None, progress: Callable[[int, int], None] | None = None,
+                   warn: Callable[[str], None] | None = None) -> Result:
+    """Run every trial of an experiment and compare it with its paper.
+
+    config : a YAML file, or a mapping with the same keys (``{"scenario": {"name": "ungm"},
+        "filters": {"pf": {"particles": 100}}}``), or a validated pfbench.config.Experiment
+    trials, seed : override the config's
+    workers : local worker processes (the results do not depend on it)
+    overrides : ``KEY.PATH=VALUE`` assignments, as ``pfbench run --set``
+    out : a results folder to write (trials.csv, table.csv, table.md, meta.json, figures); None
+        writes nothing
+    resume : (with ``out``) keep the finished trials of an earlier run of the same experiment
+    figures : (with ``out``) draw the figures
+    executor : where the trials run (a pfbench.runner executor; default: ``workers`` local
+        processes); progress(done, total) is called as trials finish
+    """
+    from .compare import compare
+    from .runner import LocalExecutor, Trial, run_experiment as run_into, versions
+    from .store import trial_columns
+    exp = _experiment(config, trials, seed, overrides)
+    if out is not None:
+        from .regen import write_experiment
+        res = run_into(exp, Path(out), workers=workers, resume=resume, progress=progress,
+                       executor=executor, warn=warn)
+        cmp, paths = write_experiment(exp, res, Path(out), figures)
+        return Result(_frame(res.rows, trial_columns(exp)), cmp.table, res.meta, exp,
+                      Path(out), cmp, paths)
+    if resume:
+        raise UserError("resume needs a results folder (out)")
+    executor = executor or LocalExecutor(workers)
+    done: dict[int, list[dict]] = {}
+    t0 = time.perf_counter()
+    if progress:
+        progress(0, exp.trials)
+    for chunk in executor.run(exp, range(exp.trials), exp.trials):
+        for t in chunk:
+            rows = t.rows if isinstance(t, Trial) else t
+            done.setdefault(rows[0]["trial"], rows)
+        if progress:
+            progress(len(done), exp.trials)
+    rows = [r for k in sorted(done) for r in done[k]]
+    meta = {"experiment": exp.name, "config": exp.source, "experiment_hash": exp.hash,
+            "paper": exp.paper, "table": exp.table, "seed": exp.seed, "trials": exp.trials,
+            "workers": workers, "executor": executor.describe(),
+            "wall_s": round(time.perf_counter() - t0, 3), "versions": versions()}
+    cmp = compare(exp, rows)
+    return Result(_frame(rows, trial_columns(exp)), cmp.table, meta, exp, None, cmp)
+
+
+def load_results(folder: str | Path) -> Result:
+    """The results of ``pfbench run`` (or ``pfbench sweep``) in ``folder``: its trials, its table
+    (a sweep's summary), its meta; ``experiment`` when the config that made them is still there
+    unchanged."""
+    from .store import read_trials
+    folder = Path(folder)
+    meta_path, trials_path = folder / "meta.json", folder / "trials.csv"
+    table_path = folder / "table.csv"
+    if not folder.is_dir():
+        raise UserError(f"{folder}: no such results folder")
+    if not trials_path.is_file():
+        raise UserError(f"{folder}: no trials.csv: not a finished pfbench run (an unfinished "
+                        "one continues with 'pfbench run CONFIG --out FOLDER --resume')")
+    if not table_path.is_file() and (folder / "summary.csv").is_file():      # a sweep
+        return Result(pd.read_csv(trials_path), pd.read_csv(folder / "summary.csv"), {},
+                      None, folder)
+    try:
+        meta = json.loads(meta_path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        raise UserError(f"{meta_path}: missing or unreadable") from None
+    got = read_trials(trials_path)
+    if got.rejected:
+        k, why = next(iter(sorted(got.rejected.items())))
+        raise UserError(f"{trials_path}: {len(got.rejected)} trial(s) fail their checksum or "
+                        f"are malformed (trial {k}: {why})")
+    columns = list(got.rows[0]) if got.rows else []
+    trials = _frame(sorted(got.rows, key=lambda r: (r["trial"])), columns)
+    exp = None
+    source = meta.get("config")
+    if source and Path(source).is_file():
+        try:
+            from .config import load
+            candidate = load(source, {"trials": meta.get("trials")})
+            exp = candidate if candidate.hash == meta.get("experiment_hash") else None
+        except UserError:
+            exp = None
+    cmp = None
+    if exp is not None:
+        from .compare import compare
+        cmp = compare(exp, trials)
+        table = cmp.table
+    elif table_path.is_file():
+        table = pd.read_csv(table_path)
+    else:
+        raise UserError(f"{folder}: no table.csv, and its config is gone or changed")
+    return Result(trials, table, meta, exp, folder, cmp)
