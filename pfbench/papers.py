@@ -39,7 +39,6 @@ class Quantity:
     stat: str          # 'mean' or 'var' over trials
     not_comparable: str | None = None   # why our value cannot be held against the paper's
     scale: float = 1.0                  # our metric times this is in the paper's unit
-    unit: str = ""
 
 
 @dataclass(frozen=True)
@@ -106,6 +105,7 @@ class Paper:
     choices: tuple[tuple[str, tuple[str, ...]], ...] = ()
     findings: tuple[Finding, ...] = ()
     source: str = ""
+    about: str = ""
 
 
 # ---------------------------------------------------------------- the schema of a paper file
@@ -114,6 +114,8 @@ _TOP = {
     "paper": Key("str", doc="the paper's key, which configs name (paper: KEY); the file's name "
                  "without .yaml"),
     "citation": Key("str", doc="authors, title, venue, year"),
+    "about": Key("str", None, "what the paper proposes and on which model, in a paragraph (the "
+                 "report prints it under the paper's heading)", nullable=True),
 }
 _TABLE = {
     "caption": Key("str", doc="what the table shows, in a sentence"),
@@ -128,7 +130,6 @@ _QUANTITY = {
                 choices=STATS),
     "scale": Key("float", 1.0, "our metric times this is in the paper's unit (1000: m -> mm)",
                  min=0.0, min_exclusive=True),
-    "unit": Key("str", None, "the paper's unit", nullable=True),
     "not_comparable": Key("str", None, "why our values cannot be held against this column",
                           nullable=True),
 }
@@ -181,7 +182,7 @@ def _quantities(raw: Any, path: str) -> tuple[Quantity, ...]:
     for key, spec in raw.items():
         q = check_section(spec, _QUANTITY, f"{path}.{key}")
         out.append(Quantity(str(key), q["title"], q["metric"], q["stat"], q["not_comparable"],
-                            q["scale"], q["unit"] or ""))
+                            q["scale"]))
     return tuple(out)
 
 
@@ -296,7 +297,7 @@ def parse(raw: Any, source: str, lines: dict[str, int] | None = None) -> Paper:
             what = check_section(c, _CHOICE, f"choices[{i}]", ignore=("keys",))["what"]
             choices.append((what, _strings(c.get("keys"), f"choices[{i}].keys")))
         return Paper(top["paper"], top["citation"], tables, tuple(choices),
-                     _findings(raw.get("findings"), lines), source)
+                     _findings(raw.get("findings"), lines), source, top["about"] or "")
     except ConfigError as err:
         raise err.located(source, lines) from None
 

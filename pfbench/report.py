@@ -452,6 +452,8 @@ def build(configs: Path, results: Path, out: Path,
         p = papers[key]
         mine = [e for e in entries if e.exp.paper == key]
         lines += [f"## `{key}`: {p.citation}", ""]
+        if p.about:
+            lines += [p.about, ""]
         if p.findings:
             lines += ["What reproduced and what did not:", ""]
             lines += [f"- {text}" for text in findings(p, by_name, warn)] + [""]
