@@ -71,6 +71,7 @@ class Table:
     per_trial: PerTrial | None = None
     # (quantity key, from label, to label): the paper's factor between two rows beside ours
     factors: tuple[tuple[str, str, str], ...] = ()
+    runs: int | None = None             # runs behind the values, when the paper states it
 
 
 @dataclass(frozen=True)
@@ -119,6 +120,8 @@ _TOP = {
 }
 _TABLE = {
     "caption": Key("str", doc="what the table shows, in a sentence"),
+    "runs": Key("int", None, "the number of runs behind its values, when the paper states it (1: "
+                "a single run)", nullable=True, min=1),
     "not_comparable": Key("str", None, "why no value of ours can be held against the paper's "
                           "(the values are still shown)", nullable=True),
 }
@@ -260,7 +263,8 @@ def _table(raw: Any, path: str) -> Table:
             _known(f[end], labels, f"{path}.factors[{i}].{end}", "row label")
         factors.append((f["quantity"], f["from"], f["to"]))
     return Table(top["caption"], quantities, values, _strings(raw.get("notes"), f"{path}.notes"),
-                 top["not_comparable"], ranking, cell_notes, per_trial, tuple(factors))
+                 top["not_comparable"], ranking, cell_notes, per_trial, tuple(factors),
+                 top["runs"])
 
 
 def _findings(raw: Any, lines: dict[str, int]) -> tuple[Finding, ...]:

@@ -323,7 +323,9 @@ def _provenance(e: Entry) -> str:
 def _experiment_section(e: Entry, where: Path) -> list[str]:
     table = e.exp.reported
     out = _head(e, f"{_table_name(e.exp.table)}: `{e.path.stem}`",
-                f"The paper's table: {table.caption}." if table else None)
+                f"The paper's table: {table.caption}."
+                + (f" The paper states {table.runs} run{'s' if table.runs > 1 else ''} behind "
+                   "its values." if table.runs else "") if table else None)
     if e.status != "ok":
         return out
     if table is not None:

@@ -45,7 +45,7 @@ def test_every_paper_file_reads_and_every_config_finds_its_table():
     assert keys == ["afsa2014", "asrl2008", "ifa2021", "review2007", "sspf2008"]
     for key in keys:
         paper = papers.read(PAPERS / f"{key}.yaml")
-        assert paper.key == key and paper.citation
+        assert paper.key == key and paper.citation and paper.about
     named = set()
     for path in config_files(ROOT / "configs"):
         if not is_sweep(path):
@@ -55,6 +55,9 @@ def test_every_paper_file_reads_and_every_config_finds_its_table():
                 assert exp.reference.key == exp.paper
                 assert (exp.reported is not None) == (exp.table is not None)
     assert named == {"afsa2014", "asrl2008", "ifa2021", "sspf2008"}
+    # the runs behind the values, where the paper states them
+    ifa = papers.read(PAPERS / "ifa2021.yaml").tables
+    assert (ifa["table1"].runs, ifa["table3"].runs) == (None, 20)
 
 
 def _numbers(node, out):
@@ -97,6 +100,8 @@ def test_the_package_holds_no_paper_values_and_points_outside_nowhere():
     (("ranking: [rmse_mean]", "ranking: [rmse]"), 11, r"ranking\[0\]: no quantity 'rmse'"),
     (("paper: smith2024", "paper: smith2025"), 1, r"the key is the file's name"),
     (("{smith_ungm:pf@100:rmse_mean:ci}", "{smith_ungm:pf@100}"), 13, r"is not a reference"),
+    (("caption: UNGM, RMSE", "caption: UNGM, RMSE\n    runs: 0"), 6,
+     r"tables\.table2\.runs: expected an integer >= 1, got 0"),
     (("- {label: UKF, rmse_mean: 7.5}", "- {label: PF, particles: 100, rmse_mean: 7.5}"), 10,
      r"a second row for PF at 100 particles"),
 ])
