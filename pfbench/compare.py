@@ -10,10 +10,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
+from scipy import stats
 
 from .config import Experiment
-from .metrics import Z975, paired, summarize, t975
+from .metrics import paired, summarize
 from .papers import Quantity, Table
+from .verdicts import Estimate, decide
 
 # Per-trial metrics summarised as their mean over trials in every table.
 MEAN_COLUMNS = ("mean_ess", "resample_count", "diversity_l1", "distinct_frac",
@@ -75,75 +77,42 @@ class Comparison:
         return self.exp.reported
 
 
-def verdict(paper: float | None, ours: float, lo: float, hi: float, *, rel_tol: float = 0.0,
-            floor: float | None = None, not_comparable: str | None = None) -> str:
-    """Compare a paper value with ours (point ``ours``, 95% interval [lo, hi]).
-
-    'reproduced' when the paper's value lies in our interval (or within ``rel_tol`` of ours; for
-    a range (lo, hi) the paper gives, when our interval meets it);
-    'differs (x R)' otherwise, R = ours / paper, noting when the paper's value is below ``floor``
-    (the lower 95% bound of what a near-optimal filter reaches); 'not comparable: reason' if set.
-    """
-    if paper is None or (isinstance(paper, float) and math.isnan(paper)):
-        return ""
-    if not_comparable:
-        return f"not comparable: {not_comparable}"
-    if math.isnan(ours):
-        return "not comparable: no finite result"
-    if isinstance(paper, tuple):          # the paper gives a range
-        if lo <= paper[1] and paper[0] <= hi:
-            return "reproduced (our interval meets the paper's range)"
-        return f"differs (x{ours / (0.5 * (paper[0] + paper[1])):.2f} the range's middle)"
-    if lo <= paper <= hi:
-        return "reproduced"
-    ratio = ours / paper if paper else math.inf
-    if rel_tol > 0 and abs(ratio - 1.0) <= rel_tol:
-        return f"reproduced (within {rel_tol:.0%})"
-    text = f"differs (x{ratio:.2f})"
-    if floor is not None and paper < floor:
-        text += "; paper below the model's floor"
-    return text
+# metrics that are rates (a fraction of trials): Wilson intervals, never outside [0, 1]
+RATE_METRICS = ("converged",)
+# quantities that depend on the machine that ran them: shown, never judged
+MACHINE_METRICS = ("time_ratio",)
 
 
-def _stat(s: dict, q: Quantity, paper_runs: int | None = None) -> tuple[float, float, float]:
-    """(our value, interval) for quantity q. With ``paper_runs``, the interval is widened by the
-    sampling error a batch of that many runs has (what the paper's own value carries): half-width
-    1.96 sqrt(se_ours^2 + se_batch^2), se_batch scaled from ours by sqrt(n_ours / paper_runs)."""
-    if q.stat == "mean":
-        v, lo, hi, se = s["mean"], s["ci_lo"], s["ci_hi"], s["se"]
-    else:
-        v, lo, hi, se = s["var"], s["var_ci_lo"], s["var_ci_hi"], s["var_se"]
-    if paper_runs and s["n"] > 1:
-        half = Z975 * se * math.sqrt(1.0 + s["n"] / paper_runs)
-        lo, hi = v - half, v + half
-    return v, lo, hi
-
-
-def _quantity(q: Quantity, g: pd.DataFrame, base: pd.DataFrame | None,
-              paper_runs: int | None) -> tuple[float, float, float, float, float]:
-    """(ours, verdict interval lo, hi, our own interval lo, hi) of quantity q for one filter run
-    (g: its trials; base: its baseline run's trials, or None)."""
-    nan = math.nan
+def estimate(q: Quantity, g: pd.DataFrame, base: pd.DataFrame | None) -> Estimate:
+    """Our estimate of quantity q for one filter run (g: its trials; base: its baseline run's
+    trials, or None): the value, its standard error and the trials."""
+    nan = Estimate(math.nan, math.nan, 0)
     if q.metric in ("gain_mean", "gain_var"):
         if base is None:
-            return nan, nan, nan, nan, nan
+            return nan
         a = g.set_index("trial")["rmse"]
         b = base.set_index("trial")["rmse"].reindex(a.index)
-        if q.metric == "gain_mean":
-            p = paired(a.values, b.values)
+        if q.metric == "gain_mean":         # 100 (1 - mean_a / mean_b), paired by trial
+            d = summarize(a.values - b.values)
             mb = float(b.mean())
-            v, lo, hi = (-100 * p["diff_mean"] / mb, -100 * p["diff_ci_hi"] / mb,
-                         -100 * p["diff_ci_lo"] / mb)
-        else:
-            sa, sb = summarize(a.values), summarize(b.values)
-            v = 100 * (1 - sa["var"] / sb["var"])
-            lo = 100 * (1 - sa["var_ci_hi"] / sb["var_ci_lo"]) if sb["var_ci_lo"] > 0 else -math.inf
-            hi = 100 * (1 - sa["var_ci_lo"] / sb["var_ci_hi"])
-        return v, lo, hi, lo, hi
+            return Estimate(-100 * d["mean"] / mb, 100 * d["se"] / mb, d["n"])
+        sa, sb = summarize(a.values), summarize(b.values)    # 100 (1 - var_a / var_b)
+        ratio = sa["var"] / sb["var"]
+        se = ratio * math.hypot(sa["var_se"] / sa["var"], sb["var_se"] / sb["var"])
+        return Estimate(100 * (1 - ratio), 100 * se, min(sa["n"], sb["n"]))
     s = summarize(_metric_values(q.metric, g, base) * q.scale)
-    v, lo, hi = _stat(s, q)
-    _, vlo, vhi = _stat(s, q, paper_runs)
-    return v, vlo, vhi, lo, hi
+    if q.stat == "var":
+        return Estimate(s["var"], s["var_se"], s["n"])
+    return Estimate(s["mean"], s["se"], s["n"])
+
+
+def our_interval(q: Quantity, est: Estimate, g: pd.DataFrame) -> tuple[float, float]:
+    """The 95% interval printed beside our value: Student's t, or Wilson's for a rate."""
+    if q.metric in RATE_METRICS and q.stat == "mean" and est.n > 0:
+        k = int(round(float(g[q.metric].dropna().sum())))
+        ci = stats.binomtest(k, est.n).proportion_ci(0.95, method="wilson")
+        return ci.low * q.scale, ci.high * q.scale
+    return est.interval(0.95)
 
 
 def _metric_values(metric: str, g: pd.DataFrame, base: pd.DataFrame | None):
@@ -238,9 +207,10 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame) -> Comparison:
                       or table.values.get((run.label, None), {}))
             for q in table.quantities:
                 paper = values.get(q.key)
-                ours, lo, hi, r[f"ours_lo_{q.key}"], r[f"ours_hi_{q.key}"] = _quantity(
-                    q, g, by_key.get(pairs.get(run.key)), exp.compare["paper_runs"])
+                est = estimate(q, g, by_key.get(pairs.get(run.key)))
+                ours = est.value
                 r[f"ours_{q.key}"] = ours
+                r[f"ours_lo_{q.key}"], r[f"ours_hi_{q.key}"] = our_interval(q, est, g)
                 if isinstance(paper, tuple):      # a range: shown as such, ratio to its middle
                     r[f"paper_{q.key}"] = f"{paper[0]:g}-{paper[1]:g}"
                     r[f"ratio_{q.key}"] = ours / (0.5 * (paper[0] + paper[1]))
@@ -248,11 +218,13 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame) -> Comparison:
                     r[f"paper_{q.key}"] = paper
                     r[f"ratio_{q.key}"] = ours / paper if paper else math.nan
                 floored_q = q.metric == "rmse" and q.stat == "mean"  # the floor is an RMSE level
-                r[f"verdict_{q.key}"] = verdict(
-                    paper, ours, lo, hi, rel_tol=exp.compare["rel_tol"] if floored_q else 0.0,
-                    floor=floor if floored_q and run.key != exp.compare["floor"] else None,
-                    not_comparable=(table.cell_notes.get((run.label, run.particles, q.key))
-                                    or q.not_comparable or table.not_comparable))
+                v = decide(paper, est, margin=q.margin, paper_runs=table.runs,
+                           floor=floor if floored_q and run.key != exp.compare["floor"] else None,
+                           not_comparable=(table.cell_notes.get((run.label, run.particles, q.key))
+                                           or q.not_comparable or table.not_comparable),
+                           judged=q.metric not in MACHINE_METRICS)
+                r[f"verdict_{q.key}"] = v.text
+                r[f"verdict_lo_{q.key}"], r[f"verdict_hi_{q.key}"] = v.lo, v.hi
         out.append(r)
     tab = pd.DataFrame(out)
     if table is None:
@@ -270,7 +242,7 @@ def factors(exp: Experiment, table: Table, by_key: dict) -> list[dict]:
     beside ours: the ratio of the means over paired trials, with a 95% interval by the delta
     method on the paired per-trial values."""
     rows = []
-    for key, a_label, b_label in table.factors:
+    for key, a_label, b_label, margin in table.factors:
         q = next(q for q in table.quantities if q.key == key)
         a_run, b_run = _run_by_label(exp, a_label), _run_by_label(exp, b_label)
         if a_run is None or b_run is None:
@@ -288,12 +260,13 @@ def factors(exp: Experiment, table: Table, by_key: dict) -> list[dict]:
         ratio = mb / ma
         cov = np.cov(np.vstack([a, b])) / n          # of the two means
         var = (cov[1, 1] - 2 * ratio * cov[0, 1] + ratio * ratio * cov[0, 0]) / (ma * ma)
-        half = t975(n - 1) * math.sqrt(max(var, 0.0))
+        est = Estimate(ratio, math.sqrt(max(var, 0.0)), n)
+        lo, hi = est.interval(0.95)
         paper = pb / pa if pa and pb is not None else math.nan
+        v = decide(paper, est, margin=margin)
         rows.append({"quantity": q.title, "from": a_label, "to": b_label, "paper_from": pa,
-                     "paper_to": pb, "paper": paper, "ours": ratio, "lo": ratio - half,
-                     "hi": ratio + half,
-                     "verdict": verdict(paper, ratio, ratio - half, ratio + half)})
+                     "paper_to": pb, "paper": paper, "ours": ratio, "lo": lo, "hi": hi,
+                     "verdict": v.text})
     return rows
 
 

@@ -170,15 +170,9 @@ CHECK_SCHEMA = {
 }
 
 COMPARE_SCHEMA = {
-    "rel_tol": Key("float", 0.0, "also call a value reproduced when ours is within this fraction "
-                   "of the paper's (0: only when the paper's value is inside our 95% interval)",
-                   min=0.0),
     "floor": Key("str", None, "key of a filter run with many particles whose result bounds what any "
                  "filter can reach; paper values below it are marked 'below the model's floor'",
                  nullable=True),
-    "paper_runs": Key("int", None, "Monte Carlo runs behind the paper's values, when it states them: "
-                      "the verdict's interval then adds the paper's own sampling error for a batch "
-                      "of that size", min=1, nullable=True),
     "baseline": Key("str", None, "filter (a key under filters) every row is compared with, trial by "
                     "trial: mean RMSE difference with its 95% interval and win rate", nullable=True),
 }
@@ -276,6 +270,12 @@ def validate(raw: Any, source: str = "config") -> Experiment:
         raise ConfigError("filters", "missing required section (a mapping of filter name -> "
                           "settings)")
     filters = _validate_filters(raw["filters"], scen_name)
+    moved = {"rel_tol": "a margin of the quantity in the paper file",
+             "paper_runs": "the table's 'runs' in the paper file"}
+    for key, where in moved.items():
+        if isinstance(raw.get("compare"), dict) and key in raw["compare"]:
+            raise ConfigError(f"compare.{key}", f"no longer a config key: it is {where} (README: "
+                              "Adding a paper)")
     compare = check_section(raw.get("compare") or {}, COMPARE_SCHEMA, "compare")
     if compare["floor"] is not None and compare["floor"] not in {f.key for f in filters}:
         keys = [f.key for f in filters]

@@ -125,21 +125,15 @@ def slam_metrics(pose: np.ndarray, landmarks: np.ndarray, out: dict) -> dict:
     return row
 
 
-_T975 = (12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179,
-         2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060,
-         2.056, 2.052, 2.048, 2.045, 2.042)
 Z975 = 1.959963984540054
 
 
 def t975(df: int) -> float:
-    """0.975 quantile of Student's t with ``df`` degrees of freedom (table, then Cornish-Fisher)."""
+    """0.975 quantile of Student's t with ``df`` degrees of freedom."""
     if df < 1:
         return math.nan
-    if df <= len(_T975):
-        return _T975[df - 1]
-    z = Z975
-    return (z + (z ** 3 + z) / (4 * df) + (5 * z ** 5 + 16 * z ** 3 + 3 * z) / (96 * df ** 2)
-            + (3 * z ** 7 + 19 * z ** 5 + 17 * z ** 3 - 15 * z) / (384 * df ** 3))
+    from scipy import stats
+    return float(stats.t.ppf(0.975, df))
 
 
 def summarize(values) -> dict:

@@ -22,6 +22,7 @@ from typing import Any
 from .errors import UserError
 from .metrics import METRICS
 from .schema import ConfigError, Key, check_mapping, check_section, describe, did_you_mean
+from .verdicts import Margin
 from .yamlio import read_yaml
 
 # our per-trial metrics a quantity can stand for, beyond the trials file's columns: the wall time
@@ -39,6 +40,7 @@ class Quantity:
     stat: str          # 'mean' or 'var' over trials
     not_comparable: str | None = None   # why our value cannot be held against the paper's
     scale: float = 1.0                  # our metric times this is in the paper's unit
+    margin: Margin | None = None        # how far ours may lie from it and still be the same
 
 
 @dataclass(frozen=True)
@@ -69,8 +71,8 @@ class Table:
     # (label, particles or None, quantity key) -> why that one paper value cannot be compared
     cell_notes: dict = field(default_factory=dict)
     per_trial: PerTrial | None = None
-    # (quantity key, from label, to label): the paper's factor between two rows beside ours
-    factors: tuple[tuple[str, str, str], ...] = ()
+    # (quantity key, from label, to label, margin or None): the paper's factor between two rows
+    factors: tuple[tuple[str, str, str, Margin | None], ...] = ()
     runs: int | None = None             # runs behind the values, when the paper states it
 
 
@@ -136,6 +138,12 @@ _QUANTITY = {
     "not_comparable": Key("str", None, "why our values cannot be held against this column",
                           nullable=True),
 }
+_MARGIN = {
+    "relative": Key("float", None, "as a fraction of the paper's value (0.1: within 10%)",
+                    nullable=True, min=0.0),
+    "absolute": Key("float", None, "in the quantity's unit", nullable=True, min=0.0),
+    "why": Key("str", doc="why a difference this small means the same result"),
+}
 _CELL_NOTE = {
     "label": Key("str", doc="the row's label"),
     "particles": Key("int", None, "the row's particle count", nullable=True, min=1),
@@ -183,10 +191,20 @@ def _quantities(raw: Any, path: str) -> tuple[Quantity, ...]:
         raise ConfigError(path, "expected at least one quantity")
     out = []
     for key, spec in raw.items():
-        q = check_section(spec, _QUANTITY, f"{path}.{key}")
+        spec = check_mapping(f"{path}.{key}", spec)
+        q = check_section(spec, _QUANTITY, f"{path}.{key}", ignore=("margin",))
         out.append(Quantity(str(key), q["title"], q["metric"], q["stat"], q["not_comparable"],
-                            q["scale"]))
+                            q["scale"], _margin(spec.get("margin"), f"{path}.{key}.margin")))
     return tuple(out)
+
+
+def _margin(raw: Any, path: str) -> Margin | None:
+    if raw is None:
+        return None
+    m = check_section(raw, _MARGIN, path)
+    if (m["relative"] is None) == (m["absolute"] is None):
+        raise ConfigError(path, "give one of 'relative' or 'absolute', with 'why'")
+    return Margin(m["relative"], m["absolute"], m["why"])
 
 
 def _known(name: str, options, path: str, what: str) -> str:
@@ -257,11 +275,14 @@ def _table(raw: Any, path: str) -> Table:
         per_trial = PerTrial(top_pt["metric"], top_pt["title"], tuple(rows), also)
     factors = []
     for i, f in enumerate(_list(raw.get("factors"), f"{path}.factors", True)):
-        f = check_section(f, _FACTOR, f"{path}.factors[{i}]")
-        _known(f["quantity"], qkeys, f"{path}.factors[{i}].quantity", "quantity")
+        here = f"{path}.factors[{i}]"
+        f = check_mapping(here, f)
+        margin = _margin(f.get("margin"), f"{here}.margin")
+        f = check_section(f, _FACTOR, here, ignore=("margin",))
+        _known(f["quantity"], qkeys, f"{here}.quantity", "quantity")
         for end in ("from", "to"):
-            _known(f[end], labels, f"{path}.factors[{i}].{end}", "row label")
-        factors.append((f["quantity"], f["from"], f["to"]))
+            _known(f[end], labels, f"{here}.{end}", "row label")
+        factors.append((f["quantity"], f["from"], f["to"], margin))
     return Table(top["caption"], quantities, values, _strings(raw.get("notes"), f"{path}.notes"),
                  top["not_comparable"], ranking, cell_notes, per_trial, tuple(factors),
                  top["runs"])

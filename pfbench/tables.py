@@ -165,10 +165,16 @@ def footnotes(cmp: Comparison) -> list[str]:
                      f"({fmt(f['paper_from'], 4)} -> {fmt(f['paper_to'], 4)}); ours "
                      f"{fmt(f['ours'], 3)} [{fmt(f['lo'], 3)}, {fmt(f['hi'], 3)}] (paired "
                      f"trials): {f['verdict'] or '-'}.")
-    if exp.compare["paper_runs"]:
-        notes.append(f"The paper's values come from {exp.compare['paper_runs']} runs: a verdict's "
-                     "interval adds the sampling error of a batch that size to ours (half-width "
-                     "1.96 sqrt(se_ours^2 + se_batch^2)).")
+    table = cmp.reported
+    if table is not None and table.runs:
+        notes.append(f"The paper's values come from {table.runs} run"
+                     f"{'s' if table.runs > 1 else ''}: the verdicts' intervals add the sampling "
+                     "error of a batch that size to ours (standard error sqrt(se_ours^2 + "
+                     "se_batch^2), se_batch = se_ours sqrt(n_ours / runs)); the 95% interval "
+                     "each verdict used is in table.csv (verdict_lo_Q, verdict_hi_Q).")
+    for q in (table.quantities if table is not None else ()):
+        if q.margin is not None:
+            notes.append(f"Margin of '{q.title}': {q.margin.describe()}. {q.margin.why}")
     if exp.compare["baseline"]:
         notes.append(f"'RMSE - {exp.compare['baseline']}': mean per-trial RMSE difference to the "
                      "baseline on the same truth, with its 95% interval; 'Wins': fraction of trials "

@@ -1,46 +1,9 @@
-"""Computing a comparison: verdicts, intervals widened by the paper's runs, per-trial ratios and
-the factors' intervals (pfbench.compare)."""
-import math
-
+"""Computing a comparison: per-trial ratios and the factors' intervals (pfbench.compare; the
+verdicts themselves: test_verdicts)."""
 import numpy as np
-
-from pfbench.compare import verdict
-from pfbench.metrics import summarize
 
 from .conftest import ROOT
 from .test_tables import _afsa_cfg, _afsa_rows
-
-
-def test_verdicts():
-    assert verdict(None, 1.0, 0.9, 1.1) == ""
-    assert verdict(1.0, 1.05, 0.95, 1.15) == "reproduced"
-    assert verdict(2.0, 1.0, 0.9, 1.1) == "differs (x0.50)"
-    assert verdict(1.05, 1.0, 0.98, 1.02, rel_tol=0.1).startswith("reproduced (within 10%)")
-    assert "floor" in verdict(2.0, 3.0, 2.9, 3.1, floor=2.5)
-    assert "floor" not in verdict(2.0, 3.0, 2.9, 3.1, floor=1.5)
-    assert verdict(1.0, 1.0, 0.9, 1.1, not_comparable="units").startswith("not comparable")
-
-
-def test_paper_runs_widen_the_interval_by_the_batch_error():
-    from pfbench.papers import Quantity
-    from pfbench.compare import _stat
-    rng = np.random.default_rng(2)
-    s = summarize(rng.normal(1.0, 0.3, 1000))
-    q = Quantity("m", "m", "rmse", "mean")
-    v, lo, hi = _stat(s, q)
-    assert (lo, hi) == (s["ci_lo"], s["ci_hi"])
-    v, lo, hi = _stat(s, q, paper_runs=100)
-    # a 100-run batch has sqrt(1000 / 100) times our standard error: half-width 1.96 se sqrt(11)
-    assert math.isclose(hi - v, 1.959963984540054 * s["se"] * math.sqrt(11), rel_tol=1e-12)
-    qv = Quantity("v", "v", "rmse", "var")
-    v, lo, hi = _stat(s, qv, paper_runs=100)
-    assert math.isclose(hi - v, 1.959963984540054 * s["var_se"] * math.sqrt(11), rel_tol=1e-12)
-
-
-def test_a_paper_range_is_reproduced_when_our_interval_meets_it():
-    from pfbench.compare import verdict
-    assert verdict((10.0, 20.0), 22.0, 19.0, 25.0).startswith("reproduced")
-    assert verdict((10.0, 20.0), 5.0, 4.0, 6.0) == "differs (x0.33 the range's middle)"
 
 
 def test_time_ratio_is_per_trial_against_the_baseline():

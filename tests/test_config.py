@@ -58,7 +58,10 @@ CASES = [
     ("unknown paper", "seed: 0\n", "seed: 0\npaper: ifa2012\n", ["paper", "did you mean 'ifa2021'"]),
     ("unknown baseline", "seed: 0\n", "seed: 0\ncompare: {baseline: pff}\n",
      ["compare.baseline", "did you mean 'pf'"]),
-    ("paper_runs zero", "seed: 0\n", "seed: 0\ncompare: {paper_runs: 0}\n", ["compare.paper_runs"]),
+    ("paper_runs moved", "seed: 0\n", "seed: 0\ncompare: {paper_runs: 100}\n",
+     ["compare.paper_runs", "the table's 'runs' in the paper file"]),
+    ("rel_tol moved", "seed: 0\n", "seed: 0\ncompare: {rel_tol: 0.1}\n",
+     ["compare.rel_tol", "a margin of the quantity in the paper file"]),
     ("negative floor", "    label: PF\n", "    label: PF\n    likelihood_floor: -1.0\n",
      ["filters.pf.likelihood_floor", ">= 0"]),
 ]

@@ -62,8 +62,10 @@ def test_report_puts_the_papers_tables_beside_ours(small_results):
                                                 results / "sspf_upf_gamma", table=tab,
                                                 comparison=cmp))
     assert counts["values"] == 8
-    assert summ.split(" | ")[4:8] == [str(counts[k]) for k in ("values", "reproduced", "differ",
-                                                               "not comparable")]
+    assert summ.split(" | ")[4:9] == [str(counts[k]) for k in (
+        "values", "reproduced", "differ", "inconclusive", "not comparable")]
+    assert sum(counts[k] for k in ("reproduced", "differ", "inconclusive", "not comparable")) \
+        == counts["values"]
     # the choices, read from the configs
     assert re.search(r"\| `filters.pf.likelihood_floor` \| 0 \(sspf_ungm\); 1e-99 "
                      r"\(sspf_upf_gamma\) \|", text)

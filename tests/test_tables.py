@@ -91,12 +91,12 @@ def test_paper_factors_and_the_per_trial_table(write_config):
     div = rng.uniform(0.01, 0.02, exp.trials)
     cmp = compare(exp, _afsa_rows(exp, {
         "pso": {"position_error": pso},
-        "afsa": {"position_error": 0.1 * pso, "diversity_l1": 3 * div},
+        "afsa": {"position_error": 0.2 * pso, "diversity_l1": 3 * div},
         "afsa_std": {"diversity_l1": div, "mean_ess": np.full(exp.trials, 1.5)}}))
     tab = cmp.table
     f = {x["quantity"]: x for x in cmp.factors}
     pos = f["position error (m)"]
-    assert pos["ours"] == pytest.approx(0.1) and pos["hi"] - pos["lo"] == pytest.approx(0, abs=1e-9)
+    assert pos["ours"] == pytest.approx(0.2) and pos["hi"] - pos["lo"] == pytest.approx(0, abs=1e-9)
     assert pos["paper"] == pytest.approx(0.034 / 0.41)
     assert pos["verdict"].startswith("differs")
     assert f["diversity"]["ours"] == pytest.approx(3.0)
