@@ -23,16 +23,35 @@ MEAN_COLUMNS = ("mean_ess", "resample_count", "diversity_l1", "distinct_frac",
 
 
 @dataclass(frozen=True)
+class Pair:
+    """Two rows the paper orders (``low`` below ``high`` in its table) and what our paired trials
+    say: the mean per-trial difference low - high with its 95% interval, and
+    'same' (resolved: the interval lies below zero), 'opposite' (resolved: above zero) or
+    'unresolved' (it holds zero, or no paired per-trial values exist)."""
+    low: str
+    high: str
+    diff: float
+    lo: float
+    hi: float
+    status: str
+
+
+@dataclass(frozen=True)
 class Ranking:
-    """The order of a paper's rows by a quantity at one particle count, the paper's and ours."""
+    """The order of a paper's rows by a quantity at one particle count, the paper's and ours
+    (point estimates), and each pair of rows judged on paired trials."""
     quantity: Quantity
     particles: int | None
     paper: list[str]
     ours: list[str]
+    pairs: tuple[Pair, ...] = ()
 
     @property
     def same(self) -> bool:
         return self.paper == self.ours
+
+    def count(self, status: str) -> int:
+        return sum(p.status == status for p in self.pairs)
 
 
 @dataclass(frozen=True)
@@ -60,7 +79,9 @@ class Comparison:
 
     table : one row per filter run: statistics over trials (rmse_mean, rmse_ci_lo, ...), the
         paired difference to the baseline run, and per reported quantity Q: ours_Q, its
-        interval ours_lo_Q / ours_hi_Q, paper_Q, ratio_Q and verdict_Q
+        interval ours_lo_Q / ours_hi_Q, the trials it averages n_Q (fewer than all for a metric
+        defined only on some, such as the convergence step), paper_Q, ratio_Q, verdict_Q and
+        the 95% interval the verdict used verdict_lo_Q / verdict_hi_Q
     factors : the paper's factors between two of its rows beside ours (dicts)
     per_trial : the paper's per-run table beside our first trials, or None
     rankings : the paper's orders of its rows beside ours
@@ -126,9 +147,26 @@ def _metric_values(metric: str, g: pd.DataFrame, base: pd.DataFrame | None):
     return a / base.set_index("trial")["wall_s"].reindex(a.index)
 
 
-def rankings(exp: Experiment, tab: pd.DataFrame) -> list[Ranking]:
+def _pair(q: Quantity, low: str, high: str, a: pd.DataFrame | None,
+          b: pd.DataFrame | None) -> Pair:
+    """Rows ``low`` and ``high`` (their trials a and b) judged on the paired per-trial values of
+    q's metric (a variance, a gain or a ratio has none: unresolved)."""
+    if a is None or b is None or q.stat != "mean" or q.metric not in a:
+        return Pair(low, high, math.nan, math.nan, math.nan, "unresolved")
+    x = a.set_index("trial")[q.metric] * q.scale
+    y = b.set_index("trial")[q.metric].reindex(x.index) * q.scale
+    d = summarize((x - y).to_numpy(float))
+    est = Estimate(d["mean"], d["se"], d["n"])
+    lo, hi = est.interval(0.95)
+    status = "same" if hi < 0 else "opposite" if lo > 0 else "unresolved"
+    return Pair(low, high, d["mean"], lo, hi, status)
+
+
+def rankings(exp: Experiment, tab: pd.DataFrame, by_key: dict | None = None) -> list[Ranking]:
     """For a table whose paper claims an order of its rows: per ranked quantity and particle count
-    with two or more rows, the paper's order and ours (``tab``: a comparison's table)."""
+    with two or more rows, the paper's order and ours (``tab``: a comparison's table), and every
+    pair of rows the paper orders judged on paired trials (``by_key``: each filter run's trials;
+    without them every pair is unresolved)."""
     table = exp.reported
     if table is None or table.ranking is None:
         return []
@@ -139,19 +177,24 @@ def rankings(exp: Experiment, tab: pd.DataFrame) -> list[Ranking]:
         for n in counts:
             labels = [lab for (lab, m) in table.values
                       if m == n and q.key in table.values[(lab, m)]]
-            ours = {}
+            ours, runs = {}, {}
             for lab in labels:
                 # a paper that gives no particle count (n None) is matched by label alone
                 r = tab[(tab["label"] == lab) & ((tab["particles"] == n) if n is not None else True)]
                 if len(r):
                     ours[lab] = float(r.iloc[0][f"ours_{q.key}"])
+                    if by_key is not None and "filter" in r:
+                        runs[lab] = by_key.get(r.iloc[0]["filter"])
             if len(ours) < 2:
                 continue
-            paper_order = sorted(ours, key=lambda lab: table.values[(lab, n)][q.key])
+            paper_value = {lab: table.values[(lab, n)][q.key] for lab in ours}
+            paper_order = sorted(ours, key=lambda lab: paper_value[lab])
             our_order = sorted(ours, key=lambda lab: ours[lab])
-            out.append(Ranking(q, n, paper_order, our_order))
+            pairs = tuple(_pair(q, low, high, runs.get(low), runs.get(high))
+                          for i, low in enumerate(paper_order) for high in paper_order[i + 1:]
+                          if paper_value[low] != paper_value[high])
+            out.append(Ranking(q, n, paper_order, our_order, pairs))
     return out
-
 
 
 def baseline_runs(exp: Experiment) -> dict[str, str]:
@@ -211,6 +254,8 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame) -> Comparison:
                 ours = est.value
                 r[f"ours_{q.key}"] = ours
                 r[f"ours_lo_{q.key}"], r[f"ours_hi_{q.key}"] = our_interval(q, est, g)
+                r[f"n_{q.key}"] = est.n         # the trials it averages (a conditional metric:
+                                                # those where it is defined)
                 if isinstance(paper, tuple):      # a range: shown as such, ratio to its middle
                     r[f"paper_{q.key}"] = f"{paper[0]:g}-{paper[1]:g}"
                     r[f"ratio_{q.key}"] = ours / (0.5 * (paper[0] + paper[1]))
@@ -230,7 +275,7 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame) -> Comparison:
     if table is None:
         return Comparison(exp, tab)
     return Comparison(exp, tab, factors(exp, table, by_key), per_trial(exp, table, by_key),
-                      rankings(exp, tab))
+                      rankings(exp, tab, by_key))
 
 
 def _run_by_label(exp: Experiment, label: str):

@@ -13,17 +13,32 @@ from .store import atomic_write, write_csv
 
 
 def ranking_lines(rankings: list[Ranking]) -> list[str]:
-    """Rankings as lines: the paper's order and ours at each particle count (for each ranked
-    quantity), whether they agree, and how often over all."""
-    lines = [f"Ranking by {r.quantity.title}"
-             f"{f' at N = {r.particles}' if r.particles is not None else ''}: paper "
-             f"{' < '.join(r.paper)}; ours {' < '.join(r.ours)}: "
-             f"{'same order' if r.same else 'differs'}."
-             for r in rankings]
-    if len(rankings) > 1:
-        lines.append(f"Rankings: the same order in {sum(r.same for r in rankings)} of "
-                     f"{len(rankings)} comparisons.")
+    """Rankings as lines: the paper's order and ours (point estimates) at each particle count
+    (for each ranked quantity), then each pair of rows judged on paired trials, and the count of
+    pairs resolved in the paper's order, resolved against it, and unresolved."""
+    lines = []
+    for r in rankings:
+        where = f"{r.quantity.title}{f' at N = {r.particles}' if r.particles is not None else ''}"
+        judged = "; ".join(f"{p.low} < {p.high}: "
+                           + ("unresolved" if p.status == "unresolved" else
+                              f"{'same order' if p.status == 'same' else 'opposite'}, resolved")
+                           + (f" ({_signed(p.diff)} [{_signed(p.lo)}, {_signed(p.hi)}])"
+                              if p.diff == p.diff else "")
+                           for p in r.pairs)
+        lines.append(f"Ranking by {where}: paper {' < '.join(r.paper)}; ours "
+                     f"{' < '.join(r.ours)}" + (f". Pairs (paired 95% interval of the "
+                                                f"difference): {judged}." if judged else "."))
+    pairs = [p for r in rankings for p in r.pairs]
+    if pairs:
+        n = {k: sum(p.status == k for p in pairs) for k in ("same", "opposite", "unresolved")}
+        lines.append(f"Pairs of rows the paper orders: {n['same']} in its order and "
+                     f"{n['opposite']} in the opposite order, resolved by a paired 95% interval; "
+                     f"{n['unresolved']} unresolved (of {len(pairs)}).")
     return lines
+
+
+def _signed(v: float) -> str:
+    return f"{v:+.3g}"
 
 
 def per_trial_cells(pt: PerTrial) -> tuple[str, list[str], list[list[str]]]:
@@ -94,10 +109,15 @@ def _ours_head(q: Quantity) -> str:
 
 
 def ours_cell(r, q: Quantity) -> str:
+    """Our value with its 95% interval, and the trials it averages where that is not all of
+    them (a convergence step averages the trials that converge)."""
     v = r.get(f"ours_{q.key}", math.nan)
+    n = r.get(f"n_{q.key}", math.nan)
+    over = (f" over {int(n)} of {int(r['trials'])} trials"
+            if n == n and n is not None and int(n) < int(r["trials"]) else "")
     if v != v:
         return "-"
-    return f"{fmt(v)} [{fmt(r[f'ours_lo_{q.key}'])}, {fmt(r[f'ours_hi_{q.key}'])}]"
+    return f"{fmt(v)} [{fmt(r[f'ours_lo_{q.key}'])}, {fmt(r[f'ours_hi_{q.key}'])}]{over}"
 
 
 def console_tables(cmp: Comparison) -> list[tuple[str, list[str], list[list[str]]]]:

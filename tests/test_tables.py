@@ -1,50 +1,54 @@
-"""Rendering a comparison: ranking lines, the per-run table, table.md."""
+"""Rendering a comparison: ranking lines, the per-run table, table.md; rankings judged pair by
+pair on paired trials."""
+import re
 
 import numpy as np
 import pytest
 
-
 from .conftest import ROOT
 
 
-def test_ranking_lines_compare_orders(write_config):
+def _ifa_rows(exp, rmse: dict):
     import pandas as pd
+    rows = [{"trial": k, "filter": f.key, "label": f.label, "particles": f.particles,
+             "wall_s": 1.0, **{m: 1.0 for m in ("mse", "diversity_l1", "distinct_frac",
+                                                 "mean_ess", "resample_count",
+                                                 "underflow_steps", "diverged_steps",
+                                                 "lik_evals_per_step")},
+             "rmse": float(rmse[f.label][k])}
+            for f in exp.filters for k in range(len(rmse[f.label]))]
+    return pd.DataFrame(rows)
 
-    from pfbench.compare import rankings
+
+def test_each_pair_of_rows_is_resolved_or_not_on_paired_trials(write_config):
+    from pfbench.compare import compare
     from pfbench.config import load
     from pfbench.tables import ranking_lines
-    cfg = write_config("paper: ifa2021\ntable: table1\nscenario: {name: ungm}\nfilters:\n"
-                       "  pf: {label: PF, particles: 50}\n  fa: {label: FA-PF, particles: 50}\n")
+    cfg = write_config("paper: ifa2021\ntable: table1\ntrials: 40\nscenario: {name: ungm}\n"
+                       "filters:\n  pf: {label: PF, particles: 50}\n"
+                       "  fa: {label: FA-PF, particles: 50}\n  ba: {label: BA-PF, particles: 50}\n")
     exp = load(cfg)
-    tab = pd.DataFrame({"label": ["PF", "FA-PF"], "particles": [50, 50],
-                        "ours_rmse_mean": [4.0, 3.0]})
-    assert ranking_lines(rankings(exp, tab)) == [
-        "Ranking by RMSE at N = 50: paper FA-PF < PF; ours FA-PF < PF: same order."]
-    tab["ours_rmse_mean"] = [3.0, 4.0]
-    assert ranking_lines(rankings(exp, tab))[0].endswith("ours PF < FA-PF: differs.")
-
-
-def test_rankings_over_several_quantities_count_the_agreements(write_config):
-    import pandas as pd
-
-    from pfbench.compare import rankings
-    from pfbench.config import load
-    from pfbench.tables import ranking_lines
-    world = ROOT / "configs/worlds/beacon_field.yaml"
-    cfg = write_config(f"paper: asrl2008\ntable: table1\nscenario: {{name: beacon_field, world: "
-                       f"{world}}}\nfilters:\n  srl: {{type: mcl, label: SRL, particles: [100, 200], "
-                       "reset: srl}\n  asrl: {type: mcl, label: ASRL, particles: [100, 200], "
-                       "reset: asrl}\n")
-    exp = load(cfg)
-    # paper: ASRL below SRL in x, y and heading at 100 and 200 particles
-    tab = pd.DataFrame({"label": ["SRL", "SRL", "ASRL", "ASRL"], "particles": [100, 200, 100, 200],
-                        "ours_x_mm": [50.0, 50.0, 40.0, 60.0], "ours_y_mm": [1.0, 1.0, 2.0, 2.0],
-                        "ours_th_deg": [3.0, 3.0, 2.0, 2.0]})
-    lines = ranking_lines(rankings(exp, tab))
-    assert len(lines) == 7
-    assert lines[1] == ("Ranking by x error (mm) at N = 200: paper ASRL < SRL; ours SRL < ASRL: "
-                        "differs.")
-    assert lines[-1] == "Rankings: the same order in 3 of 6 comparisons."
+    rng = np.random.default_rng(3)
+    common = rng.normal(4.0, 1.0, 40)              # the same truth per trial: paired
+    # the paper: IFA < FA (3.227) < BA (3.6631) < PF (4.2216) at N = 50
+    rmse = {"PF": common + 0.5 + rng.normal(0, 0.05, 40),        # clearly above FA: resolved
+            "FA-PF": common + rng.normal(0, 0.05, 40),
+            "BA-PF": common + 0.001 + rng.normal(0, 0.3, 40)}    # BA vs FA: unresolved
+    cmp = compare(exp, _ifa_rows(exp, rmse))
+    (r,) = [r for r in cmp.rankings if r.quantity.key == "rmse_mean"]
+    status = {(p.low, p.high): p.status for p in r.pairs}
+    assert status[("FA-PF", "PF")] == "same" and status[("BA-PF", "PF")] == "same"
+    assert status[("FA-PF", "BA-PF")] == "unresolved"
+    lines = ranking_lines(cmp.rankings)
+    assert lines[0].startswith("Ranking by RMSE at N = 50: paper FA-PF < BA-PF < PF; ours ")
+    assert re.search(r"FA-PF < PF: same order, resolved \(-0\.4\d+ \[-0\.\d+, -0\.\d+\]\)", lines[0])
+    assert lines[-1] == ("Pairs of rows the paper orders: 2 in its order and 0 in the opposite "
+                         "order, resolved by a paired 95% interval; 1 unresolved (of 3).")
+    # reversed: PF clearly below FA resolves against the paper
+    rmse["PF"] = common - 0.5 + rng.normal(0, 0.05, 40)
+    (r,) = [r for r in compare(exp, _ifa_rows(exp, rmse)).rankings
+            if r.quantity.key == "rmse_mean"]
+    assert {(p.low, p.high): p.status for p in r.pairs}[("FA-PF", "PF")] == "opposite"
 
 
 AFSA_CFG = """\
@@ -113,3 +117,24 @@ def test_paper_factors_and_the_per_trial_table(write_config):
     md = markdown(cmp)
     assert "paper: traditional | 0.42 | 0.29" in md and "AFSA-FastSLAM / PSO-FastSLAM" in md
 
+
+
+def test_a_conditional_metric_names_its_denominator():
+    import math
+
+    import pandas as pd
+
+    from pfbench.compare import estimate
+    from pfbench.papers import Quantity
+    from pfbench.tables import ours_cell
+    q = Quantity("step", "convergence step", "converge_step", "mean")
+    g = pd.DataFrame({"trial": range(100),
+                      "converge_step": [20.0 + k % 7 for k in range(16)] + [math.nan] * 84})
+    est = estimate(q, g, None)
+    assert est.n == 16
+    lo, hi = est.interval(0.95)
+    r = {"ours_step": est.value, "ours_lo_step": lo, "ours_hi_step": hi, "n_step": est.n,
+         "trials": 100}
+    assert ours_cell(r, q).endswith(" over 16 of 100 trials")
+    r["n_step"] = 100
+    assert "over" not in ours_cell(r, q)
