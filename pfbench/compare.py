@@ -6,7 +6,7 @@ puts it in the report.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
@@ -138,13 +138,15 @@ def our_interval(q: Quantity, est: Estimate, g: pd.DataFrame) -> tuple[float, fl
 
 def _metric_values(metric: str, g: pd.DataFrame, base: pd.DataFrame | None):
     """Per-trial values of ``metric`` for one filter run (g); 'time_ratio' is the wall time over the
-    baseline run's on the same trial (NaN without a baseline)."""
-    if metric != "time_ratio":
+    baseline run's on the same trial, 'evals_ratio' the likelihood evaluations per step over the
+    baseline's (NaN without a baseline)."""
+    ratio_of = {"time_ratio": "wall_s", "evals_ratio": "lik_evals_per_step"}.get(metric)
+    if ratio_of is None:
         return g[metric]
     if base is None:
         return pd.Series([math.nan] * len(g))
-    a = g.set_index("trial")["wall_s"]
-    return a / base.set_index("trial")["wall_s"].reindex(a.index)
+    a = g.set_index("trial")[ratio_of]
+    return a / base.set_index("trial")[ratio_of].reindex(a.index)
 
 
 def _pair(q: Quantity, low: str, high: str, a: pd.DataFrame | None,
@@ -263,12 +265,21 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame) -> Comparison:
                     r[f"paper_{q.key}"] = paper
                     r[f"ratio_{q.key}"] = ours / paper if paper else math.nan
                 floored_q = q.metric == "rmse" and q.stat == "mean"  # the floor is an RMSE level
-                v = decide(paper, est, margin=q.margin, paper_runs=table.runs,
+                judge = est
+                if q.judged_by is not None:     # a deterministic measure of the same thing
+                    judge = estimate(replace(q, metric=q.judged_by), g,
+                                     by_key.get(pairs.get(run.key)))
+                v = decide(paper, judge, margin=q.margin, paper_runs=table.runs,
                            floor=floor if floored_q and run.key != exp.compare["floor"] else None,
                            not_comparable=(table.cell_notes.get((run.label, run.particles, q.key))
                                            or q.not_comparable or table.not_comparable),
-                           judged=q.metric not in MACHINE_METRICS)
-                r[f"verdict_{q.key}"] = v.text
+                           judged=q.judged_by is not None or q.metric not in MACHINE_METRICS)
+                text = v.text
+                if q.judged_by is not None and v.kind in ("reproduced", "differs",
+                                                          "inconclusive"):
+                    text = f"{text}, judged on {q.judged_by.replace('_', ' ')} " \
+                           f"{judge.value:.3g}"
+                r[f"verdict_{q.key}"] = text
                 r[f"verdict_lo_{q.key}"], r[f"verdict_hi_{q.key}"] = v.lo, v.hi
         out.append(r)
     tab = pd.DataFrame(out)

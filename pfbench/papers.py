@@ -27,7 +27,7 @@ from .yamlio import read_yaml
 
 # our per-trial metrics a quantity can stand for, beyond the trials file's columns: the wall time
 # over the baseline's on the same trial, and the gains over the baseline (pfbench.compare)
-DERIVED_METRICS = ("time_ratio", "gain_mean", "gain_var")
+DERIVED_METRICS = ("time_ratio", "evals_ratio", "gain_mean", "gain_var")
 STATS = ("mean", "var")
 
 
@@ -41,6 +41,9 @@ class Quantity:
     not_comparable: str | None = None   # why our value cannot be held against the paper's
     scale: float = 1.0                  # our metric times this is in the paper's unit
     margin: Margin | None = None        # how far ours may lie from it and still be the same
+    # a deterministic measure of the same thing that the verdict uses instead (run times depend
+    # on the machine: 'evals_ratio', the likelihood evaluations per step over the baseline's)
+    judged_by: str | None = None
 
 
 @dataclass(frozen=True)
@@ -137,6 +140,9 @@ _QUANTITY = {
                  min=0.0, min_exclusive=True),
     "not_comparable": Key("str", None, "why our values cannot be held against this column",
                           nullable=True),
+    "judged_by": Key("choice", None, "a deterministic measure of the same quantity the verdict "
+                     "uses instead of ours (evals_ratio, for a run-time ratio)", nullable=True,
+                     choices=("evals_ratio",)),
 }
 _MARGIN = {
     "relative": Key("float", None, "as a fraction of the paper's value (0.1: within 10%)",
@@ -194,7 +200,8 @@ def _quantities(raw: Any, path: str) -> tuple[Quantity, ...]:
         spec = check_mapping(f"{path}.{key}", spec)
         q = check_section(spec, _QUANTITY, f"{path}.{key}", ignore=("margin",))
         out.append(Quantity(str(key), q["title"], q["metric"], q["stat"], q["not_comparable"],
-                            q["scale"], _margin(spec.get("margin"), f"{path}.{key}.margin")))
+                            q["scale"], _margin(spec.get("margin"), f"{path}.{key}.margin"),
+                            q["judged_by"]))
     return tuple(out)
 
 

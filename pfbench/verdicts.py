@@ -39,7 +39,8 @@ DEFINITIONS = (
     "can); a quantity without a declared margin is never called reproduced.",
     "*not comparable*: the paper's setting cannot be rebuilt (a real robot, an unpublished "
     "course, a single run) or the quantity depends on the machine (run times): shown, never "
-    "judged; the notes give each reason.",
+    "judged; the notes give each reason. Where the paper file names a deterministic measure of "
+    "the same cost (likelihood evaluations per step), the verdict judges that instead.",
     "Where the paper states how many runs its values come from, every interval a verdict uses "
     "adds the sampling error of a batch that size to ours. Intervals are Student's t over trials "
     "(Wilson's for rates).",

@@ -1,6 +1,7 @@
 """Computing a comparison: per-trial ratios and the factors' intervals (pfbench.compare; the
 verdicts themselves: test_verdicts)."""
 import numpy as np
+import pytest
 
 from .conftest import ROOT
 from .test_tables import _afsa_cfg, _afsa_rows
@@ -35,3 +36,34 @@ def test_factor_interval_covers_the_true_ratio_about_95_percent(write_config):
         pos = next(x for x in factors(exp, table, by_key) if x["quantity"].startswith("position"))
         hits += pos["lo"] <= 0.5 <= pos["hi"]
     assert abs(hits / reps - 0.95) < 0.025
+
+
+def test_a_cost_claim_is_judged_on_evaluations_not_on_the_machines_time(write_config):
+    import dataclasses
+
+    import pandas as pd
+
+    from pfbench.compare import compare
+    from pfbench.config import load
+    cfg = write_config("paper: ifa2021\ntable: table1\ntrials: 10\nscenario: {name: ungm}\n"
+                       "filters:\n  pf: {label: PF, particles: 100}\n"
+                       "  ifa: {label: IFA-PF, particles: 100}\ncompare: {baseline: pf}\n")
+    exp = load(cfg)
+    rows = [{"trial": k, "filter": f.key, "label": f.label, "particles": 100, "rmse": 3.0,
+             "mse": 9.0, "diversity_l1": 0.0, "distinct_frac": 1.0, "mean_ess": 50.0,
+             "resample_count": 100.0, "underflow_steps": 0.0, "diverged_steps": 0.0,
+             # IFA: twice the evaluations, and 5 to 7 times the time on this machine
+             "lik_evals_per_step": 100.0 * (2 if f.name == "ifa" else 1),
+             "wall_s": 1e-3 * ((5 + k % 3) if f.name == "ifa" else 1)}
+            for f in exp.filters for k in range(10)]
+    tab = compare(exp, pd.DataFrame(rows)).table.set_index("filter")
+    assert tab.loc["ifa@100", "ours_time_ratio"] == pytest.approx(5.9)    # shown as measured
+    verdict = tab.loc["ifa@100", "verdict_time_ratio"]
+    assert verdict.startswith("reproduced") and verdict.endswith("judged on evals ratio 2")
+    # without the deterministic measure a run-time ratio is shown, never judged
+    q = next(q for q in exp.reported.quantities if q.key == "time_ratio")
+    plain = dataclasses.replace(exp.reported, quantities=(dataclasses.replace(q, judged_by=None),))
+    paper = dataclasses.replace(exp.reference, tables={"table1": plain})
+    exp2 = dataclasses.replace(exp, reference=paper)
+    tab = compare(exp2, pd.DataFrame(rows)).table.set_index("filter")
+    assert tab.loc["ifa@100", "verdict_time_ratio"].startswith("shown, not judged")
