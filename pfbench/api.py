@@ -99,7 +99,7 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
         processes); progress(done, total) is called as trials finish
     """
     from .compare import compare
-    from .runner import LocalExecutor, Trial, run_experiment as run_into, versions
+    from .runner import LocalExecutor, run_experiment as run_into, versions
     from .store import trial_columns
     exp = _experiment(config, trials, seed, overrides)
     if out is not None:
@@ -118,8 +118,7 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
         progress(0, exp.trials)
     for chunk in executor.run(exp, range(exp.trials), exp.trials):
         for t in chunk:
-            rows = t.rows if isinstance(t, Trial) else t
-            done.setdefault(rows[0]["trial"], rows)
+            done.setdefault(t.index, t.rows)
         if progress:
             progress(len(done), exp.trials)
     rows = [r for k in sorted(done) for r in done[k]]

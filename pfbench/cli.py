@@ -193,6 +193,12 @@ def _stop_on_interrupt(bar, before: str = "", after: str = ""):
         raise typer.Exit(130) from None
 
 
+def _papers_option():
+    """The --papers option of the commands that read configs (a fresh one for each)."""
+    return typer.Option([], "--papers", help="A folder of paper files (PAPER.yaml), looked in "
+                        "before papers/ beside the config and configs/papers/; repeatable.")
+
+
 def _use_papers(folders) -> None:
     """The --papers folders, looked in first for a config's paper file."""
     from .papers import search_folders
@@ -241,9 +247,7 @@ def run(
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler "
                                             "tcp://HOST:PORT (default with --executor dask: a "
                                             "local cluster of --workers processes)."),
-    papers: List[str] = typer.Option([], "--papers", help="A folder of paper files "
-                                      "(PAPER.yaml), looked in before papers/ beside the config "
-                                      "and configs/papers/; repeatable."),
+    papers: List[str] = _papers_option(),
 ):
     """Run an experiment: Monte Carlo trials, then the table beside the paper's values."""
     with _guard():
@@ -291,9 +295,7 @@ def sweep(
     executor: str = typer.Option("local", "--executor", help="'local' or 'dask' (see run)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler "
                                             "tcp://HOST:PORT (see run)."),
-    papers: List[str] = typer.Option([], "--papers", help="A folder of paper files "
-                                      "(PAPER.yaml), looked in before papers/ beside the config "
-                                      "and configs/papers/; repeatable."),
+    papers: List[str] = _papers_option(),
 ):
     """Run an experiment over the cartesian product of values of some of its keys."""
     with _guard():
@@ -352,9 +354,7 @@ def tables_(
     executor: str = typer.Option("local", "--executor", help="'local' or 'dask' (see run)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler "
                                             "tcp://HOST:PORT (see run)."),
-    papers: List[str] = typer.Option([], "--papers", help="A folder of paper files "
-                                      "(PAPER.yaml), looked in before papers/ beside the config "
-                                      "and configs/papers/; repeatable."),
+    papers: List[str] = _papers_option(),
 ):
     """Regenerate every config's results, or check them (--check) against the committed ones."""
     import math
@@ -432,9 +432,7 @@ def report(
                                             "RESULTS/REPORT.md)."),
     check: bool = typer.Option(False, "--check", help="Write nothing; exit 1 when the file is "
                                "not what the results give."),
-    papers: List[str] = typer.Option([], "--papers", help="A folder of paper files "
-                                      "(PAPER.yaml), looked in before papers/ beside the config "
-                                      "and configs/papers/; repeatable."),
+    papers: List[str] = _papers_option(),
 ):
     """Write the reproduction report: every paper's tables beside ours, from the results."""
     with _guard():
@@ -456,9 +454,7 @@ def report(
 @app.command()
 def validate(config: Path = typer.Argument(..., help="Experiment YAML file."),
              set_: List[str] = typer.Option([], "--set", help="KEY.PATH=VALUE override."),
-             papers: List[str] = typer.Option([], "--papers", help="A folder of paper files "
-                                      "(PAPER.yaml), looked in before papers/ beside the config "
-                                      "and configs/papers/; repeatable.")):
+             papers: List[str] = _papers_option()):
     """Check a config (and its paper file) against the schema; run nothing."""
     with _guard():
         _use_papers(papers)

@@ -157,11 +157,10 @@ def _pair(q: Quantity, low: str, high: str, a: pd.DataFrame | None,
         return Pair(low, high, math.nan, math.nan, math.nan, "unresolved")
     x = a.set_index("trial")[q.metric] * q.scale
     y = b.set_index("trial")[q.metric].reindex(x.index) * q.scale
-    d = summarize((x - y).to_numpy(float))
-    est = Estimate(d["mean"], d["se"], d["n"])
-    lo, hi = est.interval(0.95)
+    d = paired(x.to_numpy(float), y.to_numpy(float))
+    lo, hi = d["diff_ci_lo"], d["diff_ci_hi"]
     status = "same" if hi < 0 else "opposite" if lo > 0 else "unresolved"
-    return Pair(low, high, d["mean"], lo, hi, status)
+    return Pair(low, high, d["diff_mean"], lo, hi, status)
 
 
 def rankings(exp: Experiment, tab: pd.DataFrame, by_key: dict | None = None) -> list[Ranking]:

@@ -117,7 +117,7 @@ def check_probe(probe: Probe, configs: Path) -> tuple[list[str], object, list[di
     """Run one probe in this process: (problems, experiment, its rows)."""
     from .kinds import kind_of
     from .rng import state_from_seed
-    from .runner import data_seed, run_trial, trial_data
+    from .runner import data_seed, run_trial, trial_data, trial_result
     from .scenarios import SCENARIOS
     who = " and ".join(probe.subjects)
     where = f"{probe.filter} on {probe.scenario}"
@@ -137,7 +137,8 @@ def check_probe(probe: Probe, configs: Path) -> tuple[list[str], object, list[di
                 problems.append(f"scenario {probe.scenario}: the same seed simulated trial {k} "
                                 "twice differently")
             # the first run also keeps what the figures draw, as a results folder's run does
-            first, second = _numbers(run_trial(exp, k, True).rows), _numbers(run_trial(exp, k))
+            first = _numbers(trial_result(exp, k, traces=True).rows)
+            second = _numbers(run_trial(exp, k))
             if not _same(first, second):
                 problems.append(f"{who}: {where}, trial {k}: the same seed gave different "
                                 "numbers on a second run")

@@ -87,10 +87,19 @@ class Trial(NamedTuple):
     rows: list[dict]
     trace: dict | None = None
 
+    @property
+    def index(self) -> int:
+        return self.rows[0]["trial"]
 
-def run_trial(exp: Experiment, trial: int, traces: bool = False) -> list[dict] | Trial:
-    """One trial: simulate once, run every filter on the same data, one row of metrics each.
-    With ``traces``: a Trial, with the trace the kind keeps of it for the figures."""
+
+def run_trial(exp: Experiment, trial: int) -> list[dict]:
+    """One trial: simulate once, run every filter on the same data, one row of metrics each."""
+    return trial_result(exp, trial).rows
+
+
+def trial_result(exp: Experiment, trial: int, traces: bool = False) -> Trial:
+    """One trial's rows (run_trial) and, with ``traces``, the trace its kind keeps of it for the
+    figures."""
     model, truth, data = trial_data(exp, trial)
     tracer = kind_of(exp.scenario).tracer if traces else None
     keep = tracer is not None and tracer.keeps(exp, trial)
@@ -104,13 +113,11 @@ def run_trial(exp: Experiment, trial: int, traces: bool = False) -> list[dict] |
         rows.append(row)
         if keep:
             outs[run.key] = out
-    if not traces:
-        return rows
     return Trial(rows, tracer.keep(exp, trial, model, truth, data, outs) if keep else None)
 
 
 def _run_chunk(exp: Experiment, trials: list[int], traces: bool = False) -> list[Trial]:
-    return [run_trial(exp, k, True) if traces else Trial(run_trial(exp, k)) for k in trials]
+    return [trial_result(exp, k, traces) for k in trials]
 
 
 # ---------------------------------------------------------------- executors
@@ -430,15 +437,15 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn, traces)
     with open(partial, "a", encoding="utf-8", newline="") as fh:
         try:
             for chunk in executor.run(exp, todo, n_todo, traces):
-                chunk = [t for t in chunk if t.rows[0]["trial"] not in done]
+                chunk = [t for t in chunk if t.index not in done]
                 for t in chunk:       # the trace first: a trial with rows but no trace reruns
                     if t.trace is not None:
-                        kept[t.rows[0]["trial"]] = t.trace
-                        stage_trace(out_dir, t.rows[0]["trial"], t.trace)
+                        kept[t.index] = t.trace
+                        stage_trace(out_dir, t.index, t.trace)
                 fh.write(csv_text((r for t in chunk for r in t.rows), False, columns))
                 fh.flush()
                 for t in chunk:
-                    done[t.rows[0]["trial"]] = t.rows
+                    done[t.index] = t.rows
                 if progress:
                     progress(len(done), total)
         except KeyboardInterrupt:

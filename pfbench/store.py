@@ -176,8 +176,6 @@ def complete_trials(rows: list[dict], exp: Experiment) -> dict[int, list[dict]]:
             for k, v in by_trial.items() if len(v) == len(order)}
 
 
-
-
 # ---------------------------------------------------------------- traces
 
 def _npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:

@@ -115,20 +115,20 @@ class LocalizationTracer:
 
     def keep(self, exp, trial, model, truth, data, outs) -> dict:
         trace = {}
+        asked = self.extras(exp, model, data, trial)      # the runs given snapshot steps
         for r in error_runs(exp):
             out = outs[r.key]
             trace[f"{r.key}/error"] = _f32(np.hypot(*(out["pose"][:, :2] - truth.pose[:, :2]).T))
             if "n" in out:
                 trace[f"{r.key}/n"] = np.asarray(out["n"], dtype=np.int32)
         if trial == 0:
-            from .filters import FILTERS
             steps = np.asarray(snapshot_steps(data.ctrl.shape[0], model.kidnaps))
             trace["steps"] = steps
             trace["truth_pose_at"] = _f32(truth.pose[steps])
             for r in snapshot_runs(exp):
                 out = outs[r.key]
                 trace[f"{r.key}/pose_at"] = _f32(out["pose"][steps])
-                if FILTERS[r.type].snapshots:       # asked for them (extras)
+                if r.key in asked:
                     got, parts, counts = out["snapshots"]
                     if list(got) != list(steps):
                         raise ValueError(f"filter {r.type}: snapshots at steps {list(got)}, "

@@ -60,7 +60,7 @@ class Margin:
             return self.absolute
         return abs(paper) * (self.relative or 0.0)
 
-    def describe(self, paper: float | None = None) -> str:
+    def describe(self) -> str:
         if self.absolute is not None:
             return f"+-{self.absolute:g}"
         return f"+-{self.relative:.0%}"
