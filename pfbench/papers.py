@@ -23,7 +23,7 @@ from .errors import UserError
 from .metrics import METRICS
 from .schema import ConfigError, Key, check_mapping, check_section, describe, did_you_mean
 from .verdicts import Margin
-from .yamlio import read_yaml
+from .yamlio import MAX_YAML_BYTES, read_yaml
 
 # our per-trial metrics a quantity can stand for, beyond the trials file's columns: the wall time
 # over the baseline's on the same trial, and the gains over the baseline (pfbench.compare)
@@ -399,7 +399,10 @@ def find(key: str, config: str | Path | None = None) -> Paper:
                           + "; give its folder with --papers")
     path = files[key]
     try:
-        # a sweep validates its config once per cell: read the file each time, parse it once
+        # a sweep validates its config once per cell: read the file each time, parse it once;
+        # a file too large to be a paper is refused by read(), never read whole here
+        if path.stat().st_size > MAX_YAML_BYTES:
+            return read(path)
         stamp = (str(path.resolve()), path.read_bytes())
         if stamp not in _cache:
             _cache[stamp] = read(path)

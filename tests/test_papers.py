@@ -193,3 +193,24 @@ def test_the_readmes_paper_is_judged_by_run_and_report(tmp_path):
     assert "no filter run 'pf@101' in smith_ungm (did you mean 'pf@100'?)" in res.output
     assert "(broken reference smith_ungm:pf@101:rmse_mean:ci)" in \
         (results / "REPORT.md").read_text()
+
+
+def test_a_paper_file_too_large_is_refused_without_being_read_whole(tmp_path, monkeypatch):
+    import pathlib
+
+    from pfbench.errors import UserError
+    from pfbench.yamlio import MAX_YAML_BYTES
+    whole = pathlib.Path.read_bytes
+
+    def read_bytes(self):
+        assert self.name != "smith2024.yaml", "the oversized paper file was read whole"
+        return whole(self)
+    monkeypatch.setattr(pathlib.Path, "read_bytes", read_bytes)
+    (tmp_path / "papers").mkdir()
+    big = tmp_path / "papers" / "smith2024.yaml"
+    with open(big, "wb") as fh:           # sparse: no disk, and never read into memory
+        fh.truncate(MAX_YAML_BYTES + 1)
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("paper: smith2024\nscenario: {name: ungm}\nfilters: {ukf: {}}\n")
+    with pytest.raises(UserError, match="larger than"):
+        load(cfg)
