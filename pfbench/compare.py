@@ -80,8 +80,9 @@ class Comparison:
     table : one row per filter run: statistics over trials (rmse_mean, rmse_ci_lo, ...), the
         paired difference to the baseline run, and per reported quantity Q: ours_Q, its
         interval ours_lo_Q / ours_hi_Q, the trials it averages n_Q (fewer than all for a metric
-        defined only on some, such as the convergence step), paper_Q, ratio_Q, verdict_Q and
-        the 95% interval the verdict used verdict_lo_Q / verdict_hi_Q
+        defined only on some, such as the convergence step), paper_Q, ratio_Q, verdict_Q (the
+        text), kind_Q (reproduced, differs, inconclusive, not comparable, or '' without a paper
+        value) and the 95% interval the verdict used verdict_lo_Q / verdict_hi_Q
     factors : the paper's factors between two of its rows beside ours (dicts)
     per_trial : the paper's per-run table beside our first trials, or None
     rankings : the paper's orders of its rows beside ours
@@ -279,6 +280,7 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame) -> Comparison:
                     text = f"{text}, judged on {q.judged_by.replace('_', ' ')} " \
                            f"{judge.value:.3g}"
                 r[f"verdict_{q.key}"] = text
+                r[f"kind_{q.key}"] = v.kind
                 r[f"verdict_lo_{q.key}"], r[f"verdict_hi_{q.key}"] = v.lo, v.hi
         out.append(r)
     tab = pd.DataFrame(out)
@@ -321,7 +323,7 @@ def factors(exp: Experiment, table: Table, by_key: dict) -> list[dict]:
         v = decide(paper, est, margin=margin)
         rows.append({"quantity": q.title, "from": a_label, "to": b_label, "paper_from": pa,
                      "paper_to": pb, "paper": paper, "ours": ratio, "lo": lo, "hi": hi,
-                     "verdict": v.text})
+                     "verdict": v.text, "kind": v.kind})
     return rows
 
 

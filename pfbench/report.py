@@ -242,22 +242,18 @@ def _interval_columns(col: str) -> tuple[str, str]:
 # ---- counting verdicts
 
 def verdict_counts(e: Entry) -> dict[str, int]:
-    """Paper values compared, by verdict: reproduced, differ, inconclusive, not comparable."""
+    """Paper values compared, by the kind of verdict the engine gave each: reproduced, differ,
+    inconclusive, not comparable."""
     table = e.exp.reported
     counts = {"values": 0, "reproduced": 0, "differ": 0, "inconclusive": 0, "not comparable": 0}
     if table is None or e.table is None:
         return counts
-    verdicts = [r[f"verdict_{q.key}"] for q in table.quantities for _, r in e.table.iterrows()]
-    verdicts += [f["verdict"] for f in (e.comparison.factors if e.comparison else [])]
-    for v in verdicts:
-        if not isinstance(v, str) or not v:
-            continue
-        counts["values"] += 1
-        kind = next((k for k in ("reproduced", "inconclusive", "not comparable")
-                     if v.startswith(k)), "differ")
-        if v.startswith("shown, not judged"):
-            kind = "not comparable"
-        counts[kind] += 1
+    kinds = [r[f"kind_{q.key}"] for q in table.quantities for _, r in e.table.iterrows()]
+    kinds += [f["kind"] for f in (e.comparison.factors if e.comparison else [])]
+    for kind in kinds:
+        if isinstance(kind, str) and kind:
+            counts["values"] += 1
+            counts["differ" if kind == "differs" else kind] += 1
     return counts
 
 
