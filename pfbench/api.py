@@ -11,6 +11,7 @@ run`` writes (the CLI calls this function). ``load_results`` reads such a folder
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 import time
 from dataclasses import dataclass, field
@@ -21,7 +22,7 @@ import pandas as pd
 
 from .errors import UserError
 
-__all__ = ["Result", "load_results", "run_experiment"]
+__all__ = ["Result", "load_results", "run_experiment", "run_until_decided"]
 
 
 @dataclass
@@ -130,6 +131,92 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
     return Result(_frame(rows, trial_columns(exp)), cmp.table, meta, exp, None, cmp)
 
 
+def anytime_of(meta: dict | None) -> int | None:
+    """The most trials a run until decided could reach (its confidence sequences are tuned for
+    it), from a results folder's meta; None for a run of a fixed trial count."""
+    until = (meta or {}).get("until_decided")
+    return int(until["max_trials"]) if isinstance(until, dict) and "max_trials" in until else None
+
+
+def undecided(cmp) -> list[int | None]:
+    """For every judged cell (and factor) of a comparison left inconclusive, the trials that
+    would likely decide it (None: none would)."""
+    table = cmp.reported
+    out: list[int | None] = []
+    if table is None:
+        return out
+    for q in table.quantities:
+        if f"kind_{q.key}" not in cmp.table:
+            continue
+        rows = cmp.table[cmp.table[f"kind_{q.key}"] == "inconclusive"]
+        out += [None if v != v else int(v) for v in rows[f"needed_{q.key}"]]
+    out += [f.get("needed") for f in cmp.factors if f["kind"] == "inconclusive"]
+    return out
+
+
+def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
+                      max_trials: int | None = None, trials: int | None = None,
+                      seed: int | None = None, workers: int = 1, overrides: Iterable[str] = (),
+                      resume: bool = False, figures: bool = True, executor=None,
+                      progress: Callable[[int, int], None] | None = None,
+                      warn: Callable[[str], None] | None = None,
+                      on_look: Callable[[dict], None] | None = None) -> Result:
+    """Run an experiment in batches until every cell its paper's table judges is decided
+    ('reproduced' or 'differs'), or ``max_trials`` is reached (default: ten times the first
+    batch), or the cells left would need more than that.
+
+    The first batch is the config's trials (or ``trials``); each look adds as many again. Every
+    verdict uses confidence sequences tuned for ``max_trials``: valid at every look, so looking
+    after each batch does not inflate false decisions (pfbench.verdicts). The results folder
+    holds one run of the trials reached; meta.json's ``until_decided`` records the looks, and
+    the table is recomputed with the same intervals by ``pfbench tables`` / ``report``.
+    ``on_look(look)`` is called after each batch with {'trials', 'undecided'}.
+    """
+    from .compare import compare
+    from .regen import write_experiment
+    from .runner import run_experiment as run_into
+    from .store import trial_columns, write_json
+    first = _experiment(config, trials, seed, overrides)
+    if first.reported is None:
+        raise UserError(f"{first.name}: --until-decided needs a paper's table to decide "
+                        "(the config names none)")
+    batch = first.trials
+    most = max_trials if max_trials is not None else 10 * batch
+    if most < batch:
+        raise UserError(f"--max-trials {most} is below the first batch of {batch} trials")
+    folder = Path(out)
+    n, looks, ran, wall = batch, [], 0, 0.0
+    while True:
+        exp = dataclasses.replace(first, trials=n)
+        res = run_into(exp, folder, workers=workers, resume=resume or n > batch,
+                       progress=progress, executor=executor, warn=warn)
+        ran += res.meta["trials_run_now"]
+        wall += res.meta["wall_s"]
+        cmp = compare(exp, res.rows, anytime=most)
+        left = undecided(cmp)
+        looks.append({"trials": n, "undecided": len(left)})
+        if on_look:
+            on_look(looks[-1])
+        if not left:
+            stopped = "every judged cell decided"
+            break
+        if n >= most:
+            stopped = f"reached the most trials allowed ({most})"
+            break
+        if all(k is None or k > most for k in left):
+            stopped = (f"the {len(left)} cell{'s' if len(left) > 1 else ''} left would need more "
+                       f"than {most} trials, or no number decides them")
+            break
+        n = min(n + batch, most)
+    res.meta.update(trials_run_now=ran, wall_s=round(wall, 3))
+    res.meta["until_decided"] = {"max_trials": most, "batch": batch, "looks": looks,
+                                 "stopped": stopped}
+    write_json(folder / "meta.json", res.meta)
+    cmp, paths = write_experiment(exp, res, folder, figures)
+    return Result(_frame(res.rows, trial_columns(exp)), cmp.table, res.meta, exp, folder, cmp,
+                  paths)
+
+
 def load_results(folder: str | Path) -> Result:
     """The results of ``pfbench run`` (or ``pfbench sweep``) in ``folder``: its trials, its table
     (a sweep's summary), its meta; ``experiment`` when the config that made them is still there
@@ -169,7 +256,7 @@ def load_results(folder: str | Path) -> Result:
     cmp = None
     if exp is not None:
         from .compare import compare
-        cmp = compare(exp, trials)
+        cmp = compare(exp, trials, anytime=anytime_of(meta))
         table = cmp.table
     elif table_path.is_file():
         table = pd.read_csv(table_path)

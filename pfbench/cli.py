@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import contextlib
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import List, Optional
 
@@ -223,7 +224,8 @@ def _print_table(cmp):
         out.print(t)
     for note in footnotes(cmp):
         out.print(note, markup=False)
-    out.print("Intervals: 95% over trials. Every column, and the paper's notes: table.md.",
+    out.print("Intervals: 95% over trials; verdicts Holm-adjusted across the table. Every "
+              "column, the interval methods and the paper's notes: table.md.",
               markup=False)
 
 
@@ -248,29 +250,67 @@ def run(
                                             "tcp://HOST:PORT (default with --executor dask: a "
                                             "local cluster of --workers processes)."),
     papers: List[str] = _papers_option(),
+    until_decided: bool = typer.Option(False, "--until-decided", help="Add batches of the "
+                                       "config's trials until every cell the paper's table "
+                                       "judges is decided, with confidence sequences valid at "
+                                       "every look."),
+    max_trials: Optional[int] = typer.Option(None, "--max-trials", min=1, help="With "
+                                             "--until-decided: the most trials (default: ten "
+                                             "batches)."),
 ):
     """Run an experiment: Monte Carlo trials, then the table beside the paper's values."""
     with _guard():
         _use_papers(papers)
         out_dir = _path(out_dir, "--out")
+        if max_trials is not None and not until_decided:
+            raise UserError("--max-trials goes with --until-decided")
         from .fsutil import FolderLock
         exp = _load(config, trials, seed, set_)
-        from .api import run_experiment
+        from .api import run_experiment, run_until_decided
         folder = out_dir or Path("results") / exp.name
-        workers = _workers_that_fit([(exp, str(config))], workers, executor)
+        most = (max_trials or 10 * exp.trials) if until_decided else exp.trials
+        if until_decided and exp.reported is None:
+            raise UserError(f"{config}: --until-decided needs a paper's table to decide (the "
+                            "config names none)")
+        if most < exp.trials:
+            raise UserError(f"--max-trials {most} is below the first batch of {exp.trials} "
+                            "trials")
+        workers = _workers_that_fit([(replace(exp, trials=most), str(config))], workers,
+                                    executor)
         runs = ", ".join(f.key for f in exp.filters)
         with _executor(executor, workers, scheduler) as ex, \
                 FolderLock(folder, "--out" if out_dir else "results folder"):
+            upto = f" (batches until decided, at most {most})" if until_decided else ""
             header = _once(lambda: err.print(
-                f"{exp.name}: {exp.trials} trials of {exp.scenario} x [{runs}], seed "
+                f"{exp.name}: {exp.trials} trials{upto} of {exp.scenario} x [{runs}], seed "
                 f"{exp.seed}, {ex.describe()} -> {folder}", markup=False))
             with _bar() as bar:
-                progress = _progress(bar, exp.trials, header)
+                task = bar.add_task("trials", total=exp.trials)
+
+                def progress(done, total):
+                    header()
+                    bar.update(task, completed=done, total=total)
+
+                def look(k):
+                    bar.console.print(f"after {k['trials']} trials: {k['undecided']} judged "
+                                      f"cell{'s' if k['undecided'] != 1 else ''} undecided",
+                                      markup=False)
                 with _stop_on_interrupt(bar):
-                    res = run_experiment(exp, out=folder, workers=workers, resume=resume,
-                                         figures=not no_figures, progress=progress,
-                                         executor=ex, warn=_warn)
+                    if until_decided:
+                        res = run_until_decided(exp, out=folder, max_trials=most,
+                                                workers=workers, resume=resume,
+                                                figures=not no_figures, progress=progress,
+                                                executor=ex, warn=_warn, on_look=look)
+                    else:
+                        res = run_experiment(exp, out=folder, workers=workers, resume=resume,
+                                             figures=not no_figures, progress=progress,
+                                             executor=ex, warn=_warn)
         _print_table(res.comparison)
+        if until_decided:
+            u = res.meta["until_decided"]
+            err.print(f"until decided: {len(u['looks'])} look(s), {res.experiment.trials} "
+                      f"trials; stopped: {u['stopped']}", markup=False)
+        exp = res.experiment
         ran = res.meta["trials_run_now"]
         note = f" ({exp.trials - ran} resumed)" if ran < exp.trials else ""
         err.print(f"{ran} trials in {res.meta['wall_s']:.1f} s{note}; wrote {folder}/trials.csv, "
@@ -355,6 +395,12 @@ def tables_(
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler "
                                             "tcp://HOST:PORT (see run)."),
     papers: List[str] = _papers_option(),
+    until_decided: bool = typer.Option(False, "--until-decided", help="Regenerate each config "
+                                       "that compares with a paper's table in batches until its "
+                                       "judged cells are decided (see run)."),
+    max_trials: Optional[int] = typer.Option(None, "--max-trials", min=1, help="With "
+                                             "--until-decided: the most trials per config "
+                                             "(default: ten times its trials)."),
 ):
     """Regenerate every config's results, or check them (--check) against the committed ones."""
     import math
@@ -377,17 +423,28 @@ def tables_(
             files = [p for p in files if p.name in want or p.stem in want]
         if check and resume:
             raise UserError("--resume continues a regeneration; --check starts afresh each time")
+        if check and until_decided:
+            raise UserError("--until-decided regenerates; --check re-runs the committed trials")
+        if max_trials is not None and not until_decided:
+            raise UserError("--max-trials goes with --until-decided")
         # every config is valid (and its trial count known) before anything runs
         totals = [regen.check_trials(p) if check else regen.total_trials(p) for p in files]
         rows = []
         with _executor(executor, workers, scheduler) as ex, FolderLock(results, "--results"), \
                 _bar() as bar:
             task = bar.add_task("trials", total=sum(totals))
-            before = 0
+            before, grown = 0, {"total": sum(totals)}
             for p, n in zip(files, totals):
                 t0 = time.perf_counter()
                 bar.update(task, description=p.stem)
-                step = (lambda d, _n, b=before: bar.update(task, completed=b + d))
+                seen = [n]
+
+                def step(d, t, b=before, seen=seen):
+                    if t > seen[0]:             # a run until decided adds a batch
+                        grown["total"] += t - seen[0]
+                        seen[0] = t
+                        bar.update(task, total=grown["total"])
+                    bar.update(task, completed=b + d)
                 with _stop_on_interrupt(bar, f"{p.name}: ", "" if check else
                                         "; 'pfbench tables --resume' continues"):
                     if check:
@@ -395,10 +452,12 @@ def tables_(
                         rows.append((p.name, r, time.perf_counter() - t0))
                     else:
                         folder = regen.regenerate(p, results, ex, figures=not no_figures,
-                                                  resume=resume, progress=step)
+                                                  resume=resume, progress=step,
+                                                  until_decided=until_decided,
+                                                  max_trials=max_trials)
                         bar.console.print(f"{p.name} -> {folder} in "
                                           f"{time.perf_counter() - t0:.1f} s", markup=False)
-                before += n
+                before += seen[0]
         if not check:
             from . import report as rp
             path, _ = rp.write(configs, results, warn=_warn)

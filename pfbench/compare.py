@@ -6,6 +6,8 @@ puts it in the report.
 from __future__ import annotations
 
 import math
+import warnings
+import zlib
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -15,7 +17,7 @@ from scipy import stats
 from .config import Experiment
 from .metrics import paired, summarize
 from .papers import Quantity, Table
-from .verdicts import Estimate, decide
+from .verdicts import ALPHA, Claim, Estimate, decide_family
 
 # Per-trial metrics summarised as their mean over trials in every table.
 MEAN_COLUMNS = ("mean_ess", "resample_count", "diversity_l1", "distinct_frac",
@@ -25,15 +27,17 @@ MEAN_COLUMNS = ("mean_ess", "resample_count", "diversity_l1", "distinct_frac",
 @dataclass(frozen=True)
 class Pair:
     """Two rows the paper orders (``low`` below ``high`` in its table) and what our paired trials
-    say: the mean per-trial difference low - high with its 95% interval, and
-    'same' (resolved: the interval lies below zero), 'opposite' (resolved: above zero) or
-    'unresolved' (it holds zero, or no paired per-trial values exist)."""
+    say: the mean per-trial difference low - high with its interval at ``level`` (the level
+    Holm's procedure tested it at, across the pairs of the table), and 'same' (resolved: the
+    interval lies below zero), 'opposite' (resolved: above zero) or 'unresolved' (it holds
+    zero, or no paired per-trial values exist)."""
     low: str
     high: str
     diff: float
     lo: float
     hi: float
     status: str
+    level: float = 1 - ALPHA
 
 
 @dataclass(frozen=True)
@@ -92,6 +96,7 @@ class Comparison:
     factors: list[dict] = field(default_factory=list)
     per_trial: PerTrial | None = None
     rankings: list[Ranking] = field(default_factory=list)
+    anytime: int | None = None      # verdicts on confidence sequences tuned for that many trials
 
     @property
     def reported(self) -> Table | None:
@@ -101,14 +106,87 @@ class Comparison:
 
 # metrics that are rates (a fraction of trials): Wilson intervals, never outside [0, 1]
 RATE_METRICS = ("converged",)
+# counts and step counts, skewed and bounded below: BCa bootstrap intervals
+SKEWED_METRICS = ("recovery_failures", "recovery_steps", "converge_step")
 # quantities that depend on the machine that ran them: shown, never judged
 MACHINE_METRICS = ("time_ratio",)
+BOOTSTRAP_RESAMPLES = 9999
 
 
-def estimate(q: Quantity, g: pd.DataFrame, base: pd.DataFrame | None) -> Estimate:
+def interval_method(q: Quantity) -> str:
+    """How quantity q's intervals are made (verdicts.METHODS): Wilson's for a rate, the BCa
+    bootstrap for a gain, a variance or a skewed count, Student's t otherwise."""
+    if q.metric in RATE_METRICS and q.stat == "mean":
+        return "wilson"
+    if q.metric in ("gain_mean", "gain_var") or q.stat == "var" or q.metric in SKEWED_METRICS:
+        return "bca"
+    return "t"
+
+
+def _bootstrap(samples: tuple, statistic, value: float, seed: int, key: str) -> Estimate:
+    """A BCa bootstrap estimate of statistic(*samples) (paired by trial when there are two
+    samples; vectorised over the last axis), its value ``value``; seeded by the experiment's
+    seed and ``key``, so the same trials give the same interval. A sample too small or too
+    uniform to bootstrap keeps Student's t."""
+    samples = tuple(np.asarray(x, dtype=float) for x in samples)
+    ok = np.logical_and.reduce([~np.isnan(x) for x in samples])
+    samples = tuple(x[ok] for x in samples)
+    n = int(ok.sum())
+    if n < 3 or all(np.ptp(x) == 0 for x in samples):
+        return Estimate(value, 0.0 if n >= 2 else math.nan, n)
+    rng = np.random.default_rng([seed, zlib.crc32(key.encode())])
+    kw = dict(paired=len(samples) > 1, vectorized=True, method="BCa")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")     # a degenerate jackknife gives NaN: handled below
+        res = stats.bootstrap(samples, statistic, n_resamples=BOOTSTRAP_RESAMPLES,
+                              random_state=rng, **kw)
+    if not np.isfinite(res.standard_error):
+        return Estimate(value, math.nan, n)
+    cache: dict[float, tuple[float, float]] = {}
+
+    def bounds(level: float) -> tuple[float, float]:
+        if level not in cache:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                ci = stats.bootstrap(samples, statistic, n_resamples=0, bootstrap_result=res,
+                                     confidence_level=min(level, 1.0 - 1e-12),
+                                     **kw).confidence_interval
+            cache[level] = (float(ci.low), float(ci.high))
+        return cache[level]
+
+    lo, hi = bounds(1 - ALPHA)
+    if math.isnan(lo) or math.isnan(hi):
+        return Estimate(value, float(res.standard_error), n)
+    return Estimate(value, float(res.standard_error), n, "bca", bounds)
+
+
+def _mean(x, axis=-1):
+    return np.mean(x, axis=axis)
+
+
+def _var(x, axis=-1):
+    return np.var(x, axis=axis, ddof=1)
+
+
+def _gain_mean(a, b, axis=-1):
+    return 100.0 * (1.0 - np.mean(a, axis=axis) / np.mean(b, axis=axis))
+
+
+def _gain_var(a, b, axis=-1):
+    return 100.0 * (1.0 - np.var(a, axis=axis, ddof=1) / np.var(b, axis=axis, ddof=1))
+
+
+def _ratio_of_means(a, b, axis=-1):
+    return np.mean(b, axis=axis) / np.mean(a, axis=axis)
+
+
+def estimate(q: Quantity, g: pd.DataFrame, base: pd.DataFrame | None, seed: int = 0,
+             key: str = "") -> Estimate:
     """Our estimate of quantity q for one filter run (g: its trials; base: its baseline run's
-    trials, or None): the value, its standard error and the trials."""
+    trials, or None): the value, its standard error, the trials, and its intervals
+    (interval_method; a bootstrap is seeded by ``seed`` and ``key``)."""
     nan = Estimate(math.nan, math.nan, 0)
+    method = interval_method(q)
     if q.metric in ("gain_mean", "gain_var"):
         if base is None:
             return nan
@@ -116,25 +194,32 @@ def estimate(q: Quantity, g: pd.DataFrame, base: pd.DataFrame | None) -> Estimat
         b = base.set_index("trial")["rmse"].reindex(a.index)
         if q.metric == "gain_mean":         # 100 (1 - mean_a / mean_b), paired by trial
             d = summarize(a.values - b.values)
-            mb = float(b.mean())
-            return Estimate(-100 * d["mean"] / mb, 100 * d["se"] / mb, d["n"])
+            value = -100 * d["mean"] / float(b.mean())
+            return _bootstrap((a.values, b.values), _gain_mean, value, seed, key)
         sa, sb = summarize(a.values), summarize(b.values)    # 100 (1 - var_a / var_b)
-        ratio = sa["var"] / sb["var"]
-        se = ratio * math.hypot(sa["var_se"] / sa["var"], sb["var_se"] / sb["var"])
-        return Estimate(100 * (1 - ratio), 100 * se, min(sa["n"], sb["n"]))
-    s = summarize(_metric_values(q.metric, g, base) * q.scale)
+        value = 100 * (1 - sa["var"] / sb["var"])
+        return _bootstrap((a.values, b.values), _gain_var, value, seed, key)
+    values = _metric_values(q.metric, g, base) * q.scale
+    s = summarize(values)
     if q.stat == "var":
-        return Estimate(s["var"], s["var_se"], s["n"])
+        return _bootstrap((values.to_numpy(float),), _var, s["var"], seed, key)
+    if method == "bca":
+        return _bootstrap((values.to_numpy(float),), _mean, s["mean"], seed, key)
+    if method == "wilson" and s["n"] > 0:
+        k = int(round(float(g[q.metric].dropna().sum())))
+        n, scale = s["n"], q.scale
+
+        def wilson(level: float) -> tuple[float, float]:
+            ci = stats.binomtest(k, n).proportion_ci(min(level, 1.0 - 1e-12), method="wilson")
+            return ci.low * scale, ci.high * scale
+        return Estimate(s["mean"], s["se"], n, "wilson", wilson)
     return Estimate(s["mean"], s["se"], s["n"])
 
 
-def our_interval(q: Quantity, est: Estimate, g: pd.DataFrame) -> tuple[float, float]:
-    """The 95% interval printed beside our value: Student's t, or Wilson's for a rate."""
-    if q.metric in RATE_METRICS and q.stat == "mean" and est.n > 0:
-        k = int(round(float(g[q.metric].dropna().sum())))
-        ci = stats.binomtest(k, est.n).proportion_ci(0.95, method="wilson")
-        return ci.low * q.scale, ci.high * q.scale
-    return est.interval(0.95)
+def our_interval(q: Quantity, est: Estimate, g: pd.DataFrame | None = None
+                 ) -> tuple[float, float]:
+    """The 95% interval printed beside our value (by the estimate's own method)."""
+    return est.interval(1 - ALPHA)
 
 
 def _metric_values(metric: str, g: pd.DataFrame, base: pd.DataFrame | None):
@@ -150,30 +235,33 @@ def _metric_values(metric: str, g: pd.DataFrame, base: pd.DataFrame | None):
     return a / base.set_index("trial")[ratio_of].reindex(a.index)
 
 
-def _pair(q: Quantity, low: str, high: str, a: pd.DataFrame | None,
-          b: pd.DataFrame | None) -> Pair:
-    """Rows ``low`` and ``high`` (their trials a and b) judged on the paired per-trial values of
-    q's metric (a variance, a gain or a ratio has none: unresolved)."""
+def _pair_estimate(q: Quantity, a: pd.DataFrame | None, b: pd.DataFrame | None
+                   ) -> Estimate | None:
+    """The mean paired per-trial difference of q's metric between two rows' trials (a - b), or
+    None (a variance, a gain or a ratio has no per-trial values)."""
     if a is None or b is None or q.stat != "mean" or q.metric not in a:
-        return Pair(low, high, math.nan, math.nan, math.nan, "unresolved")
+        return None
     x = a.set_index("trial")[q.metric] * q.scale
     y = b.set_index("trial")[q.metric].reindex(x.index) * q.scale
     d = paired(x.to_numpy(float), y.to_numpy(float))
-    lo, hi = d["diff_ci_lo"], d["diff_ci_hi"]
-    status = "same" if hi < 0 else "opposite" if lo > 0 else "unresolved"
-    return Pair(low, high, d["diff_mean"], lo, hi, status)
+    ok = ~(np.isnan(x.to_numpy(float)) | np.isnan(y.to_numpy(float)))
+    diff = x.to_numpy(float)[ok] - y.to_numpy(float)[ok]
+    s = summarize(diff)
+    return Estimate(d["diff_mean"], s["se"], s["n"])
 
 
-def rankings(exp: Experiment, tab: pd.DataFrame, by_key: dict | None = None) -> list[Ranking]:
+def rankings(exp: Experiment, tab: pd.DataFrame, by_key: dict | None = None,
+             anytime: int | None = None) -> list[Ranking]:
     """For a table whose paper claims an order of its rows: per ranked quantity and particle count
     with two or more rows, the paper's order and ours (``tab``: a comparison's table), and every
     pair of rows the paper orders judged on paired trials (``by_key``: each filter run's trials;
-    without them every pair is unresolved)."""
+    without them every pair is unresolved), Holm-adjusted across all the table's pairs
+    (``anytime``: with confidence sequences tuned for that many trials)."""
     table = exp.reported
     if table is None or table.ranking is None:
         return []
     keys = table.ranking
-    out = []
+    found = []
     counts = sorted({n for (_, n) in table.values}, key=lambda v: (v is None, v or 0))
     for q in (q for key in keys for q in table.quantities if q.key == key):
         for n in counts:
@@ -192,10 +280,25 @@ def rankings(exp: Experiment, tab: pd.DataFrame, by_key: dict | None = None) -> 
             paper_value = {lab: table.values[(lab, n)][q.key] for lab in ours}
             paper_order = sorted(ours, key=lambda lab: paper_value[lab])
             our_order = sorted(ours, key=lambda lab: ours[lab])
-            pairs = tuple(_pair(q, low, high, runs.get(low), runs.get(high))
-                          for i, low in enumerate(paper_order) for high in paper_order[i + 1:]
-                          if paper_value[low] != paper_value[high])
-            out.append(Ranking(q, n, paper_order, our_order, pairs))
+            pairs = [(low, high, _pair_estimate(q, runs.get(low), runs.get(high)))
+                     for i, low in enumerate(paper_order) for high in paper_order[i + 1:]
+                     if paper_value[low] != paper_value[high]]
+            found.append((q, n, paper_order, our_order, pairs))
+    claims = [Claim(0.0, est.anytime(anytime) if anytime else est)
+              for (_, _, _, _, pairs) in found for (_, _, est) in pairs if est is not None]
+    verdicts = iter(decide_family(claims))
+    out = []
+    for q, n, paper_order, our_order, pairs in found:
+        judged = []
+        for low, high, est in pairs:
+            if est is None:
+                judged.append(Pair(low, high, math.nan, math.nan, math.nan, "unresolved"))
+                continue
+            v = next(verdicts)
+            status = ("unresolved" if v.kind != "differs" else
+                      "same" if v.hi < 0 else "opposite")
+            judged.append(Pair(low, high, est.value, v.lo, v.hi, status, v.level))
+        out.append(Ranking(q, n, paper_order, our_order, tuple(judged)))
     return out
 
 
@@ -215,8 +318,12 @@ def baseline_runs(exp: Experiment) -> dict[str, str]:
     return out
 
 
-def compare(exp: Experiment, rows: list[dict] | pd.DataFrame) -> Comparison:
-    """The comparison of an experiment's trials (rows of a trials file) with its paper."""
+def compare(exp: Experiment, rows: list[dict] | pd.DataFrame,
+            anytime: int | None = None) -> Comparison:
+    """The comparison of an experiment's trials (rows of a trials file) with its paper. The
+    cells of the paper's table (with its factors) are judged together, Holm-adjusted; with
+    ``anytime`` (the most trials a run until decided may reach), every verdict uses confidence
+    sequences tuned for that many trials, valid however often the trials were looked at."""
     df = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(rows)
     table: Table | None = exp.reported
     by_key = {f.key: df[df["filter"] == f.key] for f in exp.filters}
@@ -224,7 +331,7 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame) -> Comparison:
     if exp.compare["floor"] is not None:
         floor = summarize(by_key[exp.compare["floor"]]["rmse"])["ci_lo"]
     pairs = baseline_runs(exp)
-    out = []
+    out, cells = [], []         # cells: (row, quantity, claim, the estimate judged, judged_by)
     for run in exp.filters:
         g = by_key[run.key]
         r = {"filter": run.key, "label": run.label, "particles": run.particles, "trials": len(g)}
@@ -250,14 +357,16 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame) -> Comparison:
         if table is not None:
             values = (table.values.get((run.label, run.particles))
                       or table.values.get((run.label, None), {}))
+            base = by_key.get(pairs.get(run.key))
             for q in table.quantities:
                 paper = values.get(q.key)
-                est = estimate(q, g, by_key.get(pairs.get(run.key)))
+                est = estimate(q, g, base, exp.seed, f"{run.key}:{q.key}")
                 ours = est.value
                 r[f"ours_{q.key}"] = ours
-                r[f"ours_lo_{q.key}"], r[f"ours_hi_{q.key}"] = our_interval(q, est, g)
+                r[f"ours_lo_{q.key}"], r[f"ours_hi_{q.key}"] = our_interval(q, est)
                 r[f"n_{q.key}"] = est.n         # the trials it averages (a conditional metric:
                                                 # those where it is defined)
+                r[f"method_{q.key}"] = est.method
                 if isinstance(paper, tuple):      # a range: shown as such, ratio to its middle
                     r[f"paper_{q.key}"] = f"{paper[0]:g}-{paper[1]:g}"
                     r[f"ratio_{q.key}"] = ours / (0.5 * (paper[0] + paper[1]))
@@ -267,38 +376,50 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame) -> Comparison:
                 floored_q = q.metric == "rmse" and q.stat == "mean"  # the floor is an RMSE level
                 judge = est
                 if q.judged_by is not None:     # a deterministic measure of the same thing
-                    judge = estimate(replace(q, metric=q.judged_by), g,
-                                     by_key.get(pairs.get(run.key)))
-                v = decide(paper, judge, margin=q.margin, paper_runs=table.runs,
-                           floor=floor if floored_q and run.key != exp.compare["floor"] else None,
-                           not_comparable=(table.cell_notes.get((run.label, run.particles, q.key))
-                                           or q.not_comparable or table.not_comparable),
-                           judged=q.judged_by is not None or q.metric not in MACHINE_METRICS)
-                text = v.text
-                if q.judged_by is not None and v.kind in ("reproduced", "differs",
-                                                          "inconclusive"):
-                    text = f"{text}, judged on {q.judged_by.replace('_', ' ')} " \
-                           f"{judge.value:.3g}"
-                r[f"verdict_{q.key}"] = text
-                r[f"kind_{q.key}"] = v.kind
-                r[f"verdict_lo_{q.key}"], r[f"verdict_hi_{q.key}"] = v.lo, v.hi
+                    judge = estimate(replace(q, metric=q.judged_by), g, base, exp.seed,
+                                     f"{run.key}:{q.key}:{q.judged_by}")
+                if anytime:
+                    judge = judge.anytime(anytime)
+                claim = Claim(paper, judge, q.margin, table.runs,
+                              floor if floored_q and run.key != exp.compare["floor"] else None,
+                              (table.cell_notes.get((run.label, run.particles, q.key))
+                               or q.not_comparable or table.not_comparable),
+                              q.judged_by is not None or q.metric not in MACHINE_METRICS)
+                cells.append((r, q, claim, judge))
         out.append(r)
+    found = factor_claims(exp, table, by_key, anytime) if table is not None else []
+    verdicts = decide_family([c for (_, _, c, _) in cells] + [c for (_, c) in found])
+    for (r, q, _, judge), v in zip(cells, verdicts):
+        text = v.text
+        if q.judged_by is not None and v.kind in ("reproduced", "differs", "inconclusive"):
+            text = f"{text}, judged on {q.judged_by.replace('_', ' ')} {judge.value:.3g}"
+        r[f"verdict_{q.key}"] = text
+        r[f"kind_{q.key}"] = v.kind
+        r[f"verdict_lo_{q.key}"], r[f"verdict_hi_{q.key}"] = v.lo, v.hi
+        r[f"verdict_level_{q.key}"] = v.level
+        r[f"needed_{q.key}"] = v.needed if v.needed is not None else math.nan
+    facts = []
+    for (row, claim), v in zip(found, verdicts[len(cells):]):
+        lo, hi = claim.est.interval(1 - ALPHA)
+        facts.append({**row, "ours": claim.est.value, "lo": lo, "hi": hi, "verdict": v.text,
+                      "kind": v.kind, "method": claim.est.method, "needed": v.needed})
     tab = pd.DataFrame(out)
     if table is None:
-        return Comparison(exp, tab)
-    return Comparison(exp, tab, factors(exp, table, by_key), per_trial(exp, table, by_key),
-                      rankings(exp, tab, by_key))
+        return Comparison(exp, tab, anytime=anytime)
+    return Comparison(exp, tab, facts, per_trial(exp, table, by_key),
+                      rankings(exp, tab, by_key, anytime), anytime)
 
 
 def _run_by_label(exp: Experiment, label: str):
     return next((f for f in exp.filters if f.label == label), None)
 
 
-def factors(exp: Experiment, table: Table, by_key: dict) -> list[dict]:
-    """The paper's factor between two of its rows for a quantity (e.g. AFSA's error over PSO's)
-    beside ours: the ratio of the means over paired trials, with a 95% interval by the delta
-    method on the paired per-trial values."""
-    rows = []
+def factor_claims(exp: Experiment, table: Table, by_key: dict,
+                  anytime: int | None = None) -> list[tuple[dict, Claim]]:
+    """The paper's factors between two of its rows for a quantity (e.g. AFSA's error over PSO's),
+    each as (what it is, the claim to judge): ours is the ratio of the means over paired trials,
+    with a BCa bootstrap interval (paired by trial)."""
+    found = []
     for key, a_label, b_label, margin in table.factors:
         q = next(q for q in table.quantities if q.key == key)
         a_run, b_run = _run_by_label(exp, a_label), _run_by_label(exp, b_label)
@@ -310,21 +431,16 @@ def factors(exp: Experiment, table: Table, by_key: dict) -> list[dict]:
         b = by_key[b_run.key].set_index("trial")[q.metric].reindex(a.index)
         ok = a.notna() & b.notna()
         a, b = a[ok].to_numpy(float), b[ok].to_numpy(float)
-        n = a.size
-        if n < 2 or a.mean() == 0:
+        if a.size < 2 or a.mean() == 0:
             continue
-        ma, mb = a.mean(), b.mean()
-        ratio = mb / ma
-        cov = np.cov(np.vstack([a, b])) / n          # of the two means
-        var = (cov[1, 1] - 2 * ratio * cov[0, 1] + ratio * ratio * cov[0, 0]) / (ma * ma)
-        est = Estimate(ratio, math.sqrt(max(var, 0.0)), n)
-        lo, hi = est.interval(0.95)
+        est = _bootstrap((a, b), _ratio_of_means, b.mean() / a.mean(), exp.seed,
+                         f"factor:{key}:{a_label}:{b_label}")
+        if anytime:
+            est = est.anytime(anytime)
         paper = pb / pa if pa and pb is not None else math.nan
-        v = decide(paper, est, margin=margin)
-        rows.append({"quantity": q.title, "from": a_label, "to": b_label, "paper_from": pa,
-                     "paper_to": pb, "paper": paper, "ours": ratio, "lo": lo, "hi": hi,
-                     "verdict": v.text, "kind": v.kind})
-    return rows
+        found.append(({"quantity": q.title, "from": a_label, "to": b_label, "paper_from": pa,
+                       "paper_to": pb, "paper": paper}, Claim(paper, est, margin)))
+    return found
 
 
 def per_trial(exp: Experiment, table: Table, by_key: dict) -> PerTrial | None:

@@ -59,8 +59,9 @@ def write_experiment(exp, res, folder: Path, figures: bool = True) -> tuple:
     """The comparison (table.csv / table.md) and figures of a finished run; returns (comparison,
     figure paths)."""
     from . import tables
+    from .api import anytime_of
     from .compare import compare
-    cmp = compare(exp, res.rows)
+    cmp = compare(exp, res.rows, anytime=anytime_of(res.meta))
     tables.write(cmp, folder, res.meta)
     paths = []
     if figures:
@@ -83,9 +84,12 @@ def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: st
 
 def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int | None = None,
                figures: bool = True, resume: bool = False,
-               progress: Callable[[int, int], None] | None = None) -> Path:
+               progress: Callable[[int, int], None] | None = None,
+               until_decided: bool = False, max_trials: int | None = None) -> Path:
     """Run one config (an experiment or a sweep) into results/<name>, replacing what the folder
-    held; return the folder.
+    held; return the folder. With ``until_decided``, an experiment that compares with a paper's
+    table runs in batches until its judged cells are decided (pfbench.api.run_until_decided;
+    ``max_trials``: at most, default ten batches); the others run as usual.
 
     The run goes to a staging folder beside it (``.<name>.partial``) that replaces the old folder
     only when everything is written, so an error or Ctrl-C leaves the committed results as they
@@ -108,6 +112,10 @@ def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int |
                 df = sw.run_sweep(cells, stage, resume=resume, progress=progress,
                                   executor=executor)
                 write_sweep(df, list(cells[0].values), stage, name, figures)
+            elif until_decided and exp.reported is not None:
+                from .api import run_until_decided
+                run_until_decided(exp, out=stage, max_trials=max_trials, resume=resume,
+                                  figures=figures, executor=executor, progress=progress)
             else:
                 res = run_experiment(exp, stage, resume=resume, progress=progress,
                                      executor=executor)

@@ -27,6 +27,7 @@ from .config import Experiment, load
 from .errors import UserError
 from . import papers as pp
 from .verdicts import DEFINITIONS
+from .api import anytime_of
 from .schema import did_you_mean
 from .regen import config_files, is_sweep
 
@@ -91,7 +92,7 @@ def _read(e: Entry) -> None:
     if why:
         e.status = why
         return
-    e.comparison = compare(e.exp, pd.read_csv(trials))
+    e.comparison = compare(e.exp, pd.read_csv(trials), anytime=anytime_of(e.meta))
     e.table = e.comparison.table
 
 
@@ -444,8 +445,9 @@ def build(configs: Path, results: Path, out: Path,
              "again (`pfbench report --check`, in CI, fails when it is out of date).", "",
              "What the verdicts mean:", "", *[f"- {line}" for line in DEFINITIONS], "",
              "Where a paper claims an order of its filters, each pair of rows it orders is "
-             "judged on paired trials (the 95% interval of the mean per-trial difference): the "
-             "same order or the opposite when the interval excludes zero (resolved), unresolved "
+             "judged on paired trials (the interval of the mean per-trial difference, at the "
+             "level Holm's step-down procedure gives it across the table's pairs): the same "
+             "order or the opposite when the interval excludes zero (resolved), unresolved "
              "otherwise.", "",
              "## Summary", ""]
     lines += _table_md(["Paper", "Table", "Config", "Trials", "Paper values", "Reproduced",

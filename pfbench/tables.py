@@ -9,6 +9,7 @@ import pandas as pd
 from .compare import Comparison, PerTrial, Ranking
 from .config import Experiment
 from .papers import Quantity
+from .verdicts import METHODS, percent
 from .store import atomic_write, write_csv
 
 
@@ -17,23 +18,28 @@ def ranking_lines(rankings: list[Ranking]) -> list[str]:
     (for each ranked quantity), then each pair of rows judged on paired trials, and the count of
     pairs resolved in the paper's order, resolved against it, and unresolved."""
     lines = []
+    pairs = [p for r in rankings for p in r.pairs]
+    tested = sum(p.diff == p.diff for p in pairs)
     for r in rankings:
         where = f"{r.quantity.title}{f' at N = {r.particles}' if r.particles is not None else ''}"
         judged = "; ".join(f"{p.low} < {p.high}: "
                            + ("unresolved" if p.status == "unresolved" else
                               f"{'same order' if p.status == 'same' else 'opposite'}, resolved")
-                           + (f" ({_signed(p.diff)} [{_signed(p.lo)}, {_signed(p.hi)}])"
-                              if p.diff == p.diff else "")
+                           + (f" ({_signed(p.diff)} [{_signed(p.lo)}, {_signed(p.hi)}] "
+                              f"{percent(p.level)})" if p.diff == p.diff else "")
                            for p in r.pairs)
         lines.append(f"Ranking by {where}: paper {' < '.join(r.paper)}; ours "
-                     f"{' < '.join(r.ours)}" + (f". Pairs (paired 95% interval of the "
-                                                f"difference): {judged}." if judged else "."))
-    pairs = [p for r in rankings for p in r.pairs]
+                     f"{' < '.join(r.ours)}" + (f". Pairs (the paired difference of the means "
+                                                f"with its interval): {judged}." if judged
+                                                else "."))
     if pairs:
         n = {k: sum(p.status == k for p in pairs) for k in ("same", "opposite", "unresolved")}
+        holm = (f"; Holm's step-down procedure across the table's {tested} pairs gives each "
+                "interval its level, so the chance of any pair resolved the wrong way is at "
+                "most 5%" if tested > 1 else "")
         lines.append(f"Pairs of rows the paper orders: {n['same']} in its order and "
-                     f"{n['opposite']} in the opposite order, resolved by a paired 95% interval; "
-                     f"{n['unresolved']} unresolved (of {len(pairs)}).")
+                     f"{n['opposite']} in the opposite order, resolved by a paired interval that "
+                     f"excludes zero{holm}; {n['unresolved']} unresolved (of {len(pairs)}).")
     return lines
 
 
@@ -83,7 +89,7 @@ def display_columns(cmp: Comparison) -> tuple[list[str], list[list[str]]]:
     quantities = table.quantities if table else ()
     head = ["Filter", "N", "Trials", "RMSE mean [95% CI]", "RMSE var [95% CI]"]
     for q in quantities:
-        head += ([] if q.metric == "rmse" else [_ours_head(q)]) + [f"Paper {q.title}", "Ratio",
+        head += ([] if _shown_as_rmse(q) else [_ours_head(q)]) + [f"Paper {q.title}", "Ratio",
                                                                    "Verdict"]
     head += _paired_head(exp) + ["Mean ESS", "Distinct", "Evals/step", "ms/trial"]
     cells = []
@@ -93,7 +99,7 @@ def display_columns(cmp: Comparison) -> tuple[list[str], list[list[str]]]:
                f"{fmt(r['rmse_mean'])} [{fmt(r['rmse_ci_lo'])}, {fmt(r['rmse_ci_hi'])}]",
                f"{fmt(r['rmse_var'])} [{fmt(r['rmse_var_ci_lo'])}, {fmt(r['rmse_var_ci_hi'])}]"]
         for q in quantities:
-            row += (([] if q.metric == "rmse" else [ours_cell(r, q)])
+            row += (([] if _shown_as_rmse(q) else [ours_cell(r, q)])
                     + [fmt(r[f"paper_{q.key}"], 6), fmt(r[f"ratio_{q.key}"], 3),
                        r[f"verdict_{q.key}"] or "-"])
         row += (_paired_cells(exp, r) if exp.compare["baseline"] else [])
@@ -101,6 +107,11 @@ def display_columns(cmp: Comparison) -> tuple[list[str], list[list[str]]]:
                 fmt(r["wall_ms_per_trial"], 3)]
         cells.append(row)
     return head, cells
+
+
+def _shown_as_rmse(q: Quantity) -> bool:
+    """A quantity that is the RMSE mean over trials: our value is the table's RMSE column."""
+    return q.metric == "rmse" and q.stat == "mean" and q.scale == 1.0
 
 
 def _ours_head(q: Quantity) -> str:
@@ -186,12 +197,21 @@ def footnotes(cmp: Comparison) -> list[str]:
                      f"{fmt(f['ours'], 3)} [{fmt(f['lo'], 3)}, {fmt(f['hi'], 3)}] (paired "
                      f"trials): {f['verdict'] or '-'}.")
     table = cmp.reported
+    judged = multiplicity(cmp)
+    if judged > 1:
+        notes.append(f"This table's verdicts are judged together: {judged} cells"
+                     f"{' and factors' if cmp.factors else ''} are tested, and Holm's step-down "
+                     "procedure adjusts the 'differs' tests and the 'reproduced' (equivalence) "
+                     "tests across them, so the chance of any false 'differs', or of any false "
+                     "'reproduced', in the table is at most 5%. Each verdict prints the interval "
+                     "that decided it at the level it was tested (table.csv: verdict_lo_Q, "
+                     "verdict_hi_Q, verdict_level_Q).")
     if table is not None and table.runs:
         notes.append(f"The paper's values come from {table.runs} run"
                      f"{'s' if table.runs > 1 else ''}: the verdicts' intervals add the sampling "
-                     "error of a batch that size to ours (standard error sqrt(se_ours^2 + "
-                     "se_batch^2), se_batch = se_ours sqrt(n_ours / runs)); the 95% interval "
-                     "each verdict used is in table.csv (verdict_lo_Q, verdict_hi_Q).")
+                     "error of a batch that size to ours (half-widths times sqrt(1 + n_ours / "
+                     "runs), for a mean: standard error sqrt(se_ours^2 + se_batch^2), se_batch = "
+                     "se_ours sqrt(n_ours / runs)); the 95% interval beside our value does not.")
     for q in (table.quantities if table is not None else ()):
         if q.margin is not None:
             notes.append(f"Margin of '{q.title}': {q.margin.describe()}. {q.margin.why}")
@@ -218,6 +238,38 @@ def footnotes(cmp: Comparison) -> list[str]:
     return notes
 
 
+def multiplicity(cmp: Comparison) -> int:
+    """How many cells and factors of the comparison were tested together (Holm's family)."""
+    kinds = ("reproduced", "differs", "inconclusive")
+    table = cmp.reported
+    n = sum(int(cmp.table[f"kind_{q.key}"].isin(kinds).sum())
+            for q in (table.quantities if table is not None else ())
+            if f"kind_{q.key}" in cmp.table)
+    return n + sum(f["kind"] in kinds for f in cmp.factors)
+
+
+def interval_line(cmp: Comparison) -> str:
+    """The sentence that names how each column's intervals are made."""
+    line = ("Intervals beside our values are 95% over trials: Student's t for the RMSE mean; a "
+            "distribution-free standard error for the RMSE variance")
+    table = cmp.reported
+    by_method: dict[str, list[str]] = {}
+    for q in (table.quantities if table is not None else ()):
+        col = f"method_{q.key}"
+        if col in cmp.table and not _shown_as_rmse(q):
+            methods = [m for m in cmp.table.get(col, pd.Series(dtype=object)).dropna().unique()]
+            for m in methods:
+                by_method.setdefault(m, []).append(q.title)
+    for m, titles in by_method.items():
+        line += f"; {METHODS[m]} for {', '.join(titles)}"
+    if cmp.factors:
+        line += f"; {METHODS[cmp.factors[0]['method']]} for the factors"
+    if cmp.anytime:
+        line += (f". The verdicts, run until decided, use instead {METHODS['cs']}, tuned for "
+                 f"{cmp.anytime} trials, for every cell, factor and pair")
+    return line + "."
+
+
 def markdown(cmp: Comparison, meta: dict | None = None) -> str:
     """table.md: title, provenance, the table and the paper's notes."""
     exp, tab, table = cmp.exp, cmp.table, cmp.reported
@@ -230,8 +282,7 @@ def markdown(cmp: Comparison, meta: dict | None = None) -> str:
     trials = int(tab["trials"].max()) if len(tab) else 0
     lines += [f"Scenario `{exp.scenario}`; {trials} trials; seed {exp.seed}; experiment hash "
               f"`{exp.hash}`" + (f"; pfbench {meta['versions']['pfbench']}" if meta else "") + ".",
-              "", "Intervals are 95% over trials (Student's t for the mean; a distribution-free "
-              "standard error for the variance).", ""]
+              "", interval_line(cmp), ""]
     head, cells = display_columns(cmp)
     lines.append("| " + " | ".join(head) + " |")
     lines.append("|" + "|".join(" --- " for _ in head) + "|")
@@ -243,6 +294,11 @@ def markdown(cmp: Comparison, meta: dict | None = None) -> str:
                   "|" + "|".join(" --- " for _ in head) + "|"]
         lines += ["| " + " | ".join(row) + " |" for row in cells]
     notes = footnotes(cmp) + list(table.notes if table is not None else ())
+    until = (meta or {}).get("until_decided")
+    if until:
+        looks = ", ".join(f"{k['trials']} ({k['undecided']} undecided)" for k in until["looks"])
+        notes.insert(0, f"Run until decided: batches of {until['batch']} trials, at most "
+                     f"{until['max_trials']}; looks after {looks}; stopped: {until['stopped']}.")
     if notes:
         lines += ["", "Notes:", ""] + [f"- {n}" for n in notes]
     return "\n".join(lines) + "\n"

@@ -130,3 +130,61 @@ def test_the_shipped_afsa_config_runs_small_and_prints_its_tables(tmp_path):
     trials = pd.read_csv(out / "trials.csv")
     fs = trials[trials["filter"].str.startswith("afsa@")]
     assert (fs["lik_evals_per_step"] == 60).all() and fs["distinct_frac"].notna().all()
+
+
+UNTIL = """\
+paper: ifa2021
+table: table1
+seed: 4
+trials: 6
+scenario: {name: ungm, steps: 30}
+filters:
+  pf: {label: PF, particles: 50}
+  ba: {label: BA-PF, particles: 50, iterations: 1}
+"""
+
+
+def test_run_until_decided_adds_batches_and_keeps_its_intervals(tmp_path, write_config):
+    from pfbench.api import load_results
+    out = tmp_path / "u"
+    cfg = write_config(UNTIL)
+    res = runner.invoke(app, ["run", str(cfg), "--until-decided", "--max-trials", "18",
+                              "--out", str(out), "--no-figures"])
+    assert res.exit_code == 0, res.output
+    meta = json.loads((out / "meta.json").read_text())
+    until = meta["until_decided"]
+    assert until["max_trials"] == 18 and until["batch"] == 6
+    looks = [k["trials"] for k in until["looks"]]
+    assert looks == list(range(6, looks[-1] + 1, 6)) and looks[-1] <= 18
+    trials = pd.read_csv(out / "trials.csv")
+    assert trials["trial"].nunique() == looks[-1] == meta["trials"]
+    assert "until decided:" in res.output and until["stopped"] in res.output.replace("\n", " ")
+    # every verdict on a confidence sequence for 18 trials, and recomputed the same from the folder
+    tab = pd.read_csv(out / "table.csv")
+    assert set(tab["kind_rmse_mean"].dropna()) <= {"reproduced", "differs", "inconclusive"}
+    again = load_results(out)
+    assert list(again.table["verdict_rmse_mean"]) == list(tab["verdict_rmse_mean"])
+    assert again.comparison.anytime == 18
+    md = (out / "table.md").read_text()
+    assert "confidence sequence" in md and "Run until decided: batches of 6 trials" in md
+    # the trials are those of a plain run of the same count, bit for bit
+    plain = tmp_path / "p"
+    res = runner.invoke(app, ["run", str(cfg), "--trials", str(looks[-1]), "--out", str(plain),
+                              "--no-figures"])
+    assert res.exit_code == 0, res.output
+    a = trials.drop(columns=["wall_s", "crc"]).sort_values(["trial", "filter"]).reset_index(drop=True)
+    b = (pd.read_csv(plain / "trials.csv").drop(columns=["wall_s", "crc"])
+         .sort_values(["trial", "filter"]).reset_index(drop=True))
+    pd.testing.assert_frame_equal(a, b)
+
+
+def test_until_decided_refuses_what_it_cannot_do(tmp_path, write_config):
+    cfg = write_config(UNTIL)
+    for args, words in ((["--max-trials", "10"], "--max-trials goes with --until-decided"),
+                        (["--until-decided", "--max-trials", "3"], "below the first batch"),):
+        res = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "x"), *args])
+        assert res.exit_code == 2 and words in res.output, res.output
+    res = runner.invoke(app, ["run", str(write_config(SMALL, "s.yaml")), "--until-decided",
+                              "--out", str(tmp_path / "y")])
+    assert res.exit_code == 2 and "needs a paper's table" in res.output, res.output
+    assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()

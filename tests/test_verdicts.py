@@ -97,7 +97,7 @@ def test_ranges_floors_and_what_is_not_judged():
     zero = Margin(absolute=0.0, why="the range is its own tolerance")
     assert decide(ten_twenty, Estimate(15.0, 0.5, 100), margin=zero).kind == "reproduced"
     assert decide(ten_twenty, Estimate(30.0, 0.5, 100), margin=zero).text.startswith(
-        "differs (x2.00 the range's middle)")
+        "differs (x2.00 the range's middle; our 95% interval [29, 31])")
     assert decide(ten_twenty, Estimate(19.5, 1.0, 100), margin=zero).kind == "inconclusive"
     assert decide(2.0, Estimate(3.0, 0.05, 100), floor=2.5).text.endswith(
         "paper below the model's floor")
@@ -120,3 +120,165 @@ def test_rates_get_wilson_intervals_inside_zero_one(write_config):
         assert 0.0 <= lo <= k / n <= hi <= 1.0, (k, n, lo, hi)
         ci = stats.binomtest(k, n).proportion_ci(0.95, method="wilson")
         assert (lo, hi) == pytest.approx((ci.low, ci.high))
+
+
+@settings(max_examples=200, deadline=None)
+@given(m=st.floats(-10, 10), se=st.floats(1e-2, 5), n=st.integers(3, 2000),
+       p=st.floats(-10, 10))
+def test_the_differs_p_value_is_the_t_tests(m, se, n, p):
+    from pfbench.verdicts import Claim, p_differs
+    want = 2 * stats.t.sf(abs(m - p) / se, n - 1)
+    got = p_differs(Claim(p, Estimate(m, se, n)))
+    if want > 1e-11:
+        assert got == pytest.approx(want, rel=1e-5, abs=1e-12)
+
+
+def test_holm_levels_follow_the_step_down():
+    from statsmodels.stats.multitest import multipletests
+
+    from pfbench.verdicts import holm_levels
+    p = [0.001, 0.04, 0.012, 0.3, 0.0001]
+    levels = holm_levels(p)
+    # sorted: 0.0001 (5 left: 0.01), 0.001 (4: 0.0125), 0.012 (3: 0.0167), 0.04 (2: 0.025 stop)
+    assert levels == pytest.approx([0.05 / 4, 0.05 / 2, 0.05 / 3, 0.05 / 2, 0.05 / 5])
+    reject = multipletests(p, alpha=0.05, method="holm")[0]
+    assert [pi <= a for pi, a in zip(p, levels)] == list(reject)
+    assert holm_levels([0.2]) == [0.05] and holm_levels([]) == []
+
+
+@pytest.fixture
+def frozen_heap():
+    """statsmodels' Holm calls gc.collect() each time; with the test session's objects frozen
+    out of the collector's reach a simulation of many tables stays fast."""
+    import gc
+    gc.freeze()
+    yield
+    gc.unfreeze()
+
+
+def test_a_table_of_many_cells_makes_no_chance_verdicts(frozen_heap):
+    """54 cells whose truth equals the paper's value: judged one by one, about 93% of tables
+    would show a false 'differs'; judged together (Holm) at most 5% (simulated, 400 tables,
+    3 binomial standard errors); a cell far off is still found."""
+    from pfbench.verdicts import Claim, decide_family, p_differs
+    rng = np.random.default_rng(54)
+    reps, cells, n = 400, 54, 30
+    alone = together = 0
+    for _ in range(reps):
+        ests = [_est(rng.normal(1.0, 1.0, n)) for _ in range(cells)]
+        alone += any(p_differs(Claim(1.0, e)) < ALPHA for e in ests)    # each at 5%
+        together += any(v.kind == "differs" for v in
+                        decide_family([Claim(1.0, e) for e in ests]))
+    tol = 3 * math.sqrt(ALPHA * (1 - ALPHA) / reps)
+    assert together / reps <= ALPHA + tol
+    assert alone / reps > 0.8
+    far = decide_family([Claim(1.0, _est(rng.normal(1.0, 1.0, n))) for _ in range(53)]
+                        + [Claim(1.0, Estimate(3.0, 0.1, 30))])
+    assert far[-1].kind == "differs" and "Holm over 54" in far[-1].text
+    lo, hi = far[-1].lo, far[-1].hi       # the interval printed is the one at its Holm level
+    assert 3.0 - lo == pytest.approx(hi - 3.0)
+    assert hi - 3.0 == pytest.approx(stats.t.ppf(1 - ALPHA / 54 / 2, 29) * 0.1)
+    assert far[-1].level == pytest.approx(1 - ALPHA / 54)
+
+
+def test_equivalence_across_a_table_is_holm_adjusted_too(frozen_heap):
+    """20 cells whose truth sits on the margin: a false 'reproduced' anywhere in the table at
+    most 5% of the time (simulated)."""
+    from pfbench.verdicts import Claim, decide_family
+    rng = np.random.default_rng(20)
+    reps, cells, n = 300, 20, 400
+    false = 0
+    for _ in range(reps):
+        claims = [Claim(10.0, _est(rng.normal(11.0, 2.0, n)), TEN) for _ in range(cells)]
+        false += any(v.kind == "reproduced" for v in decide_family(claims))
+    assert false / reps <= ALPHA + 3 * math.sqrt(ALPHA * (1 - ALPHA) / reps)
+
+
+@settings(max_examples=100, deadline=None)
+@given(k=st.integers(0, 60), extra=st.integers(0, 60), level=st.floats(0.5, 1 - 1e-9))
+def test_wilson_bounds_stay_inside_zero_one_at_every_level(k, extra, level):
+    import pandas as pd
+
+    from pfbench.compare import estimate
+    from pfbench.papers import Quantity
+    n = k + extra
+    if n == 0:
+        return
+    q = Quantity("c", "converged", "converged", "mean")
+    g = pd.DataFrame({"trial": range(n), "converged": [1.0] * k + [0.0] * extra})
+    est = estimate(q, g, None)
+    assert est.method == "wilson"
+    lo, hi = est.interval(level)
+    assert 0.0 <= lo <= k / n <= hi <= 1.0
+
+
+def test_bootstrap_intervals_are_seeded_and_fit_skewed_counts():
+    import pandas as pd
+
+    from pfbench.compare import estimate
+    from pfbench.papers import Quantity
+    rng = np.random.default_rng(3)
+    q = Quantity("r", "recovery", "recovery_steps", "mean")
+    g = pd.DataFrame({"trial": range(80), "recovery_steps": rng.gamma(0.5, 10.0, 80)})
+    a = estimate(q, g, None, seed=7, key="x").interval(0.95)
+    b = estimate(q, g, None, seed=7, key="x").interval(0.95)
+    assert a == b                                           # the same trials, the same interval
+    assert estimate(q, g, None, seed=8, key="x").interval(0.95) != a
+    assert estimate(q, g, None).method == "bca"
+    q = Quantity("f", "failures", "recovery_failures", "mean")
+    # a count's interval never reaches below zero (a t interval would for few events)
+    g = pd.DataFrame({"trial": range(20), "recovery_failures": [0.0] * 19 + [1.0]})
+    assert estimate(q, g, None).interval(0.95)[0] >= 0.0
+    assert Estimate(0.05, 0.05, 20).interval(0.95)[0] < 0.0
+
+
+def _false_decisions(draw, paper, margin=None, anytime=True, reps=2000, batch=20, most=400,
+                     seed=11):
+    """The fraction of ``reps`` simulated runs until decided (batches of ``batch`` up to
+    ``most``, looking after each) that ever decide wrongly: 'differs' (no margin) or
+    'reproduced' (with one) as the engine judges a cell alone."""
+    from pfbench.verdicts import Claim, p_differs, p_equivalent
+    rng = np.random.default_rng(seed)
+    false = 0
+    for _ in range(reps):
+        x = draw(rng, most)
+        s1, s2 = np.cumsum(x), np.cumsum(x * x)
+        for n in range(batch, most + 1, batch):
+            m = s1[n - 1] / n
+            est = Estimate(m, math.sqrt(max(s2[n - 1] - n * m * m, 0.0) / (n - 1) / n), n)
+            claim = Claim(paper, est.anytime(most) if anytime else est, margin)
+            p = p_differs(claim) if margin is None else p_equivalent(claim)
+            if p < ALPHA:
+                false += 1
+                break
+    return false / reps
+
+
+def test_confidence_sequences_keep_false_decisions_under_alpha_at_every_look():
+    """Runs until decided look after each of 20 batches: with fixed-n t intervals a true value
+    is called 'differs' in about a quarter of the runs; with the confidence sequences at most
+    ALPHA (plus 3 binomial standard errors of 2000 runs), for normal and skewed trials, and
+    'reproduced' likewise when the truth sits on the margin."""
+    reps = 2000
+    tol = 3 * math.sqrt(ALPHA * (1 - ALPHA) / reps)
+    normal = lambda rng, n: rng.normal(1.0, 1.0, n)           # noqa: E731
+    skewed = lambda rng, n: rng.gamma(0.5, 2.0, n)             # noqa: E731  mean 1, skew 2.8
+    assert _false_decisions(normal, 1.0, anytime=False, reps=500) > 0.15
+    assert _false_decisions(normal, 1.0, reps=reps) <= ALPHA + tol
+    assert _false_decisions(skewed, 1.0, reps=reps) <= ALPHA + tol
+    half = Margin(relative=0.5, why="test")
+    on_margin = lambda rng, n: rng.gamma(0.5, 3.0, n)          # noqa: E731  mean 1.5
+    assert _false_decisions(on_margin, 1.0, half, reps=reps) <= ALPHA + tol
+    # and they decide: the truth at the paper's value is shown equivalent within 400 trials
+    at_paper = lambda rng, n: rng.normal(1.0, 1.0, n)          # noqa: E731
+    assert _false_decisions(at_paper, 1.0, half, reps=200) > 0.95
+
+
+def test_a_confidence_sequence_is_wider_than_the_t_interval_and_tuned_before_the_trials():
+    from pfbench.verdicts import cs_rho2
+    est = Estimate(1.0, 0.1, 100)
+    lo, hi = est.interval(0.95)
+    clo, chi = est.anytime(1000).interval(0.95)
+    assert clo < lo and hi < chi
+    assert est.anytime(1000).rho2 == cs_rho2(1000)          # from the budget, not the data
+    assert est.anytime(1000).equivalence_level(ALPHA) == 1 - ALPHA
