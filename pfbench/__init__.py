@@ -10,7 +10,7 @@ from . import _cache
 
 CACHE_DIR = _cache.configure(__version__)
 
-_API = ("Result", "load_results", "run_experiment")
+_API = ("Result", "load_results", "run_experiment", "run_until_decided")
 
 
 def __getattr__(name):
@@ -21,4 +21,5 @@ def __getattr__(name):
     raise AttributeError(f"module 'pfbench' has no attribute {name!r}")
 
 
-__all__ = ["__version__", "CACHE_DIR", "Result", "load_results", "run_experiment"]
+__all__ = ["__version__", "CACHE_DIR", "Result", "load_results", "run_experiment",
+           "run_until_decided"]

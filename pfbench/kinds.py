@@ -20,7 +20,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from .metrics import METRICS, localization_metrics, slam_metrics, trial_metrics
+from .metrics import (CONVERGE_HOLD_STEPS, METRICS, localization_metrics, slam_metrics,
+                      trial_metrics)
 from .traces import LocalizationTracer, SlamTracer
 
 # The columns every trials file starts and ends with; a kind's metrics go between.
@@ -113,7 +114,7 @@ LOCALIZATION = Kind(
     headline=("rmse", "x_error", "y_error", "final_error", "diverged_steps"),
     score=lambda model, truth, out: localization_metrics(
         truth.pose, out, model.bound, model.kidnaps, model.score_from, model.report_step,
-        model.area),
+        model.area, getattr(model, "hold", CONVERGE_HOLD_STEPS)),
     unit="m",
     particle_floats=lambda params, scen: 64,
     step_floats=lambda scen: 16 + 3 * len(scen.get("beacons", ())),

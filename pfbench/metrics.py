@@ -18,12 +18,17 @@ METRICS = {
     "final_error": "position error at the last step (m; SLAM and localization)",
     "error_at_step": "localization: position error at the scenario's report_step (m)",
     "converged": "localization: 1 when the filter converged before the first kidnapping (or the "
-                 "end), else 0; its mean over trials is the success rate",
+                 "end): its position error stays below the bound for at least the last "
+                 "converge_hold_steps steps (10 unless the scenario says) before it, else 0; its "
+                 "mean over trials is the success rate",
     "converge_step": "localization: first step after which the position error stays below the "
-                     "bound (NaN: never)",
+                     "bound, in a trial that converged (NaN: it did not)",
     "recovery_steps": "localization with kidnapping: mean over the kidnappings the filter recovers "
-                      "from of the steps until its error stays below the bound again",
-    "recovery_failures": "localization with kidnapping: kidnappings it never recovers from",
+                      "from (its error below the bound again for at least converge_hold_steps "
+                      "steps before the next kidnapping or the end) of the steps until it stays "
+                      "below",
+    "recovery_failures": "localization with kidnapping: kidnappings it never recovers from (one "
+                         "followed by fewer than converge_hold_steps steps counts neither way)",
     "mean_particles": "mean particle count over the steps (KLD-sampling adapts it)",
     "landmark_error": "SLAM: mean distance between each landmark the filter has mapped and the "
                       "true one, at the end of the trial (m)",
@@ -184,14 +189,22 @@ def settle_step(err: np.ndarray, bound: float) -> int:
     return int(above[-1]) + 1 if above.size else 0
 
 
+# Steps a filter's error must stay below the bound at the end of a stretch (before the first
+# kidnapping, between two, or before the end) to count as converged or recovered.
+CONVERGE_HOLD_STEPS = 10
+
+
 def localization_metrics(pose: np.ndarray, out: dict, bound: float, kidnaps: np.ndarray,
                          score_from: int = 1, report_step: int = 0,
-                         area: np.ndarray | None = None) -> dict:
+                         area: np.ndarray | None = None,
+                         hold: int = CONVERGE_HOLD_STEPS) -> dict:
     """Metrics of one localization run: true poses (T+1, 3), the filter's 'pose' (T+1, 3), 'ess'
     (T,), 'resampled' (T,), optionally 'n' (T,) particle counts; ``bound`` the convergence bound
     (m); ``kidnaps`` the steps t at which the robot was moved (the pose at t is the new one).
     Convergence: the first step after which the error stays below the bound until the first
-    kidnapping (or the end); recovery: likewise from each kidnapping to the next. The error
+    kidnapping (or the end), for at least ``hold`` steps (a filter whose error dips under the
+    bound only in the last few steps has not converged); recovery: likewise from each
+    kidnapping to the next (a stretch shorter than ``hold`` steps counts neither way). The error
     averages count the steps from ``score_from``; error_at_step is the error at ``report_step``
     (NaN for 0). ``area`` (2,): the world is [0, area[0]] x [0, area[1]]; an estimate outside it
     is a divergence (diverged_steps), never a silent error of any size."""
@@ -200,12 +213,14 @@ def localization_metrics(pose: np.ndarray, out: dict, bound: float, kidnaps: np.
     cuts = [int(k) for k in sorted(kidnaps) if 1 <= k <= T] + [T + 1]
     first = err[: cuts[0] - 1]
     s = settle_step(first, bound)
-    converge = float(s + 1) if s < first.size else math.nan
+    converge = float(s + 1) if first.size - s >= hold else math.nan
     recover, failures = [], 0
     for k, nxt in zip(cuts[:-1], cuts[1:]):
         seg = err[k - 1: nxt - 1]
+        if seg.size < hold:             # too short to tell
+            continue
         s = settle_step(seg, bound)
-        if s < seg.size:
+        if seg.size - s >= hold:
             recover.append(float(s))
         else:
             failures += 1

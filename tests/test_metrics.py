@@ -70,15 +70,38 @@ def test_convergence_and_recovery_steps():
     # steps 1..10; kidnapped at step 5 (error jumps) and at step 9 (never recovers)
     errs = [5.0, 2.0, 0.3, 0.2, 8.0, 6.0, 0.4, 0.1, 7.0, 9.0]
     truth, out = _poses(errs)
-    m = localization_metrics(truth, out, 0.5, np.array([5, 9]))
+    m = localization_metrics(truth, out, 0.5, np.array([5, 9]), hold=2)
     assert m["converge_step"] == 3
     assert m["recovery_steps"] == 2          # kidnapped at 5, below the bound from step 7 on
     assert m["recovery_failures"] == 1
     assert m["final_error"] == 9.0
     assert m["x_error"] == pytest.approx(np.mean(errs)) and m["y_error"] == 0.0
     assert m["rmse"] == pytest.approx(math.sqrt(np.mean(np.square(errs))))
-    none = localization_metrics(truth, out, 0.5, np.array([], dtype=np.int64))
+    none = localization_metrics(truth, out, 0.5, np.array([], dtype=np.int64), hold=2)
     assert math.isnan(none["converge_step"]) and math.isnan(none["recovery_failures"])
+
+
+def test_converged_means_under_the_bound_for_the_last_hold_steps():
+    from pfbench.metrics import CONVERGE_HOLD_STEPS
+    # under the bound only at the last two steps: not converged with hold 3, converged with 2
+    errs = [5.0, 4.0, 3.0, 2.0, 0.3, 0.2]
+    truth, out = _poses(errs)
+    none = np.array([], dtype=np.int64)
+    m = localization_metrics(truth, out, 0.5, none, hold=3)
+    assert m["converged"] == 0.0 and math.isnan(m["converge_step"])
+    m = localization_metrics(truth, out, 0.5, none, hold=2)
+    assert m["converged"] == 1.0 and m["converge_step"] == 5
+    # the default: a dip under the bound in the last steps of a long run is not convergence
+    long = [3.0] * (40 - CONVERGE_HOLD_STEPS + 1) + [0.1] * (CONVERGE_HOLD_STEPS - 1)
+    assert localization_metrics(*_poses(long), 0.5, none)["converged"] == 0.0
+    assert localization_metrics(*_poses(long + [0.1]), 0.5, none)["converge_step"] == \
+        40 - CONVERGE_HOLD_STEPS + 2
+    # a recovery needs the same hold; a stretch shorter than it counts neither way
+    errs = [0.1] * 5 + [9.0, 0.2, 0.2, 0.2, 9.0, 9.0]      # kidnapped at 6 and at 10
+    m = localization_metrics(*_poses(errs), 0.5, np.array([6, 10]), hold=3)
+    assert m["recovery_steps"] == 1 and m["recovery_failures"] == 0.0
+    m = localization_metrics(*_poses(errs), 0.5, np.array([6, 10]), hold=4)
+    assert math.isnan(m["recovery_steps"]) and m["recovery_failures"] == 1.0
 
 
 def test_scoring_from_a_later_step_and_the_error_at_a_step():
@@ -86,7 +109,7 @@ def test_scoring_from_a_later_step_and_the_error_at_a_step():
     truth, out = _poses(errs)
     out["pose"][1:, 2] = [1.0, 1.0, 0.1, 0.1, 0.1, 0.1]          # heading errors
     m = localization_metrics(truth, out, 0.5, np.array([], dtype=np.int64), score_from=3,
-                             report_step=2)
+                             report_step=2, hold=2)
     assert m["position_error"] == pytest.approx(np.mean(errs[2:]))
     assert m["x_error"] == pytest.approx(np.mean(errs[2:]))
     assert m["rmse"] == pytest.approx(math.sqrt(np.mean(np.square(errs[2:]))))

@@ -85,6 +85,9 @@ SCHEMA = {
     "converge_bound_m": Key("float", 0.5, "position error under which a filter counts as "
                             "converged (and recovered after a kidnapping)", min=0.0,
                             min_exclusive=True),
+    "converge_hold_steps": Key("int", 10, "steps the error must stay under the bound at the end "
+                               "of a stretch (before the first kidnapping, between two, before "
+                               "the end) to count as converged or recovered", min=1),
     "initial": Key("choice", "unknown", "what the filters know of the start: 'unknown' (particles "
                    "uniform over the field and heading: global localization) or 'known' (drawn "
                    "around the true start: tracking)", choices=("unknown", "known")),
@@ -108,8 +111,8 @@ class FieldModel:
     mnoise (4,): [sigma_trans, sigma_turn, 0, 0] or alpha1..alpha4; sensor: 0 range, 1
     range_bearing; sense: [max_range, half_fov, sigma_r, sigma_b, nearest (0/1)]; kidnaps (k,)
     steps; kidnap_poses (k, 3) (NaN rows: uniform); bound: the convergence bound; init: the
-    filters' initial belief (see init_particles); score_from,
-    report_step: see the keys.
+    filters' initial belief (see init_particles); score_from, report_step, hold
+    (converge_hold_steps): see the keys.
     """
 
     area: np.ndarray
@@ -128,6 +131,7 @@ class FieldModel:
     init: np.ndarray        # [known (0/1), x, y, heading, sd_xy, sd_heading]
     score_from: int = 1
     report_step: int = 0
+    hold: int = 10          # converge_hold_steps
 
 
 @dataclass
@@ -186,7 +190,7 @@ def build(p) -> FieldModel:
         np.array([1.0 if p["initial"] == "known" else 0.0, p["start"][0], p["start"][1],
                   p["start"][2] * DEG, p["initial_std_m"], p["initial_std_deg"] * DEG]),
         int(p["score_from"]),
-        int(p["report_step"]))
+        int(p["report_step"]), int(p["converge_hold_steps"]))
 
 
 _F = types.float64[::1]
