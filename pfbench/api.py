@@ -40,6 +40,7 @@ class Result:
     comparison : the comparison the table comes from (pfbench.compare; None for a sweep, or a
         results folder without its config)
     figures : the figures drawn into the results folder
+    up_to_date : the results folder held every trial already: nothing ran
     """
     trials: pd.DataFrame
     table: pd.DataFrame
@@ -48,6 +49,7 @@ class Result:
     folder: Path | None = None
     comparison: Any = None
     figures: list = field(default_factory=list)
+    up_to_date: bool = False
 
 
 def _experiment(config, trials, seed, overrides):
@@ -84,7 +86,7 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
                    seed: int | None = None, workers: int = 1, overrides: Iterable[str] = (),
                    out: str | Path | None = None, resume: bool = False, figures: bool = True,
                    executor=None, progress: Callable[[int, int], None] | None = None,
-                   warn: Callable[[str], None] | None = None) -> Result:
+                   warn: Callable[[str], None] | None = None, force: bool = False) -> Result:
     """Run every trial of an experiment and compare it with its paper.
 
     config : a YAML file, or a mapping with the same keys (``{"scenario": {"name": "ungm"},
@@ -95,6 +97,10 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
     out : a results folder to write (trials.csv, table.csv, table.md, meta.json, figures); None
         writes nothing
     resume : (with ``out``) keep the finished trials of an earlier run of the same experiment
+        (a folder that holds this experiment's trials keeps them anyway; one that holds all of
+        them is up to date: nothing runs, and only the table is written again)
+    force : (with ``out``) replace a folder that holds another experiment, or more trials of
+        this one (refused otherwise)
     figures : (with ``out``) draw the figures
     executor : where the trials run (a pfbench.runner executor; default: ``workers`` local
         processes); progress(done, total) is called as trials finish
@@ -106,7 +112,14 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
     if out is not None:
         from .regen import write_experiment
         res = run_into(exp, Path(out), workers=workers, resume=resume, progress=progress,
-                       executor=executor, warn=warn)
+                       executor=executor, warn=warn, force=force)
+        if res.up_to_date:          # the table again (the same bytes when nothing changed)
+            from . import tables
+            from .compare import compare
+            cmp = compare(exp, res.rows, anytime=anytime_of(res.meta))
+            tables.write(cmp, Path(out), res.meta)
+            return Result(_frame(res.rows, trial_columns(exp)), cmp.table, res.meta, exp,
+                          Path(out), cmp, up_to_date=True)
         cmp, paths = write_experiment(exp, res, Path(out), figures)
         return Result(_frame(res.rows, trial_columns(exp)), cmp.table, res.meta, exp,
                       Path(out), cmp, paths)
@@ -160,7 +173,8 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
                       resume: bool = False, figures: bool = True, executor=None,
                       progress: Callable[[int, int], None] | None = None,
                       warn: Callable[[str], None] | None = None,
-                      on_look: Callable[[dict], None] | None = None) -> Result:
+                      on_look: Callable[[dict], None] | None = None,
+                      force: bool = False) -> Result:
     """Run an experiment in batches until every cell its paper's table judges is decided
     ('reproduced' or 'differs'), or ``max_trials`` is reached (default: ten times the first
     batch), or the cells left would need more than that.
@@ -189,7 +203,8 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
     while True:
         exp = dataclasses.replace(first, trials=n)
         res = run_into(exp, folder, workers=workers, resume=resume or n > batch,
-                       progress=progress, executor=executor, warn=warn)
+                       progress=progress, executor=executor, warn=warn,
+                       force=force and n == batch)
         ran += res.meta["trials_run_now"]
         wall += res.meta["wall_s"]
         cmp = compare(exp, res.rows, anytime=most)

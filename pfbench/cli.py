@@ -206,7 +206,36 @@ def _use_papers(folders) -> None:
     search_folders([_path(f, "--papers") for f in folders])
 
 
+@contextlib.contextmanager
+def _kernels():
+    """Say what happens while the filters' numba kernels load, before any config is read: the
+    first run compiles them (minutes on a small machine), later runs load them from the cache.
+    A spinner on a terminal (gone when they are loaded), one line in a log when they compile;
+    never a silent minute."""
+    if "pfbench.filters" in sys.modules:
+        yield
+        return
+    from . import CACHE_DIR
+    cold = not any(Path(CACHE_DIR).rglob("*.nbi"))
+    what = ("compiling the filters' numba kernels (first run only; a few minutes on 2 cores, "
+            "then cached)" if cold else "loading the filters' compiled kernels")
+    if not err.is_terminal:         # a log: one line, where it takes long
+        if cold:
+            err.print(f"pfbench: {what} ...", markup=False)
+        yield
+        return
+    with err.status(what + " ...", spinner="dots"):
+        yield
+
+
+def _load_kernels() -> None:
+    """Import the filters and scenarios (their kernels), saying so (_kernels)."""
+    with _kernels():
+        from . import filters, scenarios  # noqa: F401
+
+
 def _load(config: Path, trials=None, seed=None, sets=()):
+    _load_kernels()
     from .config import load
     return load(config, {"trials": trials, "seed": seed}, sets)
 
@@ -240,6 +269,9 @@ def run(
                                            "(default: results/<experiment>)."),
     resume: bool = typer.Option(False, "--resume", help="Keep the finished trials of an earlier "
                                 "run of the same experiment in the results folder."),
+    force: bool = typer.Option(False, "--force", help="Replace a results folder that holds "
+                               "another experiment, or more trials of this one, and run again "
+                               "what is up to date."),
     set_: List[str] = typer.Option([], "--set", help="Override a config key: KEY.PATH=VALUE "
                                    "(YAML value; '*' matches every key), repeatable."),
     no_figures: bool = typer.Option(False, "--no-figures", help="Skip the figures."),
@@ -300,12 +332,18 @@ def run(
                         res = run_until_decided(exp, out=folder, max_trials=most,
                                                 workers=workers, resume=resume,
                                                 figures=not no_figures, progress=progress,
-                                                executor=ex, warn=_warn, on_look=look)
+                                                executor=ex, warn=_warn, on_look=look,
+                                                force=force)
                     else:
                         res = run_experiment(exp, out=folder, workers=workers, resume=resume,
                                              figures=not no_figures, progress=progress,
-                                             executor=ex, warn=_warn)
+                                             executor=ex, warn=_warn, force=force)
         _print_table(res.comparison)
+        if res.up_to_date:
+            err.print(f"{folder} is up to date: it holds the {exp.trials} trials of this "
+                      "experiment (the table above is computed from them; nothing ran). "
+                      "--force runs them again.", markup=False)
+            return
         if until_decided:
             u = res.meta["until_decided"]
             err.print(f"until decided: {len(u['looks'])} look(s), {res.experiment.trials} "
@@ -331,6 +369,8 @@ def sweep(
     out_dir: Optional[str] = typer.Option(None, "--out", help="Results folder (default: "
                                            "results/<experiment>)."),
     resume: bool = typer.Option(False, "--resume", help="Keep the finished trials of every cell."),
+    force: bool = typer.Option(False, "--force", help="Replace cell folders that hold another "
+                               "experiment's trials."),
     yes: bool = typer.Option(False, "--yes", help="Run even when there are many cells."),
     executor: str = typer.Option("local", "--executor", help="'local' or 'dask' (see run)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler "
@@ -339,6 +379,7 @@ def sweep(
 ):
     """Run an experiment over the cartesian product of values of some of its keys."""
     with _guard():
+        _load_kernels()
         _use_papers(papers)
         out_dir = _path(out_dir, "--out")
         from . import sweep as sw
@@ -359,7 +400,8 @@ def sweep(
                 progress = _progress(bar, total, header)
                 with _stop_on_interrupt(bar, "interrupted in a cell: "):
                     trials_df = sw.run_sweep(cells, folder, workers=workers, resume=resume,
-                                             progress=progress, executor=ex, warn=_warn)
+                                             progress=progress, executor=ex, warn=_warn,
+                                             force=force)
             from .regen import write_sweep
             summ, figs = write_sweep(trials_df, keys, folder, name)
         t = RichTable(title=f"{name}: sweep over {', '.join(keys)}", title_justify="left")
@@ -407,6 +449,7 @@ def tables_(
     import time
 
     with _guard():
+        _load_kernels()
         _use_papers(papers)
         configs, results = _path(configs, "--configs"), _path(results, "--results")
         from . import regen
@@ -495,6 +538,7 @@ def report(
 ):
     """Write the reproduction report: every paper's tables beside ours, from the results."""
     with _guard():
+        _load_kernels()
         _use_papers(papers)
         configs, results = _path(configs, "--configs"), _path(results, "--results")
         out_file = _path(out_file, "--out")
@@ -516,6 +560,7 @@ def validate(config: Path = typer.Argument(..., help="Experiment YAML file."),
              papers: List[str] = _papers_option()):
     """Check a config (and its paper file) against the schema; run nothing."""
     with _guard():
+        _load_kernels()
         _use_papers(papers)
         from .config import read_yaml
         from .resources import check_fits, human
@@ -552,6 +597,7 @@ def list_(configs: Path = typer.Option(Path("configs"), "--configs",
           scheduler: Optional[str] = typer.Option(None, "--scheduler", help="--check with "
                                                   "--executor dask: a scheduler tcp://HOST:PORT.")):
     """List scenarios, filters, resampling schemes and configs, one line each."""
+    _load_kernels()
     from . import plugins
     from .config import read_yaml
     from .filters import FILTERS
@@ -629,6 +675,7 @@ def bench(
 ):
     """Kernel speed beside numpy (and a C reference): UNGM PF, every filter, FastSLAM, MCL."""
     with _guard():
+        _load_kernels()
         from .bench import run_bench
         run_bench(json_path=json_path, quick=quick, c_ref=c_ref, threads=threads, console=out,
                   only=only)

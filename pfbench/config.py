@@ -94,13 +94,20 @@ class Experiment:
         return self.reference.tables[self.table]
 
     @property
-    def hash(self) -> str:
-        """sha256 of everything a trial's rows depend on: seed, scenario, filters (not ``trials``)."""
+    def identity(self) -> dict:
+        """Everything a trial's rows depend on: seed, scenario, filters (not ``trials``), as
+        JSON-ready values (meta.json keeps it, so that a run into the folder of another
+        experiment can say what differs)."""
         payload = {"seed": self.seed, "scenario": self.scenario,
                    "scenario_params": dict(self.scenario_params),
                    "filters": [[f.key, f.type, f.label, f.particles, dict(f.params)]
                                for f in self.filters]}
-        text = json.dumps(payload, sort_keys=True, default=str)
+        return json.loads(json.dumps(payload, sort_keys=True, default=str))
+
+    @property
+    def hash(self) -> str:
+        """sha256 of the experiment's identity (seed, scenario, filters; not ``trials``)."""
+        text = json.dumps(self.identity, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     def filter(self, key: str) -> FilterRun:

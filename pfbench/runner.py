@@ -346,12 +346,105 @@ class RunResult:
     wall_s: float
     ran: int           # trials run now (the rest came from --resume)
     meta: dict
+    up_to_date: bool = False    # the folder held every trial already: nothing ran or was written
+
+
+def difference(old: dict, exp: Experiment) -> str:
+    """What tells the experiment of a folder's stamp ``old`` (meta.json or run.json) from
+    ``exp``, in a few words ('seed 2021 -> 5; scenario.steps 100 -> 60')."""
+    ident = old.get("identity")
+    if not isinstance(ident, dict):
+        name = old.get("experiment")
+        return (f"experiment {name!r}, hash {old.get('experiment_hash')}; this config's "
+                f"{exp.name!r}, hash {exp.hash}")
+    new = exp.identity
+    out = []
+    for key in ("seed", "scenario"):
+        if ident.get(key) != new[key]:
+            out.append(f"{key} {ident.get(key)} -> {new[key]}")
+    a, b = ident.get("scenario_params") or {}, new["scenario_params"]
+    if ident.get("scenario") == new["scenario"]:
+        out += [f"scenario.{k} {_short(a.get(k))} -> {_short(b.get(k))}"
+                for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
+    fa = {f[0]: f for f in ident.get("filters") or []}
+    fb = {f[0]: f for f in new["filters"]}
+    gone, added = sorted(set(fa) - set(fb)), sorted(set(fb) - set(fa))
+    if gone:
+        out.append(f"filter runs {', '.join(gone)} not in this config")
+    if added:
+        out.append(f"filter runs {', '.join(added)} new in this config")
+    changed = [k for k in fa if k in fb and fa[k] != fb[k]]
+    if changed:
+        out.append(f"filter runs {', '.join(changed)} set otherwise")
+    if not out:
+        return f"hash {old.get('experiment_hash')}, this config's {exp.hash}"
+    more = f" and {len(out) - 3} more" if len(out) > 3 else ""
+    return "; ".join(out[:3]) + more
+
+
+def _short(v) -> str:
+    text = json.dumps(v) if not isinstance(v, str) else v
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _stamp(out_dir: Path) -> tuple[str, dict] | None:
+    """('finished', meta.json) or ('unfinished', run.json) of an earlier run in out_dir, or
+    None; a stamp that cannot be read is refused (the folder is not left to be overwritten)."""
+    for what, name, trials in (("unfinished", "run.json", "trials.partial.csv"),
+                               ("finished", "meta.json", "trials.csv")):
+        path = out_dir / name
+        if path.exists() and (out_dir / trials).exists():
+            try:
+                data = json.loads(path.read_text(encoding="utf-8"))
+                if not isinstance(data, dict) or "experiment_hash" not in data:
+                    raise ValueError
+            except (OSError, ValueError):
+                raise UserError(f"{path}: unreadable, so {out_dir} may hold another "
+                                "experiment's trials; --force replaces them") from None
+            return what, data
+    return None
+
+
+def _check_folder(exp: Experiment, out_dir: Path, resume: bool, force: bool, warn,
+                  traces: bool) -> tuple[bool, RunResult | None]:
+    """Whether the run keeps the trials ``out_dir`` holds (True for the same experiment: its
+    trials are deterministic, so they are the trials this run would make), and the result when
+    they are every trial already ('up to date'). Refuses, without ``force``, a folder that holds
+    another experiment, or more trials of this one than asked for (they would be lost)."""
+    if force:
+        return resume, None
+    stamp = _stamp(out_dir)
+    if stamp is None:
+        return resume, None
+    what, old = stamp
+    if old["experiment_hash"] != exp.hash:
+        if resume:
+            return resume, None             # _resumed says why it cannot
+        raise UserError(f"{out_dir} holds the {what} trials of another experiment "
+                        f"({difference(old, exp)}): --force replaces them, or --out names "
+                        "another folder")
+    had = int(old.get("trials") or 0)
+    if what == "finished" and had > exp.trials:
+        raise UserError(f"{out_dir} holds {had} trials of this experiment; {exp.trials} would "
+                        f"replace them with fewer: --trials {had} keeps them, --force replaces "
+                        "them, or --out names another folder")
+    if what == "finished" and had == exp.trials:
+        got = read_trials(out_dir / "trials.csv", trial_columns(exp))
+        done = complete_trials(got.rows, exp)
+        has_traces = (not traces or kind_of(exp.scenario).tracer is None
+                      or (out_dir / "traces.npz").exists())
+        if not got.rejected and len(done) == exp.trials and set(done) == set(range(exp.trials)) \
+                and has_traces:
+            rows = [r for k in sorted(done) for r in done[k]]
+            return True, RunResult(rows, out_dir, 0.0, 0, old, up_to_date=True)
+    return True, None
 
 
 def run_experiment(exp: Experiment, out_dir: Path, *, workers: int = 1, resume: bool = False,
                    progress: Callable[[int, int], None] | None = None,
                    executor: LocalExecutor | None = None,
-                   warn: Callable[[str], None] | None = None, traces: bool = True) -> RunResult:
+                   warn: Callable[[str], None] | None = None, traces: bool = True,
+                   force: bool = False) -> RunResult:
     """Run every trial of ``exp`` into ``out_dir`` (the README's "Results" lists the files).
 
     Trials go to ``trials.partial.csv`` as they finish; at the end the sorted ``trials.csv``
@@ -362,6 +455,11 @@ def run_experiment(exp: Experiment, out_dir: Path, *, workers: int = 1, resume: 
     that arrives twice (a re-run chunk) is kept once. The folder is locked (:class:`FolderLock`)
     for the whole run: a second run into it is refused.
 
+    A folder that holds this experiment's trials keeps them (they are the trials this run would
+    make), and when it holds every one the result is ``up_to_date`` and nothing runs or is
+    written. Without ``force`` a folder that holds another experiment, or more trials of this
+    one, is refused with what differs (``force``: replace it).
+
     ``traces``: keep what the figures draw of the trials the scenario's kind names
     (``traces.npz``, pfbench.traces); a resumed trial that should have a trace and has none
     runs again.
@@ -369,6 +467,9 @@ def run_experiment(exp: Experiment, out_dir: Path, *, workers: int = 1, resume: 
     executor = executor or LocalExecutor(workers)
     out_dir = Path(out_dir)
     with FolderLock(out_dir):
+        resume, ready = _check_folder(exp, out_dir, resume, force, warn, traces)
+        if ready is not None:
+            return ready
         return _run_locked(exp, out_dir, workers, resume, progress, executor, warn, traces)
 
 
@@ -424,7 +525,7 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn, traces)
     started = datetime.now(timezone.utc)
     write_json(marker, {"format": FORMAT_VERSION, "experiment": exp.name,
                         "experiment_hash": exp.hash, "seed": exp.seed, "trials": exp.trials,
-                        "started": started.isoformat()}, indent=None)
+                        "started": started.isoformat(), "identity": exp.identity}, indent=None)
     columns = trial_columns(exp)
     atomic_write(partial, csv_text((r for k in sorted(done) for r in done[k]), True, columns))
     resumed = set(done)
@@ -466,6 +567,7 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn, traces)
         "started": started.isoformat(), "finished": datetime.now(timezone.utc).isoformat(),
         "host": socket.gethostname(), "platform": platform.platform(), "cpus": os.cpu_count(),
         "git_commit": git_commit(), "versions": versions(), "argv": sys.argv[1:],
+        "identity": exp.identity,
     }
     write_json(out_dir / "meta.json", meta)
     partial.unlink(missing_ok=True)

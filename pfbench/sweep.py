@@ -149,8 +149,11 @@ def expand(config: Path, sets: dict[str, list[Any]], overrides: dict[str, Any], 
 
 def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: bool = False,
               progress: Callable[[int, int], None] | None = None,
-              executor=None, warn: Callable[[str], None] | None = None) -> pd.DataFrame:
-    """Run every cell (resumable) on one executor, then write the combined trials."""
+              executor=None, warn: Callable[[str], None] | None = None,
+              force: bool = False) -> pd.DataFrame:
+    """Run every cell (resumable) on one executor, then write the combined trials. A cell's
+    folder that holds its trials keeps them; one that holds another experiment's is refused
+    without ``force`` (pfbench.runner.run_experiment)."""
     total = sum(c.exp.trials for c in cells)
     for cell in cells:          # every cell's folder is free before any cell runs
         with FolderLock(out_dir / "cells" / cell.name, "sweep cell"):
@@ -166,8 +169,10 @@ def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: boo
 
         res = run_experiment(cell.exp, folder, workers=workers, resume=resume,
                              progress=cell_progress, executor=executor, warn=warn,
-                             traces=False)
+                             traces=False, force=force)
         done += cell.exp.trials
+        if progress and res.up_to_date:
+            progress(done, total)
         df = pd.DataFrame(res.rows)
         for k, v in cell.values.items():
             df.insert(0, k, json.dumps(v) if isinstance(v, (list, dict)) else v)

@@ -188,3 +188,72 @@ def test_until_decided_refuses_what_it_cannot_do(tmp_path, write_config):
                               "--out", str(tmp_path / "y")])
     assert res.exit_code == 2 and "needs a paper's table" in res.output, res.output
     assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
+
+
+def test_a_folder_of_another_experiment_is_refused_and_the_same_one_is_up_to_date(
+        tmp_path, write_config):
+    """run into a results folder: another experiment's (or more of this one's) trials are
+    refused with what differs, untouched; the same trials say 'up to date' and change no byte;
+    more trials keep the ones there; --force replaces."""
+    from .conftest import one_line_exit_2, tree
+    cfg = write_config(SMALL)
+    out = tmp_path / "o"
+    args = ["run", str(cfg), "--out", str(out), "--no-figures"]
+    assert runner.invoke(app, args).exit_code == 0
+    before = tree(out)
+    res = runner.invoke(app, args)
+    assert res.exit_code == 0 and "is up to date" in res.output, res.output
+    assert tree(out) == before                                  # not a byte changed
+    line = one_line_exit_2(runner.invoke(app, args + ["--seed", "5", "--set",
+                                                      "scenario.steps=20"]))
+    assert "another experiment" in line and "seed 0 -> 5" in line \
+        and "scenario.steps 30 -> 20" in line and "--force" in line
+    line = one_line_exit_2(runner.invoke(app, args + ["--set", "filters.pf.particles=[20]"]))
+    assert "filter runs pf@40 not in this config" in line
+    line = one_line_exit_2(runner.invoke(app, args + ["--trials", "3"]))
+    assert "holds 6 trials of this experiment" in line and "--trials 6 keeps them" in line
+    assert tree(out) == before
+    # more trials: the six there are kept (not run again), two more run
+    res = runner.invoke(app, args + ["--trials", "8"])
+    assert res.exit_code == 0 and "2 trials" in res.output and "(6 resumed)" in res.output
+    assert json.loads((out / "meta.json").read_text())["trials"] == 8
+    # --force replaces another experiment's folder
+    res = runner.invoke(app, args + ["--seed", "5", "--force"])
+    assert res.exit_code == 0, res.output
+    assert json.loads((out / "meta.json").read_text())["seed"] == 5
+
+
+def test_an_unfinished_run_of_another_experiment_is_refused(tmp_path, write_config):
+    from .conftest import one_line_exit_2, tree
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "run.json").write_text(json.dumps({"experiment": "x", "experiment_hash": "abc",
+                                              "trials": 9}))
+    (out / "trials.partial.csv").write_text("trial,filter\n")
+    before = tree(out)
+    line = one_line_exit_2(runner.invoke(app, ["run", str(write_config(SMALL)), "--out",
+                                               str(out), "--no-figures"]))
+    assert "unfinished trials of another experiment" in line and "'x'" in line
+    assert tree(out) == before
+    (out / "run.json").write_text("{not json")
+    line = one_line_exit_2(runner.invoke(app, ["run", str(write_config(SMALL)), "--out",
+                                               str(out), "--no-figures"]))
+    assert "unreadable" in line and "--force" in line
+
+
+def test_loading_the_kernels_is_never_silent_when_it_takes_long(tmp_path, monkeypatch, capsys):
+    """Before any config is read, a first run (no compiled kernel in the cache) says it is
+    compiling; in a log one line, where loading from a warm cache says nothing."""
+    import sys
+
+    import pfbench
+    from pfbench import cli
+    monkeypatch.delitem(sys.modules, "pfbench.filters")
+    monkeypatch.setattr(pfbench, "CACHE_DIR", tmp_path)
+    with cli._kernels():
+        pass
+    assert "compiling the filters' numba kernels (first run only" in capsys.readouterr().err
+    (tmp_path / "k.nbi").write_bytes(b"")
+    with cli._kernels():
+        pass
+    assert capsys.readouterr().err == ""

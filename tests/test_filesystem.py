@@ -51,7 +51,7 @@ def test_a_full_disk_is_one_line_and_keeps_the_old_results(tmp_path, write_confi
     before = tree(out)
     monkeypatch.setattr(os, "fsync", _fail_with(errno.ENOSPC))
     line = one_line_exit_2(runner.invoke(app, ["run", str(cfg), "--out", str(out),
-                                                "--no-figures"]))
+                                                "--no-figures", "--force"]))
     assert "No space left" in line
     monkeypatch.undo()
     assert tree(out) == before              # no temporary file left, nothing lost
