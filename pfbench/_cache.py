@@ -21,10 +21,53 @@ def _source_hash() -> str:
     h = hashlib.sha256()
     for path in sorted(root.rglob("*.py")):
         text = path.read_bytes()
-        if b"@njit" in text:
+        if b"@njit" in text or b"@kernel(" in text:
             h.update(str(path.relative_to(root)).encode())
             h.update(text)
     return h.hexdigest()[:16]
+
+
+_ROOT = os.path.dirname(os.path.abspath(__file__))
+
+
+def _package_locator():
+    """A numba cache locator that files this package's kernels by their path inside the package
+    (``filters/pf.py``), not by the absolute folder of the copy being imported. The installed
+    copy (site-packages) and a checkout's (what the test suite imports) then share one cache:
+    the suite reuses what a run compiled, and a reinstall of the same source recompiles nothing
+    (numba stamps each file by the hash of its contents)."""
+    from numba.core import caching
+    base = (getattr(caching, "UserProvidedCacheLocator", None)
+            or getattr(caching, "_UserProvidedCacheLocator"))
+
+    class PackageCacheLocator(base):
+        def __init__(self, py_func, py_file):
+            super().__init__(py_func, py_file)
+            rel = os.path.relpath(os.path.dirname(os.path.abspath(py_file)), _ROOT)
+            self._cache_path = os.path.join(numba.config.CACHE_DIR, "pfbench", rel)
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            inside = os.path.abspath(py_file).startswith(_ROOT + os.sep)
+            if not numba.config.CACHE_DIR or not inside:
+                return None
+            return super().from_function(py_func, py_file)
+
+    return PackageCacheLocator
+
+
+def _register_locator() -> None:
+    """Put the package's locator first (numba names its cache classes CacheImpl and
+    UserProvidedCacheLocator, with a leading underscore before 0.61; with neither, numba's own
+    locators stay)."""
+    from numba.core import caching
+    impl = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl", None)
+    if impl is None or not (hasattr(caching, "UserProvidedCacheLocator")
+                            or hasattr(caching, "_UserProvidedCacheLocator")):
+        return
+    classes = impl._locator_classes
+    if not any(getattr(c, "__name__", "") == "PackageCacheLocator" for c in classes):
+        classes.insert(0, _package_locator())
 
 
 def configure(version: str) -> Path:
@@ -43,4 +86,5 @@ def configure(version: str) -> Path:
     except OSError:  # read-only home: let numba fall back to its own locations
         return Path(numba.config.CACHE_DIR or "")
     numba.config.CACHE_DIR = str(path)
+    _register_locator()
     return path

@@ -8,10 +8,11 @@ from __future__ import annotations
 
 import math
 
-from numba import njit, types
+from numba import types
+from ._lazy import kernel
 
 
-@njit(types.float64(types.float64), cache=True)
+@kernel(types.float64(types.float64), cache=True)
 def wrap(a):
     """a wrapped to [-pi, pi); an angle already inside is returned as it is (exact, and the
     common case is fast)."""

@@ -135,14 +135,25 @@ def _workers_that_fit(runs: list[tuple], workers: int, executor: str) -> int:
     return capped
 
 
-def _progress(bar, total: int, first):
-    """The progress callback of a run: a bar task of ``total`` trials; ``first()`` on its first
-    call (once the folder is ready and the trials start)."""
-    task = bar.add_task("trials", total=total)
+def _first_words(exps) -> str:
+    """The bar's words before the first trial finishes: which kernels compile (those of the
+    experiments' filters and scenarios that the numba cache does not hold yet), or 'trials'."""
+    from .runner import uncompiled
+    names = sorted({n for exp in exps for n in uncompiled(exp)})
+    if not names:
+        return "trials"
+    return f"compiling the {', '.join(names)} kernels (first run only)"
+
+
+def _progress(bar, total: int, first, exps=()):
+    """The progress callback of a run: a bar task of ``total`` trials, which says which kernels
+    compile until the first trial finishes; ``first()`` on its first call (once the folder is
+    ready and the trials start)."""
+    task = bar.add_task(_first_words(exps), total=total)
 
     def progress(done, _total):
         first()
-        bar.update(task, completed=done)
+        bar.update(task, completed=done, description="trials")
     return progress
 
 
@@ -175,10 +186,11 @@ def _executor(kind: str, workers: int, scheduler: str | None):
 
 def _bar():
     """The progress bar of long runs (on stderr, gone when done)."""
-    from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
-                               TimeElapsedColumn, TimeRemainingColumn)
-    return Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                    TimeElapsedColumn(), TimeRemainingColumn(), console=err, transient=True)
+    from rich.progress import (BarColumn, MofNCompleteColumn, Progress, SpinnerColumn,
+                               TextColumn, TimeElapsedColumn, TimeRemainingColumn)
+    return Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(),
+                    MofNCompleteColumn(), TimeElapsedColumn(), TimeRemainingColumn(),
+                    console=err, transient=True)
 
 
 @contextlib.contextmanager
@@ -317,11 +329,12 @@ def run(
                 f"{exp.name}: {exp.trials} trials{upto} of {exp.scenario} x [{runs}], seed "
                 f"{exp.seed}, {ex.describe()} -> {folder}", markup=False))
             with _bar() as bar:
-                task = bar.add_task("trials", total=exp.trials)
+                task = bar.add_task(_first_words([exp]), total=exp.trials)
 
                 def progress(done, total):
                     header()
-                    bar.update(task, completed=done, total=total)
+                    bar.update(task, completed=done, total=total,
+                               description="trials" if done else None)
 
                 def look(k):
                     bar.console.print(f"after {k['trials']} trials: {k['undecided']} judged "
@@ -397,7 +410,7 @@ def sweep(
         with _executor(executor, workers, scheduler) as ex, \
                 FolderLock(folder, "--out" if out_dir else "results folder"):
             with _bar() as bar:
-                progress = _progress(bar, total, header)
+                progress = _progress(bar, total, header, [c.exp for c in cells])
                 with _stop_on_interrupt(bar, "interrupted in a cell: "):
                     trials_df = sw.run_sweep(cells, folder, workers=workers, resume=resume,
                                              progress=progress, executor=ex, warn=_warn,

@@ -10,7 +10,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import types
+from ._lazy import kernel
 
 from .rng import STATE, uniform
 
@@ -26,7 +27,7 @@ _IDX = types.int64[::1]
 _W = types.float64[::1]
 
 
-@njit(types.int64(_W), cache=True)
+@kernel(types.int64(_W), cache=True)
 def _last_positive(w):
     j = w.size - 1
     while j > 0 and not (w[j] > 0.0):
@@ -34,7 +35,7 @@ def _last_positive(w):
     return j
 
 
-@njit(types.void(_W, types.float64, _W, _IDX, types.int64), cache=True)
+@kernel(types.void(_W, types.float64, _W, _IDX, types.int64), cache=True)
 def _merge(w, S, pos, idx, start):
     """idx[start + i] = first j with cumsum(w)[j] > pos[i]; pos sorted ascending in [0, S)."""
     jmax = _last_positive(w)
@@ -48,7 +49,7 @@ def _merge(w, S, pos, idx, start):
         idx[start + i] = j
 
 
-@njit(types.void(_W, types.float64, STATE, _IDX), cache=True)
+@kernel(types.void(_W, types.float64, STATE, _IDX), cache=True)
 def systematic(w, S, s, idx):
     """Systematic resampling: positions (u + i) S / N with one u ~ U[0, 1)."""
     N = idx.size
@@ -65,7 +66,7 @@ def systematic(w, S, s, idx):
         idx[i] = j
 
 
-@njit(types.void(_W, types.float64, STATE, _IDX), cache=True)
+@kernel(types.void(_W, types.float64, STATE, _IDX), cache=True)
 def stratified(w, S, s, idx):
     """Stratified resampling: positions (u_i + i) S / N with independent u_i ~ U[0, 1)."""
     N = idx.size
@@ -81,7 +82,7 @@ def stratified(w, S, s, idx):
         idx[i] = j
 
 
-@njit(types.void(_W, types.float64, STATE, _IDX, types.int64, types.int64), cache=True)
+@kernel(types.void(_W, types.float64, STATE, _IDX, types.int64, types.int64), cache=True)
 def _multinomial_into(w, S, s, idx, start, M):
     """Write M multinomial draws from w into idx[start:start+M] (sorted uniforms by spacings)."""
     if M <= 0:
@@ -98,13 +99,13 @@ def _multinomial_into(w, S, s, idx, start, M):
     _merge(w, S, pos, idx, start)
 
 
-@njit(types.void(_W, types.float64, STATE, _IDX), cache=True)
+@kernel(types.void(_W, types.float64, STATE, _IDX), cache=True)
 def multinomial(w, S, s, idx):
     """Multinomial resampling: N independent draws from the normalised weights."""
     _multinomial_into(w, S, s, idx, 0, idx.size)
 
 
-@njit(types.void(_W, types.float64, STATE, _IDX), cache=True)
+@kernel(types.void(_W, types.float64, STATE, _IDX), cache=True)
 def residual(w, S, s, idx):
     """Residual resampling: floor(N W_i) copies of i, the remainder multinomial on the residuals."""
     N = idx.size
@@ -129,7 +130,7 @@ def residual(w, S, s, idx):
             _multinomial_into(w, S, s, idx, k, N - k)
 
 
-@njit(types.void(types.int64, _W, types.float64, STATE, _IDX), cache=True)
+@kernel(types.void(types.int64, _W, types.float64, STATE, _IDX), cache=True)
 def resample(scheme, w, S, s, idx):
     """Dispatch on ``scheme`` (a value of ``SCHEME_CODES``); ``S`` must equal ``w.sum()``."""
     if scheme == 0:
@@ -152,7 +153,7 @@ def ancestors(weights, scheme: str, state: np.ndarray) -> np.ndarray:
     return idx
 
 
-@njit(types.int64(_W, types.float64, types.int64, _IDX, types.int8[::1]), cache=True)
+@kernel(types.int64(_W, types.float64, types.int64, _IDX, types.int8[::1]), cache=True)
 def stepwise_ewa_plan(W, beta, printed, src, mutant):
     """Stepwise EWA resampling (ifa2021 section 1.2), the deterministic part.
 

@@ -10,7 +10,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types, uint64
+from numba import types, uint64
+from ._lazy import kernel
 
 _U53 = 1.0 / 9007199254740992.0  # 2**-53
 
@@ -53,7 +54,7 @@ def state_from_seed(seed_seq: np.random.SeedSequence) -> np.ndarray:
     return s
 
 
-@njit(types.uint64(STATE), cache=True, inline="always")
+@kernel(types.uint64(STATE), cache=True, inline="always")
 def next_u64(s):
     """Advance the xoshiro256+ state ``s`` and return 64 random bits."""
     res = s[0] + s[3]
@@ -67,13 +68,13 @@ def next_u64(s):
     return res
 
 
-@njit(types.float64(STATE), cache=True, inline="always")
+@kernel(types.float64(STATE), cache=True, inline="always")
 def uniform(s):
     """One draw from U[0, 1) with 53 random bits."""
     return float(next_u64(s) >> uint64(11)) * _U53
 
 
-@njit(types.float64(STATE, types.uint64, types.uint64, types.float64), cache=True, inline="always")
+@kernel(types.float64(STATE, types.uint64, types.uint64, types.float64), cache=True, inline="always")
 def _normal_slow(s, idx, rabs, x):
     """The rest of :func:`normal` once a draw fell outside its layer's rectangle: the tail
     (layer 0) or the wedge test; NaN when the draw is rejected (the caller draws again)."""
@@ -88,7 +89,7 @@ def _normal_slow(s, idx, rabs, x):
     return math.nan
 
 
-@njit(types.Tuple((types.uint64, types.uint64, types.float64))(types.uint64), cache=True,
+@kernel(types.Tuple((types.uint64, types.uint64, types.float64))(types.uint64), cache=True,
       inline="always")
 def _layer(r):
     """The ziggurat's reading of 64 random bits: (layer, 52-bit magnitude, signed candidate).
@@ -101,7 +102,7 @@ def _layer(r):
     return idx, rabs, -x if (r >> uint64(55)) & uint64(1) else x
 
 
-@njit(types.float64(STATE), cache=True)
+@kernel(types.float64(STATE), cache=True)
 def normal(s):
     """One standard normal draw (ziggurat: one 64-bit draw per value 98.8% of the time)."""
     while True:
@@ -113,7 +114,7 @@ def normal(s):
             return x
 
 
-@njit(types.void(STATE, types.float64[::1]), cache=True)
+@kernel(types.void(STATE, types.float64[::1]), cache=True)
 def fill_normal(s, z):
     """Fill ``z`` with independent standard normal draws: the draws of as many calls of
     :func:`normal`, bit for bit, about 2.5x faster. The generator state lives in local variables
@@ -140,21 +141,21 @@ def fill_normal(s, z):
     s[0], s[1], s[2], s[3] = s0, s1, s2, s3
 
 
-@njit(types.void(STATE, types.float64, types.float64[::1]), cache=True)
+@kernel(types.void(STATE, types.float64, types.float64[::1]), cache=True)
 def add_normal(s, sd, x):
     """x += sd * z in place, z independent standard normal draws."""
     for i in range(x.size):
         x[i] += sd * normal(s)
 
 
-@njit(types.void(STATE, types.float64[::1]), cache=True)
+@kernel(types.void(STATE, types.float64[::1]), cache=True)
 def fill_uniform(s, u):
     """Fill ``u`` with independent U[0, 1) draws."""
     for i in range(u.size):
         u[i] = uniform(s)
 
 
-@njit(types.float64(STATE, types.float64), cache=True)
+@kernel(types.float64(STATE, types.float64), cache=True)
 def standard_gamma(s, shape):
     """One Gamma(shape, rate 1) draw (Marsaglia & Tsang 2000; shape < 1 by the U^(1/shape) boost)."""
     boost = 1.0

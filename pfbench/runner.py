@@ -349,6 +349,21 @@ class RunResult:
     up_to_date: bool = False    # the folder held every trial already: nothing ran or was written
 
 
+def uncompiled(exp: Experiment) -> list[str]:
+    """The names of the experiment's filter types (and its scenario) whose kernels the numba
+    cache does not hold yet: they compile when the first trial uses them (pfbench._lazy)."""
+    from . import CACHE_DIR
+    index = Path(CACHE_DIR) / "pfbench"
+    have = {p.name.split(".")[0] for p in index.rglob("*.nbi")} if index.is_dir() else set()
+    out = []
+    for what, obj in ([(f.type, FILTERS[f.type].run) for f in exp.filters]
+                      + [(exp.scenario, getattr(SCENARIOS[exp.scenario], "simulate", None))]):
+        module = getattr(obj, "__module__", "") or ""
+        if module.startswith("pfbench.") and module.rsplit(".", 1)[-1] not in have:
+            out.append(what)
+    return list(dict.fromkeys(out))
+
+
 def difference(old: dict, exp: Experiment) -> str:
     """What tells the experiment of a folder's stamp ``old`` (meta.json or run.json) from
     ``exp``, in a few words ('seed 2021 -> 5; scenario.steps 100 -> 60')."""

@@ -18,7 +18,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import types
+from ._lazy import kernel
 
 # sin and cos on [-pi/4, pi/4] (Cephes sin.c), pi/4 in three parts for the reduction
 _S0, _S1, _S2 = 1.58962301576546568060e-10, -2.50507477628578072866e-8, 2.75573136213857245213e-6
@@ -45,7 +46,7 @@ EXP_MIN = -708.0          # exp is 0 below (the library's result is subnormal th
 _EXP_MAX = 709.0
 
 
-@njit(types.UniTuple(types.float64, 2)(types.float64), cache=True, inline="always")
+@kernel(types.UniTuple(types.float64, 2)(types.float64), cache=True, inline="always")
 def sincos(x):
     """(sin x, cos x) for |x| <= 4 pi (beyond, the three-part reduction loses accuracy)."""
     ax = abs(x)
@@ -65,7 +66,7 @@ def sincos(x):
     return s, c
 
 
-@njit(types.float64(types.float64), cache=True, inline="always")
+@kernel(types.float64(types.float64), cache=True, inline="always")
 def exp(x):
     """e^x: 0 below EXP_MIN, inf above 709 (the library's overflows above 709.78)."""
     xc = x if x > EXP_MIN else EXP_MIN
@@ -80,7 +81,7 @@ def exp(x):
     return v if x >= EXP_MIN else 0.0
 
 
-@njit(types.float64(types.float64, types.float64), cache=True, inline="always")
+@kernel(types.float64(types.float64, types.float64), cache=True, inline="always")
 def atan2(y, x):
     """The angle of (x, y) in [-pi, pi], as math.atan2 (signed zeros included)."""
     ax, ay = abs(x), abs(y)
@@ -100,7 +101,7 @@ def atan2(y, x):
     return math.copysign(a, y)
 
 
-@njit(types.float64(types.float64), cache=True, inline="always")
+@kernel(types.float64(types.float64), cache=True, inline="always")
 def wrap(a):
     """a wrapped to [-pi, pi) without a branch the vectoriser cannot follow: exact for an angle
     already inside; outside, a - 2 pi floor((a + pi) / 2 pi) (pfbench.angles.wrap takes the

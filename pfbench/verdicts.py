@@ -42,8 +42,6 @@ import math
 from dataclasses import dataclass, field, replace
 from typing import Callable
 
-from scipy import stats
-
 ALPHA = 0.05        # each family's error: any false 'reproduced', or any false 'differs'
 
 # The interval each method gives, as a table names it.
@@ -78,6 +76,13 @@ DEFINITIONS = (
     "Wilson's for rates; the BCa bootstrap, paired by trial, for gains, variances, ratios and "
     "counts; with --until-decided, a confidence sequence valid at every look.",
 )
+
+
+def _stats():
+    """scipy.stats, imported when a verdict is first computed (it takes about a second, and a
+    run's first trial should not wait for it)."""
+    from scipy import stats
+    return stats
 
 
 def cs_rho2(max_trials: int, alpha: float = ALPHA) -> float:
@@ -192,7 +197,7 @@ def quantile(level: float, n: int) -> float:
     """The two-sided ``level`` quantile of Student's t with n - 1 degrees of freedom."""
     if n < 2:
         return math.nan
-    return float(stats.t.ppf(0.5 + level / 2, n - 1))
+    return float(_stats().t.ppf(0.5 + level / 2, n - 1))
 
 
 def widened_se(est: Estimate, paper_runs: int | None) -> float:
@@ -253,7 +258,7 @@ def _p_closed(est: Estimate, z: float, sides: int) -> float:
     if est.method == "cs":
         v = est.n * (est.rho2 or cs_rho2(est.n)) + 1.0
         return min(1.0, math.sqrt(v) * math.exp(-max(z, 0.0) ** 2 * (v - 1.0) / (2.0 * v)))
-    return float(sides * stats.t.sf(z, est.n - 1))
+    return float(sides * _stats().t.sf(z, est.n - 1))
 
 
 def _closed_form(c: Claim) -> bool:
@@ -317,8 +322,8 @@ def _trials_to_decide(c: Claim, a_d: float, a_e: float) -> tuple[str, int | None
         return _differs_at(moved, a_d) or _equivalent_at(moved, a_e)
 
     need = []
-    z_d = float(stats.norm.ppf(1 - a_d / 2))
-    z_e = float(stats.norm.ppf(0.5 + est.equivalence_level(a_e) / 2))
+    z_d = float(_stats().norm.ppf(1 - a_d / 2))
+    z_e = float(_stats().norm.ppf(0.5 + est.equivalence_level(a_e) / 2))
     if distance > 0:                                    # toward 'differs'
         slack = (distance / z_d) ** 2 - se_b2
         if slack > 0:

@@ -12,7 +12,7 @@ def test_readme_keys_and_example_match_the_schemas_and_results():
 
 def test_readme_has_exactly_the_two_setup_commands():
     text = (ROOT / "README.md").read_text()
-    assert "pip install . && pfbench run configs/ifa_pf_ungm.yaml" in text
+    assert "pip install . && pfbench run configs/ifa_fastslam.yaml" in text
     assert 'pip install ".[test]" && pytest' in text
 
 

@@ -174,3 +174,55 @@ def test_git_commit_is_dirty_for_the_code_not_for_the_results(tmp_path):
     assert git_commit(tmp_path) == clean
     (tmp_path / "configs/c.yaml").write_text("1\n")
     assert git_commit(tmp_path) == clean + "-dirty"
+
+
+def _python(code: str, cwd=None, **env) -> str:
+    import os
+    import subprocess
+    import sys
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env={**os.environ, **env}, timeout=600, cwd=cwd)
+    assert res.returncode == 0, res.stderr
+    return res.stdout
+
+
+def test_importing_the_package_builds_no_kernel_and_a_run_builds_only_its_own():
+    """Kernels compile (or load from the cache) on first use: importing every filter and
+    scenario builds none, and a UNGM run of the PF builds no SLAM or localization kernel."""
+    out = _python(
+        "import gc\n"
+        "import pfbench.filters, pfbench.scenarios, pfbench.config\n"
+        "from pfbench._lazy import LazyKernel\n"
+        "ks = [o for o in gc.get_objects() if isinstance(o, LazyKernel)]\n"
+        "print(len(ks), sum(k.built for k in ks))\n"
+        "import pfbench\n"
+        "pfbench.run_experiment({'seed': 1, 'trials': 2, 'scenario': {'name': 'ungm', "
+        "'steps': 10}, 'filters': {'pf': {'particles': 20}}})\n"
+        "built = {k.__module__ for k in ks if k.built}\n"
+        "print(sorted(built))\n")
+    first, second = out.strip().splitlines()
+    total, built = map(int, first.split())
+    assert total > 100 and built == 0
+    for module in ("fastslam", "mcl", "sspf_field", "swarm", "upf"):
+        assert f"pfbench.filters.{module}" not in second, second
+    assert "pfbench.filters.pf" in second
+
+
+def test_every_copy_of_the_package_shares_one_kernel_cache(tmp_path):
+    """The installed copy and a checkout's file their kernels under the same cache folder (by
+    the path inside the package), so the test suite reuses what a run compiled."""
+    import shutil
+    from pathlib import Path
+
+    import pfbench
+    root = Path(pfbench.__file__).parent
+    shutil.copytree(root, tmp_path / "pfbench", ignore=shutil.ignore_patterns("__pycache__"))
+    code = ("import pfbench, numba\n"
+            "from pfbench.filters import pf\n"
+            "from pfbench._cache import _package_locator\n"
+            "loc = _package_locator().from_function(pf.pf_kernel._func, pf.__file__)\n"
+            "print(pfbench.__file__); print(loc.get_cache_path())\n")
+    here = _python(code, cwd=root.parent).splitlines()
+    there = _python(code, cwd=tmp_path).splitlines()
+    assert here[0] != there[0] and str(tmp_path) in there[0]       # two copies
+    assert here[1] == there[1] and here[1].endswith("pfbench/filters")

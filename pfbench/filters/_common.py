@@ -4,7 +4,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import types
+from .._lazy import kernel
 
 from ..rng import STATE, fill_normal, uniform
 from ..models.scalar import ModelFn, add_process_noise
@@ -13,7 +14,7 @@ _F = types.float64[::1]
 _I = types.int64[::1]
 
 
-@njit(types.void(STATE, types.float64, types.float64, _F, _F, _F, _I, _F, _F), cache=True)
+@kernel(types.void(STATE, types.float64, types.float64, _F, _F, _F, _I, _F, _F), cache=True)
 def start(s, prior_mean, prior_var, x, xhat, ess, resampled, div_l1, distinct):
     """Draw the particles x (N,) from the Gaussian prior and fill the traces' entry for t = 0."""
     fill_normal(s, x)
@@ -27,7 +28,7 @@ def start(s, prior_mean, prior_var, x, xhat, ess, resampled, div_l1, distinct):
     distinct[0] = np.nan
 
 
-@njit(types.float64(types.float64, types.float64), cache=True, inline="always")
+@kernel(types.float64(types.float64, types.float64), cache=True, inline="always")
 def floored(l, log_floor):
     """log(exp(l) + exp(log_floor)): a log-likelihood with an additive floor on the likelihood.
 
@@ -40,7 +41,7 @@ def floored(l, log_floor):
     return hi + math.log1p(math.exp(-abs(l - log_floor)))
 
 
-@njit(types.UniTuple(types.float64, 4)(_F, _F, _F, types.float64), cache=True)
+@kernel(types.UniTuple(types.float64, 4)(_F, _F, _F, types.float64), cache=True)
 def normalise(lw, w, x, m):
     """Max-shifted weights from log-weights.
 
@@ -79,7 +80,7 @@ def normalise(lw, w, x, m):
     return S, S2, sx, underflow
 
 
-@njit(types.UniTuple(types.float64, 3)(_F, _F, _F, types.float64, types.int64, _F, _I, _F, _F),
+@kernel(types.UniTuple(types.float64, 3)(_F, _F, _F, types.float64, types.int64, _F, _I, _F, _F),
       cache=True)
 def weigh(lw, w, x, m, t, ess, resampled, div_l1, distinct):
     """One step's weights (see ``normalise``), ESS and weighted mean; the step's resampling
@@ -92,7 +93,7 @@ def weigh(lw, w, x, m, t, ess, resampled, div_l1, distinct):
     return S, sx / S, under
 
 
-@njit(types.UniTuple(types.float64, 2)(_F), cache=True)
+@kernel(types.UniTuple(types.float64, 2)(_F), cache=True)
 def diversity(x):
     """(mean pairwise |x_i - x_j| over pairs i < j, fraction of distinct values) of particles x."""
     N = x.size
@@ -108,7 +109,7 @@ def diversity(x):
     return 2.0 * acc / (N * (N - 1.0)), distinct / N
 
 
-@njit(types.float64(_F, types.int64, types.float64, types.int64, types.int64, _I, _F, _F),
+@kernel(types.float64(_F, types.int64, types.float64, types.int64, types.int64, _I, _F, _F),
       cache=True)
 def resampled_step(x, t, est, estimate_after, diag, resampled, div_l1, distinct):
     """Record that step t resampled into x (N,): its diversity when ``diag``; returns the estimate,
@@ -119,13 +120,13 @@ def resampled_step(x, t, est, estimate_after, diag, resampled, div_l1, distinct)
     return x.sum() / x.size if estimate_after else est
 
 
-@njit(types.float64(_F), cache=True)
+@kernel(types.float64(_F), cache=True)
 def mean_abs_pairwise(x):
     """Mean over pairs i < j of |x_i - x_j| (O(N log N) through the sorted values)."""
     return diversity(x)[0]
 
 
-@njit(types.int64(ModelFn, ModelFn, _F, _F, _F, _F, _F, types.float64, types.float64,
+@kernel(types.int64(ModelFn, ModelFn, _F, _F, _F, _F, _F, types.float64, types.float64,
                   types.float64, STATE, _F, _F), cache=True)
 def mh_move(f, h, theta, noise, xprev, x, hx, yt, tt, log_floor, s, prop, hprop):
     """One Metropolis-Hastings move per particle toward p(x_t | x_{t-1}, y_t) (resample-move).

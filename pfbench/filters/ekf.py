@@ -2,7 +2,8 @@
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, types
+from numba import types
+from .._lazy import kernel
 
 from ..models.scalar import ModelFn
 from .keys import gaussian_noise_keys
@@ -14,7 +15,7 @@ EKF_SIG = types.int64(ModelFn, ModelFn, ModelFn, ModelFn, _F, _F, types.float64,
                       types.float64, types.float64, types.float64, _F, _F)
 
 
-@njit(EKF_SIG, cache=True)
+@kernel(EKF_SIG, cache=True)
 def ekf_kernel(f, h, fj, hj, theta, y, prior_mean, prior_var, q_mean, Q, R, xhat, pvar):
     """Run the EKF over y (T+1,); fill the posterior mean xhat and variance pvar (T+1,).
 

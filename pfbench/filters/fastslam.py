@@ -18,7 +18,8 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, typeof, types
+from numba import typeof, types
+from .._lazy import kernel
 
 from ..angles import wrap
 from ..models.pose import estimate_pose
@@ -45,7 +46,7 @@ _SYSTEMATIC = SCHEME_CODES["systematic"]
 LOG_2PI = math.log(2.0 * math.pi)
 
 
-@njit(types.UniTuple(types.float64, 7)(types.float64, types.float64, types.float64,
+@kernel(types.UniTuple(types.float64, 7)(types.float64, types.float64, types.float64,
                                        types.float64, types.float64), cache=True)
 def observe_landmark(px, py, pth, lx, ly):
     """Predicted [range, bearing] of landmark (lx, ly) from pose (px, py, pth) and the Jacobian H
@@ -59,7 +60,7 @@ def observe_landmark(px, py, pth, lx, ly):
     return r, wrap(math.atan2(dy, dx) - pth), dx / r, dy / r, -dy / q, dx / q, 1.0
 
 
-@njit(types.UniTuple(types.float64, 11)(types.float64, types.float64, types.float64, types.float64,
+@kernel(types.UniTuple(types.float64, 11)(types.float64, types.float64, types.float64, types.float64,
                                         types.float64, types.float64, types.float64, types.float64,
                                         types.float64, types.float64, types.float64, types.float64),
       cache=True)
@@ -81,13 +82,13 @@ def innovation(px, py, pth, lx, ly, a, c, d, zr, zb, Rr, Rb):
     return (zr - r, wrap(zb - b), S11, S12, S22, S11 * S22 - S12 * S12, h11, h12, h21, h22, 1.0)
 
 
-@njit(types.float64(types.float64, types.float64, types.float64, types.float64, types.float64,
+@kernel(types.float64(types.float64, types.float64, types.float64, types.float64, types.float64,
                     types.float64), cache=True, inline="always")
 def _maha(v1, v2, S11, S12, S22, det):
     return (v1 * (S22 * v1 - S12 * v2) + v2 * (S11 * v2 - S12 * v1)) / det
 
 
-@njit(types.float64(types.float64, types.float64, types.float64, _F, _F, types.float64,
+@kernel(types.float64(types.float64, types.float64, types.float64, _F, _F, types.float64,
                     types.float64, types.float64, types.float64, types.int64), cache=True)
 def ekf_landmark_update(px, py, pth, mu, sig, zr, zb, Rr, Rb, joseph):
     """Update one landmark's EKF (mean mu (2,), covariance sig (3,) = [s11, s12, s22]) with the
@@ -132,7 +133,7 @@ def ekf_landmark_update(px, py, pth, mu, sig, zr, zb, Rr, Rb, joseph):
     return -0.5 * _maha(v1, v2, S11, S12, S22, det) - 0.5 * (2.0 * LOG_2PI + math.log(det))
 
 
-@njit(types.float64(types.float64, types.float64, types.float64, _F, _F, types.float64,
+@kernel(types.float64(types.float64, types.float64, types.float64, _F, _F, types.float64,
                     types.float64, types.float64, types.float64, _F), cache=True)
 def mahalanobis2(px, py, pth, mu, sig, zr, zb, Rr, Rb, pc):
     """Squared Mahalanobis distance of the observation [zr, zb] to the landmark (mu, sig) seen
@@ -155,7 +156,7 @@ def mahalanobis2(px, py, pth, mu, sig, zr, zb, Rr, Rb, pc):
     return _maha(v1, v2, S11, S12, S22, S11 * S22 - S12 * S12)
 
 
-@njit(types.void(_F, types.float64, types.float64, types.float64, types.float64, types.float64,
+@kernel(types.void(_F, types.float64, types.float64, types.float64, types.float64, types.float64,
                  types.float64, types.float64, types.float64, types.float64, types.float64,
                  types.float64), cache=True)
 def propagate_pose_cov(c, fx, fy, g1x, g1y, g1t, q1, g2x, g2y, g2t, q2, qxy):
@@ -172,7 +173,7 @@ def propagate_pose_cov(c, fx, fy, g1x, g1y, g1t, q1, g2x, g2y, g2t, q2, qxy):
     c[5] = tt + q1 * g1t * g1t + q2 * g2t * g2t
 
 
-@njit(types.Tuple((types.int64, types.float64))(types.float64, types.float64, types.float64,
+@kernel(types.Tuple((types.int64, types.float64))(types.float64, types.float64, types.float64,
                                                 types.int64, _F3, _F3, types.int64, types.float64,
                                                 types.float64, types.float64, types.float64, _F),
       cache=True)
@@ -190,7 +191,7 @@ def nearest_landmark(px, py, pth, i, mu, sig, nl, zr, zb, Rr, Rb, pc):
     return best, bd
 
 
-@njit(types.void(types.float64, types.float64, types.float64, types.float64, types.float64,
+@kernel(types.void(types.float64, types.float64, types.float64, types.float64, types.float64,
                  types.float64, types.float64, _F, _F), cache=True)
 def init_landmark(px, py, pth, zr, zb, Rr, Rb, mu, sig):
     """New landmark from the observation [zr, zb]: mean by the inverse model, covariance
@@ -205,7 +206,7 @@ def init_landmark(px, py, pth, zr, zb, Rr, Rb, mu, sig):
     sig[2] = sn * sn * Rr + zr * zr * cs * cs * Rb
 
 
-@njit(types.float64(types.float64, types.float64, types.float64, types.int64, _F3, _F3, _B2, _I,
+@kernel(types.float64(types.float64, types.float64, types.float64, types.int64, _F3, _F3, _B2, _I,
                     _F2, types.int64, types.float64, types.float64, types.int64, types.int64,
                     types.float64, _F2), cache=True)
 def pose_loglik(px, py, pth, i, mu, sig, seen, ids, zs, n, Rr, Rb, assoc, nl, gate, pc):
@@ -235,7 +236,7 @@ def pose_loglik(px, py, pth, i, mu, sig, seen, ids, zs, n, Rr, Rb, assoc, nl, ga
     return acc
 
 
-@njit(types.void(_F2, _F3, _F3, _B2, _I, _F2, types.int64, types.float64, types.float64, _F,
+@kernel(types.void(_F2, _F3, _F3, _B2, _I, _F2, types.int64, types.float64, types.float64, _F,
                  types.int64, _I, types.float64, _F2), cache=True)
 def _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, out, assoc, nl, gate, pc):
     for i in range(P.shape[0]):
@@ -243,7 +244,7 @@ def _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, out, assoc, nl, gate, pc):
                              assoc, nl[i], gate, pc)
 
 
-@njit(types.void(_F, _F2, _F3, _F3, _B2, _I, _I2, _F, _F2, _F2, types.int8[::1], types.int64,
+@kernel(types.void(_F, _F2, _F3, _F3, _B2, _I, _I2, _F, _F2, _F2, types.int8[::1], types.int64,
                  _I, _F, _F, types.int64, STATE, _F2, _F3, _F3, _B2, _I, _I2), cache=True)
 def directional_resample(W, P, mu, sig, seen, nl, src, bP, bmu, bsig, bseen, bnl, bsrc, shift,
                          noise, scheme, s, P2, mu2, sig2, seen2, nl2, src2):
@@ -282,7 +283,7 @@ def directional_resample(W, P, mu, sig, seen, nl, src, bP, bmu, bsig, bseen, bnl
         src2[i] = bsrc
 
 
-@njit(types.void(_F, _F, _F, _F3, _F3, _B2, _I, _F2, types.int64, types.float64, types.float64,
+@kernel(types.void(_F, _F, _F, _F3, _F3, _B2, _I, _F2, types.int64, types.float64, types.float64,
                  _F, types.int64, _I, types.float64, _F2), cache=True)
 def _fitness_scaled(Xn, mean, scale, mu, sig, seen, ids, zs, n, Rr, Rb, out, assoc, nl, gate, pc):
     """Fitness of poses given in scaled coordinates (pose = mean + scale * x), row r of Xn (flat,
@@ -295,7 +296,7 @@ def _fitness_scaled(Xn, mean, scale, mu, sig, seen, ids, zs, n, Rr, Rb, out, ass
                              Rr, Rb, assoc, nl[i], gate, pc)
 
 
-@njit(types.float64(_F2), cache=True)
+@kernel(types.float64(_F2), cache=True)
 def circular_mean(P):
     """Circular mean of the headings P[:, 2]."""
     cs = 0.0
@@ -306,7 +307,7 @@ def circular_mean(P):
     return math.atan2(sn, cs)
 
 
-@njit(types.float64(_F), cache=True)
+@kernel(types.float64(_F), cache=True)
 def _pairwise_abs_sum(v):
     """sum_{i<j} |v_i - v_j| in O(n log n): over the sorted values, v_(k) (2k - n + 1)."""
     u = np.sort(v)
@@ -317,7 +318,7 @@ def _pairwise_abs_sum(v):
     return acc
 
 
-@njit(types.UniTuple(types.float64, 2)(_F2,), cache=True)
+@kernel(types.UniTuple(types.float64, 2)(_F2,), cache=True)
 def pose_diversity(P):
     """(mean pairwise L1 distance |dx| + |dy| + |dtheta| of the poses P (N, 3), fraction of
     distinct poses): afsa2014's 'mean Hamming distance', read as L1 on poses. Headings are taken
@@ -352,7 +353,7 @@ def pose_diversity(P):
     return acc / (N * (N - 1) / 2), distinct / N
 
 
-@njit(types.float64(_F, _F3, _B2, _I, _I2, types.int64, _F2, types.int8[::1]), cache=True)
+@kernel(types.float64(_F, _F3, _B2, _I, _I2, types.int64, _F2, types.int8[::1]), cache=True)
 def map_error(W, mu, seen, nl, src, assoc, lm_true, first):
     """Mean distance of the highest-weight particle's landmarks to the true ones (NaN before any
     is mapped): by identity, or (nearest) each true landmark by the first slot started from it."""
@@ -442,7 +443,7 @@ class ParticleSet(NamedTuple):
 PARTICLES = types.NamedTuple((_F2, _F3, _F3, _B2, _I, _I2), ParticleSet)
 
 
-@njit(PARTICLES(types.int64, types.int64, _F), cache=True)
+@kernel(PARTICLES(types.int64, types.int64, _F), cache=True)
 def new_particles(N, M, start):
     """N particles at the pose ``start`` with empty maps of M slots."""
     P = np.empty((N, 3))
@@ -453,7 +454,7 @@ def new_particles(N, M, start):
                        np.full((N, M), -1, dtype=np.int64))
 
 
-@njit(types.void(PARTICLES, types.int64, PARTICLES, types.int64), cache=True)
+@kernel(types.void(PARTICLES, types.int64, PARTICLES, types.int64), cache=True)
 def copy_particle(a, i, b, j):
     """Particle i of a becomes particle j of b (its pose and its map)."""
     b.P[j] = a.P[i]
@@ -464,7 +465,7 @@ def copy_particle(a, i, b, j):
     b.src[j] = a.src[i]
 
 
-@njit(types.void(_F2, _F2, types.float64, types.float64, OPTIONS, STATE), cache=True)
+@kernel(types.void(_F2, _F2, types.float64, types.float64, OPTIONS, STATE), cache=True)
 def predict(P, pc, Vc, Gc, o, s):
     """Move every particle by the controls (Vc, Gc), each with its own draw of the control noise,
     and grow its pose uncertainty pc (N, 6: xx, xy, xt, yy, yt, tt) by the motion's."""
@@ -535,7 +536,7 @@ class SwarmWork(NamedTuple):
 SWARM_WORK = types.NamedUniTuple(_F, 18, SwarmWork)
 
 
-@njit(SWARM_WORK(types.int64), cache=True)
+@kernel(SWARM_WORK(types.int64), cache=True)
 def new_swarm_work(N):
     return SwarmWork(np.empty(N), np.empty(N), np.empty(N), np.empty(3 * N), np.empty(3 * N),
                      np.empty(N), np.empty(N), np.empty(N), np.empty(3 * N), np.ones(3),
@@ -543,7 +544,7 @@ def new_swarm_work(N):
                      np.empty(9 * N), np.empty(3 * N), np.empty(3 * N))
 
 
-@njit(types.void(_F2, SWARM_WORK), cache=True)
+@kernel(types.void(_F2, SWARM_WORK), cache=True)
 def cloud_units(P, wk):
     """Headings as continuous values around the cloud's circular mean; the cloud's mean and
     spread per coordinate (the unit of each coordinate's random step) into wk.mean, wk.scale."""
@@ -562,7 +563,7 @@ def cloud_units(P, wk):
         wk.scale[d] = math.sqrt(max(m2 / N - m1 * m1, 1e-12))
 
 
-@njit(types.void(_F2, _F, types.float64, _F), cache=True)
+@kernel(types.void(_F2, _F, types.float64, _F), cache=True)
 def ifa_brightness(P, ll, M0, fit):
     """IFA's brightness: the innovations' likelihood and the pose's distance from the predicted
     cloud in units of its spread."""
@@ -592,7 +593,7 @@ def ifa_brightness(P, ll, M0, fit):
 _OBS = (_I, _F2, types.int64)      # a step's observations: ids, zs (n, 2), n
 
 
-@njit(types.int64(PARTICLES, _F2, *_OBS, OPTIONS, _F, SWARM_WORK, STATE), cache=True)
+@kernel(types.int64(PARTICLES, _F2, *_OBS, OPTIONS, _F, SWARM_WORK, STATE), cache=True)
 def afsa_iteration(ps, pc, ids, zs, n, o, sp, wk, s):
     """One AFSA iteration over the poses, in units of the predicted cloud's spread (visual and
     step too); returns the likelihood evaluations."""
@@ -621,7 +622,7 @@ def afsa_iteration(ps, pc, ids, zs, n, o, sp, wk, s):
     return 4 * N
 
 
-@njit(types.int64(PARTICLES, _F2, *_OBS, OPTIONS, _F, SWARM_WORK, STATE), cache=True)
+@kernel(types.int64(PARTICLES, _F2, *_OBS, OPTIONS, _F, SWARM_WORK, STATE), cache=True)
 def refine_poses(ps, pc, ids, zs, n, o, sp, wk, s):
     """The swarm refinement of the predicted poses (ifa2021, afsa2014): ``o.iters`` iterations of
     the swarm algorithm ``o.refine`` (parameters sp, swarm.pack), the fitness of a pose its
@@ -672,7 +673,7 @@ def refine_poses(ps, pc, ids, zs, n, o, sp, wk, s):
     return nev
 
 
-@njit(types.float64(PARTICLES, _F2, *_OBS, OPTIONS, _F, _F), cache=True)
+@kernel(types.float64(PARTICLES, _F2, *_OBS, OPTIONS, _F, _F), cache=True)
 def update_maps(ps, pc, ids, zs, n, o, lw, stats):
     """Each particle's map takes the step's observations: a landmark already mapped gets an EKF
     update and multiplies the particle's weight (lw, log) by the innovation's likelihood; a new one
@@ -714,7 +715,7 @@ def update_maps(ps, pc, ids, zs, n, o, lw, stats):
     return mx
 
 
-@njit(types.void(_F, PARTICLES, PARTICLES, _F), cache=True)
+@kernel(types.void(_F, PARTICLES, PARTICLES, _F), cache=True)
 def note_board(Wn, ps, board, xbar):
     """Directional resampling's bookkeeping: this observation's weighted pose estimate into xbar
     and its best particle onto the board (a set of one)."""
@@ -735,7 +736,7 @@ def note_board(Wn, ps, board, xbar):
     copy_particle(ps, b, board, 0)
 
 
-@njit(types.void(PARTICLES, PARTICLES, _F2, _F, _F, _F, types.float64, OPTIONS, PARTICLES, _F,
+@kernel(types.void(PARTICLES, PARTICLES, _F2, _F, _F, _F, types.float64, OPTIONS, PARTICLES, _F,
                  _F, _F, _I, types.int8[::1], STATE), cache=True)
 def resample_set(ps, out, pc, pcm, Wn, w, Ssum, o, board, xbar, xbar_prev, dnoise, idx, mutant,
                  s):
@@ -786,7 +787,7 @@ def resample_set(ps, out, pc, pcm, Wn, w, Ssum, o, board, xbar, xbar_prev, dnois
                     pc[i, (0, 3, 5)[d]] = (P[j, d] * o.ewa_mu) ** 2
 
 
-@njit(types.void(PARTICLES, _F, OPTIONS, _F2, _I, _F), cache=True)
+@kernel(types.void(PARTICLES, _F, OPTIONS, _F2, _I, _F), cache=True)
 def final_map(ps, Wn, o, lm_est, lm_seen, assoc_stats):
     """The final map into lm_est (M_true, 2), lm_seen. Known identities: per landmark, the
     weighted mean over the particles that have it. Nearest neighbour: the highest-weight
@@ -829,7 +830,7 @@ FASTSLAM_SIG = types.int64(
     _F2, _I, _I2, _F3, OPTIONS, _F, _F, _F, _F2, STATE, _F2, _F, _I, _F2, _I, _F, _F, _F2, _F)
 
 
-@njit(FASTSLAM_SIG, cache=True)
+@kernel(FASTSLAM_SIG, cache=True)
 def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, o, start, sp, dnoise, lm_true, s, est, ess,
                     resampled, lm_est, lm_seen, evals, assoc_stats, div, lm_trace):
     """Run FastSLAM over one trial (controls ctrl (T, 2), observations obs_* (K, ...) every

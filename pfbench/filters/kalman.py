@@ -2,13 +2,14 @@
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, types
+from numba import types
+from .._lazy import kernel
 from .types import FilterType
 
 _F = types.float64[::1]
 
 
-@njit(types.void(_F, types.float64, types.float64, types.float64, types.float64, types.float64,
+@kernel(types.void(_F, types.float64, types.float64, types.float64, types.float64, types.float64,
                  types.float64, _F, _F), cache=True)
 def kalman_kernel(y, a, c, Q, R, prior_mean, prior_var, xhat, pvar):
     """Posterior mean xhat and variance pvar (T+1,) of x_t = a x + w, y_t = c x + v."""

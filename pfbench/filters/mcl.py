@@ -45,7 +45,8 @@ from statistics import NormalDist
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, typeof, types
+from numba import typeof, types
+from .._lazy import kernel
 
 from ..angles import wrap
 from ..resampling import SCHEME_CODES, resample
@@ -67,7 +68,7 @@ _I2 = types.int64[:, ::1]
 RESET = {"none": 0, "srl": 1, "asrl": 2, "augmented": 3}
 
 
-@njit(types.void(_F2, _F, types.int64, _F2, _F), cache=True)
+@kernel(types.void(_F2, _F, types.int64, _F2, _F), cache=True)
 def _estimate_rows(P, W, n, CS, out):
     """estimate_pose of particles stored as rows, P (3, N), with the headings' cosines and sines
     given, CS (2, N)."""
@@ -83,14 +84,14 @@ def _estimate_rows(P, W, n, CS, out):
     out[0], out[1], out[2] = ex, ey, math.atan2(es, ec)
 
 
-@njit(types.void(_F2, types.int64, types.int64, _F2), cache=True, error_model="numpy")
+@kernel(types.void(_F2, types.int64, types.int64, _F2), cache=True, error_model="numpy")
 def _trig(P, i0, i1, CS):
     """CS[:, i] = cos, sin of the heading P[2, i] for i0 <= i < i1 (particles as rows)."""
     for i in range(i0, i1):
         CS[1, i], CS[0, i] = vm.sincos(P[2, i])
 
 
-@njit(types.void(_F, _F, _F, _F, _F, types.int64, types.float64, types.float64, types.float64,
+@kernel(types.void(_F, _F, _F, _F, _F, types.int64, types.float64, types.float64, types.float64,
                  types.float64, types.float64), cache=True, inline="always")
 def _advance(X, Y, H, C, S, i, a1, a2, a3, ct, st):
     """Particle i drives a2 along the direction (ct, st) = cos, sin(H[i] + a1), then turns to
@@ -106,7 +107,7 @@ _MOVE_SIG = types.void(_F, _F, _F, _F, _F, _F, types.float64, types.float64, typ
                        types.int64)
 
 
-@njit(_MOVE_SIG, cache=True, error_model="numpy")
+@kernel(_MOVE_SIG, cache=True, error_model="numpy")
 def _move_odometry(X, Y, H, C, S, Z, rot1, trans, rot2, mnoise, n):
     """Move the particles (X, Y, H)[:n] by sspf2008's (T, dtheta) odometry, particle i's noise
     the draws Z[2 i], Z[2 i + 1]; (C, S) follow the headings. One pass the vectoriser takes
@@ -121,7 +122,7 @@ def _move_odometry(X, Y, H, C, S, Z, rot1, trans, rot2, mnoise, n):
             _advance(X, Y, H, C, S, i, a1, a2, a3, ct, st)
 
 
-@njit(_MOVE_SIG, cache=True, error_model="numpy")
+@kernel(_MOVE_SIG, cache=True, error_model="numpy")
 def _move_rot_trans_rot(X, Y, H, C, S, Z, rot1, trans, rot2, mnoise, n):
     """_move_odometry for asrl2008's (rot1, trans, rot2) odometry: the draws Z[3 i:3 i + 3]."""
     for i in range(n):
@@ -130,7 +131,7 @@ def _move_rot_trans_rot(X, Y, H, C, S, Z, rot1, trans, rot2, mnoise, n):
         _advance(X, Y, H, C, S, i, a1, a2, a3, ct, st)
 
 
-@njit(types.void(_F, _F, _F, types.int64, _F2, types.int64, _I, _F2, types.int64,
+@kernel(types.void(_F, _F, _F, types.int64, _F2, types.int64, _I, _F2, types.int64,
                  types.float64, types.float64, types.float64, _F), cache=True,
       error_model="numpy")
 def _loglik(X, Y, H, n, bc, m, ids, zs, sensor, sr, sb, cst, ll):
@@ -157,7 +158,7 @@ def _loglik(X, Y, H, n, bc, m, ids, zs, sensor, sr, sb, cst, ll):
         ll[i] += cst
 
 
-@njit(types.float64(_F, types.float64, types.int64, _F), cache=True, error_model="numpy")
+@kernel(types.float64(_F, types.float64, types.int64, _F), cache=True, error_model="numpy")
 def _exp_sum(a, shift, n, out):
     """out[i] = exp(a[i] - shift) for i < n; returns their sum."""
     for i in range(n):
@@ -168,7 +169,7 @@ def _exp_sum(a, shift, n, out):
     return acc
 
 
-@njit(types.int64(types.int64, types.float64, types.float64), cache=True)
+@kernel(types.int64(types.int64, types.float64, types.float64), cache=True)
 def kld_count(k, eps, z):
     """Fox's sample count for k occupied bins: the (1 - delta) quantile of chi^2 with k - 1 degrees
     of freedom over 2 eps (Wilson-Hilferty), rounded up; 0 for one bin."""
@@ -179,7 +180,7 @@ def kld_count(k, eps, z):
     return int(math.ceil(d / (2.0 * eps) * (1.0 - a + math.sqrt(a) * z) ** 3))
 
 
-@njit(types.int64(types.float64, types.float64, types.float64, _F, _F), cache=True)
+@kernel(types.int64(types.float64, types.float64, types.float64, _F, _F), cache=True)
 def kld_bin(x, y, th, area, kp):
     """Histogram bin of a pose: cells of kp[2] m x kp[2] m x kp[3] rad over the field (poses
     outside it fall into the edge cells)."""
@@ -192,14 +193,14 @@ def kld_bin(x, y, th, area, kp):
     return (ix * ny + iy) * nt + it
 
 
-@njit(types.int64(_F, _F), cache=True)
+@kernel(types.int64(_F, _F), cache=True)
 def kld_bins(area, kp):
     """Number of histogram bins of KLD-sampling over the field."""
     return (math.ceil(area[0] / kp[2]) * math.ceil(area[1] / kp[2])
             * math.ceil(2.0 * math.pi / kp[3]))
 
 
-@njit(types.UniTuple(types.int64, 2)(
+@kernel(types.UniTuple(types.int64, 2)(
     _F2, _F, types.int64, _F, types.int64, _F, _F, _F, types.int64, types.uint8[::1], _I,
     types.float64, types.int64, types.int64, _F2, types.int64, _I, _F2, types.float64,
     types.float64, STATE, _F2, _F), cache=True)
@@ -274,7 +275,7 @@ class MclOptions(NamedTuple):
 MCL_OPTIONS = typeof(MclOptions(0, 0, 1.0, 1.0, 1, 1.0, 0, 0, 0, 0))
 
 
-@njit(types.void(_F2, _F2, _F, _F, MCL_OPTIONS, _F, STATE), cache=True, error_model="numpy")
+@kernel(types.void(_F2, _F2, _F, _F, MCL_OPTIONS, _F, STATE), cache=True, error_model="numpy")
 def move_particles(P, CS, Z, u, o, mnoise, s):
     """Move every particle (rows P, CS) by the odometry u with its own draw of the motion noise
     (all draws first, in order, into Z)."""
@@ -285,7 +286,7 @@ def move_particles(P, CS, Z, u, o, mnoise, s):
         _move_rot_trans_rot(P[0], P[1], P[2], CS[0], CS[1], Z, u[0], u[1], u[2], mnoise, o.N)
 
 
-@njit(types.UniTuple(types.float64, 3)(_F2, types.int64, _F2, types.int64, _I, _F2, MCL_OPTIONS,
+@kernel(types.UniTuple(types.float64, 3)(_F2, types.int64, _F2, types.int64, _I, _F2, MCL_OPTIONS,
                                        _F, _F, _F, types.boolean), cache=True, error_model="numpy")
 def weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh):
     """Weigh the n particles by the step's m observations: log-weights lw, normalised weights W.
@@ -320,7 +321,7 @@ def weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh):
     return pm, 1.0 / S2, under
 
 
-@njit(types.UniTuple(types.float64, 3)(types.float64, types.float64, types.float64, types.int64,
+@kernel(types.UniTuple(types.float64, 3)(types.float64, types.float64, types.float64, types.int64,
                                        MCL_OPTIONS, _F), cache=True, error_model="numpy")
 def likelihood_averages(w_slow, w_fast, pm, m, o, rp):
     """Augmented MCL's long- and short-term averages after a step with m observations and mean
@@ -338,7 +339,7 @@ def likelihood_averages(w_slow, w_fast, pm, m, o, rp):
     return w_slow, w_fast, max(0.0, 1.0 - w_fast / w_slow) if w_slow > 0.0 else 0.0
 
 
-@njit(types.void(_F2, _F2, _F2, _F2, _F, MCL_OPTIONS, _I, STATE), cache=True,
+@kernel(types.void(_F2, _F2, _F2, _F2, _F, MCL_OPTIONS, _I, STATE), cache=True,
       error_model="numpy")
 def resample_rows(P, CS, P2, CS2, W, o, idx, s):
     """The resampled set (rows, with the headings' cosines and sines) into P2, CS2."""
@@ -349,7 +350,7 @@ def resample_rows(P, CS, P2, CS2, W, o, idx, s):
         CS2[0, i], CS2[1, i] = CS[0, k], CS[1, k]
 
 
-@njit(types.int64(_F2, _F2, _F, _F2, types.int64, _I, _F2, MCL_OPTIONS, _F, types.float64,
+@kernel(types.int64(_F2, _F2, _F, _F2, types.int64, _I, _F2, MCL_OPTIONS, _F, types.float64,
                   types.float64, _I, _F, STATE), cache=True, error_model="numpy")
 def inject(P, CS, area, bc, m, ids, zs, o, rp, pm, prob, perm, pose, s):
     """Replace particles by poses drawn from the sensor model (or the field): augmented MCL each
@@ -391,7 +392,7 @@ MCL_SIG = types.int64(
     _F3, _I)
 
 
-@njit(MCL_SIG, cache=True, error_model="numpy")
+@kernel(MCL_SIG, cache=True, error_model="numpy")
 def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s, est, ess,
                resampled, injected, pmean, count, snap_t, snap, snap_n):
     """Run MCL over one trial (settings o, see ``MclOptions``); est (T+1, 3) the weighted pose

@@ -8,7 +8,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import types
+from .._lazy import kernel
 
 from ..schema import Key
 from ..resampling import SCHEME_CODES, resample
@@ -26,7 +27,7 @@ PF_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64,
                      types.int64, STATE, _F, _F, _I, _F, _F)
 
 
-@njit(PF_SIG, cache=True)
+@kernel(PF_SIG, cache=True)
 def pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, scheme, threshold, estimate_after,
               mh_steps, log_floor, diag, s, xhat, ess, resampled, div_l1, distinct):
     """Run a bootstrap PF over y (T+1,) and fill the (T+1,) traces; return the underflow count.

@@ -31,7 +31,8 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, typeof, types
+from numba import typeof, types
+from .._lazy import kernel
 
 from ..angles import wrap
 from ..resampling import SCHEME_CODES, resample
@@ -53,7 +54,7 @@ LOG_2PI = math.log(2.0 * math.pi)
 TRIGGERS = {"always": 0, "neff": 1, "weight_change": 2}
 
 
-@njit(types.boolean(_F2, types.int64, _F2), cache=True)
+@kernel(types.boolean(_F2, types.int64, _F2), cache=True)
 def chol(A, n, L):
     """Lower Cholesky factor of A[:n, :n] into L[:n, :n]; False when A is not positive definite."""
     for j in range(n):
@@ -73,7 +74,7 @@ def chol(A, n, L):
     return True
 
 
-@njit(types.void(_F2, types.int64, _F), cache=True)
+@kernel(types.void(_F2, types.int64, _F), cache=True)
 def chol_solve(L, n, b):
     """Solve (L L^T) x = b[:n] in place."""
     for i in range(n):
@@ -88,7 +89,7 @@ def chol_solve(L, n, b):
         b[i] = v / L[i, i]
 
 
-@njit(types.float64(types.float64, types.float64, types.float64, _F2), cache=True)
+@kernel(types.float64(types.float64, types.float64, types.float64, _F2), cache=True)
 def lognormal3(dx, dy, dth, L):
     """log N(d; 0, L L^T) of a pose difference d (the heading difference already wrapped)."""
     y0 = dx / L[0, 0]
@@ -98,7 +99,7 @@ def lognormal3(dx, dy, dth, L):
             - 1.5 * LOG_2PI)
 
 
-@njit(types.UniTuple(types.float64, 3)(types.float64, types.float64, types.float64, _F,
+@kernel(types.UniTuple(types.float64, 3)(types.float64, types.float64, types.float64, _F,
                                        types.float64, types.float64, types.float64), cache=True)
 def move(x, y, th, u, w0, w1, w2):
     """The odometry motion with noise w: turn rot1 + w0, drive trans + w1, turn rot2 + w2."""
@@ -106,7 +107,7 @@ def move(x, y, th, u, w0, w1, w2):
     return x + (u[1] + w1) * math.cos(t1), y + (u[1] + w1) * math.sin(t1), wrap(t1 + u[2] + w2)
 
 
-@njit(types.void(_F, types.int64, _F, _F), cache=True)
+@kernel(types.void(_F, types.int64, _F, _F), cache=True)
 def noise_sd(u, motion, mnoise, out):
     """Standard deviations of the three odometry noises at a step with odometry u."""
     if motion == 0:
@@ -118,7 +119,7 @@ def noise_sd(u, motion, mnoise, out):
         out[2] = a1 * abs(u[2]) + a2 * abs(u[1])
 
 
-@njit(types.void(types.float64, types.float64, types.float64, _F, _F, _F, _F2), cache=True)
+@kernel(types.void(types.float64, types.float64, types.float64, _F, _F, _F, _F2), cache=True)
 def transition_cov(x, y, th, u, sd, jit, Q):
     """G M G^T + J: the motion's noise covariance linearised at a pose, plus the jitter."""
     t1 = th + u[0]
@@ -135,7 +136,7 @@ def transition_cov(x, y, th, u, sd, jit, Q):
     Q[2, 2] += jit[1] * jit[1]
 
 
-@njit(types.void(_F2, types.int64, _F, _F), cache=True, inline="always")
+@kernel(types.void(_F2, types.int64, _F, _F), cache=True, inline="always")
 def _pose_diff(Y, j, xm, d):
     """d = sigma point Y[j] - the mean pose xm, the heading wrapped."""
     d[0] = Y[j, 0] - xm[0]
@@ -185,7 +186,7 @@ class Proposals(NamedTuple):
 PROPOSALS = types.NamedTuple((_F2, _F3, _F2, _F3, _F2, _F3, _F, _F), Proposals)
 
 
-@njit(PROPOSALS(types.int64), cache=True)
+@kernel(PROPOSALS(types.int64), cache=True)
 def new_proposals(N):
     return Proposals(np.empty((N, 3)), np.zeros((N, 3, 3)), np.empty((N, 3)), np.zeros((N, 3, 3)),
                      np.empty((N, 3)), np.zeros((N, 3, 3)), np.empty(N), np.empty(N))
@@ -225,7 +226,7 @@ UKF_WORK = types.NamedTuple((_F, _F, _F, _F2, _F2, _F, _F2, _F2, _F2, _F, _I, _F
                              _F, _F2, _F, _F), UkfWork)
 
 
-@njit(UKF_WORK(types.int64, types.int64), cache=True)
+@kernel(UKF_WORK(types.int64, types.int64), cache=True)
 def new_ukf_work(ns, nzmax):
     return UkfWork(np.empty(ns), np.empty(ns), np.empty(1), np.empty((ns, 3)), np.empty((ns, nzmax)),
                    np.empty(3), np.empty((3, 3)), np.empty((3, 3)), np.zeros((3, 3)),
@@ -235,7 +236,7 @@ def new_ukf_work(ns, nzmax):
                    np.empty(3))
 
 
-@njit(types.int64(_F2, types.int64, FIELD_OPTIONS, UKF_WORK), cache=True)
+@kernel(types.int64(_F2, types.int64, FIELD_OPTIONS, UKF_WORK), cache=True)
 def observation_vector(zs, m, o, wk):
     """The step's m observations as one vector wk.zobs (ranges, and bearings flagged in wk.isb);
     returns its length."""
@@ -251,7 +252,7 @@ def observation_vector(zs, m, o, wk):
     return r
 
 
-@njit(types.void(_F, _F2, _F, _F, UKF_WORK), cache=True)
+@kernel(types.void(_F, _F2, _F, _F, UKF_WORK), cache=True)
 def predict_moments(x, P, u, jit, wk):
     """The sigma points of [pose, odometry noise] (pose x, covariance P; the noises' deviations
     wk.sd) through the motion u into wk.Y, and their mean wk.xm and covariance wk.Pm (plus the
@@ -304,7 +305,7 @@ def predict_moments(x, P, u, jit, wk):
     Pm[2, 2] += jit[1] * jit[1]
 
 
-@njit(types.void(_F2, _I, _F2, types.int64, types.int64, FIELD_OPTIONS, UKF_WORK), cache=True)
+@kernel(types.void(_F2, _I, _F2, types.int64, types.int64, FIELD_OPTIONS, UKF_WORK), cache=True)
 def sensor_moments(bc, ids, zs, m, nz, o, wk):
     """The sigma points through the sensor (wk.Z), their mean wk.zm, covariance wk.S (plus the
     sensor noise) and cross-covariance with the pose wk.C."""
@@ -342,7 +343,7 @@ def sensor_moments(bc, ids, zs, m, nz, o, wk):
                 C[b, a] += Wc[j] * d[b] * da
 
 
-@njit(types.void(types.int64, UKF_WORK), cache=True)
+@kernel(types.void(types.int64, UKF_WORK), cache=True)
 def kalman_update(nz, wk):
     """The UKF's measurement update of wk.xm, wk.Pn (from wk.Pm) with gain K = C S^-1; leaves
     them predicted when S is not positive definite."""
@@ -377,7 +378,7 @@ def kalman_update(nz, wk):
             Pn[b, a] = v
 
 
-@njit(types.float64(PROPOSALS, types.int64, _F, _F2, _I, _F2, types.int64, FIELD_OPTIONS,
+@kernel(types.float64(PROPOSALS, types.int64, _F, _F2, _I, _F2, types.int64, FIELD_OPTIONS,
                     UKF_WORK, _F, STATE), cache=True)
 def draw_particle(pp, i, u, bc, ids, zs, m, o, wk, jit, s):
     """Draw particle i from its proposal N(wk.xm, wk.Pn) and keep the proposal with it; returns
@@ -412,7 +413,7 @@ def draw_particle(pp, i, u, bc, ids, zs, m, o, wk, jit, s):
     return ll + lp - lq
 
 
-@njit(types.UniTuple(types.float64, 3)(_F, _F, _F, types.float64), cache=True)
+@kernel(types.UniTuple(types.float64, 3)(_F, _F, _F, types.float64), cache=True)
 def weigh(lw, W, Wprev, mx):
     """Normalised weights W from the log-weights lw (max mx; all -inf: reset to uniform); returns
     (1 when they underflowed, the ESS, the weight change K = sum W (W - Wprev)^2)."""
@@ -436,7 +437,7 @@ def weigh(lw, W, Wprev, mx):
     return under, 1.0 / S2, Kc
 
 
-@njit(types.void(PROPOSALS, PROPOSALS, _I), cache=True)
+@kernel(types.void(PROPOSALS, PROPOSALS, _I), cache=True)
 def copy_resampled(pp, out, idx):
     """out[i] = pp[idx[i]], every field."""
     for i in range(idx.size):
@@ -451,7 +452,7 @@ def copy_resampled(pp, out, idx):
         out.lqs[i] = pp.lqs[a]
 
 
-@njit(types.int64(PROPOSALS, _F2, _I, _F2, types.int64, FIELD_OPTIONS, STATE), cache=True)
+@kernel(types.int64(PROPOSALS, _F2, _I, _F2, types.int64, FIELD_OPTIONS, STATE), cache=True)
 def mh_moves(pp, bc, ids, zs, m, o, s):
     """o.mh_steps independence Metropolis-Hastings moves per particle with its ancestor's
     proposal; returns the moves accepted."""
@@ -482,7 +483,7 @@ SSPF_SIG = types.int64(
     _I)
 
 
-@njit(SSPF_SIG, cache=True)
+@kernel(SSPF_SIG, cache=True)
 def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, up, init, jit, start, s,
                       est, ess, resampled, accepted, snap_t, snap, snap_n):
     """Run the SSPF over one trial (settings o, see ``FieldOptions``). up: [alpha, beta, kappa] of

@@ -18,7 +18,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import types
+from .._lazy import kernel
 
 from ..rng import STATE, normal, uniform
 from ..schema import Key
@@ -95,7 +96,7 @@ _F = types.float64[::1]
 _I = types.int64[::1]
 
 
-@njit(types.float64(_F, types.int64, types.int64, types.int64), cache=True, inline="always")
+@kernel(types.float64(_F, types.int64, types.int64, types.int64), cache=True, inline="always")
 def _dist2(X, i, j, D):
     acc = 0.0
     for d in range(D):
@@ -104,7 +105,7 @@ def _dist2(X, i, j, D):
     return acc
 
 
-@njit(types.void(_F, _F, types.int64, types.float64, types.float64, types.float64, _F, STATE),
+@kernel(types.void(_F, _F, types.int64, types.float64, types.float64, types.float64, _F, STATE),
       cache=True)
 def fa_move(X, bright, D, beta0, gamma, alpha, scale, s):
     """Firefly move (Yang 2008), in place: each i moves toward every brighter j,
@@ -120,7 +121,7 @@ def fa_move(X, bright, D, beta0, gamma, alpha, scale, s):
                                      + alpha * scale[d] * (uniform(s) - 0.5))
 
 
-@njit(types.void(_F, _F, types.int64, types.float64, types.float64, types.float64, _F, STATE),
+@kernel(types.void(_F, _F, types.int64, types.float64, types.float64, types.float64, _F, STATE),
       cache=True)
 def ifa_move(X, bright, D, beta0, gamma, R, scale, s):
     """Improved firefly move (ifa2021): like ``fa_move`` with the adaptive step
@@ -136,7 +137,7 @@ def ifa_move(X, bright, D, beta0, gamma, R, scale, s):
                                      + a * scale[d] * (uniform(s) - 0.5))
 
 
-@njit(types.int64(_F), cache=True)
+@kernel(types.int64(_F), cache=True)
 def argmax(v):
     best = 0
     for i in range(1, v.size):
@@ -145,7 +146,7 @@ def argmax(v):
     return best
 
 
-@njit(types.void(_F, _F, _F, _F, types.int64, types.int64, types.float64, types.float64,
+@kernel(types.void(_F, _F, _F, _F, types.int64, types.int64, types.float64, types.float64,
                  types.float64, STATE), cache=True)
 def pso_propose(X, V, P, Pfit, D, g, w, c1, c2, s):
     """Particle-swarm step (Kennedy & Eberhart), in place: v = w v + c1 r1 (p_i - x) +
@@ -160,7 +161,7 @@ def pso_propose(X, V, P, Pfit, D, g, w, c1, c2, s):
             X[k] += V[k]
 
 
-@njit(types.int64(_F, _F, _F, _F, types.int64), cache=True)
+@kernel(types.int64(_F, _F, _F, _F, types.int64), cache=True)
 def pso_accept(X, fit, P, Pfit, D):
     """Update the personal bests P (fitness Pfit) with the evaluated X; return the global best."""
     for i in range(fit.size):
@@ -171,7 +172,7 @@ def pso_accept(X, fit, P, Pfit, D):
     return argmax(Pfit)
 
 
-@njit(types.void(_F, _F, _F, _F, _F, types.int64, types.int64, types.float64, types.float64,
+@kernel(types.void(_F, _F, _F, _F, _F, types.int64, types.int64, types.float64, types.float64,
                  _F, STATE), cache=True)
 def ba_propose(X, V, A, r, C, D, g, fmin, fmax, scale, s):
     """Bat algorithm (Yang 2010) candidates C (N*D,): frequency f = fmin + (fmax - fmin) u,
@@ -189,7 +190,7 @@ def ba_propose(X, V, A, r, C, D, g, fmin, fmax, scale, s):
             C[k] = X[g * D + d] + meanA * scale[d] * normal(s) if local else X[k] + V[k]
 
 
-@njit(types.int64(_F, _F, _F, _F, _F, _F, types.int64, types.float64, types.float64,
+@kernel(types.int64(_F, _F, _F, _F, _F, _F, types.int64, types.float64, types.float64,
                   types.float64, types.int64, STATE), cache=True)
 def ba_accept(X, fit, C, fitc, A, r, D, alpha, gamma, r0, it, s):
     """Accept candidate i when it is fitter and u < A_i; then A_i *= alpha and
@@ -204,7 +205,7 @@ def ba_accept(X, fit, C, fitc, A, r, D, alpha, gamma, r0, it, s):
     return argmax(fit)
 
 
-@njit(types.void(_F, _F, types.int64, types.float64, _F, _F), cache=True)
+@kernel(types.void(_F, _F, types.int64, types.float64, _F, _F), cache=True)
 def afsa_centres(X, fit, D, visual, Xc, nf):
     """Centre Xc (N*D,) of each fish's neighbours within ``visual`` (itself included) and their
     number nf (N,). O(N^2)."""
@@ -224,7 +225,7 @@ def afsa_centres(X, fit, D, visual, Xc, nf):
         nf[i] = cnt
 
 
-@njit(types.void(_F, types.int64, types.int64, _F, types.int64, types.float64, types.float64, _F,
+@kernel(types.void(_F, types.int64, types.int64, _F, types.int64, types.float64, types.float64, _F,
                  types.int64), cache=True, inline="always")
 def _toward(X, i, D, tgt, toff, step, u, C, coff):
     """C[coff:coff+D] = x_i + u step (t - x_i) / ||t - x_i||, t = tgt[toff:toff+D] (x_i itself when
@@ -239,7 +240,7 @@ def _toward(X, i, D, tgt, toff, step, u, C, coff):
                                       if n > 0 else 0.0)
 
 
-@njit(types.void(_F, _F, _F, _F, _F, types.int64, types.float64, types.float64, types.float64,
+@kernel(types.void(_F, _F, _F, _F, _F, types.int64, types.float64, types.float64, types.float64,
                  types.int64, STATE, _F), cache=True)
 def afsa_propose(X, fit, Xc, fitc, nf, D, visual, step, delta, tries, s, C):
     """Three candidates per fish (afsa2014's prey, swarm and follow) into C (3 N D,): rows [0, N) prey,
@@ -293,7 +294,7 @@ def afsa_propose(X, fit, Xc, fitc, nf, D, visual, step, delta, tries, s, C):
                 C[b + d] = C[prey_row + d]
 
 
-@njit(types.void(_F, _F, _F, _F, types.int64, types.int64), cache=True)
+@kernel(types.void(_F, _F, _F, _F, types.int64, types.int64), cache=True)
 def afsa_select(X, fit, C, fitC, D, greedy):
     """Each fish takes its fittest behaviour's candidate (C, fitness fitC, rows as in
     ``afsa_propose``); with ``greedy`` only if that is at least as fit as where it is."""

@@ -13,7 +13,8 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, typeof, types
+from numba import typeof, types
+from .._lazy import kernel
 
 from ..resampling import SCHEME_CODES, SCHEMES, resample, stepwise_ewa_plan
 from ..rng import STATE, normal
@@ -30,7 +31,7 @@ _I = types.int64[::1]
 
 EWA = len(SCHEME_CODES)          # the stepwise EWA scheme's code, after the standard ones
 
-@njit(types.void(ModelFn, _F, types.float64, types.float64, types.float64, _F, _F, _F),
+@kernel(types.void(ModelFn, _F, types.float64, types.float64, types.float64, _F, _F, _F),
       cache=True)
 def _loglik(h, theta, tt, yt, half_inv_R, X, hx, ll):
     """ll = log p(y_t | X) up to a constant, for every point of X; hx is scratch."""
@@ -40,7 +41,7 @@ def _loglik(h, theta, tt, yt, half_inv_R, X, hx, ll):
         ll[i] = -half_inv_R * d * d
 
 
-@njit(types.void(_F, types.float64, _F), cache=True)
+@kernel(types.void(_F, types.float64, _F), cache=True)
 def _shifted_exp(ll, M, out):
     for i in range(ll.size):
         out[i] = math.exp(ll[i] - M)
@@ -98,14 +99,14 @@ class Work(NamedTuple):
 WORK = types.NamedUniTuple(_F, 17, Work)
 
 
-@njit(WORK(types.int64), cache=True)
+@kernel(WORK(types.int64), cache=True)
 def new_work(N):
     return Work(np.empty(3 * N), np.empty(N), np.empty(N), np.empty(N), np.empty(N), np.empty(N),
                 np.empty(N), np.empty(N), np.empty(3 * N), np.empty(3 * N), np.empty(N),
                 np.empty(N), np.empty(N), np.empty(N), np.empty(1), np.empty(1), np.ones(1))
 
 
-@njit(types.void(ModelFn, _F, types.float64, types.float64, _F, _F, types.float64,
+@kernel(types.void(ModelFn, _F, types.float64, types.float64, _F, _F, types.float64,
                  types.float64, WORK), cache=True)
 def ifa_brightness(f, theta, tt, xprev_hat, noise, xn, M, kind, wk):
     """IFA's brightness of the particles xn: d_i, the distance of (h(x_i), x_i) to (y_t,
@@ -125,7 +126,7 @@ def ifa_brightness(f, theta, tt, xprev_hat, noise, xn, M, kind, wk):
             wk.fit[i] = 1.0 / (1.0 + math.sqrt(-2.0 * wk.ll[i] + e * e / Qv))
 
 
-@njit(types.int64(ModelFn, ModelFn, _F, types.float64, types.float64, _F, types.float64, _F,
+@kernel(types.int64(ModelFn, ModelFn, _F, types.float64, types.float64, _F, types.float64, _F,
                   SWARM_OPTIONS, _F, WORK, types.int64, STATE), cache=True)
 def swarm_iteration(f, h, theta, tt, yt, noise, xprev_hat, xn, o, p, wk, it, s):
     """One iteration of the swarm algorithm o.algo (parameters p, swarm.pack) over the particles
@@ -177,7 +178,7 @@ def swarm_iteration(f, h, theta, tt, yt, noise, xprev_hat, xn, o, p, wk, it, s):
     return N
 
 
-@njit(types.void(_F, _F, _F, types.float64, _F, _I, types.int8[::1], SWARM_OPTIONS, STATE),
+@kernel(types.void(_F, _F, _F, types.float64, _F, _I, types.int8[::1], SWARM_OPTIONS, STATE),
       cache=True)
 def resample_swarm(x, xn, w, S, lw, idx, mutant, o, s):
     """The resampled set of xn (weights w, sum S) into x: the stepwise EWA's plan with its
@@ -202,7 +203,7 @@ SWARM_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float
                         SWARM_OPTIONS, _F, STATE, _F, _F, _I, _F, _F, _F)
 
 
-@njit(SWARM_SIG, cache=True)
+@kernel(SWARM_SIG, cache=True)
 def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, p, s, xhat, ess, resampled,
                     div_l1, distinct, evals):
     """Run a swarm-optimised PF over y (T+1,) (settings o, see ``SwarmOptions``; the swarm's

@@ -10,7 +10,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import types
+from .._lazy import kernel
 
 from ..schema import Key
 from ..models.scalar import ModelFn
@@ -20,7 +21,7 @@ from .types import FilterType
 
 _F = types.float64[::1]
 
-@njit(types.UniTuple(types.float64, 2)(ModelFn, _F, types.float64, _F, _F, types.int64, _F, _F,
+@kernel(types.UniTuple(types.float64, 2)(ModelFn, _F, types.float64, _F, _F, types.int64, _F, _F,
                                        _F), cache=True)
 def _transform(fn, pts, t, theta, offset, add_offset, Wm, Wc, out):
     """out = fn(pts) (+ offset when add_offset); return the weighted mean and variance of out."""
@@ -37,7 +38,7 @@ def _transform(fn, pts, t, theta, offset, add_offset, Wm, Wc, out):
     return mean, var
 
 
-@njit(types.float64(types.int64, types.float64, types.float64, types.float64, _F, _F),
+@kernel(types.float64(types.int64, types.float64, types.float64, types.float64, _F, _F),
       cache=True)
 def ut_weights(L, alpha, beta, kappa, Wm, Wc):
     """The scaled unscented transform's weights for an L-dimensional state into Wm, Wc (2 L + 1,)
@@ -56,7 +57,7 @@ UKF_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64
                       types.int64, _F, _F)
 
 
-@njit(UKF_SIG, cache=True)
+@kernel(UKF_SIG, cache=True)
 def ukf_kernel(f, h, theta, noise, y, prior_mean, prior_var, q_mean, Q, R, alpha, beta, kappa,
                augmented, xhat, pvar):
     """Run the UKF over y (T+1,), filling the posterior mean xhat and variance pvar (T+1,).

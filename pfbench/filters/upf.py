@@ -17,7 +17,8 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, typeof, types
+from numba import typeof, types
+from .._lazy import kernel
 
 from ..schema import Key
 from ..resampling import SCHEME_CODES, SCHEMES, resample
@@ -37,13 +38,13 @@ LOG_2PI = math.log(2.0 * math.pi)
 TRIGGER_ESS = 0
 TRIGGER_WEIGHT_CHANGE = 1
 
-@njit(types.float64(types.float64, types.float64, types.float64), cache=True, inline="always")
+@kernel(types.float64(types.float64, types.float64, types.float64), cache=True, inline="always")
 def _log_normal(x, m, v):
     d = x - m
     return -0.5 * d * d / v - 0.5 * (LOG_2PI + math.log(v))
 
 
-@njit(types.float64(_F, types.float64), cache=True)
+@kernel(types.float64(_F, types.float64), cache=True)
 def increment_logprior(noise, w):
     """log of the reference implementation's transition "prior" at the increment w = x_t - x_{t-1}:
     w^(a-1) exp(-b w) for Gamma noise, evaluated for every real w as MATLAB does for the benchmark's
@@ -109,7 +110,7 @@ class Sigma(NamedTuple):
 SIGMA = types.NamedUniTuple(_F, 8, Sigma)
 
 
-@njit(SIGMA(UPF_OPTIONS), cache=True)
+@kernel(SIGMA(UPF_OPTIONS), cache=True)
 def sigma_points(o):
     n = 7
     Wm = np.empty(n)
@@ -125,7 +126,7 @@ def sigma_points(o):
                  np.empty(n * o.N))
 
 
-@njit(types.void(ModelFn, ModelFn, _F, types.float64, types.float64, _F, _F, SIGMA, UPF_OPTIONS,
+@kernel(types.void(ModelFn, ModelFn, _F, types.float64, types.float64, _F, _F, SIGMA, UPF_OPTIONS,
                  _F, _F, _F), cache=True)
 def proposals(f, h, theta, tt, yt, x, P, sg, o, fprev, pm, pv):
     """Each particle's proposal: an augmented UKF step from (x, P) with the measurement yt, all
@@ -173,13 +174,13 @@ def proposals(f, h, theta, tt, yt, x, P, sg, o, fprev, pm, pv):
         pv[i] = v if v > 1e-300 else 1e-300
 
 
-@njit(types.float64(_F, types.float64, UPF_OPTIONS), cache=True)
+@kernel(types.float64(_F, types.float64, UPF_OPTIONS), cache=True)
 def log_prior(noise, w, o):
     """The transition density's log at w: the model's, or the reference implementation's."""
     return increment_logprior(noise, w) if o.increment else process_logpdf(noise, w)
 
 
-@njit(types.float64(_F, types.float64, _F, _F, _F, _F, _F, _F, UPF_OPTIONS), cache=True)
+@kernel(types.float64(_F, types.float64, _F, _F, _F, _F, _F, _F, UPF_OPTIONS), cache=True)
 def weigh_draws(noise, yt, xn, hx, fprev, pm, pv, lw, o):
     """Multiply each weight (log, lw) by p(y | x) p(x | x_prev) / q(x) at the drawn xn (h(xn) in
     hx); returns the largest log-weight."""
@@ -195,7 +196,7 @@ def weigh_draws(noise, yt, xn, hx, fprev, pm, pv, lw, o):
     return mx
 
 
-@njit(types.void(ModelFn, _F, types.float64, types.float64, _F, _F, _F, _F, _F, _F, _F, _F,
+@kernel(types.void(ModelFn, _F, types.float64, types.float64, _F, _F, _F, _F, _F, _F, _F, _F,
                  UPF_OPTIONS, STATE), cache=True)
 def mh_moves(h, theta, tt, yt, noise, x, P, am, fa, ha, prop, hprop, o, s):
     """o.mh_steps independence MH moves per particle x with its ancestor's proposal N(am, P)
@@ -223,7 +224,7 @@ UPF_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64
                       STATE, _F, _F, _I, _F, _F)
 
 
-@njit(UPF_SIG, cache=True)
+@kernel(UPF_SIG, cache=True)
 def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, s, xhat, ess, resampled, div_l1,
                distinct):
     """Run the UPF/SSPF over y (T+1,) (settings o, see ``UpfOptions``); fill the (T+1,) traces;

@@ -8,7 +8,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import types
+from .._lazy import kernel
 
 from ..angles import wrap
 from ..rng import STATE, normal, uniform
@@ -21,7 +22,7 @@ _I = types.int64[::1]
 LOG_2PI = math.log(2.0 * math.pi)
 
 
-@njit(types.int64(_F2, types.float64, types.float64, types.float64, types.int64, _F, STATE, _I,
+@kernel(types.int64(_F2, types.float64, types.float64, types.float64, types.int64, _F, STATE, _I,
                   _F2), cache=True)
 def sense_beacons(bc, x, y, th, sensor, sense, s, ids, zs):
     """Fill the observations seen from (x, y, th) into ids / zs; return how many."""
@@ -61,7 +62,7 @@ def sense_beacons(bc, x, y, th, sensor, sense, s, ids, zs):
     return n
 
 
-@njit(types.float64(types.float64, types.float64, types.float64, _F2, types.int64, _I, _F2,
+@kernel(types.float64(types.float64, types.float64, types.float64, _F2, types.int64, _I, _F2,
                     types.int64, types.float64, types.float64), cache=True)
 def pose_quad(x, y, th, bc, n, ids, zs, sensor, sr, sb):
     """-1/2 the sum of the squared normalised residuals of the n observations (ids, zs) of a step
@@ -78,7 +79,7 @@ def pose_quad(x, y, th, bc, n, ids, zs, sensor, sr, sb):
     return acc
 
 
-@njit(types.float64(types.int64, types.int64, types.float64, types.float64), cache=True)
+@kernel(types.float64(types.int64, types.int64, types.float64, types.float64), cache=True)
 def loglik_const(n, sensor, sr, sb):
     """The Gaussian normalisation of n observations' log-likelihood."""
     c = -math.log(sr) - 0.5 * LOG_2PI
@@ -87,14 +88,14 @@ def loglik_const(n, sensor, sr, sb):
     return n * c
 
 
-@njit(types.float64(types.float64, types.float64, types.float64, _F2, types.int64, _I, _F2,
+@kernel(types.float64(types.float64, types.float64, types.float64, _F2, types.int64, _I, _F2,
                     types.int64, types.float64, types.float64), cache=True)
 def pose_loglik(x, y, th, bc, n, ids, zs, sensor, sr, sb):
     """log p(z | pose) of the n observations (ids, zs) of a step."""
     return pose_quad(x, y, th, bc, n, ids, zs, sensor, sr, sb) + loglik_const(n, sensor, sr, sb)
 
 
-@njit(types.void(_F, types.int64, _F2, types.int64, _I, _F2, types.float64, types.float64, _F,
+@kernel(types.void(_F, types.int64, _F2, types.int64, _I, _F2, types.float64, types.float64, _F,
                  STATE), cache=True)
 def sensor_pose(area, sensor, bc, n, ids, zs, sr, sb, out, s):
     """A pose drawn from the sensor model of the step's observations into out (3,): consistent

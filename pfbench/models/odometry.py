@@ -8,7 +8,8 @@ a3 |trans| + a4 (|rot1| + |rot2|) for the drive, mnoise = [a1, a2, a3, a4].
 """
 from __future__ import annotations
 
-from numba import njit, types
+from numba import types
+from .._lazy import kernel
 
 from ..rng import STATE, normal
 
@@ -16,7 +17,7 @@ _F = types.float64[::1]
 _ODO = types.UniTuple(types.float64, 3)
 
 
-@njit(_ODO(types.float64, types.float64, types.float64, types.int64, _F, types.float64,
+@kernel(_ODO(types.float64, types.float64, types.float64, types.int64, _F, types.float64,
            types.float64, types.float64), cache=True, inline="always")
 def _odometry(rot1, trans, rot2, motion, mnoise, n1, n2, n3):
     """The odometry [rot1, trans, rot2] with the motion noise made of standard normal draws n1,
@@ -29,7 +30,7 @@ def _odometry(rot1, trans, rot2, motion, mnoise, n1, n2, n3):
             rot2 + (a1 * abs(rot2) + a2 * abs(trans)) * n3)
 
 
-@njit(_ODO(types.float64, types.float64, types.float64, types.int64, _F, _F, types.int64),
+@kernel(_ODO(types.float64, types.float64, types.float64, types.int64, _F, _F, types.int64),
       cache=True, inline="always")
 def odometry_with(rot1, trans, rot2, motion, mnoise, z, o):
     """The odometry with the noise of the draws z[o], z[o + 1] (and z[o + 2] for
@@ -38,7 +39,7 @@ def odometry_with(rot1, trans, rot2, motion, mnoise, z, o):
                      z[o + 2] if motion != 0 else 0.0)
 
 
-@njit(_ODO(types.float64, types.float64, types.float64, types.int64, _F, STATE), cache=True,
+@kernel(_ODO(types.float64, types.float64, types.float64, types.int64, _F, STATE), cache=True,
       inline="always")
 def noisy_odometry(rot1, trans, rot2, motion, mnoise, s):
     """The odometry [rot1, trans, rot2] with one draw of the motion noise (see the module)."""

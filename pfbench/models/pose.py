@@ -5,7 +5,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import types
+from .._lazy import kernel
 
 from ..angles import wrap
 from ..rng import STATE, normal, uniform
@@ -16,7 +17,7 @@ _F3 = types.float64[:, :, ::1]
 _I = types.int64[::1]
 
 
-@njit(types.void(_F2, _F, _F, STATE), cache=True)
+@kernel(types.void(_F2, _F, _F, STATE), cache=True)
 def init_particles(P, area, init, s):
     """The filters' initial particles P (N, 3): uniform over the field and heading (init[0] = 0),
     or Gaussian around the start init[1:4] with spreads init[4] (m) and init[5] (rad)."""
@@ -31,7 +32,7 @@ def init_particles(P, area, init, s):
             P[i, 2] = wrap(init[3] + init[5] * normal(s))
 
 
-@njit(types.void(_F2, _F, types.int64, _F), cache=True)
+@kernel(types.void(_F2, _F, types.int64, _F), cache=True)
 def estimate_pose(P, W, n, out):
     """The weighted mean pose of P[:n] (circular mean heading) into out."""
     ex = 0.0
@@ -46,7 +47,7 @@ def estimate_pose(P, W, n, out):
     out[0], out[1], out[2] = ex, ey, math.atan2(es, ec)
 
 
-@njit(types.int64(types.int64, _F2, types.int64, _I, _F3, _I, types.int64, types.boolean),
+@kernel(types.int64(types.int64, _F2, types.int64, _I, _F3, _I, types.int64, types.boolean),
       cache=True)
 def snapshot(t, P, n, snap_t, snap, snap_n, si, rows):
     """Copy the particles P[:n] (P[:, :n] with ``rows``: stored as rows x, y, heading) into

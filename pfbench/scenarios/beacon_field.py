@@ -30,7 +30,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from numba import njit, types
+from numba import types
+from .._lazy import kernel
 
 from ..angles import wrap
 from ..rng import STATE, uniform
@@ -201,7 +202,7 @@ _I2 = types.int64[:, ::1]
 
 
 
-@njit(types.void(_F, _F2, _F2, _F, _F, types.int64, _F, types.int64, _F, _I, _F2, STATE, _F2,
+@kernel(types.void(_F, _F2, _F2, _F, _F, types.int64, _F, types.int64, _F, _I, _F2, STATE, _F2,
                  _F2, _I, _I2, _F3), cache=True)
 def simulate_field(area, bc, wp, start, drive, motion, mnoise, sensor, sense, kid, kpose, s, pose,
                    ctrl, obs_n, obs_id, obs_z):

@@ -15,7 +15,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import types
+from .._lazy import kernel
 
 from ..angles import wrap
 from ..rng import STATE, normal
@@ -89,7 +90,7 @@ _I = types.int64[::1]
 _I2 = types.int64[:, ::1]
 
 
-@njit(types.int64(_F2, _F2, _F, _F, _F, _F, types.int64, STATE, _F2, _F2, _I, _I2, _F3, _I),
+@kernel(types.int64(_F2, _F2, _F, _F, _F, _F, types.int64, STATE, _F2, _F2, _I, _I2, _F3, _I),
       cache=True)
 def simulate_odometry(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, obs_n, obs_id,
                       obs_z, wp_idx):

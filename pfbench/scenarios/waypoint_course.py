@@ -17,7 +17,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from numba import njit, types
+from numba import types
+from .._lazy import kernel
 
 from ..angles import wrap
 from ..rng import STATE, normal
@@ -181,7 +182,7 @@ _I = types.int64[::1]
 _I2 = types.int64[:, ::1]
 
 
-@njit(types.int64(_F2, types.float64, types.float64, types.float64, types.float64, types.float64,
+@kernel(types.int64(_F2, types.float64, types.float64, types.float64, types.float64, types.float64,
                   _F, STATE, _I, _F2), cache=True)
 def sense(lm, x, y, th, rmax, half_fov, noise, s, ids, zs):
     """Observe every landmark of lm within rmax and the field of view from pose (x, y, th): fill
@@ -199,7 +200,7 @@ def sense(lm, x, y, th, rmax, half_fov, noise, s, ids, zs):
     return n
 
 
-@njit(types.UniTuple(types.int64, 2)(_F2, types.int64, types.int64, types.float64, types.float64,
+@kernel(types.UniTuple(types.int64, 2)(_F2, types.int64, types.int64, types.float64, types.float64,
                                      types.float64), cache=True)
 def next_waypoint(wp, iw, lap, x, y, radius):
     """(waypoint to drive to, laps completed) from (x, y): the next waypoint once the current one
@@ -213,7 +214,7 @@ def next_waypoint(wp, iw, lap, x, y, radius):
     return iw, lap
 
 
-@njit(types.int64(_F2, _F2, _F, _F, _F, _F, types.int64, STATE, _F2, _F2, _I, _I2, _F3, _I),
+@kernel(types.int64(_F2, _F2, _F, _F, _F, _F, types.int64, STATE, _F2, _F2, _I, _I2, _F3, _I),
       cache=True)
 def simulate_course(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, obs_n, obs_id, obs_z,
                     wp_idx):

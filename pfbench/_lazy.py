@@ -1,0 +1,67 @@
+"""Kernels built on first use: ``@kernel(signature, cache=True, ...)`` is ``numba.njit`` with an
+explicit signature, except that numba compiles it (or loads it from its disk cache) when the
+kernel is first called, from Python or from another kernel being compiled, not when its module is
+imported. An experiment then builds the kernels of the filters and scenario it uses, and nothing
+else: importing every filter module costs no compilation.
+
+A kernel is a stand-in for its numba dispatcher: calling it, or naming it inside another kernel,
+builds the dispatcher with the declared signatures once and uses it; attributes (``py_func``,
+``signatures``, ...) are the dispatcher's. Functions handed to a kernel as values (a model's
+transition, typed as a first-class function) stay plain ``numba.njit``: numba takes only its own
+dispatchers there.
+"""
+from __future__ import annotations
+
+import functools
+import threading
+
+import numba
+
+_LOCK = threading.RLock()
+
+
+class LazyKernel:
+    """A numba function whose declared signatures compile on first use."""
+
+    def __init__(self, func, sigs, options: dict):
+        self._func, self._sigs, self._options = func, sigs, options
+        self._disp = None
+        functools.update_wrapper(self, func)
+
+    @property
+    def dispatcher(self):
+        """The numba dispatcher, built (compiled or loaded from the cache) on first use."""
+        disp = self._disp
+        if disp is None:
+            with _LOCK:
+                if self._disp is None:
+                    self._disp = numba.njit(self._sigs, **self._options)(self._func)
+                disp = self._disp
+        return disp
+
+    @property
+    def _numba_type_(self):         # what numba sees when another kernel names this one
+        return self.dispatcher._numba_type_
+
+    @property
+    def built(self) -> bool:
+        """Whether the kernel has been compiled or loaded (for tests and diagnostics)."""
+        return self._disp is not None
+
+    def __call__(self, *args, **kwargs):
+        return self.dispatcher(*args, **kwargs)
+
+    def __getattr__(self, name):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        return getattr(self.dispatcher, name)
+
+    def __repr__(self) -> str:
+        return f"<kernel {self.__qualname__} ({'built' if self.built else 'not built yet'})>"
+
+
+def kernel(sigs, **options):
+    """``numba.njit(sigs, **options)``, built on first use (see the module)."""
+    def decorate(func):
+        return LazyKernel(func, sigs, options)
+    return decorate
