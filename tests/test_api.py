@@ -88,6 +88,7 @@ def test_load_results_reads_the_committed_results_and_refuses_other_folders(tmp_
         pfbench.load_results(tmp_path)
 
 
+@pytest.mark.slow
 def test_the_readmes_python_example_runs(monkeypatch):
     import re
 

@@ -1,6 +1,7 @@
 import json
 
 import pandas as pd
+import pytest
 from typer.testing import CliRunner
 
 from pfbench import __version__
@@ -46,6 +47,7 @@ def test_end_to_end_paper_config_with_few_trials(tmp_path):
     assert "Paper: `ifa2021`" in (out / "table.md").read_text()
 
 
+@pytest.mark.slow
 def test_bench_quick_writes_records(tmp_path, monkeypatch):
     monkeypatch.chdir(ROOT)          # the FastSLAM row reads configs/worlds/ifa_course.yaml
     path = tmp_path / "b.json"

@@ -17,6 +17,7 @@ def test_time_ratio_is_per_trial_against_the_baseline():
     assert list(_metric_values("time_ratio", g, None).isna()) == [True] * 3
 
 
+@pytest.mark.slow
 def test_factor_interval_covers_the_true_ratio_about_95_percent(write_config):
     # paired trials with correlated noise; the paired BCa interval on the ratio of the means
     from pfbench.config import load

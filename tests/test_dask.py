@@ -43,6 +43,7 @@ def test_dask_local_cluster_gives_the_in_process_rows_and_traces(tmp_path, write
         (tmp_path / "field_local/traces.npz").read_bytes()
 
 
+@pytest.mark.slow
 def test_a_worker_that_dies_mid_run_has_its_trials_run_again_once(tmp_path, write_config):
     # trials of a few tens of milliseconds, so that chunks are under way when a worker dies
     cfg = ("name: slow\nseed: 5\ntrials: 40\nscenario: {name: ungm, steps: 100}\n"

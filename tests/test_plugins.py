@@ -72,6 +72,7 @@ filters:
 """
 
 
+@pytest.mark.slow
 def test_a_plugin_filter_runs_from_yaml_beside_the_built_ins(site, tmp_path):
     (tmp_path / "exp.yaml").write_text(CONFIG)
     res = _pfbench(site, "list", cwd=tmp_path)
@@ -130,6 +131,7 @@ def test_the_built_ins_are_the_entry_points_pyproject_declares():
 EXAMPLE_CONFIG = EXAMPLE / "configs" / "bearings_road.yaml"
 
 
+@pytest.mark.slow
 def test_a_plugin_scenario_runs_the_built_in_filters_and_the_plugin_filter(site, tmp_path):
     res = _pfbench(site, "list", cwd=tmp_path)
     line = next(l for l in res.stdout.splitlines() if l.strip().startswith("bearings_road"))
@@ -149,6 +151,7 @@ def test_a_plugin_scenario_runs_the_built_in_filters_and_the_plugin_filter(site,
     assert res.returncode == 2 and "did you mean 'offset_m'" in res.stderr
 
 
+@pytest.mark.slow
 def test_plugins_run_through_sweep_and_the_dask_executor(site, tmp_path):
     common = ["--trials", "3", "--set", "scenario.steps=20"]
     res = _pfbench(site, "sweep", str(EXAMPLE_CONFIG), "--out", "sw", "--trials", "3",
@@ -170,6 +173,7 @@ def test_plugins_run_through_sweep_and_the_dask_executor(site, tmp_path):
     pd.testing.assert_frame_equal(local, dask, check_exact=True)
 
 
+@pytest.mark.slow
 def test_the_contract_covers_the_plugins_under_dask(site, tmp_path):
     res = _pfbench(site, "list", "--check", "--configs", str(ROOT / "configs"), "--executor",
                    "dask", "--workers", "2", cwd=tmp_path)

@@ -85,6 +85,7 @@ def test_check_flags_a_changed_constant_metric():
     assert [f.metric for f in found] == ["lik_evals_per_step"]
 
 
+@pytest.mark.slow
 def test_check_tolerance_holds_its_false_alarm_rate_and_sees_a_shift():
     """Under the null (the same distribution) z = 4 flags about 1e-4 of comparisons of normal
     metrics; over 2000 comparisons of 10 re-run trials against 100 committed ones we allow 3

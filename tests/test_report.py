@@ -116,6 +116,7 @@ def test_every_choice_key_applies_to_a_config_of_its_paper():
                 assert any(report.config_value(e, key) for e in mine), (paper.key, key)
 
 
+@pytest.mark.slow
 def test_every_finding_fills_from_the_committed_results():
     entries = {e.name: e for e in report.collect(ROOT / "configs", ROOT / "results")}
     assert all(e.status == "ok" for e in entries.values()), \

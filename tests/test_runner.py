@@ -1,4 +1,5 @@
 """The trial contract: determinism across workers, resume, and independence of filters."""
+import pytest
 import shutil
 
 import numpy as np
@@ -113,6 +114,7 @@ def test_files_of_a_run(tmp_path, write_config):
     shutil.rmtree(out)
 
 
+@pytest.mark.slow
 def test_ctrl_c_keeps_finished_trials_and_resume_completes_them(tmp_path, write_config):
     """A real SIGINT to a running `pfbench run --workers 2`: exit 130, one message, no traceback,
     finished trials kept; --resume then gives the uninterrupted result bit for bit."""

@@ -156,6 +156,7 @@ def frozen_heap():
     gc.unfreeze()
 
 
+@pytest.mark.slow
 def test_a_table_of_many_cells_makes_no_chance_verdicts(frozen_heap):
     """54 cells whose truth equals the paper's value: judged one by one, about 93% of tables
     would show a false 'differs'; judged together (Holm) at most 5% (simulated, 400 tables,
