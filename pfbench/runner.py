@@ -405,6 +405,9 @@ def _short(v) -> str:
 def _stamp(out_dir: Path) -> tuple[str, dict] | None:
     """('finished', meta.json) or ('unfinished', run.json) of an earlier run in out_dir, or
     None; a stamp that cannot be read is refused (the folder is not left to be overwritten)."""
+    if (out_dir / "summary.csv").exists() or (out_dir / "cells").is_dir():
+        raise UserError(f"{out_dir} holds a sweep's results: --force replaces them, or --out "
+                        "names another folder")
     for what, name, trials in (("unfinished", "run.json", "trials.partial.csv"),
                                ("finished", "meta.json", "trials.csv")):
         path = out_dir / name
@@ -417,6 +420,9 @@ def _stamp(out_dir: Path) -> tuple[str, dict] | None:
                 raise UserError(f"{path}: unreadable, so {out_dir} may hold another "
                                 "experiment's trials; --force replaces them") from None
             return what, data
+    if (out_dir / "trials.csv").exists() or (out_dir / "trials.partial.csv").exists():
+        raise UserError(f"{out_dir} holds trials that no meta.json or run.json describes: "
+                        "--force replaces them, or --out names another folder")
     return None
 
 
@@ -427,6 +433,11 @@ def _check_folder(exp: Experiment, out_dir: Path, resume: bool, force: bool, war
     they are every trial already ('up to date'). Refuses, without ``force``, a folder that holds
     another experiment, or more trials of this one than asked for (they would be lost)."""
     if force:
+        if (out_dir / "cells").is_dir() or (out_dir / "summary.csv").exists():
+            # a sweep's results give way to this run's: its cells and summary go
+            from .fsutil import remove_tree
+            remove_tree(out_dir / "cells", out_dir)
+            (out_dir / "summary.csv").unlink(missing_ok=True)
         return resume, None
     stamp = _stamp(out_dir)
     if stamp is None:

@@ -155,6 +155,9 @@ def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: boo
     folder that holds its trials keeps them; one that holds another experiment's is refused
     without ``force`` (pfbench.runner.run_experiment)."""
     total = sum(c.exp.trials for c in cells)
+    if not force and (Path(out_dir) / "meta.json").exists():
+        raise UserError(f"{out_dir} holds the results of a run, not of a sweep: --force "
+                        "replaces them, or --out names another folder")
     for cell in cells:          # every cell's folder is free before any cell runs
         with FolderLock(out_dir / "cells" / cell.name, "sweep cell"):
             pass

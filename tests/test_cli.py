@@ -259,3 +259,29 @@ def test_loading_the_kernels_is_never_silent_when_it_takes_long(tmp_path, monkey
     with cli._kernels():
         pass
     assert capsys.readouterr().err == ""
+
+
+def test_a_run_and_a_sweep_do_not_take_each_others_folder(tmp_path, write_config):
+    from .conftest import one_line_exit_2, tree
+    cfg = write_config(SMALL)
+    out = tmp_path / "s"
+    res = runner.invoke(app, ["sweep", str(cfg), "--out", str(out), "--trials", "2",
+                              "--set", "scenario.steps=10,20"])
+    assert res.exit_code == 0, res.output
+    before = tree(out)
+    line = one_line_exit_2(runner.invoke(app, ["run", str(cfg), "--out", str(out),
+                                               "--no-figures"]))
+    assert "holds a sweep's results" in line and tree(out) == before
+    res = runner.invoke(app, ["run", str(cfg), "--out", str(out), "--no-figures", "--force"])
+    assert res.exit_code == 0, res.output
+    assert not (out / "cells").exists() and not (out / "summary.csv").exists()
+    before = tree(out)
+    line = one_line_exit_2(runner.invoke(app, ["sweep", str(cfg), "--out", str(out),
+                                               "--trials", "2", "--set", "scenario.steps=10,20"]))
+    assert "holds the results of a run" in line and tree(out) == before
+    # trials without a stamp that says whose they are
+    lone = tmp_path / "lone"
+    lone.mkdir()
+    (lone / "trials.csv").write_text("trial,filter\n")
+    line = one_line_exit_2(runner.invoke(app, ["run", str(cfg), "--out", str(lone)]))
+    assert "no meta.json or run.json describes" in line
