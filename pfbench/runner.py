@@ -368,10 +368,17 @@ def difference(old: dict, exp: Experiment) -> str:
     """What tells the experiment of a folder's stamp ``old`` (meta.json or run.json) from
     ``exp``, in a few words ('seed 2021 -> 5; scenario.steps 100 -> 60')."""
     ident = old.get("identity")
-    if not isinstance(ident, dict):
-        name = old.get("experiment")
-        return (f"experiment {name!r}, hash {old.get('experiment_hash')}; this config's "
-                f"{exp.name!r}, hash {exp.hash}")
+    if isinstance(ident, dict):
+        try:
+            return _identity_difference(ident, old, exp)
+        except (TypeError, KeyError, IndexError, AttributeError):
+            pass                    # a stamp edited by hand: say what the hashes say
+    name = old.get("experiment")
+    return (f"experiment {name!r}, hash {old.get('experiment_hash')}; this config's "
+            f"{exp.name!r}, hash {exp.hash}")
+
+
+def _identity_difference(ident: dict, old: dict, exp: Experiment) -> str:
     new = exp.identity
     out = []
     for key in ("seed", "scenario"):
@@ -414,7 +421,8 @@ def _stamp(out_dir: Path) -> tuple[str, dict] | None:
         if path.exists() and (out_dir / trials).exists():
             try:
                 data = json.loads(path.read_text(encoding="utf-8"))
-                if not isinstance(data, dict) or "experiment_hash" not in data:
+                if (not isinstance(data, dict) or not isinstance(data.get("experiment_hash"), str)
+                        or type(data.get("trials", 0)) is not int or data.get("trials", 0) < 0):
                     raise ValueError
             except (OSError, ValueError):
                 raise UserError(f"{path}: unreadable, so {out_dir} may hold another "

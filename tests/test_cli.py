@@ -237,10 +237,18 @@ def test_an_unfinished_run_of_another_experiment_is_refused(tmp_path, write_conf
                                                str(out), "--no-figures"]))
     assert "unfinished trials of another experiment" in line and "'x'" in line
     assert tree(out) == before
-    (out / "run.json").write_text("{not json")
+    for stamp in ("{not json", '{"experiment_hash": "abc", "trials": "many"}',
+                  '{"experiment_hash": 7}', '[1, 2]'):
+        (out / "run.json").write_text(stamp)
+        line = one_line_exit_2(runner.invoke(app, ["run", str(write_config(SMALL)), "--out",
+                                                   str(out), "--no-figures"]))
+        assert "unreadable" in line and "--force" in line, stamp
+    # an identity edited by hand still gets a one-line answer (from the hashes)
+    (out / "run.json").write_text(json.dumps({"experiment": "x", "experiment_hash": "abc",
+                                              "identity": {"filters": [1, 2]}}))
     line = one_line_exit_2(runner.invoke(app, ["run", str(write_config(SMALL)), "--out",
                                                str(out), "--no-figures"]))
-    assert "unreadable" in line and "--force" in line
+    assert "another experiment" in line
 
 
 def test_loading_the_kernels_is_never_silent_when_it_takes_long(tmp_path, monkeypatch, capsys):
