@@ -54,8 +54,12 @@ class Ranking:
     def same(self) -> bool:
         return self.paper == self.ours
 
-    def count(self, status: str) -> int:
-        return sum(p.status == status for p in self.pairs)
+
+def pair_counts(rankings: list[Ranking]) -> dict[str, int]:
+    """Over every pair of every ranking: how many are resolved in the paper's order ('same'),
+    against it ('opposite'), and unresolved."""
+    pairs = [p for r in rankings for p in r.pairs]
+    return {k: sum(p.status == k for p in pairs) for k in ("same", "opposite", "unresolved")}
 
 
 @dataclass(frozen=True)
@@ -86,7 +90,9 @@ class Comparison:
         interval ours_lo_Q / ours_hi_Q, the trials it averages n_Q (fewer than all for a metric
         defined only on some, such as the convergence step), paper_Q, ratio_Q, verdict_Q (the
         text), kind_Q (reproduced, differs, inconclusive, not comparable, or '' without a paper
-        value) and the 95% interval the verdict used verdict_lo_Q / verdict_hi_Q
+        value), the interval the verdict used verdict_lo_Q / verdict_hi_Q at verdict_level_Q,
+        how the intervals are made method_Q (verdicts.METHODS), and for an inconclusive cell
+        the trials that would likely decide it needed_Q (NaN: none would)
     factors : the paper's factors between two of its rows beside ours (dicts)
     per_trial : the paper's per-run table beside our first trials, or None
     rankings : the paper's orders of its rows beside ours
@@ -216,12 +222,6 @@ def estimate(q: Quantity, g: pd.DataFrame, base: pd.DataFrame | None, seed: int 
     return Estimate(s["mean"], s["se"], s["n"])
 
 
-def our_interval(q: Quantity, est: Estimate, g: pd.DataFrame | None = None
-                 ) -> tuple[float, float]:
-    """The 95% interval printed beside our value (by the estimate's own method)."""
-    return est.interval(1 - ALPHA)
-
-
 def _metric_values(metric: str, g: pd.DataFrame, base: pd.DataFrame | None):
     """Per-trial values of ``metric`` for one filter run (g); 'time_ratio' is the wall time over the
     baseline run's on the same trial, 'evals_ratio' the likelihood evaluations per step over the
@@ -241,13 +241,12 @@ def _pair_estimate(q: Quantity, a: pd.DataFrame | None, b: pd.DataFrame | None
     None (a variance, a gain or a ratio has no per-trial values)."""
     if a is None or b is None or q.stat != "mean" or q.metric not in a:
         return None
-    x = a.set_index("trial")[q.metric] * q.scale
-    y = b.set_index("trial")[q.metric].reindex(x.index) * q.scale
-    d = paired(x.to_numpy(float), y.to_numpy(float))
-    ok = ~(np.isnan(x.to_numpy(float)) | np.isnan(y.to_numpy(float)))
-    diff = x.to_numpy(float)[ok] - y.to_numpy(float)[ok]
-    s = summarize(diff)
-    return Estimate(d["diff_mean"], s["se"], s["n"])
+    xs = a.set_index("trial")[q.metric]
+    ys = b.set_index("trial")[q.metric].reindex(xs.index)
+    x, y = (xs * q.scale).to_numpy(float), (ys * q.scale).to_numpy(float)
+    ok = ~(np.isnan(x) | np.isnan(y))
+    s = summarize(x[ok] - y[ok])
+    return Estimate(s["mean"], s["se"], s["n"])
 
 
 def rankings(exp: Experiment, tab: pd.DataFrame, by_key: dict | None = None,
@@ -331,7 +330,7 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame,
     if exp.compare["floor"] is not None:
         floor = summarize(by_key[exp.compare["floor"]]["rmse"])["ci_lo"]
     pairs = baseline_runs(exp)
-    out, cells = [], []         # cells: (row, quantity, claim, the estimate judged, judged_by)
+    out, cells = [], []         # cells: (row, quantity, claim, the estimate judged)
     for run in exp.filters:
         g = by_key[run.key]
         r = {"filter": run.key, "label": run.label, "particles": run.particles, "trials": len(g)}
@@ -363,7 +362,8 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame,
                 est = estimate(q, g, base, exp.seed, f"{run.key}:{q.key}")
                 ours = est.value
                 r[f"ours_{q.key}"] = ours
-                r[f"ours_lo_{q.key}"], r[f"ours_hi_{q.key}"] = our_interval(q, est)
+                # the 95% interval printed beside our value, by the estimate's own method
+                r[f"ours_lo_{q.key}"], r[f"ours_hi_{q.key}"] = est.interval(1 - ALPHA)
                 r[f"n_{q.key}"] = est.n         # the trials it averages (a conditional metric:
                                                 # those where it is defined)
                 r[f"method_{q.key}"] = est.method
@@ -398,11 +398,8 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame,
         r[f"verdict_lo_{q.key}"], r[f"verdict_hi_{q.key}"] = v.lo, v.hi
         r[f"verdict_level_{q.key}"] = v.level
         r[f"needed_{q.key}"] = v.needed if v.needed is not None else math.nan
-    facts = []
-    for (row, claim), v in zip(found, verdicts[len(cells):]):
-        lo, hi = claim.est.interval(1 - ALPHA)
-        facts.append({**row, "ours": claim.est.value, "lo": lo, "hi": hi, "verdict": v.text,
-                      "kind": v.kind, "method": claim.est.method, "needed": v.needed})
+    facts = [{**row, "verdict": v.text, "kind": v.kind, "needed": v.needed}
+             for (row, _), v in zip(found, verdicts[len(cells):])]
     tab = pd.DataFrame(out)
     if table is None:
         return Comparison(exp, tab, anytime=anytime)
@@ -418,7 +415,8 @@ def factor_claims(exp: Experiment, table: Table, by_key: dict,
                   anytime: int | None = None) -> list[tuple[dict, Claim]]:
     """The paper's factors between two of its rows for a quantity (e.g. AFSA's error over PSO's),
     each as (what it is, the claim to judge): ours is the ratio of the means over paired trials,
-    with a BCa bootstrap interval (paired by trial)."""
+    with its 95% BCa bootstrap interval (paired by trial) as printed; the claim judges it on
+    that bootstrap, or (``anytime``) on a confidence sequence."""
     found = []
     for key, a_label, b_label, margin in table.factors:
         q = next(q for q in table.quantities if q.key == key)
@@ -435,11 +433,12 @@ def factor_claims(exp: Experiment, table: Table, by_key: dict,
             continue
         est = _bootstrap((a, b), _ratio_of_means, b.mean() / a.mean(), exp.seed,
                          f"factor:{key}:{a_label}:{b_label}")
-        if anytime:
-            est = est.anytime(anytime)
+        lo, hi = est.interval(1 - ALPHA)
         paper = pb / pa if pa and pb is not None else math.nan
         found.append(({"quantity": q.title, "from": a_label, "to": b_label, "paper_from": pa,
-                       "paper_to": pb, "paper": paper}, Claim(paper, est, margin)))
+                       "paper_to": pb, "paper": paper, "ours": est.value, "lo": lo, "hi": hi,
+                       "method": est.method},
+                      Claim(paper, est.anytime(anytime) if anytime else est, margin)))
     return found
 
 

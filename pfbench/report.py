@@ -22,7 +22,7 @@ import pandas as pd
 
 from . import __version__
 from . import tables as tb
-from .compare import Comparison, compare
+from .compare import Comparison, compare, pair_counts
 from .config import Experiment, load
 from .errors import UserError
 from . import papers as pp
@@ -262,8 +262,8 @@ def ranking_counts(e: Entry) -> tuple[int, int, int]:
     """Pairs of rows the paper orders: (resolved in its order, resolved opposite, unresolved)."""
     if e.comparison is None:
         return 0, 0, 0
-    pairs = [p for r in e.comparison.rankings for p in r.pairs]
-    return tuple(sum(p.status == k for p in pairs) for k in ("same", "opposite", "unresolved"))
+    n = pair_counts(e.comparison.rankings)
+    return n["same"], n["opposite"], n["unresolved"]
 
 
 # ---- the document

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from .compare import Comparison, PerTrial, Ranking
+from .compare import Comparison, PerTrial, Ranking, pair_counts
 from .config import Experiment
 from .papers import Quantity
 from .verdicts import METHODS, percent
@@ -33,7 +33,7 @@ def ranking_lines(rankings: list[Ranking]) -> list[str]:
                                                 f"with its interval): {judged}." if judged
                                                 else "."))
     if pairs:
-        n = {k: sum(p.status == k for p in pairs) for k in ("same", "opposite", "unresolved")}
+        n = pair_counts(rankings)
         holm = (f"; Holm's step-down procedure across the table's {tested} pairs gives each "
                 "interval its level, so the chance of any pair resolved the wrong way is at "
                 "most 5%" if tested > 1 else "")
@@ -257,8 +257,7 @@ def interval_line(cmp: Comparison) -> str:
     for q in (table.quantities if table is not None else ()):
         col = f"method_{q.key}"
         if col in cmp.table and not _shown_as_rmse(q):
-            methods = [m for m in cmp.table.get(col, pd.Series(dtype=object)).dropna().unique()]
-            for m in methods:
+            for m in cmp.table[col].dropna().unique():
                 by_method.setdefault(m, []).append(q.title)
     for m, titles in by_method.items():
         line += f"; {METHODS[m]} for {', '.join(titles)}"

@@ -207,6 +207,24 @@ def widened_se(est: Estimate, paper_runs: int | None) -> float:
     return est.se * math.sqrt(1.0 + est.n / paper_runs)
 
 
+def _distance(c: Claim) -> float:
+    """|ours - paper|, or for a paper's range how far ours lies outside it (0 inside)."""
+    v = c.est.value
+    if isinstance(c.paper, tuple):
+        return max(c.paper[0] - v, v - c.paper[1], 0.0)
+    return abs(v - c.paper)
+
+
+def _equivalence_bounds(c: Claim) -> tuple[float, float]:
+    """Where ours must lie to be the same as the paper's value: its value (or range) widened by
+    the claim's margin (a range's margin taken at its middle)."""
+    if isinstance(c.paper, tuple):
+        delta = c.margin.width(0.5 * (c.paper[0] + c.paper[1]))
+        return c.paper[0] - delta, c.paper[1] + delta
+    delta = c.margin.width(c.paper)
+    return c.paper - delta, c.paper + delta
+
+
 def _differs_at(c: Claim, a: float) -> bool:
     lo, hi = c.est.interval(1.0 - a, c.paper_runs)
     if math.isnan(lo) or math.isnan(hi):
@@ -222,11 +240,8 @@ def _equivalent_at(c: Claim, a: float) -> bool:
     lo, hi = c.est.interval(c.est.equivalence_level(a), c.paper_runs)
     if math.isnan(lo) or math.isnan(hi):
         return False
-    if isinstance(c.paper, tuple):
-        delta = c.margin.width(0.5 * (c.paper[0] + c.paper[1]))
-        return c.paper[0] - delta <= lo and hi <= c.paper[1] + delta
-    delta = c.margin.width(c.paper)
-    return -delta <= lo - c.paper and hi - c.paper <= delta
+    low, high = _equivalence_bounds(c)
+    return low <= lo and hi <= high
 
 
 def _p_value(test: Callable[[float], bool], top: float) -> float:
@@ -269,9 +284,7 @@ def p_differs(c: Claim) -> float:
     """The p-value of 'the paper's value differs from ours': the smallest a whose (1 - a)
     interval misses it (for a t interval, the two-sided t test's p-value)."""
     if _closed_form(c):
-        v = c.est.value
-        distance = (max(c.paper[0] - v, v - c.paper[1]) if isinstance(c.paper, tuple)
-                    else abs(v - c.paper))
+        distance = _distance(c)
         if distance <= 0:
             return 1.0
         se = widened_se(c.est, c.paper_runs)
@@ -285,12 +298,7 @@ def p_equivalent(c: Claim) -> float:
     if c.margin is None:
         return 1.0
     if _closed_form(c):
-        if isinstance(c.paper, tuple):
-            delta = c.margin.width(0.5 * (c.paper[0] + c.paper[1]))
-            low, high = c.paper[0] - delta, c.paper[1] + delta
-        else:
-            delta = c.margin.width(c.paper)
-            low, high = c.paper - delta, c.paper + delta
+        low, high = _equivalence_bounds(c)
         room = min(c.est.value - low, high - c.est.value)
         if room <= 0:
             return 1.0
@@ -307,12 +315,11 @@ def _trials_to_decide(c: Claim, a_d: float, a_e: float) -> tuple[str, int | None
     est, paper_runs = c.est, c.paper_runs
     sd = float(est.se) * math.sqrt(est.n)
     se_b2 = sd * sd / paper_runs if paper_runs else 0.0
-    if isinstance(c.paper, tuple):
+    distance = _distance(c)
+    if isinstance(c.paper, tuple):      # the margin's reach from the paper's value (or range)
         a, b = c.paper
-        distance = max(a - est.value, est.value - b, 0.0)
         room = (0.5 * (b - a) + c.margin.width(0.5 * (a + b))) if c.margin else None
     else:
-        distance = abs(est.value - c.paper)
         room = c.margin.width(c.paper) if c.margin else None
     method = est.method if est.method in ("t", "cs") else "t"
 

@@ -111,12 +111,12 @@ def test_ranges_floors_and_what_is_not_judged():
 def test_rates_get_wilson_intervals_inside_zero_one(write_config):
     import pandas as pd
 
-    from pfbench.compare import estimate, our_interval
+    from pfbench.compare import estimate
     from pfbench.papers import Quantity
     q = Quantity("c", "converged", "converged", "mean")
     for k, n in ((19, 20), (20, 20), (0, 20), (1, 10)):
         g = pd.DataFrame({"trial": range(n), "converged": [1.0] * k + [0.0] * (n - k)})
-        lo, hi = our_interval(q, estimate(q, g, None), g)
+        lo, hi = estimate(q, g, None).interval(0.95)
         assert 0.0 <= lo <= k / n <= hi <= 1.0, (k, n, lo, hi)
         ci = stats.binomtest(k, n).proportion_ci(0.95, method="wilson")
         assert (lo, hi) == pytest.approx((ci.low, ci.high))
