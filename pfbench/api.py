@@ -113,16 +113,10 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
         from .regen import write_experiment
         res = run_into(exp, Path(out), workers=workers, resume=resume, progress=progress,
                        executor=executor, warn=warn, force=force)
-        if res.up_to_date:          # the table again (the same bytes when nothing changed)
-            from . import tables
-            from .compare import compare
-            cmp = compare(exp, res.rows, anytime=anytime_of(res.meta))
-            tables.write(cmp, Path(out), res.meta)
-            return Result(_frame(res.rows, trial_columns(exp)), cmp.table, res.meta, exp,
-                          Path(out), cmp, up_to_date=True)
-        cmp, paths = write_experiment(exp, res, Path(out), figures)
+        # up to date: the table again (the same bytes when nothing changed), no figures
+        cmp, paths = write_experiment(exp, res, Path(out), figures and not res.up_to_date)
         return Result(_frame(res.rows, trial_columns(exp)), cmp.table, res.meta, exp,
-                      Path(out), cmp, paths)
+                      Path(out), cmp, paths, up_to_date=res.up_to_date)
     if resume:
         raise UserError("resume needs a results folder (out)")
     executor = executor or LocalExecutor(workers)
@@ -167,6 +161,18 @@ def undecided(cmp) -> list[int | None]:
     return out
 
 
+def until_decided_budget(exp, max_trials: int | None) -> int:
+    """The most trials a run of ``exp`` until decided may reach (default: ten batches of its
+    trials); refuses an experiment without a paper's table, or a budget below one batch."""
+    if exp.reported is None:
+        raise UserError(f"{exp.name}: --until-decided needs a paper's table to decide "
+                        "(the config names none)")
+    most = max_trials if max_trials is not None else 10 * exp.trials
+    if most < exp.trials:
+        raise UserError(f"--max-trials {most} is below the first batch of {exp.trials} trials")
+    return most
+
+
 def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
                       max_trials: int | None = None, trials: int | None = None,
                       seed: int | None = None, workers: int = 1, overrides: Iterable[str] = (),
@@ -191,13 +197,7 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
     from .runner import run_experiment as run_into
     from .store import trial_columns, write_json
     first = _experiment(config, trials, seed, overrides)
-    if first.reported is None:
-        raise UserError(f"{first.name}: --until-decided needs a paper's table to decide "
-                        "(the config names none)")
-    batch = first.trials
-    most = max_trials if max_trials is not None else 10 * batch
-    if most < batch:
-        raise UserError(f"--max-trials {most} is below the first batch of {batch} trials")
+    batch, most = first.trials, until_decided_budget(first, max_trials)
     folder = Path(out)
     n, looks, ran, wall = batch, [], 0, 0.0
     while True:

@@ -146,14 +146,14 @@ def _first_words(exps) -> str:
 
 
 def _progress(bar, total: int, first, exps=()):
-    """The progress callback of a run: a bar task of ``total`` trials, which says which kernels
-    compile until the first trial finishes; ``first()`` on its first call (once the folder is
-    ready and the trials start)."""
+    """The progress callback of a run: a bar task of ``total`` trials (a run until decided
+    raises it batch by batch), which says which kernels compile until the first trial
+    finishes; ``first()`` on its first call (once the folder is ready and the trials start)."""
     task = bar.add_task(_first_words(exps), total=total)
 
-    def progress(done, _total):
+    def progress(done, total):
         first()
-        bar.update(task, completed=done, description="trials")
+        bar.update(task, completed=done, total=total, description="trials" if done else None)
     return progress
 
 
@@ -310,15 +310,9 @@ def run(
             raise UserError("--max-trials goes with --until-decided")
         from .fsutil import FolderLock
         exp = _load(config, trials, seed, set_)
-        from .api import run_experiment, run_until_decided
+        from .api import run_experiment, run_until_decided, until_decided_budget
         folder = out_dir or Path("results") / exp.name
-        most = (max_trials or 10 * exp.trials) if until_decided else exp.trials
-        if until_decided and exp.reported is None:
-            raise UserError(f"{config}: --until-decided needs a paper's table to decide (the "
-                            "config names none)")
-        if most < exp.trials:
-            raise UserError(f"--max-trials {most} is below the first batch of {exp.trials} "
-                            "trials")
+        most = until_decided_budget(exp, max_trials) if until_decided else exp.trials
         workers = _workers_that_fit([(replace(exp, trials=most), str(config))], workers,
                                     executor)
         runs = ", ".join(f.key for f in exp.filters)
@@ -329,12 +323,7 @@ def run(
                 f"{exp.name}: {exp.trials} trials{upto} of {exp.scenario} x [{runs}], seed "
                 f"{exp.seed}, {ex.describe()} -> {folder}", markup=False))
             with _bar() as bar:
-                task = bar.add_task(_first_words([exp]), total=exp.trials)
-
-                def progress(done, total):
-                    header()
-                    bar.update(task, completed=done, total=total,
-                               description="trials" if done else None)
+                progress = _progress(bar, exp.trials, header, [exp])
 
                 def look(k):
                     bar.console.print(f"after {k['trials']} trials: {k['undecided']} judged "

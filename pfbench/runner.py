@@ -409,10 +409,15 @@ def _short(v) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
+def _holds_sweep(out_dir: Path) -> bool:
+    """Whether ``out_dir`` holds a sweep's results (its cells and summary)."""
+    return (out_dir / "cells").is_dir() or (out_dir / "summary.csv").exists()
+
+
 def _stamp(out_dir: Path) -> tuple[str, dict] | None:
     """('finished', meta.json) or ('unfinished', run.json) of an earlier run in out_dir, or
     None; a stamp that cannot be read is refused (the folder is not left to be overwritten)."""
-    if (out_dir / "summary.csv").exists() or (out_dir / "cells").is_dir():
+    if _holds_sweep(out_dir):
         raise UserError(f"{out_dir} holds a sweep's results: --force replaces them, or --out "
                         "names another folder")
     for what, name, trials in (("unfinished", "run.json", "trials.partial.csv"),
@@ -434,14 +439,14 @@ def _stamp(out_dir: Path) -> tuple[str, dict] | None:
     return None
 
 
-def _check_folder(exp: Experiment, out_dir: Path, resume: bool, force: bool, warn,
+def _check_folder(exp: Experiment, out_dir: Path, resume: bool, force: bool,
                   traces: bool) -> tuple[bool, RunResult | None]:
     """Whether the run keeps the trials ``out_dir`` holds (True for the same experiment: its
     trials are deterministic, so they are the trials this run would make), and the result when
     they are every trial already ('up to date'). Refuses, without ``force``, a folder that holds
     another experiment, or more trials of this one than asked for (they would be lost)."""
     if force:
-        if (out_dir / "cells").is_dir() or (out_dir / "summary.csv").exists():
+        if _holds_sweep(out_dir):
             # a sweep's results give way to this run's: its cells and summary go
             from .fsutil import remove_tree
             remove_tree(out_dir / "cells", out_dir)
@@ -463,12 +468,10 @@ def _check_folder(exp: Experiment, out_dir: Path, resume: bool, force: bool, war
                         f"replace them with fewer: --trials {had} keeps them, --force replaces "
                         "them, or --out names another folder")
     if what == "finished" and had == exp.trials:
-        got = read_trials(out_dir / "trials.csv", trial_columns(exp))
-        done = complete_trials(got.rows, exp)
+        done = _resumed(exp, out_dir, None)     # the trials that check (the run warns of the rest)
         has_traces = (not traces or kind_of(exp.scenario).tracer is None
                       or (out_dir / "traces.npz").exists())
-        if not got.rejected and len(done) == exp.trials and set(done) == set(range(exp.trials)) \
-                and has_traces:
+        if len(done) == exp.trials and has_traces:
             rows = [r for k in sorted(done) for r in done[k]]
             return True, RunResult(rows, out_dir, 0.0, 0, old, up_to_date=True)
     return True, None
@@ -501,7 +504,7 @@ def run_experiment(exp: Experiment, out_dir: Path, *, workers: int = 1, resume: 
     executor = executor or LocalExecutor(workers)
     out_dir = Path(out_dir)
     with FolderLock(out_dir):
-        resume, ready = _check_folder(exp, out_dir, resume, force, warn, traces)
+        resume, ready = _check_folder(exp, out_dir, resume, force, traces)
         if ready is not None:
             return ready
         return _run_locked(exp, out_dir, workers, resume, progress, executor, warn, traces)
