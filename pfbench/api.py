@@ -30,11 +30,15 @@ class Result:
     """What an experiment gave.
 
     trials : one row per trial and filter run: ``trial``, ``filter`` (the run's key, such as
-        ``pf@50``), ``label``, ``particles``, the metrics of the scenario's kind, ``wall_s``
+        ``pf@50``), ``label``, ``particles``, the metrics of the scenario's kind, and ``wall_s``,
+        the run's wall time in seconds (NaN where the folder's timings file has none)
     table : one row per filter run: the statistics over trials (``rmse_mean``, ``rmse_ci_lo``,
         ...), and beside a paper's table ``paper_Q``, ``ours_Q``, ``verdict_Q`` for each of its
         quantities Q (a sweep's results: its summary, one row per cell and filter run)
-    meta : the experiment's name, hash, seed, trials, versions, wall time, ...
+    meta : the experiment's name, hash, seed, trials, and the provenance of its trials (commit,
+        versions, machine): a results folder's meta.json
+    run : what the run took on this machine (``wall_s``, ``trials_run_now``, ``workers``,
+        start and end): a results folder's timings.json; None where it has none
     experiment : the validated config (None when a results folder's config is gone or changed)
     folder : the results folder, or None when nothing was written
     comparison : the comparison the table comes from (pfbench.compare; None for a sweep, or a
@@ -50,6 +54,7 @@ class Result:
     comparison: Any = None
     figures: list = field(default_factory=list)
     up_to_date: bool = False
+    run: dict | None = None
 
 
 def _experiment(config, trials, seed, overrides):
@@ -78,8 +83,9 @@ def _experiment(config, trials, seed, overrides):
 
 
 def _frame(rows: list[dict], columns: Iterable[str]) -> pd.DataFrame:
-    cols = [c for c in columns if c != "crc"]
-    return pd.DataFrame([{c: r.get(c) for c in cols} for r in rows], columns=cols)
+    cols = [c for c in columns if c not in ("crc", "wall_s")] + ["wall_s"]
+    df = pd.DataFrame([{c: r.get(c) for c in cols} for r in rows], columns=cols)
+    return df.assign(wall_s=pd.to_numeric(df["wall_s"], errors="coerce"))
 
 
 def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
@@ -116,7 +122,7 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
         # up to date: the table again (the same bytes when nothing changed), no figures
         cmp, paths = write_experiment(exp, res, Path(out), figures and not res.up_to_date)
         return Result(_frame(res.rows, trial_columns(exp)), cmp.table, res.meta, exp,
-                      Path(out), cmp, paths, up_to_date=res.up_to_date)
+                      Path(out), cmp, paths, up_to_date=res.up_to_date, run=res.run)
     if resume:
         raise UserError("resume needs a results folder (out)")
     executor = executor or LocalExecutor(workers)
@@ -132,10 +138,11 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
     rows = [r for k in sorted(done) for r in done[k]]
     meta = {"experiment": exp.name, "config": exp.source, "experiment_hash": exp.hash,
             "paper": exp.paper, "table": exp.table, "seed": exp.seed, "trials": exp.trials,
-            "workers": workers, "executor": executor.describe(),
-            "wall_s": round(time.perf_counter() - t0, 3), "versions": versions()}
+            "versions": versions()}
+    run = {"trials_run_now": exp.trials, "workers": workers, "executor": executor.describe(),
+           "wall_s": round(time.perf_counter() - t0, 3)}
     cmp = compare(exp, rows)
-    return Result(_frame(rows, trial_columns(exp)), cmp.table, meta, exp, None, cmp)
+    return Result(_frame(rows, trial_columns(exp)), cmp.table, meta, exp, None, cmp, run=run)
 
 
 def anytime_of(meta: dict | None) -> int | None:
@@ -194,7 +201,7 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
     """
     from .compare import compare
     from .regen import write_experiment
-    from .runner import run_experiment as run_into
+    from .runner import RUN_TIMINGS, run_experiment as run_into
     from .store import trial_columns, write_json
     first = _experiment(config, trials, seed, overrides)
     batch, most = first.trials, until_decided_budget(first, max_trials)
@@ -205,8 +212,8 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
         res = run_into(exp, folder, workers=workers, resume=resume or n > batch,
                        progress=progress, executor=executor, warn=warn,
                        force=force and n == batch)
-        ran += res.meta["trials_run_now"]
-        wall += res.meta["wall_s"]
+        ran += res.run["trials_run_now"]
+        wall += res.run["wall_s"]
         cmp = compare(exp, res.rows, anytime=most)
         left = undecided(cmp)
         looks.append({"trials": n, "undecided": len(left)})
@@ -223,20 +230,23 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
                        f"than {most} trials, or no number decides them")
             break
         n = min(n + batch, most)
-    res.meta.update(trials_run_now=ran, wall_s=round(wall, 3))
+    res.run.update(trials_run_now=ran, wall_s=round(wall, 3))
     res.meta["until_decided"] = {"max_trials": most, "batch": batch, "looks": looks,
                                  "stopped": stopped}
     write_json(folder / "meta.json", res.meta)
+    if not res.up_to_date:
+        write_json(folder / RUN_TIMINGS, res.run)
     cmp, paths = write_experiment(exp, res, folder, figures)
     return Result(_frame(res.rows, trial_columns(exp)), cmp.table, res.meta, exp, folder, cmp,
-                  paths)
+                  paths, run=res.run)
 
 
 def load_results(folder: str | Path) -> Result:
     """The results of ``pfbench run`` (or ``pfbench sweep``) in ``folder``: its trials, its table
     (a sweep's summary), its meta; ``experiment`` when the config that made them is still there
     unchanged."""
-    from .store import read_trials
+    from .runner import RUN_TIMINGS
+    from .store import read_timings, read_trials, with_timings
     folder = Path(folder)
     meta_path, trials_path = folder / "meta.json", folder / "trials.csv"
     table_path = folder / "table.csv"
@@ -253,6 +263,7 @@ def load_results(folder: str | Path) -> Result:
     except (OSError, ValueError):
         raise UserError(f"{meta_path}: missing or unreadable") from None
     got = read_trials(trials_path)
+    with_timings(got.rows, read_timings(folder))
     if got.rejected:
         k, why = next(iter(sorted(got.rejected.items())))
         raise UserError(f"{trials_path}: {len(got.rejected)} trial(s) fail their checksum or "
@@ -277,4 +288,9 @@ def load_results(folder: str | Path) -> Result:
         table = pd.read_csv(table_path)
     else:
         raise UserError(f"{folder}: no table.csv, and its config is gone or changed")
-    return Result(trials, table, meta, exp, folder, cmp)
+    try:
+        run = json.loads((folder / RUN_TIMINGS).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        run = None
+    return Result(trials, table, meta, exp, folder, cmp,
+                  run=run if isinstance(run, dict) else None)

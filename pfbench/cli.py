@@ -351,10 +351,10 @@ def run(
             err.print(f"until decided: {len(u['looks'])} look(s), {res.experiment.trials} "
                       f"trials; stopped: {u['stopped']}", markup=False)
         exp = res.experiment
-        ran = res.meta["trials_run_now"]
+        ran = res.run["trials_run_now"]
         note = f" ({exp.trials - ran} resumed)" if ran < exp.trials else ""
-        err.print(f"{ran} trials in {res.meta['wall_s']:.1f} s{note}; wrote {folder}/trials.csv, "
-                  "table.csv, table.md, meta.json"
+        err.print(f"{ran} trials in {res.run['wall_s']:.1f} s{note}; wrote {folder}/trials.csv, "
+                  "table.csv, table.md, meta.json, timings.csv"
                   + (f" and {len(res.figures)} figures" if res.figures else ""), markup=False)
 
 
@@ -409,12 +409,16 @@ def sweep(
         t = RichTable(title=f"{name}: sweep over {', '.join(keys)}", title_justify="left")
         for h in keys + ["Filter", "N", "Trials", "RMSE mean [95% CI]", "ms/trial"]:
             t.add_column(h, overflow="fold")
-        for _, r in summ.iterrows():
+        # the run times (not in summary.csv): the same cells and filter runs, in the same order
+        wall = sw.summary(trials_df, keys, ("wall_s",))
+        ms_per_trial = (list(1e3 * wall["wall_s_mean"]) if "wall_s_mean" in wall
+                        else [float("nan")] * len(summ))
+        for (_, r), ms in zip(summ.iterrows(), ms_per_trial):
             n = r["particles"]
             t.add_row(*[str(r[k]) for k in keys], str(r["label"]),
                       "-" if n != n or n is None else str(int(n)), str(int(r["trials"])),
                       f"{r['rmse_mean']:.4g} [{r['rmse_ci_lo']:.4g}, {r['rmse_ci_hi']:.4g}]",
-                      f"{1e3 * r['wall_s_mean']:.3g}")
+                      "-" if ms != ms else f"{ms:.3g}")
         out.print(t)
         err.print(f"wrote {folder}/trials.csv, summary.csv, {len(figs)} figures and a results "
                   "folder per cell under cells/", markup=False)

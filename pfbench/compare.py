@@ -109,6 +109,25 @@ class Comparison:
         """The paper's table this experiment compares with (None: no paper)."""
         return self.exp.reported
 
+    @property
+    def timed(self) -> bool:
+        """Whether the table holds run times (the trials came with their timings)."""
+        return bool(len(self.table)) and bool(self.table["wall_ms_per_trial"].notna().any())
+
+    def without_timings(self) -> "Comparison":
+        """The comparison with what the machine determines left out (the run times, and our
+        value of a quantity measured in run time, such as time over the PF): what a results
+        folder commits, the same on any machine. A verdict on run time is judged on a
+        deterministic measure (``judged_by``) or not judged at all, so no verdict changes."""
+        tab = self.table.copy()
+        tab["wall_ms_per_trial"] = math.nan
+        for q in (self.reported.quantities if self.reported is not None else ()):
+            if q.metric in MACHINE_METRICS:
+                for c in ("ours", "ours_lo", "ours_hi", "ratio"):
+                    if f"{c}_{q.key}" in tab:
+                        tab[f"{c}_{q.key}"] = math.nan
+        return replace(self, table=tab)
+
 
 # metrics that are rates (a fraction of trials): Wilson intervals, never outside [0, 1]
 RATE_METRICS = ("converged",)
@@ -229,7 +248,7 @@ def _metric_values(metric: str, g: pd.DataFrame, base: pd.DataFrame | None):
     ratio_of = {"time_ratio": "wall_s", "evals_ratio": "lik_evals_per_step"}.get(metric)
     if ratio_of is None:
         return g[metric]
-    if base is None:
+    if base is None or ratio_of not in g or ratio_of not in base:
         return pd.Series([math.nan] * len(g))
     a = g.set_index("trial")[ratio_of]
     return a / base.set_index("trial")[ratio_of].reindex(a.index)
@@ -322,8 +341,11 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame,
     """The comparison of an experiment's trials (rows of a trials file) with its paper. The
     cells of the paper's table (with its factors) are judged together, Holm-adjusted; with
     ``anytime`` (the most trials a run until decided may reach), every verdict uses confidence
-    sequences tuned for that many trials, valid however often the trials were looked at."""
+    sequences tuned for that many trials, valid however often the trials were looked at.
+    Rows with ``wall_s`` (their timings) give the run times; without, those are NaN."""
     df = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(rows)
+    if "wall_s" in df:          # the run times, where the trials came with them (NaN elsewhere)
+        df = df.assign(wall_s=pd.to_numeric(df["wall_s"], errors="coerce"))
     table: Table | None = exp.reported
     by_key = {f.key: df[df["filter"] == f.key] for f in exp.filters}
     floor = None
@@ -344,7 +366,8 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame,
         dv = g["diverged_steps"] if "diverged_steps" in g else pd.Series(dtype=float)
         r["diverged_steps"] = float(dv.sum())
         r["diverged_trials"] = float((dv > 0).sum())
-        r["wall_ms_per_trial"] = 1e3 * float(g["wall_s"].mean()) if len(g) else math.nan
+        wall = g["wall_s"] if "wall_s" in g else pd.Series(dtype=float)
+        r["wall_ms_per_trial"] = 1e3 * float(wall.mean()) if wall.notna().any() else math.nan
         r["baseline"] = pairs.get(run.key)
         if run.key in pairs:
             a = g.set_index("trial")["rmse"]

@@ -24,9 +24,10 @@ from .metrics import (CONVERGE_HOLD_STEPS, METRICS, localization_metrics, slam_m
                       trial_metrics)
 from .traces import LocalizationTracer, SlamTracer
 
-# The columns every trials file starts and ends with; a kind's metrics go between.
+# The columns every trials file starts and ends with; a kind's metrics go between. A trial row
+# holds only what the seed determines: the wall time goes to the timings file (pfbench.store).
 ID_COLUMNS = ("trial", "filter", "label", "particles")
-END_COLUMNS = ("wall_s", "crc")
+END_COLUMNS = ("crc",)
 
 # The diagnostics every particle filter's rows carry, whatever the kind.
 _DIAGNOSTICS = ("mean_ess", "resample_count", "underflow_steps", "diverged_steps",
@@ -49,7 +50,7 @@ class Kind:
     tracer : what a trial keeps for those figures while it runs (pfbench.traces), or None
 
     A trials file of the kind has the columns ``columns``: the trial, the filter run, its
-    ``metrics`` (in the order of pfbench.metrics.METRICS), the wall time and the row's checksum.
+    ``metrics`` (in the order of pfbench.metrics.METRICS) and the row's checksum.
     """
 
     name: str

@@ -261,20 +261,25 @@ def localization_figures(exp: Experiment, rows: pd.DataFrame, traces: Traces,
     return paths
 
 
-def sweep_figures(summ: pd.DataFrame, keys: list[str], out_dir: Path, title: str) -> list[Path]:
-    """One figure per metric against the first swept key; a line per filter run (and per value
-    of the other swept keys) with its 95% band; a log axis where the values span decades."""
+SWEEP_FIGURES = (("rmse", "RMSE per trial"), ("heading_rmse", "heading RMSE (rad)"),
+                 ("landmark_error", "landmark error (m)"))
+
+
+def sweep_figures(summ: pd.DataFrame, keys: list[str], out_dir: Path, title: str,
+                  which=SWEEP_FIGURES, where: Path | None = None) -> list[Path]:
+    """One figure per metric of ``which`` ((metric, axis label) pairs) against the first swept
+    key, into ``where`` (default: the folder's figures/, as figures/METRIC.png); a line per
+    filter run (and per value of the other swept keys) with its 95% band; a log axis where the
+    values span decades."""
     folder = out_dir / "figures"
-    folder.mkdir(parents=True, exist_ok=True)
     x = keys[0]
     others = keys[1:]
     paths = []
     numeric = pd.to_numeric(summ[x], errors="coerce")
-    for m, ylabel in (("rmse", "RMSE per trial"), ("wall_s", "wall time per trial (s)"),
-                      ("heading_rmse", "heading RMSE (rad)"),
-                      ("landmark_error", "landmark error (m)")):
+    for m, ylabel in which:
         if f"{m}_mean" not in summ or summ[f"{m}_mean"].isna().all():
             continue
+        folder.mkdir(parents=True, exist_ok=True)
         fig, ax = plt.subplots(figsize=(7.2, 4.2))
         for vals, g in summ.groupby(others + ["label", "particles"], sort=False, dropna=False):
             vals = vals if isinstance(vals, tuple) else (vals,)
@@ -294,7 +299,7 @@ def sweep_figures(summ: pd.DataFrame, keys: list[str], out_dir: Path, title: str
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
         fig.tight_layout()
-        path = folder / f"{m}.png"
+        path = where or folder / f"{m}.png"
         save_figure(fig, path)
         paths.append(path)
     return paths

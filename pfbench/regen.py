@@ -32,7 +32,7 @@ from .config import load, read_yaml
 from .errors import UserError
 from .metrics import METRICS
 from .fsutil import FolderLock, child, remove_tree, replace_tree
-from .runner import LocalExecutor, run_experiment
+from .runner import LocalExecutor, keep_provenance, run_experiment
 from .store import TIMING_COLUMNS, write_csv
 
 Z_DEFAULT = 4.0
@@ -79,7 +79,12 @@ def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: st
     if not figures:
         return summ, []
     from .plots import sweep_figures
-    return summ, sweep_figures(summ, keys, folder, name)
+    paths = sweep_figures(summ, keys, folder, name)
+    if "wall_s" in trials_df and trials_df["wall_s"].notna().any():
+        # the run times: beside the timings file, never in figures/ (they depend on the machine)
+        sweep_figures(sw.summary(trials_df, keys, ("wall_s",)), keys, folder, name,
+                      (("wall_s", "wall time per trial (s)"),), folder / "timings.png")
+    return summ, paths
 
 
 def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int | None = None,
@@ -121,6 +126,7 @@ def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int |
                                      executor=executor)
                 write_experiment(exp, res, stage, figures)
         with FolderLock(folder):
+            keep_provenance(stage, folder)
             replace_tree(stage, folder, results)
     return folder
 
@@ -184,7 +190,7 @@ def compare(check: pd.DataFrame, committed: pd.DataFrame, where: str, z: float =
             if not abs(d) <= tol:
                 result.findings.append(Finding(where, run, metric, float(a.mean()),
                                                float(b.mean()), tol))
-    cols = [c for c in check.columns if c not in TIMING_COLUMNS]
+    cols = [c for c in check.columns if c not in TIMING_COLUMNS + ("crc",)]
     same = committed[committed["trial"].isin(check["trial"].unique())]
     key = ["trial", "filter"]
     mine = check[cols].sort_values(key).reset_index(drop=True)

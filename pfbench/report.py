@@ -375,11 +375,12 @@ def _sweep_section(e: Entry, where: Path) -> list[str]:
     keys = e.sweep_keys
     s = e.table
     out += [f"Swept: {', '.join(f'`{k}`' for k in keys)}. Position RMSE mean [95% CI] and "
-            "milliseconds per trial:", ""]
-    head = keys + ["Filter", "N", "RMSE mean [95% CI]", "ms/trial"]
+            "likelihood evaluations per step (run times depend on the machine: the sweep's "
+            "console table and its timings.csv hold them):", ""]
+    head = keys + ["Filter", "N", "RMSE mean [95% CI]", "Evals/step"]
     cells = [[_fmt_value(r[k]) for k in keys] + [r["label"], _n(r["particles"]),
              f"{tb.fmt(r['rmse_mean'])} [{tb.fmt(r['rmse_ci_lo'])}, "
-             f"{tb.fmt(r['rmse_ci_hi'])}]", tb.fmt(1e3 * r["wall_s_mean"], 3)]
+             f"{tb.fmt(r['rmse_ci_hi'])}]", tb.fmt(r.get("lik_evals_per_step_mean"))]
              for _, r in s.iterrows()]
     out += _table_md(head, cells) + [""]
     return out + _figures(e.folder, where) + [""]

@@ -34,9 +34,13 @@ from .filters import FILTERS, LOAD_SECONDS
 from .kinds import kind_of
 from .rng import state_from_seed
 from .scenarios import SCENARIOS
-from .store import (atomic_write, clear_staged_traces, complete_trials, csv_text,
-                    finish_traces, read_staged_traces, read_traces, read_trials, stage_trace,
-                    trial_columns, write_json)
+from .store import (TIMINGS, TIMINGS_PARTIAL, atomic_write, clear_staged_traces,
+                    complete_trials, csv_text, finish_traces, read_staged_traces, read_timings,
+                    read_traces, read_trials, stage_trace, timings_text, trial_columns,
+                    with_timings, write_json)
+
+# What the last run into a folder took on its machine (never committed, like the timings file).
+RUN_TIMINGS = "timings.json"
 
 
 
@@ -345,8 +349,9 @@ class RunResult:
     out_dir: Path
     wall_s: float
     ran: int           # trials run now (the rest came from --resume)
-    meta: dict
+    meta: dict         # meta.json: what the seed and config determine, and the provenance
     up_to_date: bool = False    # the folder held every trial already: nothing ran or was written
+    run: dict | None = None     # timings.json: this run's wall time, workers, start and end
 
 
 def uncompiled(exp: Experiment) -> list[str]:
@@ -473,7 +478,9 @@ def _check_folder(exp: Experiment, out_dir: Path, resume: bool, force: bool,
                       or (out_dir / "traces.npz").exists())
         if len(done) == exp.trials and has_traces:
             rows = [r for k in sorted(done) for r in done[k]]
-            return True, RunResult(rows, out_dir, 0.0, 0, old, up_to_date=True)
+            with_timings(rows, read_timings(out_dir))
+            return True, RunResult(rows, out_dir, 0.0, 0, old, up_to_date=True,
+                                   run={"trials_run_now": 0, "wall_s": 0.0})
     return True, None
 
 
@@ -549,11 +556,68 @@ def _resumed_traces(exp: Experiment, out_dir: Path, done: dict[int, list[dict]])
     return {k: found[k] for k in done if tracer.keeps(exp, k)}
 
 
+# What a folder's meta.json says of the machine and code that made its trials; a run that makes the
+# same trials file again keeps what the earlier run wrote (the trials are still those it made).
+PROVENANCE = ("host", "platform", "cpus", "git_commit", "versions")
+
+
+def stamp_meta(exp: Experiment, out_dir: Path, trials_text: str | None = None) -> dict:
+    """The meta.json of a folder that holds every trial of ``exp``: what the seed and the config
+    determine, and the provenance of its trials (kept from the folder's earlier meta.json when
+    ``trials_text`` is the trials file it already held)."""
+    meta = {
+        "format": FORMAT_VERSION, "experiment": exp.name, "config": exp.source,
+        "experiment_hash": exp.hash, "paper": exp.paper, "table": exp.table, "seed": exp.seed,
+        "trials": exp.trials, "host": socket.gethostname(), "platform": platform.platform(),
+        "cpus": os.cpu_count(), "git_commit": git_commit(), "versions": versions(),
+        "identity": exp.identity,
+    }
+    try:
+        same = (trials_text is not None
+                and (out_dir / "trials.csv").read_text(encoding="utf-8") == trials_text)
+        old = json.loads((out_dir / "meta.json").read_text(encoding="utf-8")) if same else None
+    except (OSError, ValueError):
+        old = None
+    if isinstance(old, dict) and old.get("experiment_hash") == exp.hash:
+        meta.update({k: old[k] for k in PROVENANCE if k in old})
+    return meta
+
+
+def keep_provenance(new: Path, old: Path) -> None:
+    """Where a staged results folder ``new`` (and each of its cells) holds the same trials file as
+    ``old``, the folder it replaces, its meta.json keeps ``old``'s provenance (PROVENANCE): the
+    trials are still those that run made, and the committed files stay as they were."""
+    for path in Path(new).rglob("meta.json"):
+        rel = path.parent.relative_to(new)
+        was = Path(old) / rel
+        try:
+            if (path.parent / "trials.csv").read_bytes() != (was / "trials.csv").read_bytes():
+                continue
+            meta = json.loads(path.read_text(encoding="utf-8"))
+            before = json.loads((was / "meta.json").read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue
+        if (isinstance(meta, dict) and isinstance(before, dict)
+                and before.get("experiment_hash") == meta.get("experiment_hash")):
+            meta.update({k: before[k] for k in PROVENANCE if k in before})
+            write_json(path, meta)
+
+
+def _resumed_timings(out_dir: Path, done: dict[int, list[dict]]) -> None:
+    """Give the resumed trials' rows the wall times the folder's timings file holds."""
+    partial = (out_dir / "trials.partial.csv").exists()
+    timings = read_timings(out_dir, partial=partial)
+    for rows in done.values():
+        with_timings(rows, timings)
+
+
 def _run_locked(exp, out_dir, workers, resume, progress, executor, warn, traces) -> RunResult:
     partial = out_dir / "trials.partial.csv"
     final = out_dir / "trials.csv"
     marker = out_dir / "run.json"
     done = _resumed(exp, out_dir, warn) if resume else {}
+    if done:
+        _resumed_timings(out_dir, done)
     traces = traces and kind_of(exp.scenario).tracer is not None
     kept = _resumed_traces(exp, out_dir, done) if traces and resume else {}
     clear_staged_traces(out_dir)
@@ -564,7 +628,9 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn, traces)
                         "experiment_hash": exp.hash, "seed": exp.seed, "trials": exp.trials,
                         "started": started.isoformat(), "identity": exp.identity}, indent=None)
     columns = trial_columns(exp)
-    atomic_write(partial, csv_text((r for k in sorted(done) for r in done[k]), True, columns))
+    old_rows = [r for k in sorted(done) for r in done[k]]
+    atomic_write(partial, csv_text(old_rows, True, columns))
+    atomic_write(out_dir / TIMINGS_PARTIAL, timings_text(old_rows, True))
     resumed = set(done)
     todo = (k for k in range(exp.trials) if k not in resumed)    # lazy: no list of all trials
     n_todo = exp.trials - len(resumed)
@@ -572,7 +638,8 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn, traces)
     if progress:
         progress(len(done), total)
     t0 = time.perf_counter()
-    with open(partial, "a", encoding="utf-8", newline="") as fh:
+    with open(partial, "a", encoding="utf-8", newline="") as fh, \
+            open(out_dir / TIMINGS_PARTIAL, "a", encoding="utf-8", newline="") as th:
         try:
             for chunk in executor.run(exp, todo, n_todo, traces):
                 chunk = [t for t in chunk if t.index not in done]
@@ -582,6 +649,8 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn, traces)
                         stage_trace(out_dir, t.index, t.trace)
                 fh.write(csv_text((r for t in chunk for r in t.rows), False, columns))
                 fh.flush()
+                th.write(timings_text((r for t in chunk for r in t.rows), False))
+                th.flush()
                 for t in chunk:
                     done[t.index] = t.rows
                 if progress:
@@ -590,23 +659,24 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn, traces)
             raise Interrupted(len(done), total, partial) from None
     wall = time.perf_counter() - t0
     rows = [r for k in sorted(done) for r in done[k]]
-    atomic_write(final, csv_text(rows, True, columns))
+    text = csv_text(rows, True, columns)
+    meta = stamp_meta(exp, out_dir, text)
+    atomic_write(final, text)
+    atomic_write(out_dir / TIMINGS, timings_text(rows, True))
     if traces:
         finish_traces(out_dir, kind_of(exp.scenario).tracer.world(exp, build_model(exp)), kept)
     else:
         finish_traces(out_dir, {}, {})
-    meta = {
-        "format": FORMAT_VERSION, "experiment": exp.name, "config": exp.source,
-        "experiment_hash": exp.hash, "paper": exp.paper, "table": exp.table, "seed": exp.seed,
-        "trials": exp.trials, "trials_run_now": n_todo, "workers": workers,
-        "executor": executor.describe(),
+    write_json(out_dir / "meta.json", meta)
+    run_info = {
+        "experiment": exp.name, "experiment_hash": exp.hash, "trials": exp.trials,
+        "trials_run_now": n_todo, "workers": workers, "executor": executor.describe(),
         "wall_s": round(wall, 3), "kernel_load_s": round(LOAD_SECONDS, 3),
         "started": started.isoformat(), "finished": datetime.now(timezone.utc).isoformat(),
-        "host": socket.gethostname(), "platform": platform.platform(), "cpus": os.cpu_count(),
-        "git_commit": git_commit(), "versions": versions(), "argv": sys.argv[1:],
-        "identity": exp.identity,
+        "host": socket.gethostname(), "argv": sys.argv[1:],
     }
-    write_json(out_dir / "meta.json", meta)
+    write_json(out_dir / RUN_TIMINGS, run_info)
     partial.unlink(missing_ok=True)
+    (out_dir / TIMINGS_PARTIAL).unlink(missing_ok=True)
     marker.unlink(missing_ok=True)
-    return RunResult(rows, out_dir, wall, n_todo, meta)
+    return RunResult(rows, out_dir, wall, n_todo, meta, run=run_info)

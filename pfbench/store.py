@@ -2,9 +2,18 @@
 with every row checked) and the writes every command makes into a results folder.
 
 A trials file (``trials.csv``, and ``trials.partial.csv`` while a run is under way) has one row per
-trial and filter run: the id columns, the metrics of the scenario's kind (pfbench.kinds), the wall
-time and ``crc``, a crc32 of the row's other fields as written. Floats are written in their
-shortest exact form, so they read back bit for bit.
+trial and filter run: the id columns, the metrics of the scenario's kind (pfbench.kinds) and
+``crc``, a crc32 of the row's other fields as written. Floats are written in their shortest exact
+form, so they read back bit for bit. A row holds only what the seed determines, so the same
+experiment gives the same file on any machine, run in any order. (Files of pfbench before the
+timings file, with a ``wall_s`` column before ``crc``, still read: their wall times come back as
+timings.)
+
+The timings file (``timings.csv``, ``timings.partial.csv`` while a run is under way) holds what
+the machine determines: ``trial``, ``filter`` and ``wall_s``, the seconds the filter run took.
+It is not part of the results a project commits (``.gitignore`` leaves it out), and nothing that
+``pfbench tables --check`` or ``report --check`` compares reads it; the console tables show the
+run times it holds. A damaged or missing timings file costs only the run times.
 
 The traces the figures draw (pfbench.traces) go to ``traces.npz``: one array per member,
 ``TRIAL/NAME`` for a trial's trace and ``world/NAME`` for the world, written with fixed
@@ -30,16 +39,23 @@ from .fsutil import atomic_write, remove_tree
 from .kinds import END_COLUMNS, ID_COLUMNS, kind_of
 from .metrics import METRICS
 
-__all__ = ["TIMING_COLUMNS", "Traces", "TrialsFile", "atomic_write", "clear_staged_traces",
+__all__ = ["TIMING_COLUMNS", "TIMINGS", "TIMINGS_PARTIAL", "Traces", "read_timings", "timings_text",
+           "with_timings", "TrialsFile", "atomic_write", "clear_staged_traces",
            "complete_trials", "csv_text", "finish_traces", "read_staged_traces", "read_traces", "read_trials",
            "row_crc", "stage_trace", "trial_columns", "write_csv", "write_json"]
 
 TRACES = "traces.npz"
 TRACES_PARTIAL = "traces.partial"
 
-# Columns that may differ between two runs of the same experiment (the timing, and the checksum
-# that covers it).
-TIMING_COLUMNS = ("wall_s", "crc")
+TIMINGS = "timings.csv"
+TIMINGS_PARTIAL = "timings.partial.csv"
+TIMINGS_COLUMNS = ("trial", "filter", "wall_s")
+
+# What a row dict may carry beside the trials file's columns: what the machine determines (it goes
+# to the timings file, never to the trials file).
+TIMING_COLUMNS = ("wall_s",)
+# The end of a trials file written before the timings file had its own file.
+_LEGACY_END = ("wall_s", "crc")
 
 
 def write_json(path: Path, obj, indent: int | None = 2) -> None:
@@ -92,16 +108,22 @@ def _parse_row(fields: list[str], columns: tuple[str, ...]) -> dict:
 
 def _values(row: dict) -> tuple:
     """A row's values without its timing and checksum (two runs of a trial agree on these)."""
-    return tuple(repr(v) for c, v in row.items() if c not in TIMING_COLUMNS)
+    return tuple(repr(v) for c, v in row.items() if c not in TIMING_COLUMNS + ("crc",))
+
+
+def _end(header: tuple) -> tuple:
+    """The end columns of a trials file's header: END_COLUMNS, or _LEGACY_END (an older file)."""
+    return _LEGACY_END if header[-len(_LEGACY_END):] == _LEGACY_END else END_COLUMNS
 
 
 def _header_ok(header: tuple) -> bool:
-    """A trials file's header: the id columns, metrics in METRICS' order, wall_s and crc."""
-    n = len(ID_COLUMNS)
-    middle = header[n:-len(END_COLUMNS)]
+    """A trials file's header: the id columns, metrics in METRICS' order, and crc (an older
+    file: wall_s and crc)."""
+    n, end = len(ID_COLUMNS), _end(header)
+    middle = header[n:-len(end)]
     order = [m for m in METRICS if m in middle]
-    return (header[:n] == ID_COLUMNS and header[-len(END_COLUMNS):] == END_COLUMNS
-            and len(header) > n + len(END_COLUMNS) and list(middle) == order)
+    return (header[:n] == ID_COLUMNS and header[-len(end):] == end
+            and len(header) > n + len(end) and list(middle) == order)
 
 
 @dataclass
@@ -114,7 +136,8 @@ class TrialsFile:
 def read_trials(path: Path, columns: tuple[str, ...] | None = None) -> TrialsFile:
     """The rows of a trials file, each checked against its checksum.
 
-    A torn last line (an interrupted write) is dropped. A trial with a row whose checksum does
+    A row of an older file with a ``wall_s`` column keeps it (the runner moves it to the timings
+    file). A torn last line (an interrupted write) is dropped. A trial with a row whose checksum does
     not match its values (an edited file), a malformed row, or two different rows for one filter
     run is rejected as a whole (it runs again); a row written twice with the same values is kept
     once. A file that is not a trials file at all, or (with ``columns``) whose columns are not
@@ -134,6 +157,8 @@ def read_trials(path: Path, columns: tuple[str, ...] | None = None) -> TrialsFil
     except csv.Error as exc:
         raise UserError(f"{path}: not a pfbench trials file ({exc})") from None
     header = tuple(lines[0]) if lines else ()
+    if columns is not None and _end(header) == _LEGACY_END:
+        columns = tuple(columns)[:-len(END_COLUMNS)] + _LEGACY_END
     if not _header_ok(header) or (columns is not None and header != tuple(columns)):
         raise UserError(f"{path}: not a pfbench trials file of this version (columns differ)")
     columns = header
@@ -174,6 +199,48 @@ def complete_trials(rows: list[dict], exp: Experiment) -> dict[int, list[dict]]:
             by_trial.setdefault(r["trial"], {})[r["filter"]] = r
     return {k: sorted(v.values(), key=lambda r: order[r["filter"]])
             for k, v in by_trial.items() if len(v) == len(order)}
+
+
+# ---------------------------------------------------------------- timings
+
+def timings_text(rows: Iterable[dict], header: bool) -> str:
+    """CSV text of the timings of ``rows`` (those that carry ``wall_s``)."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    if header:
+        w.writerow(TIMINGS_COLUMNS)
+    for r in rows:
+        if r.get("wall_s") is not None:
+            w.writerow([r["trial"], r["filter"], repr(float(r["wall_s"]))])
+    return buf.getvalue()
+
+
+def read_timings(out_dir: Path, partial: bool = False) -> dict[tuple[int, str], float]:
+    """{(trial, filter run): wall seconds} from a folder's timings file (``partial``: the
+    unfinished run's); rows it cannot read are left out, and a missing or damaged file gives
+    what it can (timings are never worth refusing a run over)."""
+    path = Path(out_dir) / (TIMINGS_PARTIAL if partial else TIMINGS)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return {}
+    out = {}
+    for fields in csv.reader(io.StringIO(text.replace("\x00", ""))):
+        try:
+            trial, key, wall = int(fields[0]), fields[1], float(fields[2])
+        except (ValueError, IndexError):
+            continue
+        if len(fields) == 3 and wall >= 0:
+            out[(trial, key)] = wall
+    return out
+
+
+def with_timings(rows: list[dict], timings: dict[tuple[int, str], float]) -> list[dict]:
+    """``rows`` with the wall time each has in ``timings`` (None where it has none)."""
+    for r in rows:
+        if r.get("wall_s") is None:
+            r["wall_s"] = timings.get((r["trial"], r["filter"]))
+    return rows
 
 
 # ---------------------------------------------------------------- traces

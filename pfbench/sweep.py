@@ -25,13 +25,13 @@ from .errors import UserError
 from .fsutil import FolderLock
 from .metrics import summarize
 from .runner import run_experiment
-from .store import write_csv
+from .store import TIMINGS, write_csv
 from .schema import ConfigError
 from .yamlio import parse_yaml
 
 CONFIRM_ABOVE = 50       # cells; more need --yes
 MAX_CELLS = 10_000       # cells; more are refused (each is a folder of results)
-SWEEP_METRICS = ("rmse", "wall_s")
+SWEEP_METRICS = ("rmse",)
 
 
 def split_values(text: str) -> list[str]:
@@ -181,19 +181,26 @@ def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: boo
             df.insert(0, k, json.dumps(v) if isinstance(v, (list, dict)) else v)
         frames.append(df)
     trials = pd.concat(frames, ignore_index=True)
-    write_csv(out_dir / "trials.csv", trials)
+    # the trials file holds what the seed determines; the run times go to the timings file
+    keys = list(cells[0].values) if cells else []
+    write_csv(out_dir / "trials.csv", trials.drop(columns=["wall_s"], errors="ignore"))
+    if "wall_s" in trials:
+        write_csv(out_dir / TIMINGS, trials[keys + ["trial", "filter", "wall_s"]])
     return trials
 
 
-def summary(trials: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
-    """Mean and 95% interval of each metric per cell and filter run."""
+def summary(trials: pd.DataFrame, keys: list[str],
+            metrics: tuple[str, ...] = SWEEP_METRICS + ("heading_rmse", "landmark_error",
+                                                        "lik_evals_per_step")) -> pd.DataFrame:
+    """Mean and 95% interval of each of ``metrics`` per cell and filter run (the run time
+    ``wall_s`` only when asked: summary.csv holds what the seed determines)."""
     out = []
     for vals, g in trials.groupby(keys + ["filter", "label"], sort=False, dropna=False):
         r = dict(zip(keys + ["filter", "label"], vals))
         r["particles"] = g["particles"].iloc[0]
         r["trials"] = len(g)
-        for m in SWEEP_METRICS + ("heading_rmse", "landmark_error", "lik_evals_per_step"):
-            if m in g and g[m].notna().any():
+        for m in metrics:
+            if m in g and pd.to_numeric(g[m], errors="coerce").notna().any():
                 s = summarize(g[m])
                 r[f"{m}_mean"], r[f"{m}_ci_lo"], r[f"{m}_ci_hi"] = s["mean"], s["ci_lo"], s["ci_hi"]
         out.append(r)

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from .compare import Comparison, PerTrial, Ranking, pair_counts
+from .compare import MACHINE_METRICS, Comparison, PerTrial, Ranking, pair_counts
 from .config import Experiment
 from .papers import Quantity
 from .verdicts import METHODS, percent
@@ -91,7 +91,9 @@ def display_columns(cmp: Comparison) -> tuple[list[str], list[list[str]]]:
     for q in quantities:
         head += ([] if _shown_as_rmse(q) else [_ours_head(q)]) + [f"Paper {q.title}", "Ratio",
                                                                    "Verdict"]
-    head += _paired_head(exp) + ["Mean ESS", "Distinct", "Evals/step", "ms/trial"]
+    timed = cmp.timed
+    head += _paired_head(exp) + ["Mean ESS", "Distinct", "Evals/step"] + (["ms/trial"] if timed
+                                                                           else [])
     cells = []
     for _, r in tab.iterrows():
         n = r["particles"]
@@ -103,8 +105,8 @@ def display_columns(cmp: Comparison) -> tuple[list[str], list[list[str]]]:
                     + [fmt(r[f"paper_{q.key}"], 6), fmt(r[f"ratio_{q.key}"], 3),
                        r[f"verdict_{q.key}"] or "-"])
         row += (_paired_cells(exp, r) if exp.compare["baseline"] else [])
-        row += [fmt(r["mean_ess"]), fmt(r["distinct_frac"], 3), fmt(r["lik_evals_per_step"]),
-                fmt(r["wall_ms_per_trial"], 3)]
+        row += [fmt(r["mean_ess"]), fmt(r["distinct_frac"], 3), fmt(r["lik_evals_per_step"])]
+        row += [fmt(r["wall_ms_per_trial"], 3)] if timed else []
         cells.append(row)
     return head, cells
 
@@ -141,8 +143,9 @@ def console_tables(cmp: Comparison) -> list[tuple[str, list[str], list[list[str]
         comp_head.append("RMSE mean [95% CI]")
     for q in quantities:
         comp_head += [_ours_head(q), f"Paper {q.title}", "Verdict"]
+    timed = cmp.timed
     diag_head = (["Filter", "N", "RMSE var"] + _paired_head(exp)
-                 + ["Mean ESS", "Distinct", "Evals/step", "ms/trial"])
+                 + ["Mean ESS", "Distinct", "Evals/step"] + (["ms/trial"] if timed else []))
     long = len(quantities) > 2      # one row per filter run and quantity, or the table gets too wide
     if long:
         comp_head = ["Quantity", "Filter", "N", "Trials", "Ours [95% CI]", "Paper", "Verdict"]
@@ -171,7 +174,8 @@ def console_tables(cmp: Comparison) -> list[tuple[str, list[str], list[list[str]
         diag.append(who + [fmt(r["rmse_var"])]
                     + (_paired_cells(exp, r) if exp.compare["baseline"] else [])
                     + [fmt(r["mean_ess"]), fmt(r["distinct_frac"], 3),
-                           fmt(r["lik_evals_per_step"]), fmt(r["wall_ms_per_trial"], 3)])
+                       fmt(r["lik_evals_per_step"])]
+                    + ([fmt(r["wall_ms_per_trial"], 3)] if timed else []))
     out = [("", comp_head, comp), ("diagnostics", diag_head, diag)]
     if cmp.per_trial is not None:
         out.append(per_trial_cells(cmp.per_trial))
@@ -225,6 +229,13 @@ def footnotes(cmp: Comparison) -> list[str]:
                      f"{r['rmse_mean']:.3f} [{r['rmse_ci_lo']:.3f}, {r['rmse_ci_hi']:.3f}]; no filter "
                      "can average below what a near-optimal filter reaches, so a paper value under "
                      "that interval is marked 'paper below the model's floor'.")
+    machine = [q.title for q in (table.quantities if table is not None else ())
+               if q.metric in MACHINE_METRICS]
+    if machine and not cmp.timed:
+        notes.append(f"Run times depend on the machine, so this file leaves out our value of "
+                     f"{', '.join(repr(t) for t in machine)} (no verdict depends on it): the "
+                     "console table of `pfbench run` shows it, and timings.csv beside trials.csv "
+                     "holds each filter run's wall time (not committed).")
     hit = tab[tab["underflow_steps"] > 0]
     if len(hit):
         notes.append("Steps where every weight was zero (the measurement was ignored), summed over "
@@ -256,7 +267,8 @@ def interval_line(cmp: Comparison) -> str:
     by_method: dict[str, list[str]] = {}
     for q in (table.quantities if table is not None else ()):
         col = f"method_{q.key}"
-        if col in cmp.table and not _shown_as_rmse(q):
+        if (col in cmp.table and not _shown_as_rmse(q)
+                and (cmp.timed or q.metric not in MACHINE_METRICS)):
             for m in cmp.table[col].dropna().unique():
                 by_method.setdefault(m, []).append(q.title)
     for m, titles in by_method.items():
@@ -304,6 +316,9 @@ def markdown(cmp: Comparison, meta: dict | None = None) -> str:
 
 
 def write(cmp: Comparison, out_dir: Path, meta: dict | None = None) -> None:
-    """Write table.csv (the comparison's table) and table.md into ``out_dir`` (atomically)."""
+    """Write table.csv (the comparison's table) and table.md into ``out_dir`` (atomically),
+    without the run times: they hold what the seed determines, the same bytes on any machine
+    (the console shows the run times; the timings file holds them)."""
+    cmp = cmp.without_timings()
     write_csv(Path(out_dir) / "table.csv", cmp.table)
     atomic_write(Path(out_dir) / "table.md", markdown(cmp, meta))

@@ -143,9 +143,10 @@ filters:
     exp = load(cfg)
     run_experiment(exp, tmp_path / "a", workers=1)
     run_experiment(exp, tmp_path / "b", workers=2)
-    a = pd.read_csv(tmp_path / "a/trials.csv").drop(columns=list(TIMING_COLUMNS))
-    b = pd.read_csv(tmp_path / "b/trials.csv").drop(columns=list(TIMING_COLUMNS))
-    pd.testing.assert_frame_equal(a, b, check_exact=True)
+    # a trials file holds only what the seed determines: the same bytes for any workers
+    assert (tmp_path / "a/trials.csv").read_bytes() == (tmp_path / "b/trials.csv").read_bytes()
+    a = pd.read_csv(tmp_path / "a/trials.csv")
+    assert not set(TIMING_COLUMNS) & set(a.columns)
     assert np.isfinite(a["rmse"]).all() and np.isfinite(a["landmark_error"]).all()
 
 

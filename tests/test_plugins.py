@@ -168,9 +168,8 @@ def test_plugins_run_through_sweep_and_the_dask_executor(site, tmp_path):
     if "needs Dask distributed" in res.stderr:
         pytest.skip("Dask distributed is not installed")
     assert res.returncode == 0, res.stderr
-    local, dask = (pd.read_csv(tmp_path / f"{d}/trials.csv").drop(columns=["wall_s", "crc"])
-                   for d in ("local", "dask"))
-    pd.testing.assert_frame_equal(local, dask, check_exact=True)
+    local, dask = ((tmp_path / f"{d}/trials.csv").read_bytes() for d in ("local", "dask"))
+    assert local == dask
 
 
 @pytest.mark.slow

@@ -45,7 +45,7 @@ def test_trials_on_the_command_line_and_workers_are_bounded(tmp_path, write_conf
                               "--no-figures"])
     assert res.exit_code == 0, res.output
     assert "more than the" in res.output and "cores" in res.output
-    assert json.loads((tmp_path / "w/meta.json").read_text())["workers"] == 4
+    assert json.loads((tmp_path / "w/timings.json").read_text())["workers"] == 4
 
 
 def test_a_huge_sweep_is_counted_before_its_cells_are_built(tmp_path, write_config, monkeypatch):
