@@ -65,3 +65,29 @@ def kernel(sigs, **options):
     def decorate(func):
         return LazyKernel(func, sigs, options)
     return decorate
+
+
+def variant(base: LazyKernel, suffix: str, **replace) -> LazyKernel:
+    """A copy of the kernel ``base`` in which the global names of ``replace`` refer to other
+    kernels (of the same signatures): numba compiles only what the copy calls. A kernel that
+    dispatches at run time on a setting (a swarm algorithm, a resampling scheme) compiles every
+    branch; a variant whose branches for the settings it never sees call stubs compiles only the
+    others. The copy's name is ``base``'s with ``suffix`` (its cache entry is its own)."""
+    import types as pytypes
+    func = base._func
+    glb = dict(func.__globals__)
+    glb.update(replace)
+    copy = pytypes.FunctionType(func.__code__, glb, func.__name__ + suffix, func.__defaults__,
+                                func.__closure__)
+    copy.__qualname__ = func.__qualname__ + suffix
+    copy.__module__ = func.__module__
+    copy.__doc__ = func.__doc__
+    return LazyKernel(copy, base._sigs, base._options)
+
+
+def stub(base: LazyKernel, func) -> LazyKernel:
+    """A kernel with ``base``'s signatures and ``func``'s body: what a ``variant`` calls in place
+    of a branch it never takes (``func`` should say so, or return a neutral value)."""
+    func.__qualname__ = base._func.__qualname__ + "_stub"
+    func.__name__ = base._func.__name__ + "_stub"
+    return LazyKernel(func, base._sigs, base._options)

@@ -12,7 +12,6 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 
 from .config import Experiment
 from .metrics import paired, summarize
@@ -159,6 +158,7 @@ def _bootstrap(samples: tuple, statistic, value: float, seed: int, key: str) -> 
     n = int(ok.sum())
     if n < 3 or all(np.ptp(x) == 0 for x in samples):
         return Estimate(value, 0.0 if n >= 2 else math.nan, n)
+    from scipy import stats         # here, not at import: a run's first trial need not wait for it
     rng = np.random.default_rng([seed, zlib.crc32(key.encode())])
     kw = dict(paired=len(samples) > 1, vectorized=True, method="BCa")
     with warnings.catch_warnings():
@@ -235,6 +235,7 @@ def estimate(q: Quantity, g: pd.DataFrame, base: pd.DataFrame | None, seed: int 
         n, scale = s["n"], q.scale
 
         def wilson(level: float) -> tuple[float, float]:
+            from scipy import stats
             ci = stats.binomtest(k, n).proportion_ci(min(level, 1.0 - 1e-12), method="wilson")
             return ci.low * scale, ci.high * scale
         return Estimate(s["mean"], s["se"], n, "wilson", wilson)

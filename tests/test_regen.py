@@ -4,7 +4,6 @@ import json
 import numpy as np
 import pandas as pd
 
-from pfbench.store import TIMING_COLUMNS
 import pytest
 from typer.testing import CliRunner
 

@@ -19,7 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 from numba import typeof, types
-from .._lazy import kernel
+from .._lazy import kernel, stub, variant
 
 from ..angles import wrap
 from ..models.pose import estimate_pose
@@ -309,8 +309,9 @@ def circular_mean(P):
 
 @kernel(types.float64(_F), cache=True)
 def _pairwise_abs_sum(v):
-    """sum_{i<j} |v_i - v_j| in O(n log n): over the sorted values, v_(k) (2k - n + 1)."""
-    u = np.sort(v)
+    """sum_{i<j} |v_i - v_j| in O(n log n): over the sorted values, v_(k) (2k - n + 1). (Sorted
+    by the merge sort pose_diversity uses too: one sort to compile, the same sorted values.)"""
+    u = v[np.argsort(v, kind="mergesort")]
     n = u.size
     acc = 0.0
     for k in range(n):
@@ -919,6 +920,32 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, o, start, sp, dnoise, lm_true, s
     return events
 
 
+# AFSA's refinement and directional resampling (afsa2014) are the costliest kernels to compile. The
+# kernel for every other setting is a variant whose branches for them call stubs it never reaches
+# (run() picks it only then), so an experiment without them does not compile them; its arithmetic
+# is the full kernel's, and its trials are the same bit for bit.
+def _no_afsa(ps, pc, ids, zs, n, o, sp, wk, s):
+    return 0
+
+
+def _no_directional(W, P, mu, sig, seen, nl, src, bP, bmu, bsig, bseen, bnl, bsrc, shift, noise,
+                    scheme, s, P2, mu2, sig2, seen2, nl2, src2):
+    pass
+
+
+def _no_board(Wn, ps, board, xbar):
+    pass
+
+
+_CORE = "_core"
+refine_poses_core = variant(refine_poses, _CORE, afsa_iteration=stub(afsa_iteration, _no_afsa))
+resample_set_core = variant(resample_set, _CORE,
+                            directional_resample=stub(directional_resample, _no_directional))
+fastslam_kernel_core = variant(fastslam_kernel, _CORE, refine_poses=refine_poses_core,
+                               resample_set=resample_set_core,
+                               note_board=stub(note_board, _no_board))
+
+
 def run(model, data, params, particles, state, diag=True):
     """Run FastSLAM (with the configured refinement) on a course trial; return the traces."""
     T = data.ctrl.shape[0]
@@ -962,7 +989,8 @@ def run(model, data, params, particles, state, diag=True):
         iters=int(params["iterations"]), scheme=int(scheme), threshold=float(threshold),
         ewa_beta=float(params["ewa_beta"]), ewa_mu=float(params["ewa_mu"]),
         ewa_printed=int(params["ewa_correction"] == "as_printed"), diag=int(diag))
-    out["underflow_steps"] = fastslam_kernel(
+    full = refine == "afsa" or scheme == DIRECTIONAL
+    out["underflow_steps"] = (fastslam_kernel if full else fastslam_kernel_core)(
         data.ctrl, data.obs_n, data.obs_id, data.obs_z, o, model.start, pack(refine, params),
         dnoise, np.ascontiguousarray(model.landmarks, dtype=np.float64), state, out["pose"],
         out["ess"], out["resampled"], out["lm_est"], out["lm_seen"], evals, stats, div,

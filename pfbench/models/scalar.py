@@ -2,7 +2,8 @@
 
     x_t = f(x_{t-1}, t) + w_t,   y_t = h(x_t, t) + v_t,   v_t ~ N(0, R),   t = 1..T
 
-Model functions are module-level ``@njit`` functions with the signature ``MODEL_SIG``: they take an
+Model functions are module-level numba functions with the signature ``MODEL_SIG`` (``@njit(MODEL_SIG)``,
+or ``@kernel(MODEL_SIG)`` of pfbench._lazy, which compiles when a model first uses it): they take an
 array of states and fill ``out`` (one call per step for the whole particle set; a per-particle call
 through a function pointer costs several times more). Their parameters travel in ``theta``. The
 process noise w_t is described by ``noise``: float64[4] = [kind, a, b, R] with kind 0 = N(0, a) and
@@ -16,8 +17,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numba import njit, types
+from numba import types
 
+from .._lazy import LazyKernel, kernel
 from ..rng import STATE, add_normal, normal, standard_gamma
 
 MODEL_SIG = types.void(types.float64[::1], types.float64, types.float64[::1], types.float64[::1])
@@ -51,6 +53,15 @@ class ScalarModel:
     transition_jac: Any = None
     observe_jac: Any = None
 
+    def __post_init__(self):
+        # a lazily built kernel is handed to the filters as the numba dispatcher it builds (numba
+        # takes only its own dispatchers as first-class functions): it compiles now, when a
+        # scenario builds a model that uses it, not when its module is imported
+        for name in ("transition", "observe", "transition_jac", "observe_jac"):
+            fn = getattr(self, name)
+            if isinstance(fn, LazyKernel):
+                object.__setattr__(self, name, fn.dispatcher)
+
     @property
     def process_mean(self) -> float:
         """Mean of the process noise w_t."""
@@ -68,7 +79,7 @@ class ScalarModel:
         return float(self.noise[3])
 
 
-@njit(types.void(STATE, types.float64[::1], types.float64[::1]), cache=True)
+@kernel(types.void(STATE, types.float64[::1], types.float64[::1]), cache=True)
 def add_process_noise(s, noise, x):
     """x += w with w drawn from the process noise described by ``noise``."""
     if noise[0] == NOISE_GAUSSIAN:
@@ -79,7 +90,7 @@ def add_process_noise(s, noise, x):
             x[i] += scale * standard_gamma(s, noise[1])
 
 
-@njit(types.float64(types.float64[::1], types.float64), cache=True)
+@kernel(types.float64(types.float64[::1], types.float64), cache=True)
 def process_logpdf(noise, w):
     """log density of the process noise at w (the transition density p(x_t | x_{t-1}) at
     w = x_t - f(x_{t-1}))."""
@@ -92,7 +103,7 @@ def process_logpdf(noise, w):
     return (a - 1.0) * math.log(w) - b * w + a * math.log(b) - math.lgamma(a)
 
 
-@njit(types.void(ModelFn, ModelFn, types.float64[::1], types.float64[::1], types.float64, STATE,
+@kernel(types.void(ModelFn, ModelFn, types.float64[::1], types.float64[::1], types.float64, STATE,
                  types.float64[::1], types.float64[::1]), cache=True)
 def simulate_scalar(f, h, theta, noise, x0, s, x, y):
     """Simulate truth x (T+1,) from x[0] = x0 and measurements y (T+1,); y[0] is unused (0)."""

@@ -7,7 +7,7 @@ theta = [a, c].
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from .._lazy import kernel
 
 from ..schema import Key
 from ..models.scalar import MODEL_SIG, simulate, NOISE_GAUSSIAN, ScalarModel
@@ -33,26 +33,26 @@ SCHEMA = {
 __all__ = ["NAME", "KIND", "DESCRIPTION", "SCHEMA", "build", "simulate"]
 
 
-@njit(MODEL_SIG, cache=True)
+@kernel(MODEL_SIG, cache=True)
 def transition(x, t, theta, out):
     """f(x) = a x."""
     for i in range(x.size):
         out[i] = theta[0] * x[i]
 
 
-@njit(MODEL_SIG, cache=True)
+@kernel(MODEL_SIG, cache=True)
 def transition_jac(x, t, theta, out):
     for i in range(x.size):
         out[i] = theta[0]
 
 
-@njit(MODEL_SIG, cache=True)
+@kernel(MODEL_SIG, cache=True)
 def observe_jac(x, t, theta, out):
     for i in range(x.size):
         out[i] = theta[1]
 
 
-@njit(MODEL_SIG, cache=True)
+@kernel(MODEL_SIG, cache=True)
 def observe(x, t, theta, out):
     """h(x) = c x."""
     for i in range(x.size):
