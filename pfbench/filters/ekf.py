@@ -68,7 +68,7 @@ def run(model, y, params, particles, state, diag=True):
     out = {"xhat": np.empty(y.size), "pvar": np.empty(y.size)}
     q_mean, Q, R = noise_moments(model, params)
     out["variance_floor_steps"] = ekf_kernel(
-        model.transition, model.observe, model.transition_jac, model.observe_jac, model.theta, y,
+        model.transition, model.observe, *model.jacobians(), model.theta, y,
         model.prior_mean, model.prior_var, q_mean, Q, R, out["xhat"], out["pvar"])
     out["lik_evals_per_step"] = 1.0
     return out

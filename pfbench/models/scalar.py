@@ -57,10 +57,16 @@ class ScalarModel:
         # a lazily built kernel is handed to the filters as the numba dispatcher it builds (numba
         # takes only its own dispatchers as first-class functions): it compiles now, when a
         # scenario builds a model that uses it, not when its module is imported
-        for name in ("transition", "observe", "transition_jac", "observe_jac"):
+        # (the derivatives, which only the EKF uses, when it asks: see ``jacobians``)
+        for name in ("transition", "observe"):
             fn = getattr(self, name)
             if isinstance(fn, LazyKernel):
                 object.__setattr__(self, name, fn.dispatcher)
+
+    def jacobians(self) -> tuple:
+        """(transition_jac, observe_jac) as the kernels take them (numba dispatchers)."""
+        return tuple(fn.dispatcher if isinstance(fn, LazyKernel) else fn
+                     for fn in (self.transition_jac, self.observe_jac))
 
     @property
     def process_mean(self) -> float:
