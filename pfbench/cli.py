@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import contextlib
+import os
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -65,9 +66,12 @@ err = Console(stderr=True, highlight=False, emoji=False)   # no :100: -> an emoj
 class _Out:
     """stdout through rich, bound to the sys.stdout of the moment (test runners swap it)."""
 
-    def print(self, *args, **kwargs):
-        # Wide enough that a table piped to a file keeps one line per row (rich assumes 80 columns).
-        width = None if sys.stdout.isatty() else 320
+    def print(self, *args, wide: bool = False, **kwargs):
+        # On a terminal, its width. Piped: 100 columns (what the headline tables fit; $COLUMNS
+        # if set), and for a wide table wide enough to keep one line per row.
+        width = None
+        if not sys.stdout.isatty():
+            width = 320 if wide else int(os.environ.get("COLUMNS") or 0) or 100
         Console(file=sys.stdout, highlight=False, emoji=False, width=width).print(*args, **kwargs)
 
 
@@ -252,21 +256,44 @@ def _load(config: Path, trials=None, seed=None, sets=()):
     return load(config, {"trials": trials, "seed": seed}, sets)
 
 
-def _print_table(cmp):
-    from .tables import console_tables, footnotes
+def _table_title(exp) -> str:
+    """'name (paper table)', or 'name (paper)' for a config without a table, or 'name'."""
+    where = " ".join(str(x) for x in (exp.paper, exp.table) if x)
+    return exp.name + (f"  ({where})" if where else "")
+
+
+def _rich_table(title: str, head: list[str], cells: list[list[str]], edge: bool = True):
+    t = RichTable(title=title, title_justify="left", show_edge=edge)
+    for h in head:
+        t.add_column(h, overflow="fold")
+    for row in cells:
+        t.add_row(*row)
+    return t
+
+
+def _print_table(cmp, wide: bool = False, folder: Path | None = None):
+    """The comparison on the console: the headline table (our values, the paper's, the verdicts in
+    a few words: it fits 100 columns) and a line on where the rest is; ``wide``: every column
+    and note, as before."""
+    from .tables import console_tables, footnotes, headline_tables, verdict_counts
     exp = cmp.exp
-    title = exp.name + (f"  ({exp.paper} {exp.table})" if exp.paper else "")
-    for name, head, cells in console_tables(cmp):
-        t = RichTable(title=f"{title}: {name}" if name else title, title_justify="left")
-        for h in head:
-            t.add_column(h, overflow="fold")
-        for row in cells:
-            t.add_row(*row)
-        out.print(t)
-    for note in footnotes(cmp):
-        out.print(note, markup=False)
-    out.print("Intervals: 95% over trials; verdicts Holm-adjusted across the table. Every "
-              "column, the interval methods and the paper's notes: table.md.",
+    title = _table_title(exp)
+    trials = int(cmp.table["trials"].max()) if len(cmp.table) else 0
+    if wide:
+        for name, head, cells in console_tables(cmp):
+            out.print(_rich_table(f"{title}: {name}" if name else title, head, cells), wide=True)
+        for note in footnotes(cmp):
+            out.print(note, markup=False)
+    else:
+        out.print(f"{title}: {trials} trials", markup=False, style="bold")
+        for name, head, cells in headline_tables(cmp):
+            out.print(_rich_table(name, head, cells, edge=False))
+    counts = verdict_counts(cmp)
+    where = f"{folder}/table.md" if folder else "table.md"
+    out.print((f"{counts}. " if counts else "") + "Intervals: 95% over trials; verdicts "
+              "Holm-adjusted across the table. "
+              + ("Every column, the verdicts in full, the interval methods and the paper's "
+                 f"notes: {where}" + ("" if wide else "; --wide prints them here") + "."),
               markup=False)
 
 
@@ -301,6 +328,9 @@ def run(
     max_trials: Optional[int] = typer.Option(None, "--max-trials", min=1, help="With "
                                              "--until-decided: the most trials (default: ten "
                                              "batches)."),
+    wide: bool = typer.Option(False, "--wide", help="Print every column and note of the table "
+                              "(default: our values, the paper's and the verdicts, in 100 "
+                              "columns; table.md has the rest)."),
 ):
     """Run an experiment: Monte Carlo trials, then the table beside the paper's values."""
     with _guard():
@@ -340,7 +370,7 @@ def run(
                         res = run_experiment(exp, out=folder, workers=workers, resume=resume,
                                              figures=not no_figures, progress=progress,
                                              executor=ex, warn=_warn, force=force)
-        _print_table(res.comparison)
+        _print_table(res.comparison, wide, folder)
         if res.up_to_date:
             err.print(f"{folder} is up to date: it holds the {exp.trials} trials of this "
                       "experiment (the table above is computed from them; nothing ran). "

@@ -121,16 +121,95 @@ def _ours_head(q: Quantity) -> str:
     return f"{what} [95% CI]"
 
 
-def ours_cell(r, q: Quantity) -> str:
+def ours_cell(r, q: Quantity, short: bool = False) -> str:
     """Our value with its 95% interval, and the trials it averages where that is not all of
-    them (a convergence step averages the trials that converge)."""
+    them (a convergence step averages the trials that converge; ``short``: '(35 of 100)')."""
     v = r.get(f"ours_{q.key}", math.nan)
     n = r.get(f"n_{q.key}", math.nan)
-    over = (f" over {int(n)} of {int(r['trials'])} trials"
-            if n == n and n is not None and int(n) < int(r["trials"]) else "")
+    some = n == n and n is not None and int(n) < int(r["trials"])
+    over = ((f" ({int(n)} of {int(r['trials'])})" if short
+             else f" over {int(n)} of {int(r['trials'])} trials") if some else "")
     if v != v:
         return "-"
-    return f"{fmt(v)} [{fmt(r[f'ours_lo_{q.key}'])}, {fmt(r[f'ours_hi_{q.key}'])}]{over}"
+    d = 3 if short else 4
+    return (f"{fmt(v, d)} [{fmt(r[f'ours_lo_{q.key}'], d)}, {fmt(r[f'ours_hi_{q.key}'], d)}]"
+            f"{over}")
+
+
+def short_verdict(r, q: Quantity) -> str:
+    """A verdict in a few words, for the console's headline table (table.md has it in full):
+    the kind, with the ratio ours / paper where it differs, the trials that would likely decide an
+    inconclusive cell, and whether the paper's value lies below the model's floor."""
+    kind = r.get(f"kind_{q.key}") or ""
+    text = r.get(f"verdict_{q.key}") or ""
+    floor = ", below floor" if "below the model's floor" in text else ""
+    if kind == "differs":
+        ratio = r.get(f"ratio_{q.key}", math.nan)
+        judged = q.judged_by is not None or ratio != ratio
+        return ("differs" + ("" if judged else f" x{ratio:.2f}")) + floor
+    if kind == "inconclusive":
+        need = r.get(f"needed_{q.key}", math.nan)
+        return "inconclusive" + (f" (~{int(need)} trials)" if need == need and need else "")
+    if kind == "reproduced":
+        return "reproduced" + floor
+    if kind == "not comparable":
+        return "not judged" if text.startswith("shown, not judged") else "not comparable"
+    return "-"
+
+
+def _run_cells(r) -> list[str]:
+    n = r["particles"]
+    return [str(r["label"]), "-" if n is None or n != n else str(int(n))]
+
+
+def headline_tables(cmp: Comparison) -> list[tuple[str, list[str], list[list[str]]]]:
+    """The console's tables, one per quantity of the paper's table: for each filter run our value
+    with its 95% interval, the paper's and the verdict in a few words, so that they fit 100
+    columns. Beyond the first quantity only the rows the paper gives a value. The rest (variances,
+    paired differences, diagnostics, run times, the verdicts in full) is in table.md and
+    ``pfbench run --wide``. Returns (quantity title, header, cells) for each."""
+    table = cmp.reported
+    quantities = table.quantities if table else ()
+    tab = cmp.table
+    if not quantities:
+        head = ["Filter", "N", "RMSE mean [95% CI]"] + (["ms/trial"] if cmp.timed else [])
+        cells = [_run_cells(r) + [f"{fmt(r['rmse_mean'])} [{fmt(r['rmse_ci_lo'])}, "
+                                  f"{fmt(r['rmse_ci_hi'])}]"]
+                 + ([fmt(r["wall_ms_per_trial"], 3)] if cmp.timed else [])
+                 for _, r in tab.iterrows()]
+        return [("", head, cells)]
+    out = []
+    for k, q in enumerate(quantities):
+        rows = [r for _, r in tab.iterrows()]
+        given = [r for r in rows if not _missing(r[f"paper_{q.key}"])]
+        ours = [r for r in rows if not _missing(r.get(f"ours_{q.key}"))]
+        # the first quantity: every row; the others: the rows the paper gives (or, where it gives
+        # none, the rows we have a value for)
+        cells = [_run_cells(r) + [ours_cell(r, q, short=True), fmt(r[f"paper_{q.key}"], 6),
+                                  short_verdict(r, q)]
+                 for r in (rows if k == 0 else given or ours)]
+        if cells:
+            out.append((q.title, ["Filter", "N", "Ours [95% CI]", "Paper", "Verdict"], cells))
+    pairs: dict[tuple, list] = {}
+    for f in cmp.factors:        # a table per pair of rows: factor = to / from, paired trials
+        pairs.setdefault((f["to"], f["from"]), []).append(
+            [f["quantity"], fmt(f["paper"], 3),
+             f"{fmt(f['ours'], 3)} [{fmt(f['lo'], 3)}, {fmt(f['hi'], 3)}]",
+             _short_kind(f["kind"], f.get("needed"))])
+    for (to, frm), cells in pairs.items():
+        out.append((f"factor {to} / {frm} (paired trials)",
+                    ["Quantity", "Paper", "Ours [95% CI]", "Verdict"], cells))
+    return out
+
+
+def _short_kind(kind: str, needed=None) -> str:
+    if kind == "inconclusive" and needed == needed and needed:
+        return f"inconclusive (~{int(needed)} trials)"
+    return kind or "-"
+
+
+def _missing(v) -> bool:
+    return v is None or (isinstance(v, float) and v != v)
 
 
 def console_tables(cmp: Comparison) -> list[tuple[str, list[str], list[list[str]]]]:
@@ -247,6 +326,26 @@ def footnotes(cmp: Comparison) -> list[str]:
                      f"they occur in: {_counts(hit, 'diverged_steps', 'diverged_trials')}. The "
                      "error averages include those steps.")
     return notes
+
+
+def verdict_counts(cmp: Comparison) -> str:
+    """'15 cells judged: 1 reproduced, 14 differ; 2 not comparable' for the paper's table (factors
+    counted with the cells); '' without one."""
+    table = cmp.reported
+    if table is None:
+        return ""
+    kinds = [k for q in table.quantities if f"kind_{q.key}" in cmp.table
+             for k in cmp.table[f"kind_{q.key}"].fillna("")]
+    kinds += [f["kind"] for f in cmp.factors]
+    n = {k: kinds.count(k) for k in ("reproduced", "differs", "inconclusive", "not comparable")}
+    judged = n["reproduced"] + n["differs"] + n["inconclusive"]
+    parts = [f"{n['reproduced']} reproduced", f"{n['differs']} differ"]
+    if n["inconclusive"]:
+        parts.append(f"{n['inconclusive']} inconclusive")
+    out = f"{judged} cell{'s' if judged != 1 else ''} judged: " + ", ".join(parts)
+    if n["not comparable"]:
+        out += f"; {n['not comparable']} not comparable or not judged"
+    return out
 
 
 def multiplicity(cmp: Comparison) -> int:

@@ -54,7 +54,7 @@ def test_a_forced_rerun_leaves_the_results_folder_byte_for_byte(tmp_path, write_
 def test_the_console_shows_run_times_and_the_files_leave_them_out(tmp_path):
     out = tmp_path / "u"
     res = runner.invoke(app, ["run", str(ROOT / "configs/ifa_pf_ungm.yaml"), "--trials", "2",
-                              "--out", str(out), "--no-figures"])
+                              "--out", str(out), "--no-figures", "--wide"])
     assert res.exit_code == 0, res.output
     assert "ms/trial" in res.output
     md = (out / "table.md").read_text()
