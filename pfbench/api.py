@@ -92,7 +92,8 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
                    seed: int | None = None, workers: int = 1, overrides: Iterable[str] = (),
                    out: str | Path | None = None, resume: bool = False, figures: bool = True,
                    executor=None, progress: Callable[[int, int], None] | None = None,
-                   warn: Callable[[str], None] | None = None, force: bool = False) -> Result:
+                   warn: Callable[[str], None] | None = None, force: bool = False,
+                   figure_format: str = "png") -> Result:
     """Run every trial of an experiment and compare it with its paper.
 
     config : a YAML file, or a mapping with the same keys (``{"scenario": {"name": "ungm"},
@@ -107,7 +108,7 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
         them is up to date: nothing runs, and only the table is written again)
     force : (with ``out``) replace a folder that holds another experiment, or more trials of
         this one (refused otherwise)
-    figures : (with ``out``) draw the figures
+    figures : (with ``out``) draw the figures; figure_format : png, svg or pdf
     executor : where the trials run (a pfbench.runner executor; default: ``workers`` local
         processes); progress(done, total) is called as trials finish
     """
@@ -119,8 +120,10 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
         from .regen import write_experiment
         res = run_into(exp, Path(out), workers=workers, resume=resume, progress=progress,
                        executor=executor, warn=warn, force=force)
-        # up to date: the table again (the same bytes when nothing changed), no figures
-        cmp, paths = write_experiment(exp, res, Path(out), figures and not res.up_to_date)
+        # up to date: the table again (the same bytes when nothing changed), and the figures
+        # only when asked to resume (which redraws them from the trials and traces kept)
+        cmp, paths = write_experiment(exp, res, Path(out),
+                                      figures and (resume or not res.up_to_date), figure_format)
         return Result(_frame(res.rows, trial_columns(exp)), cmp.table, res.meta, exp,
                       Path(out), cmp, paths, up_to_date=res.up_to_date, run=res.run)
     if resume:
@@ -187,7 +190,7 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
                       progress: Callable[[int, int], None] | None = None,
                       warn: Callable[[str], None] | None = None,
                       on_look: Callable[[dict], None] | None = None,
-                      force: bool = False) -> Result:
+                      force: bool = False, figure_format: str = "png") -> Result:
     """Run an experiment in batches until every cell its paper's table judges is decided
     ('reproduced' or 'differs'), or ``max_trials`` is reached (default: ten times the first
     batch), or the cells left would need more than that.
@@ -236,7 +239,7 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
     write_json(folder / "meta.json", res.meta)
     if not res.up_to_date:
         write_json(folder / RUN_TIMINGS, res.run)
-    cmp, paths = write_experiment(exp, res, folder, figures)
+    cmp, paths = write_experiment(exp, res, folder, figures, figure_format)
     return Result(_frame(res.rows, trial_columns(exp)), cmp.table, res.meta, exp, folder, cmp,
                   paths, run=res.run)
 

@@ -256,6 +256,12 @@ def _load(config: Path, trials=None, seed=None, sets=()):
     return load(config, {"trials": trials, "seed": seed}, sets)
 
 
+def _check_figure_format(fmt: str) -> None:
+    from .figstyle import FORMATS
+    if fmt not in FORMATS:
+        raise UserError(f"--figure-format {fmt}: one of {', '.join(FORMATS)}")
+
+
 def _table_title(exp) -> str:
     """'name (paper table)', or 'name (paper)' for a config without a table, or 'name'."""
     where = " ".join(str(x) for x in (exp.paper, exp.table) if x)
@@ -314,6 +320,8 @@ def run(
     set_: List[str] = typer.Option([], "--set", help="Override a config key: KEY.PATH=VALUE "
                                    "(YAML value; '*' matches every key), repeatable."),
     no_figures: bool = typer.Option(False, "--no-figures", help="Skip the figures."),
+    figure_format: str = typer.Option("png", "--figure-format", help="The figures' format: png, "
+                                      "svg or pdf."),
     executor: str = typer.Option("local", "--executor", help="'local' (this machine's "
                                  "processes) or 'dask' (a Dask cluster; results do not depend on "
                                  "it)."),
@@ -334,6 +342,7 @@ def run(
 ):
     """Run an experiment: Monte Carlo trials, then the table beside the paper's values."""
     with _guard():
+        _check_figure_format(figure_format)
         _use_papers(papers)
         out_dir = _path(out_dir, "--out")
         if max_trials is not None and not until_decided:
@@ -364,11 +373,13 @@ def run(
                         res = run_until_decided(exp, out=folder, max_trials=most,
                                                 workers=workers, resume=resume,
                                                 figures=not no_figures, progress=progress,
+                                                figure_format=figure_format,
                                                 executor=ex, warn=_warn, on_look=look,
                                                 force=force)
                     else:
                         res = run_experiment(exp, out=folder, workers=workers, resume=resume,
                                              figures=not no_figures, progress=progress,
+                                             figure_format=figure_format,
                                              executor=ex, warn=_warn, force=force)
         _print_table(res.comparison, wide, folder)
         if res.up_to_date:
@@ -404,6 +415,8 @@ def sweep(
     force: bool = typer.Option(False, "--force", help="Replace cell folders that hold another "
                                "experiment's trials."),
     yes: bool = typer.Option(False, "--yes", help="Run even when there are many cells."),
+    figure_format: str = typer.Option("png", "--figure-format", help="The figures' format: png, "
+                                      "svg or pdf."),
     executor: str = typer.Option("local", "--executor", help="'local' or 'dask' (see run)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler "
                                             "tcp://HOST:PORT (see run)."),
@@ -411,6 +424,7 @@ def sweep(
 ):
     """Run an experiment over the cartesian product of values of some of its keys."""
     with _guard():
+        _check_figure_format(figure_format)
         _load_kernels()
         _use_papers(papers)
         out_dir = _path(out_dir, "--out")
@@ -435,7 +449,8 @@ def sweep(
                                              progress=progress, executor=ex, warn=_warn,
                                              force=force)
             from .regen import write_sweep
-            summ, figs = write_sweep(trials_df, keys, folder, name)
+            summ, figs = write_sweep(trials_df, keys, folder, name, True, figure_format,
+                                     cells[0].exp)
         t = RichTable(title=f"{name}: sweep over {', '.join(keys)}", title_justify="left")
         for h in keys + ["Filter", "N", "Trials", "RMSE mean [95% CI]", "ms/trial"]:
             t.add_column(h, overflow="fold")
@@ -469,6 +484,8 @@ def tables_(
     resume: bool = typer.Option(False, "--resume", help="Keep the finished trials of an "
                                 "interrupted regeneration."),
     no_figures: bool = typer.Option(False, "--no-figures", help="Skip the figures."),
+    figure_format: str = typer.Option("png", "--figure-format", help="The figures' format: png, "
+                                      "svg or pdf."),
     executor: str = typer.Option("local", "--executor", help="'local' or 'dask' (see run)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler "
                                             "tcp://HOST:PORT (see run)."),
@@ -485,6 +502,7 @@ def tables_(
     import time
 
     with _guard():
+        _check_figure_format(figure_format)
         _load_kernels()
         _use_papers(papers)
         configs, results = _path(configs, "--configs"), _path(results, "--results")
@@ -533,7 +551,8 @@ def tables_(
                         folder = regen.regenerate(p, results, ex, figures=not no_figures,
                                                   resume=resume, progress=step,
                                                   until_decided=until_decided,
-                                                  max_trials=max_trials)
+                                                  max_trials=max_trials,
+                                                  figure_format=figure_format)
                         bar.console.print(f"{p.name} -> {folder} in "
                                           f"{time.perf_counter() - t0:.1f} s", markup=False)
                 before += seen[0]

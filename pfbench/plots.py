@@ -1,137 +1,235 @@
-"""Figures of an experiment (matplotlib, PNG under ``<results>/figures/``).
+"""Figures of an experiment (matplotlib, in the style of pfbench.figstyle, under
+``<results>/figures/``; PNG unless ``--figure-format`` says svg or pdf).
 
-Every experiment: the per-trial RMSE of each filter run (box plot). SLAM experiments also, for one
-trial: the course with the true and estimated paths and the mapped landmarks, the position, heading
-and landmark errors over time (ifa2021 Fig. 6, afsa2014 Fig. 3), and the effective sample size over
-time (afsa2014 Fig. 5). Localization experiments: the position error per step, median and
-interquartile band over the first FIGURE_TRIALS trials (sspf2008's error figure), with the particle
-count over time when KLD-sampling adapts it, and the particles over the field at a few steps of one
-trial. Figures never run a trial: they draw the rows and the traces the run kept
-(``traces.npz``, pfbench.traces).
+Every experiment: the distribution over trials of each filter run's RMSE, and of each other metric
+the paper's table reports as a mean, beside the mean with its 95% interval (what the tables
+report) and the paper's value where it gives one. SLAM experiments also, for one trial: the course
+with the true and estimated paths and the mapped landmarks, the position, heading and landmark
+errors over time (ifa2021 Fig. 6, afsa2014 Fig. 3), and the effective sample size over time
+(afsa2014 Fig. 5). Localization experiments: the position error per step, median and interquartile
+band over the first FIGURE_TRIALS trials (sspf2008's error figure), with the particle count over
+time when KLD-sampling adapts it, and each filter's particles over the field at a few steps of a
+trial where it converged and one where it did not. Figures never run a trial: they draw the rows
+and the traces the run kept (``traces.npz``, pfbench.traces).
 """
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
+from . import figstyle as fs
+from .config import Experiment
+from .errors import UserError
+from .kinds import kind_of
+from .store import Traces, read_traces
+from .traces import error_runs, runs_in, snapshot_runs
 
-from .config import Experiment  # noqa: E402
-from .fsutil import write_through_temp  # noqa: E402
-from .errors import UserError  # noqa: E402
-from .kinds import kind_of  # noqa: E402
-from .store import Traces, read_traces  # noqa: E402
-from .traces import error_runs, runs_in, snapshot_runs  # noqa: E402
-
-# Fixed metadata: the same figure gives the same bytes.
-_META = {"Software": None}
+plt = fs.plt
 
 
 def save_figure(fig, path: Path) -> None:
-    """Save ``fig`` to ``path`` through a temporary file (removed if the save fails)."""
-    try:
-        write_through_temp(path, lambda tmp: fig.savefig(tmp, dpi=110, metadata=_META),
-                           ".png")
-    finally:
-        plt.close(fig)
+    """Save ``fig`` to ``path`` (its suffix names the format; see figstyle.save)."""
+    fs.save(fig, path)
 
 
-def _run_name(run) -> str:
-    return run.label if run.particles is None else f"{run.label} (N={run.particles})"
+def _run_name(run, rows: pd.DataFrame | None = None) -> str:
+    """'PF (N=100)'; a run whose particle count adapts (KLD-sampling): 'KLD-MCL (N adaptive, mean
+    96, at most 5000)'."""
+    if run.particles is None:
+        return run.label
+    if rows is not None and "mean_particles" in rows:
+        m = rows.loc[rows["filter"] == run.key, "mean_particles"].dropna()
+        if len(m) and abs(float(m.mean()) - run.particles) > 0.5:
+            return f"{run.label} (N adaptive: mean {float(m.mean()):.0f}, at most {run.particles})"
+    return f"{run.label} (N={run.particles})"
 
 
-def rmse_boxplot(exp: Experiment, rows: pd.DataFrame, path: Path) -> None:
-    """Per-trial RMSE of every filter run."""
-    data = [rows.loc[rows["filter"] == r.key, "rmse"].to_numpy() for r in exp.filters]
-    fig, ax = plt.subplots(figsize=(max(6.0, 0.55 * len(data) + 2), 4.2))
-    ax.boxplot(data, showfliers=True, flierprops={"markersize": 2})
-    ax.set_xticks(range(1, len(data) + 1), [_run_name(r) for r in exp.filters], rotation=45,
-                  ha="right", fontsize=8)
+def _distribution_quantities(exp: Experiment) -> list[tuple[str, float, str, object]]:
+    """(metric, scale, axis label, the paper's quantity or None) of each distribution figure:
+    the RMSE, and each per-trial metric the paper's table reports as a mean."""
     unit = kind_of(exp.scenario).unit
-    ax.set_ylabel("RMSE per trial" + (f" ({unit})" if unit else ""))
-    ax.set_title(f"{exp.name}: RMSE over {len(rows['trial'].unique())} trials")
-    ax.grid(axis="y", alpha=0.3)
-    fig.tight_layout()
+    out = [("rmse", 1.0, fs.label("rmse", unit), None)]
+    table = exp.reported
+    for q in (table.quantities if table is not None else ()):
+        if q.stat != "mean" or q.metric in ("time_ratio", "evals_ratio", "gain_mean", "gain_var"):
+            continue
+        if q.metric == "rmse" and q.scale == 1.0:
+            out[0] = ("rmse", 1.0, fs.label("rmse", unit), q)
+        elif q.metric not in [m for m, *_ in out]:
+            out.append((q.metric, q.scale, q.title, q))
+    return out
+
+
+def _paper_value(v):
+    """A paper's value as (low, high): a number gives (v, v), a range '10-20' its ends."""
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return None
+    if isinstance(v, str):
+        try:
+            lo, hi = (float(x) for x in v.split("-", 1))
+            return lo, hi
+        except ValueError:
+            return None
+    return float(v), float(v)
+
+
+def distribution_figure(exp: Experiment, rows: pd.DataFrame, path: Path, metric: str = "rmse",
+                        scale: float = 1.0, ylabel: str = "RMSE", quantity=None,
+                        table: pd.DataFrame | None = None) -> None:
+    """Each filter run's ``metric`` over trials (box: quartiles, whiskers 1.5 IQR, points beyond),
+    beside it the mean with its 95% interval as the table reports it (black), and the paper's
+    value (red diamond; a range: a red bar) where ``quantity`` has one. A log axis where the
+    values span more than a factor of 30."""
+    from .metrics import summarize
+    runs = [r for r in exp.filters]
+    data = [rows.loc[rows["filter"] == r.key, metric].dropna().to_numpy(float) * scale
+            for r in runs]
+    keep = [i for i, d in enumerate(data) if d.size]
+    if not keep:
+        return
+    runs, data = [runs[i] for i in keep], [data[i] for i in keep]
+    fig, ax = plt.subplots(figsize=(max(6.4, 0.62 * len(runs) + 2.4), 4.4))
+    pos = np.arange(1, len(runs) + 1)
+    ax.boxplot(data, positions=pos - 0.12, widths=0.32, showfliers=True,
+               flierprops={"markersize": 2, "alpha": 0.5}, medianprops={"color": "0.35"},
+               patch_artist=True, boxprops={"facecolor": "0.93", "edgecolor": "0.45"},
+               whiskerprops={"color": "0.45"}, capprops={"color": "0.45"})
+    by_key = table.set_index("filter") if table is not None and len(table) else None
+    means, los, his = [], [], []
+    for r, d in zip(runs, data):
+        q = quantity
+        if by_key is not None and q is not None and f"ours_{q.key}" in by_key:
+            m = by_key.loc[r.key, f"ours_{q.key}"]
+            lo, hi = by_key.loc[r.key, f"ours_lo_{q.key}"], by_key.loc[r.key, f"ours_hi_{q.key}"]
+        else:
+            st = summarize(d)
+            m, lo, hi = st["mean"], st["ci_lo"], st["ci_hi"]
+        means.append(m)
+        los.append(m - lo if lo == lo else 0.0)
+        his.append(hi - m if hi == hi else 0.0)
+    ax.errorbar(pos + 0.16, means, yerr=[los, his], fmt="o", color="black", ms=4, capsize=3,
+                lw=1.1, label="mean and its 95% interval")
+    marked = False
+    if quantity is not None and by_key is not None and f"paper_{quantity.key}" in by_key:
+        for x, r in zip(pos, runs):
+            v = _paper_value(by_key.loc[r.key, f"paper_{quantity.key}"])
+            if v is None:
+                continue
+            lab = None if marked else "the paper's value"
+            if v[0] == v[1]:
+                ax.plot([x + 0.34], [v[0]], "D", color="#d62728", ms=6, mfc="none", mew=1.6,
+                        label=lab)
+            else:
+                ax.plot([x + 0.34] * 2, list(v), "-", color="#d62728", lw=3, alpha=0.6,
+                        label=lab)
+            marked = True
+    values = np.concatenate(data)
+    pos_v = values[values > 0]
+    if len(pos_v) and values.min() > 0 and pos_v.max() / pos_v.min() > 30:
+        ax.set_yscale("log")
+    ax.set_xticks(pos, [_run_name(r, rows) for r in runs], rotation=40, ha="right")
+    ax.set_ylabel(ylabel)
+    n = rows["trial"].nunique()
+    ax.set_title(f"{exp.name}: {ylabel} over {n} trials (box: quartiles; black: mean, 95% "
+                 "interval" + ("; red: the paper" if marked else "") + ")")
+    ax.grid(axis="x", visible=False)
+    fs.legend_outside(ax)
     save_figure(fig, path)
 
 
-def slam_trial_figures(exp: Experiment, traces: Traces, folder: Path, trial: int = 0) -> list[Path]:
+def rmse_boxplot(exp: Experiment, rows: pd.DataFrame, path: Path) -> None:
+    """Per-trial RMSE of every filter run (distribution_figure of the RMSE)."""
+    with fs.style():
+        distribution_figure(exp, rows, path, "rmse", 1.0,
+                            fs.label("rmse", kind_of(exp.scenario).unit))
+
+
+def _moving(x: np.ndarray, win: int, rms: bool = False) -> np.ndarray:
+    """Moving mean (``rms``: root mean square) over ``win`` samples, 'valid' part."""
+    if win <= 1:
+        return x
+    k = np.ones(win) / win
+    return np.sqrt(np.convolve(x * x, k, mode="valid")) if rms else np.convolve(x, k, mode="valid")
+
+
+def slam_trial_figures(exp: Experiment, traces: Traces, folder: Path, trial: int = 0,
+                       fmt: str = "png", rows: pd.DataFrame | None = None) -> list[Path]:
     """The course with true and estimated paths and maps, the errors over time and the effective
     sample size over time, for one trial of a SLAM experiment (from its trace)."""
     tr = runs_in(traces.trials[trial])
     shared, world = tr[""], traces.world
     truth = shared["truth_pose"]
     runs = [(r, tr[r.key]) for r in exp.filters]
-    colors = plt.cm.tab10(np.linspace(0, 1, 10))
-    fig, ax = plt.subplots(figsize=(8.0, 6.6))
+    fig, ax = plt.subplots(figsize=(8.6, 6.4))
     if "waypoints" in world:
         wp = np.vstack([world["waypoints"], world["waypoints"][:1]])
-        ax.plot(wp[:, 0], wp[:, 1], "o--", color="0.7", ms=4, lw=0.8, label="waypoints")
-    ax.plot(world["landmarks"][:, 0], world["landmarks"][:, 1], "k*", ms=8, label="landmarks")
-    ax.plot(truth[:, 0], truth[:, 1], "k-", lw=1.6, label="true path")
+        ax.plot(wp[:, 0], wp[:, 1], "o", color="0.6", ms=3, label="waypoints", zorder=1)
+    ax.plot(world["landmarks"][:, 0], world["landmarks"][:, 1], "*", color="0.15", ms=7,
+            label="landmarks", zorder=2)
+    ax.plot(truth[:, 0], truth[:, 1], "-", color="black", lw=2.2, alpha=0.35, label="true path",
+            zorder=3)
     for i, (r, out) in enumerate(runs):
-        c = colors[i % 10]
-        ax.plot(out["pose"][:, 0], out["pose"][:, 1], "-", color=c, lw=0.9, label=_run_name(r))
-        seen = out["lm_seen"]
-        ax.plot(out["lm_est"][seen, 0], out["lm_est"][seen, 1], "+", color=c, ms=7, mew=1.2)
+        c = fs.colour(i)
+        ax.plot(out["pose"][:, 0], out["pose"][:, 1], color=c, ls=fs.linestyle(i), lw=1.0,
+                label=_run_name(r, rows), zorder=4)
+        seen = out["lm_seen"].astype(bool)
+        ax.plot(out["lm_est"][seen, 0], out["lm_est"][seen, 1], fs.marker(i), color=c, ms=4,
+                mfc="none", mew=0.9, zorder=5)
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    ax.set_title(f"{exp.name}, trial {trial}: paths and mapped landmarks (+)")
-    ax.legend(fontsize=7, loc="upper right", framealpha=0.85)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    course = folder / "course.png"
+    ax.set_title(f"{exp.name}, trial {trial}: true path (grey), estimated paths, and each "
+                 "filter's mapped landmarks (its marker)")
+    fs.legend_outside(ax)
+    course = folder / f"course.{fmt}"
     save_figure(fig, course)
 
     t, t_obs = shared["time"], shared["obs_time"]
-    fig, axes = plt.subplots(3, 1, figsize=(8.0, 8.4), sharex=True)
+    T = len(t)
+    win = max(1, T // 100)          # a moving RMS: a heading error per step is mostly noise
+    fig, axes = plt.subplots(3, 1, figsize=(8.6, 8.2), sharex=True)
     for i, (r, out) in enumerate(runs):
-        c = colors[i % 10]
+        c, ls = fs.colour(i), fs.linestyle(i)
         err = np.hypot(*(out["pose"][:, :2] - truth[:, :2]).T)
-        dth = np.abs((out["pose"][:, 2] - truth[:, 2] + np.pi) % (2 * np.pi) - np.pi)
-        axes[0].plot(t, err, lw=0.9, color=c, label=_run_name(r))
-        axes[1].plot(t, dth, lw=0.9, color=c)
+        dth = (out["pose"][:, 2] - truth[:, 2] + np.pi) % (2 * np.pi) - np.pi
+        axes[0].plot(t, err, lw=1.0, color=c, ls=ls, label=_run_name(r, rows))
+        axes[1].plot(t[win - 1:], _moving(dth, win, rms=True), lw=1.0, color=c, ls=ls)
         if "lm_trace" in out:
-            axes[2].plot(t_obs, out["lm_trace"], lw=0.9, color=c)
+            axes[2].plot(t_obs, out["lm_trace"], lw=1.0, color=c, ls=ls)
     axes[0].set_ylabel("position error (m)")
-    axes[1].set_ylabel("heading error (rad)")
+    axes[1].set_ylabel("heading error (rad)" + (f", RMS over {win} steps" if win > 1 else ""))
     axes[2].set_ylabel("landmark error (m)")
     axes[2].set_xlabel("time (s)")
     axes[0].set_title(f"{exp.name}, trial {trial}: errors over time (landmarks: the "
-                      "highest-weight particle's map)", fontsize=9)
-    axes[0].legend(fontsize=7)
-    for ax in axes:
-        ax.grid(alpha=0.3)
-    fig.tight_layout()
-    errors = folder / "errors.png"
+                      "highest-weight particle's map)")
+    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    fs.legend_below(fig, axes, ncol=min(3, len(runs)))
+    errors = folder / f"errors.{fmt}"
     save_figure(fig, errors)
 
-    fig, ax = plt.subplots(figsize=(8.0, 3.8))
+    fig, ax = plt.subplots(figsize=(8.6, 3.8))
     K = t_obs.shape[0]
     win = max(1, K // 50)           # a moving mean, or thousands of jumps hide each other
     for i, (r, out) in enumerate(runs):
         if r.particles is not None and out["ess"].size:
-            smooth = np.convolve(out["ess"], np.ones(win) / win, mode="valid")
-            ax.plot(t_obs[win - 1:], smooth, lw=1.0, color=colors[i % 10],
-                    label=f"{_run_name(r)}: mean {np.mean(out['ess']):.2f}")
+            ax.plot(t_obs[win - 1:], _moving(out["ess"], win), lw=1.1, color=fs.colour(i),
+                    ls=fs.linestyle(i), label=f"{_run_name(r, rows)}: mean "
+                    f"{np.mean(out['ess']):.2f}")
     ax.set_xlabel("time (s)")
     ax.set_ylabel("Neff = 1 / sum W^2")
     ax.set_title(f"{exp.name}, trial {trial}: effective sample size before resampling"
-                 + (f" (moving mean of {win} observations)" if win > 1 else ""), fontsize=9)
-    ax.legend(fontsize=7)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    ess = folder / "ess.png"
+                 + (f" (moving mean of {win} observations)" if win > 1 else ""))
+    fs.legend_outside(ax)
+    ess = folder / f"ess.{fmt}"
     save_figure(fig, ess)
     return [course, errors, ess]
 
 
-def localization_error_figure(exp: Experiment, traces: Traces, path: Path) -> dict:
+def localization_error_figure(exp: Experiment, traces: Traces, path: Path,
+                              rows: pd.DataFrame | None = None) -> dict:
     """Position error per step over the traced trials (median and interquartile band) of each
     shown run, with the particle count over time when a run adapts it; returns {run key: (T+1,)
     median}."""
@@ -142,8 +240,7 @@ def localization_error_figure(exp: Experiment, traces: Traces, path: Path) -> di
     count = {r.key: np.asarray([tr[r.key]["n"] for tr in by_trial]) for r in runs
              if "n" in by_trial[0][r.key]}
     adaptive = [r for r in runs if r.key in count and np.ptp(count[r.key]) > 0]
-    colors = plt.cm.tab10(np.linspace(0, 1, 10))
-    fig, axes = plt.subplots(2 if adaptive else 1, 1, figsize=(8.0, 6.8 if adaptive else 4.4),
+    fig, axes = plt.subplots(2 if adaptive else 1, 1, figsize=(8.6, 6.6 if adaptive else 4.4),
                              sharex=True, squeeze=False)
     ax = axes[0, 0]
     t = np.arange(err[runs[0].key].shape[1])
@@ -151,9 +248,11 @@ def localization_error_figure(exp: Experiment, traces: Traces, path: Path) -> di
     for i, r in enumerate(runs):
         q1, med, q3 = np.percentile(err[r.key], [25, 50, 75], axis=0)
         medians[r.key] = med
-        c = colors[i % 10]
-        ax.plot(t, med, color=c, lw=1.2, label=_run_name(r))
-        ax.fill_between(t, q1, q3, color=c, alpha=0.18, lw=0)
+        c = fs.colour(i)
+        # drawn widest first: a curve that lies on another's stays visible by its style
+        ax.plot(t, med, color=c, ls=fs.linestyle(i), lw=2.4 - 0.35 * i,
+                label=_run_name(r, rows), zorder=3 + i)
+        ax.fill_between(t, q1, q3, color=c, alpha=0.12, lw=0, zorder=1)
     kidnaps = traces.world["kidnaps"]
     for kstep in kidnaps:
         ax.axvline(kstep, color="0.3", ls=":", lw=1)
@@ -162,74 +261,122 @@ def localization_error_figure(exp: Experiment, traces: Traces, path: Path) -> di
     ax.set_ylabel("position error (m)")
     ax.set_title(f"{exp.name}: position error per step, median and interquartile band over "
                  f"{len(trials)} trials\n" + ("dotted: kidnappings; " if kidnaps.size else "")
-                 + "dashed: the convergence bound", fontsize=9)
-    ax.legend(fontsize=7)
+                 + "dashed: the convergence bound")
     ax.grid(alpha=0.3, which="both")
+    fs.legend_outside(ax)
     if adaptive:
         ax2 = axes[1, 0]
         for i, r in enumerate(runs):
             if r in adaptive:
-                ax2.plot(t[1:], count[r.key].astype(float).mean(axis=0), color=colors[i % 10],
-                         lw=1.2, label=f"{_run_name(r)}: mean over trials")
+                ax2.plot(t[1:], count[r.key].astype(float).mean(axis=0), color=fs.colour(i),
+                         ls=fs.linestyle(i), lw=1.2, label=f"{r.label}: mean over trials")
         if max(np.ptp(count[r.key]) for r in adaptive) > 1000:
             ax2.set_yscale("log")
         ax2.set_ylabel("particles")
-        ax2.legend(fontsize=7)
         ax2.grid(alpha=0.3, which="both")
+        fs.legend_outside(ax2)
     axes[-1, 0].set_xlabel("step")
-    fig.tight_layout()
     save_figure(fig, path)
     return medians
 
 
-def particle_figure(exp: Experiment, traces: Traces, path: Path, trial: int = 0) -> None:
+def _snapshot_trials(exp: Experiment, traces: Traces, rows: pd.DataFrame, run) -> list:
+    """[(trial, outcome)] to show of ``run``: among the trials with snapshots, the first where it
+    converged and the first where it did not (one of each outcome the trials have)."""
+    have = sorted(k for k, tr in traces.trials.items() if f"{run.key}/snap_xy" in tr)
+    if not have:
+        return []
+    if rows is None or "converged" not in rows:
+        return [(have[0], None)]
+    conv = rows[rows["filter"] == run.key].set_index("trial")["converged"]
+    out = []
+    for want in (1.0, 0.0):
+        k = next((k for k in have if k in conv.index and conv[k] == want), None)
+        if k is not None:
+            out.append((k, want))
+    return out or [(have[0], None)]
+
+
+def particle_figure(exp: Experiment, traces: Traces, path: Path,
+                    rows: pd.DataFrame | None = None) -> None:
     """The particles of each filter (one run per label: the largest count) over the field at a few
-    steps of one trial: the start, during global localization, after each kidnapping, the end."""
-    tr = runs_in(traces.trials[trial])
+    steps: of each, a trial where it converged and one where it did not (each row says which
+    trial, and how often the filter converged over all trials)."""
     world = traces.world
-    steps = tr[""]["steps"]
-    truth = tr[""]["truth_pose_at"]
-    runs = snapshot_runs(exp)
-    fig, axes = plt.subplots(len(runs), len(steps), figsize=(1.9 * len(steps) + 0.6,
-                                                             1.95 * len(runs) + 0.5),
+    panels = []                 # (run, trial, outcome)
+    for r in snapshot_runs(exp):
+        panels += [(r, k, o) for k, o in _snapshot_trials(exp, traces, rows, r)]
+    first = runs_in(traces.trials[panels[0][1]])[""] if panels else None
+    if first is None:
+        return
+    steps = first["steps"]
+    fig, axes = plt.subplots(len(panels), len(steps), figsize=(1.9 * len(steps) + 1.6,
+                                                               1.95 * len(panels) + 0.6),
                              squeeze=False)
-    for i, r in enumerate(runs):
-        out = tr[r.key]
+    for i, (r, k, outcome) in enumerate(panels):
+        tr = runs_in(traces.trials[k])
+        out, truth = tr[r.key], tr[""]["truth_pose_at"]
         has = "snap_xy" in out
         ends = np.cumsum(out["snap_drawn"]) if has else None
+        rate = ""
+        if rows is not None and "converged" in rows:
+            c = rows.loc[rows["filter"] == r.key, "converged"].dropna()
+            rate = f"\n(converges in {c.mean():.0%})" if len(c) else ""
+        what = {1.0: "converged", 0.0: "did not converge", None: ""}[outcome]
         for j, t in enumerate(steps):
             ax = axes[i, j]
-            if has:
+            W, H = float(world["area"][0]), float(world["area"][1])
+            ax.plot(world["beacons"][:, 0], world["beacons"][:, 1], "k^", ms=4, zorder=2)
+            ax.plot(*truth[j, :2], "o", mfc="none", mec="red", ms=8, mew=1.2, zorder=3)
+            est = out["pose_at"][j, :2]
+            ax.plot(*est, "x", color="green", ms=6, mew=1.4, zorder=4)
+            if has:     # above the markers: a collapsed cloud stays visible
                 P = out["snap_xy"][ends[j] - out["snap_drawn"][j]:ends[j]]
-                ax.plot(P[:, 0], P[:, 1], ".", color="tab:blue", ms=1.5, alpha=0.4, mew=0)
-            ax.plot(world["beacons"][:, 0], world["beacons"][:, 1], "k^", ms=4)
-            ax.plot(*truth[j, :2], "o", mfc="none", mec="red", ms=7, mew=1.2)
-            ax.plot(*out["pose_at"][j, :2], "x", color="green", ms=6, mew=1.2)
-            ax.set_xlim(0, world["area"][0])
-            ax.set_ylim(0, world["area"][1])
+                ax.plot(P[:, 0], P[:, 1], ".", color="tab:blue", ms=2.4, alpha=0.5, mew=0,
+                        zorder=5)
+            if not (0 <= est[0] <= W and 0 <= est[1] <= H):
+                ax.text(0.97, 0.97, "estimate off the field", transform=ax.transAxes,
+                        fontsize=6, ha="right", va="top", color="green")
+            ax.set_xlim(0, W)
+            ax.set_ylim(0, H)
             ax.set_aspect("equal")
-            ax.set_xticks([])
-            ax.set_yticks([])
+            for side in ("top", "right"):
+                ax.spines[side].set_visible(True)
+            ax.set_xticks([0, W / 2, W] if i == len(panels) - 1 else [])
+            ax.set_yticks([0, H / 2, H] if j == 0 else [])
+            ax.tick_params(labelsize=6)
+            if i == len(panels) - 1:
+                ax.set_xticklabels([f"{v:g}" for v in (0, W / 2, W)])
+                ax.set_xlabel("x (m)", fontsize=7)
+            ax.grid(False)
             if i == 0:
                 ax.set_title(f"step {t}" + (" (kidnapped)" if t in world["kidnaps"] else ""),
                              fontsize=8)
             if j == 0:
-                ax.set_ylabel(_run_name(r), fontsize=7)
-            if not has:
-                ax.text(0.03, 0.03, "no particles kept", transform=ax.transAxes, fontsize=6)
-            elif out["snap_count"][j] != r.particles or out["snap_drawn"][j] != r.particles:
+                ax.set_yticklabels([f"{v:g}" for v in (0, H / 2, H)])
+                ax.set_ylabel(f"{r.label}, trial {k}\n{what}{rate}\ny (m)", fontsize=7)
+            if has and (out["snap_count"][j] != r.particles
+                        or out["snap_drawn"][j] != out["snap_count"][j]):
                 drawn, n = out["snap_drawn"][j], out["snap_count"][j]
                 ax.text(0.03, 0.03, f"{n} particles" + (f" ({drawn} drawn)" if drawn < n else ""),
                         transform=ax.transAxes, fontsize=6)
-    fig.suptitle(f"{exp.name}, trial {trial}: particles (blue), beacons (black), true pose (red "
-                 "circle), estimate (green x)", fontsize=9)
+    w, h = float(world["area"][0]), float(world["area"][1])
+    fig.suptitle(f"{exp.name}: particles (blue) over the {w:g} m x {h:g} m field, beacons "
+                 "(black), true pose (red circle), estimate (green x); of each filter a trial "
+                 "where it converged and one where it did not", fontsize=9)
     fig.tight_layout()
     save_figure(fig, path)
 
 
-def write_figures(exp: Experiment, rows: list[dict] | pd.DataFrame, out_dir: Path) -> list[Path]:
-    """Write the experiment's figures into ``out_dir/figures`` from its rows and the traces its
-    run kept (``out_dir/traces.npz``); return their paths."""
+def write_figures(exp: Experiment, rows: list[dict] | pd.DataFrame, out_dir: Path,
+                  fmt: str = "png", table: pd.DataFrame | None = None) -> list[Path]:
+    """Write the experiment's figures into ``out_dir/figures`` (``fmt``: png, svg or pdf) from its
+    rows, its comparison's ``table`` (our means with the intervals the table reports, the
+    paper's values; computed here when None) and the traces its run kept
+    (``out_dir/traces.npz``); return their paths. Figures of other formats already there are
+    removed (a folder holds one format)."""
+    if fmt not in fs.FORMATS:
+        raise UserError(f"--figure-format {fmt}: one of {', '.join(fs.FORMATS)}")
     kind = kind_of(exp.scenario)
     traces = read_traces(out_dir) if kind.figures else None
     if kind.figures and (traces is None or not traces.trials):
@@ -238,68 +385,104 @@ def write_figures(exp: Experiment, rows: list[dict] | pd.DataFrame, out_dir: Pat
     folder = Path(out_dir) / "figures"
     folder.mkdir(parents=True, exist_ok=True)
     df = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(rows)
-    paths = [folder / "rmse.png"]
-    rmse_boxplot(exp, df, paths[0])
-    if kind.figures:
-        paths += globals()[kind.figures](exp, df, traces, folder)
+    if table is None and exp.reported is not None and len(df):
+        from .compare import compare
+        table = compare(exp, df).table
+    paths = []
+    with fs.style():
+        for metric, scale, ylabel, q in _distribution_quantities(exp):
+            values = df[metric].dropna() if metric in df else pd.Series(dtype=float)
+            if metric != "rmse" and values.isin((0.0, 1.0)).all():
+                continue        # a rate (0 or 1 a trial): its table cell says all a figure could
+            path = folder / f"{metric}.{fmt}"
+            distribution_figure(exp, df, path, metric, scale, ylabel, q, table)
+            if path.exists():
+                paths.append(path)
+        if kind.figures:
+            paths += globals()[kind.figures](exp, df, traces, folder, fmt)
+    for old in folder.iterdir():        # figures of another format, or no longer drawn
+        if old.suffix.lstrip(".") in fs.FORMATS and old not in paths:
+            old.unlink()
     return paths
 
 
-def slam_figures(exp: Experiment, rows: pd.DataFrame, traces: Traces,
-                 folder: Path) -> list[Path]:
+def slam_figures(exp: Experiment, rows: pd.DataFrame, traces: Traces, folder: Path,
+                 fmt: str = "png") -> list[Path]:
     """A SLAM experiment's figures of its first trial (see slam_trial_figures)."""
-    return slam_trial_figures(exp, traces, folder, min(traces.trials))
+    return slam_trial_figures(exp, traces, folder, min(traces.trials), fmt, rows)
 
 
-def localization_figures(exp: Experiment, rows: pd.DataFrame, traces: Traces,
-                         folder: Path) -> list[Path]:
-    """A localization experiment's error curves over the traced trials and its particles in the
-    first."""
-    paths = [folder / "errors.png", folder / "particles.png"]
-    localization_error_figure(exp, traces, paths[0])
-    particle_figure(exp, traces, paths[1], min(traces.trials))
-    return paths
+def localization_figures(exp: Experiment, rows: pd.DataFrame, traces: Traces, folder: Path,
+                         fmt: str = "png") -> list[Path]:
+    """A localization experiment's error curves over the traced trials and its particles in a
+    converged and a failed trial of each filter."""
+    paths = [folder / f"errors.{fmt}", folder / f"particles.{fmt}"]
+    localization_error_figure(exp, traces, paths[0], rows)
+    particle_figure(exp, traces, paths[1], rows)
+    return [p for p in paths if p.exists()]
 
 
-SWEEP_FIGURES = (("rmse", "RMSE per trial"), ("heading_rmse", "heading RMSE (rad)"),
-                 ("landmark_error", "landmark error (m)"))
+SWEEP_FIGURES = ("rmse", "heading_rmse", "landmark_error")
+
+
+def sweep_metrics(exp: Experiment) -> list[str]:
+    """The metrics a sweep of ``exp`` draws: the RMSE, its kind's headline errors, and every
+    per-trial metric its paper's table reports (a convergence rate, a final error)."""
+    kind = kind_of(exp.scenario)
+    out = ["rmse"] + [m for m in kind.headline
+                      if m not in ("rmse", "mse", "diverged_steps", "lik_evals_per_step")]
+    out += [m for m in SWEEP_FIGURES if m in kind.metrics]
+    table = exp.reported
+    for q in (table.quantities if table is not None else ()):
+        if q.metric in kind.metrics:
+            out.append(q.metric)
+    return list(dict.fromkeys(out))
 
 
 def sweep_figures(summ: pd.DataFrame, keys: list[str], out_dir: Path, title: str,
-                  which=SWEEP_FIGURES, where: Path | None = None) -> list[Path]:
-    """One figure per metric of ``which`` ((metric, axis label) pairs) against the first swept
-    key, into ``where`` (default: the folder's figures/, as figures/METRIC.png); a line per
-    filter run (and per value of the other swept keys) with its 95% band; a log axis where the
-    values span decades."""
+                  which=None, where: Path | None = None, fmt: str = "png",
+                  unit: str = "") -> list[Path]:
+    """One figure per metric of ``which`` (default: those of SWEEP_FIGURES the summary holds; a
+    sweep draws sweep_metrics of its experiment) against the first swept key, into ``where``
+    (default: the folder's figures/METRIC.FMT): a line per filter (and per value of the other
+    swept keys; a particle count that the sweep varies is the x axis, not a line of its own) with
+    its 95% band; a log axis where the swept values span two decades or more."""
     folder = out_dir / "figures"
     x = keys[0]
     others = keys[1:]
     paths = []
     numeric = pd.to_numeric(summ[x], errors="coerce")
-    for m, ylabel in which:
-        if f"{m}_mean" not in summ or summ[f"{m}_mean"].isna().all():
-            continue
-        folder.mkdir(parents=True, exist_ok=True)
-        fig, ax = plt.subplots(figsize=(7.2, 4.2))
-        for vals, g in summ.groupby(others + ["label", "particles"], sort=False, dropna=False):
-            vals = vals if isinstance(vals, tuple) else (vals,)
-            g = g.assign(_x=pd.to_numeric(g[x], errors="coerce")).sort_values("_x")
-            name = " ".join([f"{k.split('.')[-1]}={v}" for k, v in zip(others, vals)]
-                            + [str(vals[len(others)])]
-                            + ([f"N={int(vals[-1])}"] if vals[-1] == vals[-1] else []))
-            line, = ax.plot(g["_x"], g[f"{m}_mean"], "o-", ms=4, label=name)
-            ax.fill_between(g["_x"], g[f"{m}_ci_lo"], g[f"{m}_ci_hi"], color=line.get_color(),
-                            alpha=0.18)
-        pos = numeric[numeric > 0]
-        if len(pos) and pos.max() / pos.min() >= 100:
-            ax.set_xscale("log")
-        ax.set_xlabel(x)
-        ax.set_ylabel(ylabel)
-        ax.set_title(f"{title}: {ylabel} (mean and 95% band)")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
-        fig.tight_layout()
-        path = where or folder / f"{m}.png"
-        save_figure(fig, path)
-        paths.append(path)
+    if which is None:
+        which = [m for m in SWEEP_FIGURES if f"{m}_mean" in summ]
+    group = others + ["label"] + ([] if x.endswith("particles") else ["particles"])
+    with fs.style():
+        for m in which:
+            if f"{m}_mean" not in summ or summ[f"{m}_mean"].isna().all():
+                continue
+            ylabel = fs.label(m, unit if m == "rmse" else "")
+            fig, ax = plt.subplots(figsize=(7.8, 4.4))
+            for i, (vals, g) in enumerate(summ.groupby(group, sort=False, dropna=False)):
+                vals = vals if isinstance(vals, tuple) else (vals,)
+                g = g.assign(_x=pd.to_numeric(g[x], errors="coerce")).sort_values("_x")
+                n = g["particles"].dropna().unique()
+                name = " ".join([f"{fs.label(k)} = {v}" for k, v in zip(others, vals)]
+                                + [str(vals[len(others)])]
+                                + ([f"(N={int(n[0])})"] if len(n) == 1
+                                   and not x.endswith("particles") else []))
+                c = fs.colour(i)
+                ax.plot(g["_x"], g[f"{m}_mean"], color=c, ls=fs.linestyle(i),
+                        marker=fs.marker(i), ms=4, lw=1.4, label=name)
+                ax.fill_between(g["_x"], g[f"{m}_ci_lo"], g[f"{m}_ci_hi"], color=c,
+                                alpha=0.15, lw=0)
+            pos = numeric[numeric > 0]
+            if len(pos) and pos.max() / pos.min() >= 100:
+                ax.set_xscale("log")
+            ax.set_xlabel(fs.label(x))
+            ax.set_ylabel(ylabel)
+            ax.set_title(f"{title}: {ylabel}, mean over trials and its 95% interval")
+            fs.legend_outside(ax)
+            path = where or folder / f"{m}.{fmt}"
+            path.parent.mkdir(parents=True, exist_ok=True)
+            save_figure(fig, path)
+            paths.append(path)
     return paths

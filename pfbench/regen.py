@@ -55,7 +55,8 @@ def is_sweep(path: Path) -> bool:
     return isinstance(raw, dict) and "sweep" in raw
 
 
-def write_experiment(exp, res, folder: Path, figures: bool = True) -> tuple:
+def write_experiment(exp, res, folder: Path, figures: bool = True,
+                     figure_format: str = "png") -> tuple:
     """The comparison (table.csv / table.md) and figures of a finished run; returns (comparison,
     figure paths)."""
     from . import tables
@@ -66,31 +67,40 @@ def write_experiment(exp, res, folder: Path, figures: bool = True) -> tuple:
     paths = []
     if figures:
         from .plots import write_figures
-        paths = write_figures(exp, res.rows, folder)
+        paths = write_figures(exp, res.rows, folder, figure_format, cmp.table)
     return cmp, paths
 
 
 def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: str,
-                figures: bool = True) -> tuple:
-    """summary.csv and the figures of a finished sweep; returns (summary, figure paths)."""
+                figures: bool = True, figure_format: str = "png", exp=None) -> tuple:
+    """summary.csv and the figures of a finished sweep (``exp``: a cell's experiment, whose
+    metrics the figures draw); returns (summary, figure paths)."""
     from . import sweep as sw
     summ = sw.summary(trials_df, keys)
     write_csv(folder / "summary.csv", summ)
     if not figures:
         return summ, []
-    from .plots import sweep_figures
-    paths = sweep_figures(summ, keys, folder, name)
+    from .figstyle import FORMATS
+    from .kinds import kind_of
+    from .plots import sweep_figures, sweep_metrics
+    paths = sweep_figures(summ, keys, folder, name, sweep_metrics(exp) if exp else None,
+                          fmt=figure_format, unit=kind_of(exp.scenario).unit if exp else "")
+    figs = folder / "figures"
+    for old in (figs.iterdir() if figs.is_dir() else ()):     # another format, or not drawn now
+        if old.suffix.lstrip(".") in FORMATS and old not in paths:
+            old.unlink()
     if "wall_s" in trials_df and trials_df["wall_s"].notna().any():
         # the run times: beside the timings file, never in figures/ (they depend on the machine)
         sweep_figures(sw.summary(trials_df, keys, ("wall_s",)), keys, folder, name,
-                      (("wall_s", "wall time per trial (s)"),), folder / "timings.png")
+                      ["wall_s"], folder / f"timings.{figure_format}", figure_format)
     return summ, paths
 
 
 def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int | None = None,
                figures: bool = True, resume: bool = False,
                progress: Callable[[int, int], None] | None = None,
-               until_decided: bool = False, max_trials: int | None = None) -> Path:
+               until_decided: bool = False, max_trials: int | None = None,
+               figure_format: str = "png") -> Path:
     """Run one config (an experiment or a sweep) into results/<name>, replacing what the folder
     held; return the folder. With ``until_decided``, an experiment that compares with a paper's
     table runs in batches until its judged cells are decided (pfbench.api.run_until_decided;
@@ -116,15 +126,17 @@ def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int |
             if sweep:
                 df = sw.run_sweep(cells, stage, resume=resume, progress=progress,
                                   executor=executor)
-                write_sweep(df, list(cells[0].values), stage, name, figures)
+                write_sweep(df, list(cells[0].values), stage, name, figures, figure_format,
+                            cells[0].exp)
             elif until_decided and exp.reported is not None:
                 from .api import run_until_decided
                 run_until_decided(exp, out=stage, max_trials=max_trials, resume=resume,
-                                  figures=figures, executor=executor, progress=progress)
+                                  figures=figures, executor=executor, progress=progress,
+                                  figure_format=figure_format)
             else:
                 res = run_experiment(exp, stage, resume=resume, progress=progress,
                                      executor=executor)
-                write_experiment(exp, res, stage, figures)
+                write_experiment(exp, res, stage, figures, figure_format)
         with FolderLock(folder):
             keep_provenance(stage, folder)
             replace_tree(stage, folder, results)

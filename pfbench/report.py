@@ -304,7 +304,8 @@ def comparison(e: Entry) -> list[str]:
 
 
 def _figures(folder: Path, where: Path) -> list[str]:
-    figs = sorted((folder / "figures").glob("*.png"))
+    figs = sorted(p for p in (folder / "figures").glob("*.*")
+                  if p.suffix in (".png", ".svg"))
     return [f"![{f.stem}]({os.path.relpath(f, where).replace(os.sep, '/')})" for f in figs]
 
 

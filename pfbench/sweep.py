@@ -23,7 +23,7 @@ import pandas as pd
 from .config import Experiment, apply_override, read_yaml, validate
 from .errors import UserError
 from .fsutil import FolderLock
-from .metrics import summarize
+from .metrics import METRICS, summarize
 from .runner import run_experiment
 from .store import TIMINGS, write_csv
 from .schema import ConfigError
@@ -190,10 +190,12 @@ def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: boo
 
 
 def summary(trials: pd.DataFrame, keys: list[str],
-            metrics: tuple[str, ...] = SWEEP_METRICS + ("heading_rmse", "landmark_error",
-                                                        "lik_evals_per_step")) -> pd.DataFrame:
-    """Mean and 95% interval of each of ``metrics`` per cell and filter run (the run time
-    ``wall_s`` only when asked: summary.csv holds what the seed determines)."""
+            metrics: tuple[str, ...] | None = None) -> pd.DataFrame:
+    """Mean and 95% interval of each of ``metrics`` (default: every metric of pfbench.metrics the
+    trials hold) per cell and filter run (the run time ``wall_s`` only when asked: summary.csv
+    holds what the seed determines)."""
+    if metrics is None:
+        metrics = tuple(m for m in METRICS if m in trials)
     out = []
     for vals, g in trials.groupby(keys + ["filter", "label"], sort=False, dropna=False):
         r = dict(zip(keys + ["filter", "label"], vals))

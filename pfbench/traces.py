@@ -2,7 +2,7 @@
 
 Figures never run a trial again: a scenario kind names the trials whose traces it keeps (the
 SLAM figures draw trial 0; the localization error curves the first FIGURE_TRIALS trials, its
-particle snapshots trial 0) and what it keeps of them. A trace is a flat mapping of names to
+particle snapshots the first SNAPSHOT_TRIALS) and what it keeps of them. A trace is a flat mapping of names to
 arrays: ``FIELD`` for what the trial shares (``truth_pose``), ``RUN_KEY/FIELD`` for one filter run;
 the world every trial shares (landmarks, beacons) is kept once. Plotted values are stored as
 float32. The runner writes them to ``traces.npz`` in the results folder (pfbench.store) and the
@@ -21,9 +21,12 @@ import numpy as np
 
 # localization error curves are drawn over at most this many trials
 FIGURE_TRIALS = 50
+# The trials whose particle snapshots are kept: a snapshot figure shows, of each filter, a trial
+# where it converged and one where it did not, found among them.
+SNAPSHOT_TRIALS = 10
 # particles kept per snapshot (evenly strided over the set: after resampling their order is
 # arbitrary, so every k-th particle is a fair sample)
-SNAPSHOT_PARTICLES = 2000
+SNAPSHOT_PARTICLES = 600
 
 
 def _f32(a) -> np.ndarray:
@@ -99,14 +102,15 @@ def snapshot_steps(T: int, kidnaps) -> list[int]:
 
 class LocalizationTracer:
     """The first FIGURE_TRIALS trials: each shown run's position error per step and particle
-    count per step (error_runs). Trial 0 also: the particles of snapshot_runs at snapshot_steps
-    (at most SNAPSHOT_PARTICLES of each), their estimates and the true pose there."""
+    count per step (error_runs). The first SNAPSHOT_TRIALS also: the particles of snapshot_runs at
+    snapshot_steps (at most SNAPSHOT_PARTICLES of each), their estimates and the true pose
+    there."""
 
     def keeps(self, exp, trial: int) -> bool:
         return trial < FIGURE_TRIALS
 
     def extras(self, exp, model, data, trial: int) -> dict:
-        if trial != 0:
+        if trial >= SNAPSHOT_TRIALS:
             return {}
         from .filters import FILTERS
         steps = snapshot_steps(data.ctrl.shape[0], model.kidnaps)
@@ -121,7 +125,7 @@ class LocalizationTracer:
             trace[f"{r.key}/error"] = _f32(np.hypot(*(out["pose"][:, :2] - truth.pose[:, :2]).T))
             if "n" in out:
                 trace[f"{r.key}/n"] = np.asarray(out["n"], dtype=np.int32)
-        if trial == 0:
+        if trial < SNAPSHOT_TRIALS:
             steps = np.asarray(snapshot_steps(data.ctrl.shape[0], model.kidnaps))
             trace["steps"] = steps
             trace["truth_pose_at"] = _f32(truth.pose[steps])

@@ -92,11 +92,12 @@ def test_snapshots_of_a_large_set_are_thinned_evenly(tmp_path, write_config):
     run_experiment(exp, tmp_path / "r")
     first = read_traces(tmp_path / "r").trials[0]
     counts, drawn = first[f"{kld.key}/snap_count"], first[f"{kld.key}/snap_drawn"]
-    assert counts[0] == 9000 and drawn[0] == 1800          # every 5th of 9000
+    stride = -(-9000 // SNAPSHOT_PARTICLES)                # every stride-th of 9000
+    assert counts[0] == 9000 and drawn[0] == len(range(0, 9000, stride)) <= SNAPSHOT_PARTICLES
     model, _, data = trial_data(exp, 0)
     out, _ = run_filter(exp, 0, kld, model, data, snapshots=[0])
-    np.testing.assert_array_equal(first[f"{kld.key}/snap_xy"][:1800],
-                                  out["snapshots"][1][0, ::5, :2].astype(np.float32))
+    np.testing.assert_array_equal(first[f"{kld.key}/snap_xy"][:drawn[0]],
+                                  out["snapshots"][1][0, ::stride, :2].astype(np.float32))
 
 
 def test_only_the_first_figure_trials_keep_a_trace(tmp_path, write_config):

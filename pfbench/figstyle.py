@@ -1,0 +1,132 @@
+"""One style for every figure pfbench draws: sizes and fonts, a colour and line style per filter,
+axis labels from a table of names and units (never a raw key), legends outside the data, and the
+file formats (PNG, SVG, PDF), each written with fixed metadata so that the same figure gives the
+same bytes.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+from .fsutil import write_through_temp  # noqa: E402
+
+FORMATS = ("png", "svg", "pdf")
+DPI = 150
+
+# The look of every figure (matplotlib's rcParams), applied with ``style()``.
+RC = {
+    "font.size": 9, "axes.titlesize": 9.5, "axes.labelsize": 9, "legend.fontsize": 8,
+    "xtick.labelsize": 8, "ytick.labelsize": 8, "axes.grid": True, "grid.alpha": 0.3,
+    "axes.spines.top": False, "axes.spines.right": False, "figure.dpi": 100,
+    "savefig.bbox": "tight", "savefig.pad_inches": 0.08,
+    "svg.hashsalt": "pfbench",          # fixed element ids in SVG: the same figure, the same bytes
+    "svg.fonttype": "none",             # text stays text in SVG (searchable, smaller)
+    "pdf.fonttype": 42,
+}
+
+# Fixed metadata per format: no dates, no software versions.
+_META = {"png": {"Software": None}, "svg": {"Date": None, "Creator": None},
+         "pdf": {"CreationDate": None, "ModDate": None, "Producer": None, "Creator": None}}
+
+# A filter's colour, by its place in the experiment (the same in every figure of it), and a line
+# style and marker that tell it apart without colour.
+PALETTE = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
+           "#17becf", "#7f7f7f", "#bcbd22")
+LINESTYLES = ("-", "--", "-.", ":", (0, (5, 1, 1, 1)), (0, (3, 1, 1, 1, 1, 1)))
+MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*", "<", ">")
+
+# Names and units of what figures put on an axis: metrics (pfbench.metrics), the statistics
+# around them, and configuration keys a sweep may vary (the last part of the key).
+LABELS = {
+    "rmse": "RMSE", "mse": "MSE", "heading_rmse": "heading RMSE (rad)",
+    "position_error": "position error (m)", "heading_error": "heading error (rad)",
+    "x_error": "x error (m)", "y_error": "y error (m)", "final_error": "final position error (m)",
+    "error_at_step": "position error at the report step (m)",
+    "converged": "converged (fraction of trials)", "converge_step": "steps to converge",
+    "recovery_steps": "steps to recover", "recovery_failures": "kidnappings not recovered",
+    "mean_particles": "mean particle count", "landmark_error": "landmark error (m)",
+    "association_errors": "wrong associations (fraction)",
+    "dropped_frac": "dropped observations (fraction)", "map_duplicates": "duplicate landmarks",
+    "mean_ess": "mean effective sample size", "resample_count": "resampling steps",
+    "diversity_l1": "diversity after resampling", "distinct_frac": "distinct particles (fraction)",
+    "lik_evals_per_step": "likelihood evaluations per step", "wall_s": "wall time per trial (s)",
+    "particles": "particles N", "speed_mps": "robot speed (m/s)", "steps": "time steps T",
+    "process_noise_var": "process noise variance Q",
+    "measurement_noise_var": "measurement noise variance R",
+    "bearing_noise_deg": "bearing noise (deg)", "range_noise_m": "range noise (m)",
+    "iterations": "swarm iterations", "neff_ratio": "resampling threshold (fraction of N)",
+    "max_range_m": "sensor range (m)", "beacons": "beacons",
+}
+# Units a key's name ends in, for a key the table does not name.
+_UNITS = (("_mps", "m/s"), ("_deg", "deg"), ("_rad", "rad"), ("_m", "m"), ("_s", "s"),
+          ("_hz", "Hz"))
+
+
+def label(key: str, unit: str = "") -> str:
+    """An axis label for a metric or a configuration key ('scenario.speed_mps' -> 'robot speed
+    (m/s)'); ``unit``: the unit of a metric whose unit the scenario decides (an RMSE in m)."""
+    last = key.split(".")[-1].split("@")[0]
+    if last in LABELS:
+        text = LABELS[last]
+        return f"{text} ({unit})" if unit and "(" not in text else text
+    for suffix, u in _UNITS:
+        if last.endswith(suffix):
+            return f"{last[:-len(suffix)].replace('_', ' ')} ({u})"
+    return re.sub(r"_+", " ", last)
+
+
+def colour(i: int) -> str:
+    return PALETTE[i % len(PALETTE)]
+
+
+def linestyle(i: int):
+    return LINESTYLES[i % len(LINESTYLES)]
+
+
+def marker(i: int) -> str:
+    return MARKERS[i % len(MARKERS)]
+
+
+def style():
+    """The context in which every figure is drawn (``with style(): ...``)."""
+    return plt.rc_context(RC)
+
+
+def legend_outside(ax, **kw):
+    """The legend to the right of the axes, outside the data; returns it (None without labels)."""
+    handles, labels = ax.get_legend_handles_labels()
+    if not handles:
+        return None
+    return ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0,
+                     frameon=False, **kw)
+
+
+def legend_below(fig, axes, ncol: int = 3, **kw):
+    """One legend for a figure, under its axes (a figure of panels that share their lines)."""
+    handles, labels = axes[0].get_legend_handles_labels()
+    if not handles:
+        return None
+    return fig.legend(handles, labels, loc="lower center", ncol=ncol, frameon=False,
+                      bbox_to_anchor=(0.5, 0.0), **kw)
+
+
+def save(fig, path: Path) -> Path:
+    """Save ``fig`` to ``path`` in the format its suffix names (.png, .svg, .pdf), through a
+    temporary file, with fixed metadata; close it; return the path."""
+    path = Path(path)
+    fmt = path.suffix.lstrip(".")
+    if fmt not in FORMATS:
+        raise ValueError(f"{path}: a figure is one of {', '.join(FORMATS)}")
+    try:
+        with plt.rc_context(RC):
+            write_through_temp(path, lambda tmp: fig.savefig(tmp, format=fmt, dpi=DPI,
+                                                             metadata=_META[fmt]),
+                               path.suffix)
+    finally:
+        plt.close(fig)
+    return path
