@@ -558,8 +558,10 @@ def tables_(
                 before += seen[0]
         if not check:
             from . import report as rp
+            from . import report_html
             path, _ = rp.write(configs, results, warn=_warn)
-            err.print(f"wrote {path}", markup=False)
+            index, _ = report_html.write(configs, results)
+            err.print(f"wrote {path} and {index}", markup=False)
             return
         t = RichTable(title=f"pfbench tables --check: {len(files)} configs against {results}",
                       title_justify="left")
@@ -591,21 +593,33 @@ def report(
                                "not what the results give."),
     papers: List[str] = _papers_option(),
 ):
-    """Write the reproduction report: every paper's tables beside ours, from the results."""
+    """Write the reproduction report: every paper's tables beside ours, from the results
+    (RESULTS/REPORT.md, and the HTML report in RESULTS/report/)."""
     with _guard():
         _load_kernels()
         _use_papers(papers)
         configs, results = _path(configs, "--configs"), _path(results, "--results")
         out_file = _path(out_file, "--out")
         from . import report as rp
+        from . import report_html
         path, same = rp.write(configs, results, out_file, check=check, warn=_warn)
+        index, differ = report_html.write(configs, results, check=check)
         if not check:
-            err.print(f"wrote {path}", markup=False)
-        elif same:
+            err.print(f"wrote {path} and {index} ({len(differ)} of its files changed)",
+                      markup=False)
+            return
+        if same:
             err.print(f"{path} is up to date", markup=False)
         else:
             err.print(f"{path} is not what the results give: run 'pfbench report'",
                       markup=False)
+        if not differ:
+            err.print(f"{index.parent} is up to date", markup=False)
+        else:
+            err.print(f"{index.parent}: {len(differ)} file(s) not what the results give "
+                      f"({', '.join(differ[:3])}{'...' if len(differ) > 3 else ''}): run "
+                      "'pfbench report'", markup=False)
+        if not same or differ:
             raise typer.Exit(1)
 
 

@@ -195,10 +195,13 @@ def slam_trial_figures(exp: Experiment, traces: Traces, folder: Path, trial: int
         c, ls = fs.colour(i), fs.linestyle(i)
         err = np.hypot(*(out["pose"][:, :2] - truth[:, :2]).T)
         dth = (out["pose"][:, 2] - truth[:, 2] + np.pi) % (2 * np.pi) - np.pi
-        axes[0].plot(t, err, lw=1.0, color=c, ls=ls, label=_run_name(r, rows))
-        axes[1].plot(t[win - 1:], _moving(dth, win, rms=True), lw=1.0, color=c, ls=ls)
+        dense = T > 2000        # in an SVG or PDF, thousands of vertices a line: an image
+        axes[0].plot(t, err, lw=1.0, color=c, ls=ls, label=_run_name(r, rows), rasterized=dense)
+        axes[1].plot(t[win - 1:], _moving(dth, win, rms=True), lw=1.0, color=c, ls=ls,
+                     rasterized=dense)
         if "lm_trace" in out:
-            axes[2].plot(t_obs, out["lm_trace"], lw=1.0, color=c, ls=ls)
+            axes[2].plot(t_obs, out["lm_trace"], lw=1.0, color=c, ls=ls,
+                         rasterized=len(t_obs) > 2000)
     axes[0].set_ylabel("position error (m)")
     axes[1].set_ylabel("heading error (rad)" + (f", RMS over {win} steps" if win > 1 else ""))
     axes[2].set_ylabel("landmark error (m)")
@@ -333,7 +336,7 @@ def particle_figure(exp: Experiment, traces: Traces, path: Path,
             if has:     # above the markers: a collapsed cloud stays visible
                 P = out["snap_xy"][ends[j] - out["snap_drawn"][j]:ends[j]]
                 ax.plot(P[:, 0], P[:, 1], ".", color="tab:blue", ms=2.4, alpha=0.5, mew=0,
-                        zorder=5)
+                        zorder=5, rasterized=True)     # in an SVG or PDF: an image, not points
             if not (0 <= est[0] <= W and 0 <= est[1] <= H):
                 ax.text(0.97, 0.97, "estimate off the field", transform=ax.transAxes,
                         fontsize=6, ha="right", va="top", color="green")
@@ -369,12 +372,14 @@ def particle_figure(exp: Experiment, traces: Traces, path: Path,
 
 
 def write_figures(exp: Experiment, rows: list[dict] | pd.DataFrame, out_dir: Path,
-                  fmt: str = "png", table: pd.DataFrame | None = None) -> list[Path]:
+                  fmt: str = "png", table: pd.DataFrame | None = None,
+                  into: Path | None = None) -> list[Path]:
     """Write the experiment's figures into ``out_dir/figures`` (``fmt``: png, svg or pdf) from its
     rows, its comparison's ``table`` (our means with the intervals the table reports, the
     paper's values; computed here when None) and the traces its run kept
     (``out_dir/traces.npz``); return their paths. Figures of other formats already there are
-    removed (a folder holds one format)."""
+    removed (a folder holds one format). ``into``: draw into that folder instead (the HTML
+    report's)."""
     if fmt not in fs.FORMATS:
         raise UserError(f"--figure-format {fmt}: one of {', '.join(fs.FORMATS)}")
     kind = kind_of(exp.scenario)
@@ -382,7 +387,7 @@ def write_figures(exp: Experiment, rows: list[dict] | pd.DataFrame, out_dir: Pat
     if kind.figures and (traces is None or not traces.trials):
         raise UserError(f"{out_dir}: no traces.npz to draw the figures from; run the "
                         "experiment again with --resume, which keeps its trials")
-    folder = Path(out_dir) / "figures"
+    folder = Path(into) if into is not None else Path(out_dir) / "figures"
     folder.mkdir(parents=True, exist_ok=True)
     df = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(rows)
     if table is None and exp.reported is not None and len(df):
@@ -441,13 +446,13 @@ def sweep_metrics(exp: Experiment) -> list[str]:
 
 def sweep_figures(summ: pd.DataFrame, keys: list[str], out_dir: Path, title: str,
                   which=None, where: Path | None = None, fmt: str = "png",
-                  unit: str = "") -> list[Path]:
+                  unit: str = "", into: Path | None = None) -> list[Path]:
     """One figure per metric of ``which`` (default: those of SWEEP_FIGURES the summary holds; a
     sweep draws sweep_metrics of its experiment) against the first swept key, into ``where``
     (default: the folder's figures/METRIC.FMT): a line per filter (and per value of the other
     swept keys; a particle count that the sweep varies is the x axis, not a line of its own) with
     its 95% band; a log axis where the swept values span two decades or more."""
-    folder = out_dir / "figures"
+    folder = Path(into) if into is not None else out_dir / "figures"
     x = keys[0]
     others = keys[1:]
     paths = []

@@ -1,0 +1,344 @@
+"""The HTML reproduction report: ``results/report/index.html`` and a page per paper.
+
+The same content as REPORT.md (pfbench.report gathers it: every table recomputed from its
+trials), laid out for a browser: the summary, every table of a paper beside ours with the
+intervals and the verdicts (coloured by verdict and named in words, so it reads without colour
+too), the figures as SVG, the choices each paper left open, and the provenance of every result
+(commit, versions, seed). Static files: no server, no JavaScript; they open from the file system.
+The pages come from jinja2 templates (``TEMPLATES``); the SVG figures are drawn from the trials
+and traces of each results folder (pfbench.plots), into ``report/figures/<experiment>/``.
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import jinja2
+
+from . import __version__
+from . import papers as pp
+from . import report as rp
+from . import tables as tb
+from .verdicts import DEFINITIONS
+
+CSS = """
+body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; margin: 0;
+       color: #1d1d1f; background: #fff; line-height: 1.45; font-size: 15px; }
+main { max-width: 1180px; margin: 0 auto; padding: 1.2em 1.5em 4em; }
+nav { font-size: 0.9em; margin-bottom: 1em; }
+h1 { font-size: 1.6em; } h2 { font-size: 1.3em; margin-top: 2em; border-bottom: 1px solid #ddd; }
+h3 { font-size: 1.1em; margin-top: 1.6em; }
+table { border-collapse: collapse; margin: 0.6em 0 1em; font-size: 0.86em; width: 100%; }
+th, td { border: 1px solid #d5d5d5; padding: 0.25em 0.45em; text-align: left;
+         vertical-align: top; overflow-wrap: anywhere; }
+th { background: #f3f3f3; }
+td.num { white-space: nowrap; font-variant-numeric: tabular-nums; }
+.wrap { max-width: 100%; overflow-x: auto; }
+.verdict { font-weight: 600; }
+.reproduced { background: #e3f4e1; } .differs { background: #fbe3e1; }
+.inconclusive { background: #fff4d6; } .not-comparable { background: #eeeeee; }
+.verdict .mark { font-family: monospace; margin-right: 0.3em; }
+figure { margin: 1em 0; } figure img { max-width: 100%; height: auto; border: 1px solid #eee; }
+figcaption { font-size: 0.85em; color: #555; }
+.prov { font-size: 0.85em; color: #444; }
+code { background: #f5f5f5; padding: 0 0.2em; }
+ul.notes li { margin-bottom: 0.3em; font-size: 0.92em; }
+"""
+
+# A verdict's mark: readable without colour (and in print).
+MARKS = {"reproduced": "[=]", "differs": "[x]", "inconclusive": "[?]",
+         "not comparable": "[~]", "": ""}
+
+TEMPLATES = {
+    "base.html": """<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<title>{{ title }}</title><style>{{ css }}</style></head>
+<body><main>
+<nav><a href="index.html">pfbench reproduction report</a>{% for p in papers %} &middot;
+<a href="{{ p.page }}">{{ p.key }}</a>{% endfor %}</nav>
+{% block body %}{% endblock %}
+<p class="prov">Written by <code>pfbench report</code> (pfbench {{ version }}) from the configs and
+trials of this project; every table is recomputed from its <code>trials.csv</code>.</p>
+</main></body></html>
+""",
+    "index.html": """{% extends "base.html" %}{% block body %}
+<h1>pfbench reproduction report</h1>
+<p>Each paper's tables re-computed from scratch by Monte Carlo trials, beside the values the paper
+reports, with 95% intervals and a verdict for every value.</p>
+<h2>What the verdicts mean</h2>
+<ul class="notes">{% for d in definitions %}<li>{{ d }}</li>{% endfor %}</ul>
+<p>Marks: {% for k, m in marks %}<span class="verdict {{ k|replace(' ', '-') }}"><span class="mark">{{ m }}</span>{{ k }}</span>{% if not loop.last %}, {% endif %}{% endfor %}.</p>
+<h2>Summary</h2>
+<div class="wrap"><table id="summary">
+<tr>{% for h in summary_head %}<th>{{ h }}</th>{% endfor %}</tr>
+{% for row in summary %}<tr>{% for c in row %}<td{% if loop.index > 3 %} class="num"{% endif %}>{{ c|safe }}</td>{% endfor %}</tr>
+{% endfor %}</table></div>
+<h2>Papers</h2>
+<ul>{% for p in papers %}<li><a href="{{ p.page }}">{{ p.key }}</a>: {{ p.citation }}</li>{% endfor %}</ul>
+{% endblock %}
+""",
+    "paper.html": """{% extends "base.html" %}{% block body %}
+<h1>{{ paper.key }}</h1>
+<p>{{ paper.citation }}</p>
+{% if paper.about %}<p>{{ paper.about }}</p>{% endif %}
+{% if findings %}<h2>What reproduced and what did not</h2>
+<ul class="notes">{% for f in findings %}<li>{{ f }}</li>{% endfor %}</ul>{% endif %}
+{% for s in sections %}
+<h2 id="{{ s.name }}">{{ s.title }}</h2>
+{% if s.caption %}<p>{{ s.caption }}</p>{% endif %}
+{% if s.description %}<p>Ours: {{ s.description }}.</p>{% endif %}
+<p class="prov">{{ s.provenance|safe }}</p>
+{% if s.status != "ok" %}<p><strong>Not reported: {{ s.status }}.</strong></p>{% else %}
+{% for t in s.tables %}
+{% if t.title %}<h3>{{ t.title }}</h3>{% endif %}
+<div class="wrap"><table class="results">
+<tr>{% for h in t.head %}<th>{{ h }}</th>{% endfor %}</tr>
+{% for row in t.rows %}<tr>{% for c in row %}{% if c.kind is defined %}<td class="verdict {{ c.kind|replace(' ', '-') }}"><span class="mark">{{ c.mark }}</span>{{ c.text }}</td>{% else %}<td{% if c.num %} class="num"{% endif %}>{{ c.text }}</td>{% endif %}{% endfor %}</tr>
+{% endfor %}</table></div>
+{% endfor %}
+{% if s.reasons %}<ul class="notes">{% for r in s.reasons %}<li>Not comparable ({{ loop.index }}): {{ r }}.</li>{% endfor %}</ul>{% endif %}
+{% if s.notes %}<h3>Measured here</h3><ul class="notes">{% for n in s.notes %}<li>{{ n }}</li>{% endfor %}</ul>{% endif %}
+{% if s.paper_notes %}<h3>The paper's table and how we read it</h3><ul class="notes">{% for n in s.paper_notes %}<li>{{ n }}</li>{% endfor %}</ul>{% endif %}
+{% for f in s.figures %}<figure><img src="{{ f.src }}" alt="{{ f.alt }}"><figcaption>{{ f.alt }}</figcaption></figure>
+{% endfor %}{% endif %}
+{% endfor %}
+{% if choices %}<h2>Choices the paper left open, and the values used</h2>
+<div class="wrap"><table class="choices"><tr><th>The paper</th><th>Key</th><th>Value (config)</th></tr>
+{% for c in choices %}<tr><td>{{ c[0] }}</td><td><code>{{ c[1] }}</code></td><td>{{ c[2] }}</td></tr>
+{% endfor %}</table></div>{% endif %}
+{% endblock %}
+""",
+}
+
+
+def _emphasis(text: str):
+    """'*differs*: ...' (the verdicts' definitions are Markdown) with <em> for the stars."""
+    import re
+    from markupsafe import Markup, escape
+    return Markup(re.sub(r"\*([^*]+)\*", r"<em>\1</em>", str(escape(text))))
+
+
+def _env() -> jinja2.Environment:
+    return jinja2.Environment(loader=jinja2.DictLoader(TEMPLATES),
+                              autoescape=jinja2.select_autoescape(["html"]),
+                              keep_trailing_newline=True)
+
+
+def _cell(text, num: bool = False) -> dict:
+    return {"text": str(text), "num": num}
+
+
+def _verdict(kind: str, text: str) -> dict:
+    kind = kind if kind in MARKS else ""
+    return {"kind": kind or "none", "mark": MARKS[kind], "text": text or "-"}
+
+
+def _comparison_tables(e: rp.Entry) -> tuple[list[dict], list[str]]:
+    """The paper's table beside ours (a table per quantity: every row for the first, the rows the paper
+    gives for the others), the factors, the per-run table; and the reasons for 'not comparable',
+    numbered once."""
+    table = e.exp.reported
+    reasons: list[str] = []
+    out = []
+    for k, q in enumerate(table.quantities):
+        rows = []
+        given = [r for _, r in e.table.iterrows() if not tb._missing(r[f"paper_{q.key}"])]
+        for r in ([r for _, r in e.table.iterrows()] if k == 0 or not given else given):
+            v = r[f"verdict_{q.key}"] or "-"
+            if v.startswith("not comparable: "):
+                why = v.removeprefix("not comparable: ")
+                if why not in reasons:
+                    reasons.append(why)
+                v = f"not comparable ({reasons.index(why) + 1})"
+            rows.append([_cell(r["label"]), _cell(rp._n(r["particles"]), True),
+                         _cell(int(r["trials"]), True), _cell(tb.ours_cell(r, q), True),
+                         _cell(tb.fmt(r[f"paper_{q.key}"], 6), True),
+                         _verdict(r[f"kind_{q.key}"] or "", v)])
+        out.append({"title": q.title, "head": ["Filter", "N", "Trials", "Ours [95% CI]",
+                                              "Paper", "Verdict"], "rows": rows})
+    if e.comparison.factors:
+        rows = [[_cell(f"{f['quantity']}: {f['to']} / {f['from']}"),
+                 _cell(tb.fmt(f["paper"], 3), True),
+                 _cell(f"{tb.fmt(f['ours'], 3)} [{tb.fmt(f['lo'], 3)}, {tb.fmt(f['hi'], 3)}]",
+                       True), _verdict(f["kind"] or "", f["verdict"] or "-")]
+                for f in e.comparison.factors]
+        out.append({"title": "Factors between the paper's rows (paired trials)",
+                    "head": ["Factor", "Paper", "Ours [95% CI]", "Verdict"], "rows": rows})
+    if e.comparison.per_trial is not None:
+        title, head, cells = tb.per_trial_cells(e.comparison.per_trial)
+        out.append({"title": title, "head": head,
+                    "rows": [[_cell(c, i > 0) for i, c in enumerate(row)] for row in cells]})
+    return out, reasons
+
+
+def _sweep_tables(e: rp.Entry) -> list[dict]:
+    keys = e.sweep_keys
+    rows = [[_cell(rp._fmt_value(r[k]), True) for k in keys]
+            + [_cell(r["label"]), _cell(rp._n(r["particles"]), True),
+               _cell(f"{tb.fmt(r['rmse_mean'])} [{tb.fmt(r['rmse_ci_lo'])}, "
+                     f"{tb.fmt(r['rmse_ci_hi'])}]", True)]
+            for _, r in e.table.iterrows()]
+    return [{"title": f"Swept: {', '.join(keys)}",
+             "head": keys + ["Filter", "N", "RMSE mean [95% CI]"], "rows": rows}]
+
+
+def _provenance_html(e: rp.Entry) -> str:
+    from markupsafe import escape
+    m = e.meta or {}
+    v = m.get("versions", {})
+    commit = m.get("git_commit") or "unknown"
+    cells = f" in each of {len(e.cells)} cells" if e.cells else ""
+    versions = ", ".join(f"{k} {escape(str(x))}" for k, x in v.items())
+    return (f"<code>{escape(e.path.as_posix())}</code> &rarr; <code>{escape(e.folder.as_posix())}"
+            f"</code>: {e.exp.trials} trials{cells}, seed {e.exp.seed}, scenario "
+            f"<code>{escape(e.exp.scenario)}</code>, experiment hash <code>{e.exp.hash}</code>; "
+            f"results of commit <code>{escape(commit[:12])}</code>"
+            + (f", on {escape(str(m.get('platform')))}" if m.get("platform") else "")
+            + (f"; {versions}" if versions else "") + ".")
+
+
+def _draw_figures(e: rp.Entry, into: Path) -> list[Path]:
+    """The entry's figures as SVG into ``into`` (from its trials and traces)."""
+    from . import plots
+    from .store import read_trials
+    into.mkdir(parents=True, exist_ok=True)
+    if e.cells:
+        from .kinds import kind_of
+        return plots.sweep_figures(e.table, e.sweep_keys, into, e.name,
+                                   plots.sweep_metrics(e.exp), fmt="svg",
+                                   unit=kind_of(e.exp.scenario).unit, into=into)
+    rows = read_trials(e.folder / "trials.csv").rows
+    return plots.write_figures(e.exp, rows, e.folder, "svg", e.table, into=into)
+
+
+def _section(e: rp.Entry, out_dir: Path, figures: bool) -> dict:
+    table = e.exp.reported
+    s = {"name": e.name, "status": e.status, "description": e.exp.description,
+         "provenance": _provenance_html(e), "tables": [], "reasons": [], "notes": [],
+         "paper_notes": [], "figures": []}
+    if e.cells:
+        s["title"] = f"Sweep: {e.path.stem}"
+        s["caption"] = None
+    else:
+        s["title"] = f"{rp._table_name(e.exp.table)}: {e.path.stem}"
+        s["caption"] = (f"The paper's table: {table.caption}."
+                        + (f" The paper states {table.runs} run{'s' if table.runs > 1 else ''} "
+                           "behind its values." if table.runs else "")) if table else None
+    if e.status != "ok":
+        return s
+    if e.cells:
+        s["tables"] = _sweep_tables(e)
+    elif table is not None:
+        s["tables"], s["reasons"] = _comparison_tables(e)
+        s["notes"] = [n for n in tb.footnotes(e.comparison) if not n.startswith("'RMSE - ")]
+        s["paper_notes"] = list(table.notes)
+    else:
+        rows = [[_cell(r["label"]), _cell(rp._n(r["particles"]), True),
+                 _cell(int(r["trials"]), True),
+                 _cell(f"{tb.fmt(r['rmse_mean'])} [{tb.fmt(r['rmse_ci_lo'])}, "
+                       f"{tb.fmt(r['rmse_ci_hi'])}]", True)] for _, r in e.table.iterrows()]
+        s["tables"] = [{"title": None, "head": ["Filter", "N", "Trials", "RMSE mean [95% CI]"],
+                        "rows": rows}]
+    if figures:
+        into = out_dir / "figures" / e.name
+        for p in sorted(_draw_figures(e, into)):
+            s["figures"].append({"src": os.path.relpath(p, out_dir).replace(os.sep, "/"),
+                                 "alt": f"{e.name}: {p.stem.replace('_', ' ')}"})
+    return s
+
+
+def _choice_rows(paper: pp.Paper, entries: list[rp.Entry]) -> list[tuple[str, str, str]]:
+    rows = []
+    for what, keys in paper.choices:
+        for key in keys:
+            by_value: dict[str, list[str]] = {}
+            for e in entries:
+                v = rp.config_value(e, key)
+                if v:
+                    by_value.setdefault(", ".join(rp._fmt_value(x) for x in v), []).append(
+                        e.path.stem)
+            if by_value:
+                rows.append((what, key, "; ".join(f"{v} ({', '.join(n)})"
+                                                  for v, n in by_value.items())))
+    return rows
+
+
+def build(configs: Path, results: Path, out_dir: Path, figures: bool = True) -> dict[str, bytes]:
+    """Every file of the HTML report, by its path under ``out_dir``: index.html, a page per
+    paper, and (``figures``) the SVG figures."""
+    env = _env()
+    entries = rp.collect(configs, results)
+    papers = {e.exp.reference.key: e.exp.reference for e in entries if e.exp.reference}
+    for key, path in pp.available(pp.folders_for_configs(configs)).items():
+        if key not in papers:
+            p = pp.read(path)
+            if not p.tables and p.findings:
+                papers[key] = p
+    by_name = {e.name: e for e in entries}
+    nav = [{"key": k, "page": f"{k}.html", "citation": papers[k].citation} for k in sorted(papers)]
+    files: dict[str, bytes] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        stage = Path(tmp)
+        summary = []
+        for e in sorted(entries, key=lambda e: (e.exp.paper or "~", e.cells is not None,
+                                                e.exp.table or "", e.path.stem)):
+            row = rp._summary_row(e)
+            page = f"{e.exp.paper}.html#{e.name}" if e.exp.paper in papers else None
+            row[2] = (f'<a href="{page}">{e.path.stem}</a>' if page else e.path.stem)
+            summary.append([str(c).replace("`", "") if i != 2 else c for i, c in enumerate(row)])
+        files["index.html"] = env.get_template("index.html").render(
+            title="pfbench reproduction report", css=CSS, papers=nav, version=__version__,
+            definitions=[_emphasis(d) for d in DEFINITIONS], marks=[(k, m) for k, m in MARKS.items() if k],
+            summary_head=["Paper", "Table", "Config", "Trials", "Paper values", "Reproduced",
+                          "Differ", "Inconclusive", "Not comparable",
+                          "Ordered pairs: same / opposite / unresolved"],
+            summary=summary).encode()
+        for key in sorted(papers):
+            p = papers[key]
+            mine = [e for e in entries if e.exp.paper == key]
+            mine.sort(key=lambda e: (e.cells is not None, e.exp.table or "", e.path.stem))
+            sections = [_section(e, stage, figures) for e in mine]
+            files[f"{key}.html"] = env.get_template("paper.html").render(
+                title=f"{key}: pfbench reproduction", css=CSS, papers=nav, version=__version__,
+                paper=p, sections=sections, choices=_choice_rows(p, mine or entries),
+                # a broken reference: REPORT.md's build has said so; here it is left out
+                findings=rp.findings(p, by_name, lambda _: None) if p.findings else [],
+                ).encode()
+        for path in sorted(stage.rglob("*.svg")):
+            files[path.relative_to(stage).as_posix()] = path.read_bytes()
+    return files
+
+
+def write(configs: Path, results: Path, check: bool = False, figures: bool = True
+          ) -> tuple[Path, list[str]]:
+    """Write the HTML report into ``results/report/`` (replacing what it held), or with ``check``
+    compare; return (its index, the files that differ from what the folder held)."""
+    from .fsutil import FolderLock
+    out_dir = Path(results) / "report"
+    files = build(Path(configs), Path(results), out_dir, figures)
+    held = {p.relative_to(out_dir).as_posix(): p.read_bytes()
+            for p in out_dir.rglob("*") if p.is_file()} if out_dir.is_dir() else {}
+    differ = sorted(k for k in set(files) | set(held) if files.get(k) != held.get(k))
+    if check:
+        return out_dir / "index.html", differ
+    with FolderLock(results, "--results"):      # not while 'tables' rewrites the results
+        _replace(out_dir, files, held)
+    return out_dir / "index.html", differ
+
+
+def _replace(out_dir: Path, files: dict[str, bytes], held: dict[str, bytes]) -> None:
+    """Make ``out_dir`` hold ``files`` and nothing else (only what changed is rewritten)."""
+    from .fsutil import atomic_write
+    for name in set(held) - set(files):
+        (out_dir / name).unlink()
+    for name, data in files.items():
+        path = out_dir / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if held.get(name) != data:
+            atomic_write(path, data)
+    for d in sorted((p for p in out_dir.rglob("*") if p.is_dir()), reverse=True):
+        if not any(d.iterdir()):
+            d.rmdir()
+

@@ -1,0 +1,143 @@
+"""The HTML report (issue 18, part 1): every table and figure there, verdicts readable without
+colour, no script, and in a headless browser (where one is installed) nothing overflows."""
+import re
+import shutil
+from html.parser import HTMLParser
+from pathlib import Path
+
+import pytest
+
+from pfbench import report_html
+from pfbench.report import collect
+
+from .conftest import ROOT
+
+
+class _Page(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.tables, self.imgs, self.scripts, self.links = 0, [], 0, []
+        self.verdicts = []
+        self._verdict = None
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if tag == "table":
+            self.tables += 1
+        elif tag == "img":
+            self.imgs.append(a["src"])
+        elif tag == "script":
+            self.scripts += 1
+        elif tag == "a":
+            self.links.append(a.get("href", ""))
+        elif tag == "td" and "verdict" in (a.get("class") or ""):
+            self._verdict = ""
+
+    def handle_data(self, data):
+        if self._verdict is not None:
+            self._verdict += data
+
+    def handle_endtag(self, tag):
+        if tag == "td" and self._verdict is not None:
+            self.verdicts.append(self._verdict)
+            self._verdict = None
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    """The committed results' HTML report, written into a copy of the results folder."""
+    results = tmp_path_factory.mktemp("r") / "results"
+    shutil.copytree(ROOT / "results", results, ignore=shutil.ignore_patterns("report"))
+    index, _ = report_html.write(ROOT / "configs", results)
+    return index.parent
+
+
+def _parse(path: Path) -> _Page:
+    p = _Page()
+    p.feed(path.read_text(encoding="utf-8"))
+    return p
+
+
+@pytest.mark.slow
+def test_every_paper_table_and_figure_is_in_the_report(report, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    entries = collect(ROOT / "configs", ROOT / "results")
+    index = _parse(report / "index.html")
+    assert index.scripts == 0 and index.tables == 1
+    for e in entries:
+        assert e.status == "ok", e.name
+        page = report / f"{e.exp.paper}.html"
+        assert f"{e.exp.paper}.html#{e.name}" in index.links
+        parsed = _parse(page)
+        assert parsed.scripts == 0
+        text = page.read_text(encoding="utf-8")
+        assert f'id="{e.name}"' in text
+        figures = sorted((ROOT / "results" / e.name / "figures").glob("*.png"))
+        for f in figures:      # every committed figure, as SVG
+            src = f"figures/{e.name}/{f.stem}.svg"
+            assert src in parsed.imgs, (e.name, src)
+            assert (report / src).read_bytes().startswith(b"<?xml")
+        if e.exp.reported is not None and e.table is not None:
+            for q in e.exp.reported.quantities:
+                assert f"<h3>{q.title}</h3>" in text.replace("&#39;", "'"), (e.name, q.title)
+    # a verdict says itself in words and a mark, not only in colour
+    verdicts = [v for p in report.glob("*.html") for v in _parse(p).verdicts]
+    assert any(v.startswith("[x]differs") for v in verdicts)
+    assert any(v.startswith("[=]reproduced") for v in verdicts)
+    assert all(re.match(r"^(\[.\])?", v) for v in verdicts)
+
+
+def test_the_report_is_the_same_bytes_again_and_check_sees_a_change(tmp_path):
+    results = tmp_path / "results"
+    shutil.copytree(ROOT / "results", results, ignore=shutil.ignore_patterns("report"))
+    report_html.write(ROOT / "configs", results, figures=False)
+    report = results / "report"
+    (report / "ifa2021.html").write_text("edited")
+    (report / "stray.html").write_text("not the report's")
+    # a second build gives the same bytes but for the two files touched, which it puts back
+    _, differ = report_html.write(ROOT / "configs", results, figures=False)
+    assert differ == ["ifa2021.html", "stray.html"]
+    assert not (report / "stray.html").exists()
+    assert "<!DOCTYPE html>" in (report / "ifa2021.html").read_text()
+
+
+def _browser():
+    chrome = shutil.which("chromium") or shutil.which("chromium-browser") or \
+        shutil.which("google-chrome")
+    driver = shutil.which("chromedriver")
+    try:
+        from selenium import webdriver
+        from selenium.webdriver.chrome.service import Service
+    except ImportError:
+        pytest.skip("selenium is not installed")
+    if not chrome or not driver:
+        pytest.skip("no headless Chromium and chromedriver installed")
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = chrome
+    for a in ("--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1280,900",
+              "--disable-dev-shm-usage"):
+        opts.add_argument(a)
+    return webdriver.Chrome(service=Service(driver), options=opts)
+
+
+@pytest.mark.slow
+def test_in_a_browser_every_figure_loads_and_nothing_overflows(report):
+    browser = _browser()
+    try:
+        for page in sorted(report.glob("*.html")):
+            browser.get(page.resolve().as_uri())
+            got = browser.execute_script("""
+                const W = document.documentElement.clientWidth;
+                const imgs = [...document.images].map(i => [i.getAttribute('src'),
+                    i.complete && i.naturalWidth > 0, i.getBoundingClientRect().right <= W + 1]);
+                const tables = [...document.querySelectorAll('table')].map(t =>
+                    t.getBoundingClientRect().right <= W + 1 &&
+                    t.parentElement.scrollWidth <= t.parentElement.clientWidth + 1);
+                return {page: document.documentElement.scrollWidth <= W + 1, imgs, tables};
+            """)
+            assert got["page"], f"{page.name}: the page is wider than the window"
+            assert all(ok for _, ok, _ in got["imgs"]), (page.name, got["imgs"])
+            assert all(fits for _, _, fits in got["imgs"]), page.name
+            assert got["tables"] and all(got["tables"]), (page.name, got["tables"])
+    finally:
+        browser.quit()
