@@ -283,15 +283,28 @@ def localization_error_figure(exp: Experiment, traces: Traces, path: Path,
     return medians
 
 
-def _snapshot_trials(exp: Experiment, traces: Traces, rows: pd.DataFrame, run) -> list:
+def _outcome(rows: pd.DataFrame, kidnapped: bool) -> pd.Series | None:
+    """Per row, 1.0 where the filter succeeded, else 0.0: converged, or with kidnappings,
+    recovered from every one; None when the rows do not say."""
+    if rows is None:
+        return None
+    if kidnapped and "recovery_failures" in rows:
+        return (rows["recovery_failures"] == 0).astype(float)
+    return rows["converged"] if "converged" in rows else None
+
+
+def _snapshot_trials(exp: Experiment, traces: Traces, rows: pd.DataFrame, run,
+                     kidnapped: bool = False) -> list:
     """[(trial, outcome)] to show of ``run``: among the trials with snapshots, the first where it
-    converged and the first where it did not (one of each outcome the trials have)."""
+    succeeded (converged; with kidnappings, recovered from every one) and the first where it did
+    not (one of each outcome the trials have)."""
     have = sorted(k for k, tr in traces.trials.items() if f"{run.key}/snap_xy" in tr)
     if not have:
         return []
-    if rows is None or "converged" not in rows:
+    ok = _outcome(rows, kidnapped)
+    if ok is None:
         return [(have[0], None)]
-    conv = rows[rows["filter"] == run.key].set_index("trial")["converged"]
+    conv = rows.assign(_ok=ok)[rows["filter"] == run.key].set_index("trial")["_ok"]
     out = []
     for want in (1.0, 0.0):
         k = next((k for k in have if k in conv.index and conv[k] == want), None)
@@ -306,9 +319,10 @@ def particle_figure(exp: Experiment, traces: Traces, path: Path,
     steps: of each, a trial where it converged and one where it did not (each row says which
     trial, and how often the filter converged over all trials)."""
     world = traces.world
+    kidnapped = bool(np.asarray(world["kidnaps"]).size)
     panels = []                 # (run, trial, outcome)
     for r in snapshot_runs(exp):
-        panels += [(r, k, o) for k, o in _snapshot_trials(exp, traces, rows, r)]
+        panels += [(r, k, o) for k, o in _snapshot_trials(exp, traces, rows, r, kidnapped)]
     first = runs_in(traces.trials[panels[0][1]])[""] if panels else None
     if first is None:
         return
@@ -322,10 +336,13 @@ def particle_figure(exp: Experiment, traces: Traces, path: Path,
         has = "snap_xy" in out
         ends = np.cumsum(out["snap_drawn"]) if has else None
         rate = ""
-        if rows is not None and "converged" in rows:
-            c = rows.loc[rows["filter"] == r.key, "converged"].dropna()
-            rate = f"\n(converges in {c.mean():.0%})" if len(c) else ""
-        what = {1.0: "converged", 0.0: "did not converge", None: ""}[outcome]
+        ok = _outcome(rows, kidnapped)
+        if ok is not None:
+            c = ok[rows["filter"] == r.key].dropna()
+            rate = (f"\n({'recovers' if kidnapped else 'converges'} in {c.mean():.0%})"
+                    if len(c) else "")
+        what = ({1.0: "recovered", 0.0: "did not recover", None: ""} if kidnapped else
+                {1.0: "converged", 0.0: "did not converge", None: ""})[outcome]
         for j, t in enumerate(steps):
             ax = axes[i, j]
             W, H = float(world["area"][0]), float(world["area"][1])
@@ -366,7 +383,9 @@ def particle_figure(exp: Experiment, traces: Traces, path: Path,
     w, h = float(world["area"][0]), float(world["area"][1])
     fig.suptitle(f"{exp.name}: particles (blue) over the {w:g} m x {h:g} m field, beacons "
                  "(black), true pose (red circle), estimate (green x); of each filter a trial "
-                 "where it converged and one where it did not", fontsize=9)
+                 + ("where it recovered from every kidnapping and one where it did not"
+                    if kidnapped else "where it converged and one where it did not"),
+                 fontsize=9)
     fig.tight_layout()
     save_figure(fig, path)
 

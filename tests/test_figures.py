@@ -101,3 +101,15 @@ def test_a_snapshot_shows_a_converged_and_a_failed_trial():
     assert plots._snapshot_trials(None, T, rows, Run) == [(2, 1.0), (0, 0.0)]
     rows["converged"] = 0.0
     assert plots._snapshot_trials(None, T, rows, Run) == [(0, 0.0)]
+
+
+def test_with_kidnappings_the_outcome_is_recovering_from_every_one():
+    class Run:
+        key = "srl@100"
+
+    class T:
+        trials = {k: {"srl@100/snap_xy": 1} for k in range(3)}
+    rows = pd.DataFrame({"trial": range(3), "filter": ["srl@100"] * 3,
+                         "converged": [1.0, 1.0, 1.0], "recovery_failures": [1.0, 0.0, 2.0]})
+    assert plots._snapshot_trials(None, T, rows, Run, kidnapped=True) == [(1, 1.0), (0, 0.0)]
+    assert plots._snapshot_trials(None, T, rows, Run) == [(0, 1.0)]
