@@ -451,9 +451,16 @@ def sweep(
             from .regen import write_sweep
             summ, figs = write_sweep(trials_df, keys, folder, name, True, figure_format,
                                      cells[0].exp)
-        t = RichTable(title=f"{name}: sweep over {', '.join(keys)}", title_justify="left")
-        for h in keys + ["Filter", "N", "Trials", "RMSE mean [95% CI]", "ms/trial"]:
-            t.add_column(h, overflow="fold")
+        from .figstyle import label
+        from .plots import sweep_metrics
+        extra = [m for m in sweep_metrics(cells[0].exp)[1:] if f"{m}_mean" in summ][:2]
+        out.print(f"{name}: sweep over {', '.join(keys)}, {cells[0].exp.trials} trials a cell; "
+                  f"means, every metric with its interval in {folder}/summary.csv",
+                  markup=False, style="bold")
+        t = RichTable(show_edge=False)
+        for h in ([k.split(".")[-1] for k in keys] + ["Filter", "N", "RMSE [95% CI]"]
+                  + [label(m) for m in extra] + ["ms/trial"]):
+            t.add_column(h, no_wrap=h in ("RMSE [95% CI]", "Filter"))
         # the run times (not in summary.csv): the same cells and filter runs, in the same order
         wall = sw.summary(trials_df, keys, ("wall_s",))
         ms_per_trial = (list(1e3 * wall["wall_s_mean"]) if "wall_s_mean" in wall
@@ -461,8 +468,9 @@ def sweep(
         for (_, r), ms in zip(summ.iterrows(), ms_per_trial):
             n = r["particles"]
             t.add_row(*[str(r[k]) for k in keys], str(r["label"]),
-                      "-" if n != n or n is None else str(int(n)), str(int(r["trials"])),
-                      f"{r['rmse_mean']:.4g} [{r['rmse_ci_lo']:.4g}, {r['rmse_ci_hi']:.4g}]",
+                      "-" if n != n or n is None else str(int(n)),
+                      f"{r['rmse_mean']:.3g} [{r['rmse_ci_lo']:.3g}, {r['rmse_ci_hi']:.3g}]",
+                      *[f"{r[f'{m}_mean']:.3g}" for m in extra],
                       "-" if ms != ms else f"{ms:.3g}")
         out.print(t)
         err.print(f"wrote {folder}/trials.csv, summary.csv, {len(figs)} figures and a results "

@@ -374,17 +374,28 @@ def _sweep_section(e: Entry, where: Path) -> list[str]:
     if e.status != "ok":
         return out
     keys = e.sweep_keys
-    s = e.table
-    out += [f"Swept: {', '.join(f'`{k}`' for k in keys)}. Position RMSE mean [95% CI] and "
-            "likelihood evaluations per step (run times depend on the machine: the sweep's "
-            "console table and its timings.csv hold them):", ""]
-    head = keys + ["Filter", "N", "RMSE mean [95% CI]", "Evals/step"]
-    cells = [[_fmt_value(r[k]) for k in keys] + [r["label"], _n(r["particles"]),
-             f"{tb.fmt(r['rmse_mean'])} [{tb.fmt(r['rmse_ci_lo'])}, "
-             f"{tb.fmt(r['rmse_ci_hi'])}]", tb.fmt(r.get("lik_evals_per_step_mean"))]
-             for _, r in s.iterrows()]
+    head, cells = sweep_cells(e)
+    out += [f"Swept: {', '.join(f'`{k}`' for k in keys)}. The RMSE and the experiment's other "
+            "headline metrics, mean [95% CI] over the trials of each cell, and the likelihood "
+            "evaluations per step (run times depend on the machine: the sweep's console table "
+            "and its timings.csv hold them):", ""]
     out += _table_md(head, cells) + [""]
     return out + _figures(e.folder, where) + [""]
+
+
+def sweep_cells(e: Entry) -> tuple[list[str], list[list[str]]]:
+    """A sweep's table: per cell and filter run, the RMSE and the other metrics its figures draw
+    (plots.sweep_metrics), mean [95% CI], and the likelihood evaluations per step."""
+    from .figstyle import label
+    from .plots import sweep_metrics
+    keys, s = e.sweep_keys, e.table
+    metrics = [m for m in sweep_metrics(e.exp) if f"{m}_mean" in s]
+    head = keys + ["Filter", "N"] + [f"{label(m)} [95% CI]" for m in metrics] + ["Evals/step"]
+    cells = [[_fmt_value(r[k]) for k in keys] + [r["label"], _n(r["particles"])]
+             + [f"{tb.fmt(r[f'{m}_mean'])} [{tb.fmt(r[f'{m}_ci_lo'])}, "
+                f"{tb.fmt(r[f'{m}_ci_hi'])}]" for m in metrics]
+             + [tb.fmt(r.get("lik_evals_per_step_mean"))] for _, r in s.iterrows()]
+    return head, cells
 
 
 def _choices(paper: pp.Paper, entries: list[Entry]) -> list[str]:

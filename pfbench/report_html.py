@@ -174,14 +174,10 @@ def _comparison_tables(e: rp.Entry) -> tuple[list[dict], list[str]]:
 
 
 def _sweep_tables(e: rp.Entry) -> list[dict]:
-    keys = e.sweep_keys
-    rows = [[_cell(rp._fmt_value(r[k]), True) for k in keys]
-            + [_cell(r["label"]), _cell(rp._n(r["particles"]), True),
-               _cell(f"{tb.fmt(r['rmse_mean'])} [{tb.fmt(r['rmse_ci_lo'])}, "
-                     f"{tb.fmt(r['rmse_ci_hi'])}]", True)]
-            for _, r in e.table.iterrows()]
-    return [{"title": f"Swept: {', '.join(keys)}",
-             "head": keys + ["Filter", "N", "RMSE mean [95% CI]"], "rows": rows}]
+    head, cells = rp.sweep_cells(e)
+    n = len(e.sweep_keys)
+    rows = [[_cell(c, i < n or i > n + 1) for i, c in enumerate(row)] for row in cells]
+    return [{"title": f"Swept: {', '.join(e.sweep_keys)}", "head": head, "rows": rows}]
 
 
 def _provenance_html(e: rp.Entry) -> str:

@@ -76,3 +76,15 @@ def test_a_title_never_prints_none(write_config):
     assert _table_title(exp) == exp.name
     sweep = load(ROOT / "configs" / "ifa_pf_ungm.yaml")
     assert _table_title(sweep) == "ifa_pf_ungm  (ifa2021 table1)"
+
+
+def test_a_sweep_prints_the_experiments_metrics_in_100_columns(tmp_path, write_config):
+    cfg = write_config(TINY)
+    res = runner.invoke(app, ["sweep", str(cfg), "--set", "scenario.steps=5,8", "--out",
+                              str(tmp_path / "s")], env={"COLUMNS": "100"})
+    assert res.exit_code == 0, res.output
+    lines = res.stdout.splitlines()
+    assert max(len(line.rstrip()) for line in lines) <= 100
+    rows = [line for line in lines if line.lstrip().startswith(("5", "8"))]
+    assert len(rows) == 2 * 3, "one line per cell and filter run"
+    assert "RMSE [95% CI]" in res.stdout and "ms/trial" in res.stdout
