@@ -112,29 +112,37 @@ def distribution_figure(exp: Experiment, rows: pd.DataFrame, path: Path, metric:
         his.append(hi - m if hi == hi else 0.0)
     ax.errorbar(pos + 0.16, means, yerr=[los, his], fmt="o", color="black", ms=4, capsize=3,
                 lw=1.1, label="mean and its 95% interval")
-    marked = False
+    shown: set[str] = set()
     if quantity is not None and by_key is not None and f"paper_{quantity.key}" in by_key:
         for x, r in zip(pos, runs):
             v = _paper_value(by_key.loc[r.key, f"paper_{quantity.key}"])
             if v is None:
                 continue
-            lab = None if marked else "the paper's value"
+            # a value the table calls not comparable is drawn grey: it is not the same measure
+            apart = by_key.loc[r.key].get(f"kind_{quantity.key}") == "not comparable"
+            c = "0.55" if apart else "#d62728"
+            name = "the paper's value, not comparable (see the table)" if apart \
+                else "the paper's value"
+            lab = None if name in shown else name
+            shown.add(name)
             if v[0] == v[1]:
-                ax.plot([x + 0.34], [v[0]], "D", color="#d62728", ms=6, mfc="none", mew=1.6,
-                        label=lab)
+                ax.plot([x + 0.34], [v[0]], "D", color=c, ms=6, mfc="none", mew=1.6, label=lab)
             else:
-                ax.plot([x + 0.34] * 2, list(v), "-", color="#d62728", lw=3, alpha=0.6,
-                        label=lab)
-            marked = True
+                ax.plot([x + 0.34] * 2, list(v), "-", color=c, lw=3, alpha=0.6, label=lab)
     values = np.concatenate(data)
     pos_v = values[values > 0]
     if len(pos_v) and values.min() > 0 and pos_v.max() / pos_v.min() > 30:
         ax.set_yscale("log")
+    ax.set_xlim(0.4, len(runs) + 0.6)       # room for the paper's marks beside the last run
     ax.set_xticks(pos, [_run_name(r, rows) for r in runs], rotation=40, ha="right")
     ax.set_ylabel(ylabel)
     n = rows["trial"].nunique()
+    paper = [w for w, name in (("red: the paper", "the paper's value"),
+                               ("grey: the paper, not comparable",
+                                "the paper's value, not comparable (see the table)"))
+             if name in shown]
     ax.set_title(f"{exp.name}: {ylabel} over {n} trials (box: quartiles; black: mean, 95% "
-                 "interval" + ("; red: the paper" if marked else "") + ")")
+                 "interval" + "".join(f"; {w}" for w in paper) + ")")
     ax.grid(axis="x", visible=False)
     fs.legend_outside(ax)
     save_figure(fig, path)
