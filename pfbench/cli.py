@@ -749,13 +749,18 @@ def bench(
                                 "(0: every core)."),
     only: List[str] = typer.Option([], "--only", help="Only this part, repeatable: ungm, costs, "
                                    "fastslam, afsa, mcl."),
+    compare: Optional[Path] = typer.Option(None, "--compare", help="An earlier run's --json "
+                                           "file: print each record's throughput ratio to it."),
 ):
     """Kernel speed beside numpy (and a C reference): UNGM PF, every filter, FastSLAM, MCL."""
     with _guard():
+        if compare is not None:
+            from .bench import read_records
+            read_records(compare)           # a bad file is refused before anything is timed
         _load_kernels()
         from .bench import run_bench
         run_bench(json_path=json_path, quick=quick, c_ref=c_ref, threads=threads, console=out,
-                  only=only)
+                  only=only, compare=compare)
 
 
 def main():  # console-script entry point
