@@ -277,6 +277,17 @@ def _n(v) -> str:
     return "-" if v is None or v != v else str(int(v))
 
 
+def numbered(verdict: str, reasons: list[str]) -> str:
+    """A 'not comparable: WHY' verdict as 'not comparable (k)', WHY the k-th of ``reasons``
+    (added there the first time): each reason is written once under the table."""
+    if not verdict.startswith("not comparable: "):
+        return verdict
+    why = verdict.removeprefix("not comparable: ")
+    if why not in reasons:
+        reasons.append(why)
+    return f"not comparable ({reasons.index(why) + 1})"
+
+
 def comparison(e: Entry) -> list[str]:
     """The paper's table beside ours: per filter run and reported quantity, ours with its 95%
     interval, the paper's value and the verdict; reasons for 'not comparable' listed once."""
@@ -289,13 +300,8 @@ def comparison(e: Entry) -> list[str]:
     for _, r in e.table.iterrows():
         row = [r["label"], _n(r["particles"]), str(int(r["trials"]))]
         for q in table.quantities:
-            v = r[f"verdict_{q.key}"] or "-"
-            if v.startswith("not comparable: "):
-                why = v.removeprefix("not comparable: ")
-                if why not in reasons:
-                    reasons.append(why)
-                v = f"not comparable ({reasons.index(why) + 1})"
-            row += [tb.ours_cell(r, q), tb.fmt(r[f"paper_{q.key}"], 6), v]
+            row += [tb.ours_cell(r, q), tb.fmt(r[f"paper_{q.key}"], 6),
+                    numbered(r[f"verdict_{q.key}"] or "-", reasons)]
         cells.append(row)
     out = _table_md(head, cells)
     if reasons:
@@ -406,7 +412,15 @@ def _choices(paper: pp.Paper, entries: list[Entry]) -> list[str]:
            "Each value with the configs that use it; 'unset' is the key's default of none "
            "(the README's key reference says what that means).", "",
            "| The paper | Key | Value (config) |", "| --- | --- | --- |"]
-    for what, keys in choices:
+    out += [f"| {what} | `{key}` | {vals} |" for what, key, vals in choice_rows(paper, entries)]
+    return out + [""]
+
+
+def choice_rows(paper: pp.Paper, entries: list[Entry]) -> list[tuple[str, str, str]]:
+    """(what the paper left open, the key, its values with the configs that use each) for each
+    key of the paper's choices that some config sets."""
+    rows = []
+    for what, keys in paper.choices:
         for key in keys:
             by_value: dict[str, list[str]] = {}      # the value -> the configs that use it
             for e in entries:
@@ -415,9 +429,9 @@ def _choices(paper: pp.Paper, entries: list[Entry]) -> list[str]:
                     by_value.setdefault(", ".join(_fmt_value(x) for x in v), []).append(
                         e.path.stem)
             if by_value:
-                vals = "; ".join(f"{v} ({', '.join(names)})" for v, names in by_value.items())
-                out.append(f"| {what} | `{key}` | {vals} |")
-    return out + [""]
+                rows.append((what, key, "; ".join(f"{v} ({', '.join(names)})"
+                                                  for v, names in by_value.items())))
+    return rows
 
 
 def _summary_row(e: Entry) -> list[str]:

@@ -146,12 +146,7 @@ def _comparison_tables(e: rp.Entry) -> tuple[list[dict], list[str]]:
         rows = []
         given = [r for _, r in e.table.iterrows() if not tb._missing(r[f"paper_{q.key}"])]
         for r in ([r for _, r in e.table.iterrows()] if k == 0 or not given else given):
-            v = r[f"verdict_{q.key}"] or "-"
-            if v.startswith("not comparable: "):
-                why = v.removeprefix("not comparable: ")
-                if why not in reasons:
-                    reasons.append(why)
-                v = f"not comparable ({reasons.index(why) + 1})"
+            v = rp.numbered(r[f"verdict_{q.key}"] or "-", reasons)
             rows.append([_cell(r["label"]), _cell(rp._n(r["particles"]), True),
                          _cell(int(r["trials"]), True), _cell(tb.ours_cell(r, q), True),
                          _cell(tb.fmt(r[f"paper_{q.key}"], 6), True),
@@ -245,22 +240,6 @@ def _section(e: rp.Entry, out_dir: Path, figures: bool) -> dict:
     return s
 
 
-def _choice_rows(paper: pp.Paper, entries: list[rp.Entry]) -> list[tuple[str, str, str]]:
-    rows = []
-    for what, keys in paper.choices:
-        for key in keys:
-            by_value: dict[str, list[str]] = {}
-            for e in entries:
-                v = rp.config_value(e, key)
-                if v:
-                    by_value.setdefault(", ".join(rp._fmt_value(x) for x in v), []).append(
-                        e.path.stem)
-            if by_value:
-                rows.append((what, key, "; ".join(f"{v} ({', '.join(n)})"
-                                                  for v, n in by_value.items())))
-    return rows
-
-
 def build(configs: Path, results: Path, out_dir: Path, figures: bool = True) -> dict[str, bytes]:
     """Every file of the HTML report, by its path under ``out_dir``: index.html, a page per
     paper, and (``figures``) the SVG figures."""
@@ -298,7 +277,7 @@ def build(configs: Path, results: Path, out_dir: Path, figures: bool = True) -> 
             sections = [_section(e, stage, figures) for e in mine]
             files[f"{key}.html"] = env.get_template("paper.html").render(
                 title=f"{key}: pfbench reproduction", css=CSS, papers=nav, version=__version__,
-                paper=p, sections=sections, choices=_choice_rows(p, mine or entries),
+                paper=p, sections=sections, choices=rp.choice_rows(p, mine or entries),
                 # a broken reference: REPORT.md's build has said so; here it is left out
                 findings=rp.findings(p, by_name, lambda _: None) if p.findings else [],
                 ).encode()
