@@ -2,6 +2,7 @@
 colour, no script, and in a headless browser (where one is installed) nothing overflows."""
 import re
 import shutil
+import time
 from html.parser import HTMLParser
 from pathlib import Path
 
@@ -101,6 +102,18 @@ def test_the_report_is_the_same_bytes_again_and_check_sees_a_change(tmp_path):
     assert "<!DOCTYPE html>" in (report / "ifa2021.html").read_text()
 
 
+@pytest.mark.slow
+def test_check_holds_figures_to_their_presence_not_their_bytes(report):
+    results = report.parent
+    svg = next((report / "figures").rglob("*.svg"))
+    svg.write_bytes(svg.read_bytes().replace(b"<svg", b"<!-- another matplotlib --><svg", 1))
+    assert report_html.write(ROOT / "configs", results, check=True)[1] == []
+    svg.unlink()
+    assert report_html.write(ROOT / "configs", results, check=True)[1] == \
+        [svg.relative_to(report).as_posix()]
+    report_html.write(ROOT / "configs", results)
+
+
 def _browser():
     chrome = shutil.which("chromium") or shutil.which("chromium-browser") or \
         shutil.which("google-chrome")
@@ -126,6 +139,10 @@ def test_in_a_browser_every_figure_loads_and_nothing_overflows(report):
     try:
         for page in sorted(report.glob("*.html")):
             browser.get(page.resolve().as_uri())
+            for _ in range(100):        # images decode after the load event on a busy machine
+                if browser.execute_script("return [...document.images].every(i => i.complete)"):
+                    break
+                time.sleep(0.2)
             got = browser.execute_script("""
                 const W = document.documentElement.clientWidth;
                 const imgs = [...document.images].map(i => [i.getAttribute('src'),
