@@ -754,9 +754,6 @@ def bench(
 ):
     """Kernel speed beside numpy (and a C reference): UNGM PF, every filter, FastSLAM, MCL."""
     with _guard():
-        if compare is not None:
-            from .bench import read_records
-            read_records(compare)           # a bad file is refused before anything is timed
         _load_kernels()
         from .bench import run_bench
         run_bench(json_path=json_path, quick=quick, c_ref=c_ref, threads=threads, console=out,

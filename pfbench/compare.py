@@ -108,6 +108,15 @@ class Comparison:
         """The paper's table this experiment compares with (None: no paper)."""
         return self.exp.reported
 
+    def kinds(self) -> list[str]:
+        """The kind of every judged or compared value: each cell of the paper's table with a
+        verdict, then each factor ('reproduced', 'differs', 'inconclusive', 'not comparable')."""
+        table = self.reported
+        out = [k for q in (table.quantities if table is not None else ())
+               if f"kind_{q.key}" in self.table for k in self.table[f"kind_{q.key}"]]
+        out += [f["kind"] for f in self.factors]
+        return [k for k in out if isinstance(k, str) and k]
+
     @property
     def timed(self) -> bool:
         """Whether the table holds run times (the trials came with their timings)."""
@@ -378,8 +387,7 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame,
             r.update(rmse_diff_mean=math.nan, rmse_diff_ci_lo=math.nan, rmse_diff_ci_hi=math.nan,
                      rmse_win_rate=math.nan)
         if table is not None:
-            values = (table.values.get((run.label, run.particles))
-                      or table.values.get((run.label, None), {}))
+            values = table.row(run.label, run.particles)
             base = by_key.get(pairs.get(run.key))
             for q in table.quantities:
                 paper = values.get(q.key)

@@ -115,6 +115,15 @@ def legend_below(fig, axes, ncol: int = 3, **kw):
                       bbox_to_anchor=(0.5, 0.0), **kw)
 
 
+def prune(folder: Path, keep: list[Path]) -> None:
+    """Remove the figures in ``folder`` (files of FORMATS) that are not in ``keep``: those of
+    another format, or no longer drawn; a folder holds one format."""
+    folder = Path(folder)
+    for old in (folder.iterdir() if folder.is_dir() else ()):
+        if old.suffix.lstrip(".") in FORMATS and old not in keep:
+            old.unlink()
+
+
 def save(fig, path: Path) -> Path:
     """Save ``fig`` to ``path`` in the format its suffix names (.png, .svg, .pdf), through a
     temporary file, with fixed metadata; close it; return the path."""

@@ -78,6 +78,11 @@ class Table:
     factors: tuple[tuple[str, str, str, Margin | None], ...] = ()
     runs: int | None = None             # runs behind the values, when the paper states it
 
+    def row(self, label: str, particles: int | None) -> dict:
+        """The paper's values for a filter run: {quantity key: value, or (lo, hi) for a range};
+        a row the paper gives without a particle count matches any."""
+        return self.values.get((label, particles)) or self.values.get((label, None), {})
+
 
 @dataclass(frozen=True)
 class Ref:

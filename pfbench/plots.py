@@ -63,17 +63,18 @@ def _distribution_quantities(exp: Experiment) -> list[tuple[str, float, str, obj
     return out
 
 
-def _paper_value(v):
-    """A paper's value as (low, high): a number gives (v, v), a range '10-20' its ends."""
+def _paper_value(exp: Experiment, run, q) -> tuple[float, float] | None:
+    """The paper's value of quantity ``q`` for a filter run as (low, high): a number gives (v, v),
+    a range its ends; None where the paper gives none."""
+    v = exp.reported.row(run.label, run.particles).get(q.key)
     if v is None or (isinstance(v, float) and math.isnan(v)):
         return None
-    if isinstance(v, str):
-        try:
-            lo, hi = (float(x) for x in v.split("-", 1))
-            return lo, hi
-        except ValueError:
-            return None
-    return float(v), float(v)
+    return (float(v[0]), float(v[1])) if isinstance(v, tuple) else (float(v), float(v))
+
+
+# the legend's names of the paper's marks
+_PAPER = "the paper's value"
+_PAPER_APART = "the paper's value, not comparable (see the table)"
 
 
 def distribution_figure(exp: Experiment, rows: pd.DataFrame, path: Path, metric: str = "rmse",
@@ -84,7 +85,7 @@ def distribution_figure(exp: Experiment, rows: pd.DataFrame, path: Path, metric:
     value (red diamond; a range: a red bar) where ``quantity`` has one. A log axis where the
     values span more than a factor of 30."""
     from .metrics import summarize
-    runs = [r for r in exp.filters]
+    runs = list(exp.filters)
     data = [rows.loc[rows["filter"] == r.key, metric].dropna().to_numpy(float) * scale
             for r in runs]
     keep = [i for i, d in enumerate(data) if d.size]
@@ -113,16 +114,15 @@ def distribution_figure(exp: Experiment, rows: pd.DataFrame, path: Path, metric:
     ax.errorbar(pos + 0.16, means, yerr=[los, his], fmt="o", color="black", ms=4, capsize=3,
                 lw=1.1, label="mean and its 95% interval")
     shown: set[str] = set()
-    if quantity is not None and by_key is not None and f"paper_{quantity.key}" in by_key:
+    if quantity is not None and by_key is not None:
         for x, r in zip(pos, runs):
-            v = _paper_value(by_key.loc[r.key, f"paper_{quantity.key}"])
+            v = _paper_value(exp, r, quantity)
             if v is None:
                 continue
             # a value the table calls not comparable is drawn grey: it is not the same measure
             apart = by_key.loc[r.key].get(f"kind_{quantity.key}") == "not comparable"
             c = "0.55" if apart else "#d62728"
-            name = "the paper's value, not comparable (see the table)" if apart \
-                else "the paper's value"
+            name = _PAPER_APART if apart else _PAPER
             lab = None if name in shown else name
             shown.add(name)
             if v[0] == v[1]:
@@ -137,22 +137,14 @@ def distribution_figure(exp: Experiment, rows: pd.DataFrame, path: Path, metric:
     ax.set_xticks(pos, [_run_name(r, rows) for r in runs], rotation=40, ha="right")
     ax.set_ylabel(ylabel)
     n = rows["trial"].nunique()
-    paper = [w for w, name in (("red: the paper", "the paper's value"),
-                               ("grey: the paper, not comparable",
-                                "the paper's value, not comparable (see the table)"))
+    paper = [w for w, name in (("red: the paper", _PAPER),
+                               ("grey: the paper, not comparable", _PAPER_APART))
              if name in shown]
     ax.set_title(f"{exp.name}: {ylabel} over {n} trials (box: quartiles; black: mean, 95% "
                  "interval" + "".join(f"; {w}" for w in paper) + ")")
     ax.grid(axis="x", visible=False)
     fs.legend_outside(ax)
     save_figure(fig, path)
-
-
-def rmse_boxplot(exp: Experiment, rows: pd.DataFrame, path: Path) -> None:
-    """Per-trial RMSE of every filter run (distribution_figure of the RMSE)."""
-    with fs.style():
-        distribution_figure(exp, rows, path, "rmse", 1.0,
-                            fs.label("rmse", kind_of(exp.scenario).unit))
 
 
 def _moving(x: np.ndarray, win: int, rms: bool = False) -> np.ndarray:
@@ -432,9 +424,7 @@ def write_figures(exp: Experiment, rows: list[dict] | pd.DataFrame, out_dir: Pat
                 paths.append(path)
         if kind.figures:
             paths += globals()[kind.figures](exp, df, traces, folder, fmt)
-    for old in folder.iterdir():        # figures of another format, or no longer drawn
-        if old.suffix.lstrip(".") in fs.FORMATS and old not in paths:
-            old.unlink()
+    fs.prune(folder, paths)
     return paths
 
 

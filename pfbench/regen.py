@@ -80,15 +80,12 @@ def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: st
     write_csv(folder / "summary.csv", summ)
     if not figures:
         return summ, []
-    from .figstyle import FORMATS
+    from .figstyle import prune
     from .kinds import kind_of
     from .plots import sweep_figures, sweep_metrics
     paths = sweep_figures(summ, keys, folder, name, sweep_metrics(exp) if exp else None,
                           fmt=figure_format, unit=kind_of(exp.scenario).unit if exp else "")
-    figs = folder / "figures"
-    for old in (figs.iterdir() if figs.is_dir() else ()):     # another format, or not drawn now
-        if old.suffix.lstrip(".") in FORMATS and old not in paths:
-            old.unlink()
+    prune(folder / "figures", paths)
     if "wall_s" in trials_df and trials_df["wall_s"].notna().any():
         # the run times: beside the timings file, never in figures/ (they depend on the machine)
         sweep_figures(sw.summary(trials_df, keys, ("wall_s",)), keys, folder, name,

@@ -245,16 +245,10 @@ def _interval_columns(col: str) -> tuple[str, str]:
 def verdict_counts(e: Entry) -> dict[str, int]:
     """Paper values compared, by the kind of verdict the engine gave each: reproduced, differ,
     inconclusive, not comparable."""
-    table = e.exp.reported
     counts = {"values": 0, "reproduced": 0, "differ": 0, "inconclusive": 0, "not comparable": 0}
-    if table is None or e.table is None:
-        return counts
-    kinds = [r[f"kind_{q.key}"] for q in table.quantities for _, r in e.table.iterrows()]
-    kinds += [f["kind"] for f in (e.comparison.factors if e.comparison else [])]
-    for kind in kinds:
-        if isinstance(kind, str) and kind:
-            counts["values"] += 1
-            counts["differ" if kind == "differs" else kind] += 1
+    for kind in (e.comparison.kinds() if e.comparison is not None else []):
+        counts["values"] += 1
+        counts["differ" if kind == "differs" else kind] += 1
     return counts
 
 
@@ -448,18 +442,24 @@ def _summary_row(e: Entry) -> list[str]:
             f"{same} / {opposite} / {unresolved}" if total else "-"]
 
 
-def build(configs: Path, results: Path, out: Path,
-          warn: Callable[[str], None] | None = None) -> str:
-    """The report's text (links relative to ``out``'s folder). ``warn`` hears of each broken
-    reference of a paper's findings (without it, one is a UserError)."""
-    entries = collect(configs, results)
-    # the papers the configs name, and surveys (findings, no tables) measured through others'
+def reported_papers(entries: list[Entry], configs: Path) -> dict[str, pp.Paper]:
+    """The papers a report has a section for: those the configs name, and surveys (findings, no
+    tables of their own) measured through other papers' configs."""
     papers = {e.exp.reference.key: e.exp.reference for e in entries if e.exp.reference}
     for key, path in pp.available(pp.folders_for_configs(configs)).items():
         if key not in papers:
             p = pp.read(path)
             if not p.tables and p.findings:
                 papers[key] = p
+    return papers
+
+
+def build(configs: Path, results: Path, out: Path,
+          warn: Callable[[str], None] | None = None) -> str:
+    """The report's text (links relative to ``out``'s folder). ``warn`` hears of each broken
+    reference of a paper's findings (without it, one is a UserError)."""
+    entries = collect(configs, results)
+    papers = reported_papers(entries, configs)
     order = {k: i for i, k in enumerate(sorted(papers))}
     entries.sort(key=lambda e: (order.get(e.exp.paper, len(order)), e.cells is not None,
                                 e.exp.table or "", e.path.stem))

@@ -572,15 +572,23 @@ def stamp_meta(exp: Experiment, out_dir: Path, trials_text: str | None = None) -
         "cpus": os.cpu_count(), "git_commit": git_commit(), "versions": versions(),
         "identity": exp.identity,
     }
-    try:
-        same = (trials_text is not None
-                and (out_dir / "trials.csv").read_text(encoding="utf-8") == trials_text)
-        old = json.loads((out_dir / "meta.json").read_text(encoding="utf-8")) if same else None
-    except (OSError, ValueError):
-        old = None
-    if isinstance(old, dict) and old.get("experiment_hash") == exp.hash:
-        meta.update({k: old[k] for k in PROVENANCE if k in old})
+    if trials_text is not None:
+        meta.update(_earlier_provenance(out_dir, trials_text.encode("utf-8"), exp.hash))
     return meta
+
+
+def _earlier_provenance(folder: Path, trials: bytes, experiment_hash: str) -> dict:
+    """The provenance (PROVENANCE) of ``folder``'s meta.json when the folder holds the trials file
+    ``trials`` of the same experiment: the trials are still those that run made. {} otherwise."""
+    try:
+        if (folder / "trials.csv").read_bytes() != trials:
+            return {}
+        old = json.loads((folder / "meta.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    if not isinstance(old, dict) or old.get("experiment_hash") != experiment_hash:
+        return {}
+    return {k: old[k] for k in PROVENANCE if k in old}
 
 
 def keep_provenance(new: Path, old: Path) -> None:
@@ -588,19 +596,16 @@ def keep_provenance(new: Path, old: Path) -> None:
     ``old``, the folder it replaces, its meta.json keeps ``old``'s provenance (PROVENANCE): the
     trials are still those that run made, and the committed files stay as they were."""
     for path in Path(new).rglob("meta.json"):
-        rel = path.parent.relative_to(new)
-        was = Path(old) / rel
         try:
-            if (path.parent / "trials.csv").read_bytes() != (was / "trials.csv").read_bytes():
-                continue
             meta = json.loads(path.read_text(encoding="utf-8"))
-            before = json.loads((was / "meta.json").read_text(encoding="utf-8"))
+            trials = (path.parent / "trials.csv").read_bytes()
         except (OSError, ValueError):
             continue
-        if (isinstance(meta, dict) and isinstance(before, dict)
-                and before.get("experiment_hash") == meta.get("experiment_hash")):
-            meta.update({k: before[k] for k in PROVENANCE if k in before})
-            write_json(path, meta)
+        if isinstance(meta, dict):
+            kept = _earlier_provenance(Path(old) / path.parent.relative_to(new), trials,
+                                       meta.get("experiment_hash"))
+            if kept:
+                write_json(path, {**meta, **kept})
 
 
 def _resumed_timings(out_dir: Path, done: dict[int, list[dict]]) -> None:

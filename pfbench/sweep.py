@@ -31,7 +31,6 @@ from .yamlio import parse_yaml
 
 CONFIRM_ABOVE = 50       # cells; more need --yes
 MAX_CELLS = 10_000       # cells; more are refused (each is a folder of results)
-SWEEP_METRICS = ("rmse",)
 
 
 def split_values(text: str) -> list[str]:

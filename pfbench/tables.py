@@ -148,8 +148,7 @@ def short_verdict(r, q: Quantity) -> str:
         judged = q.judged_by is not None or ratio != ratio
         return ("differs" + ("" if judged else f" x{ratio:.2f}")) + floor
     if kind == "inconclusive":
-        need = r.get(f"needed_{q.key}", math.nan)
-        return "inconclusive" + (f" (~{int(need)} trials)" if need == need and need else "")
+        return _short_kind(kind, r.get(f"needed_{q.key}", math.nan))
     if kind == "reproduced":
         return "reproduced" + floor
     if kind == "not comparable":
@@ -331,12 +330,9 @@ def footnotes(cmp: Comparison) -> list[str]:
 def verdict_counts(cmp: Comparison) -> str:
     """'15 cells judged: 1 reproduced, 14 differ; 2 not comparable' for the paper's table (factors
     counted with the cells); '' without one."""
-    table = cmp.reported
-    if table is None:
+    if cmp.reported is None:
         return ""
-    kinds = [k for q in table.quantities if f"kind_{q.key}" in cmp.table
-             for k in cmp.table[f"kind_{q.key}"].fillna("")]
-    kinds += [f["kind"] for f in cmp.factors]
+    kinds = cmp.kinds()
     n = {k: kinds.count(k) for k in ("reproduced", "differs", "inconclusive", "not comparable")}
     judged = n["reproduced"] + n["differs"] + n["inconclusive"]
     parts = [f"{n['reproduced']} reproduced", f"{n['differs']} differ"]
