@@ -1,4 +1,5 @@
-"""The HTML reproduction report: ``results/report/index.html`` and a page per paper.
+"""The HTML reproduction report: ``results/report/index.html`` and a page per paper (and
+``other.html`` for the experiments that name none).
 
 The same content as REPORT.md (pfbench.report gathers it: every table recomputed from its
 trials), laid out for a browser: the summary, every table of a paper beside ours with the
@@ -11,13 +12,15 @@ and traces of each results folder (pfbench.plots), into ``report/figures/<experi
 from __future__ import annotations
 
 import os
+import re
 import tempfile
 from pathlib import Path
+from types import SimpleNamespace
 
 import jinja2
+from markupsafe import Markup, escape
 
 from . import __version__
-from . import papers as pp
 from . import report as rp
 from . import tables as tb
 from .verdicts import DEFINITIONS
@@ -115,8 +118,6 @@ reports, with 95% intervals and a verdict for every value.</p>
 
 def _emphasis(text: str):
     """'*differs*: ...' (the verdicts' definitions are Markdown) with <em> for the stars."""
-    import re
-    from markupsafe import Markup, escape
     return Markup(re.sub(r"\*([^*]+)\*", r"<em>\1</em>", str(escape(text))))
 
 
@@ -176,7 +177,6 @@ def _sweep_tables(e: rp.Entry) -> list[dict]:
 
 
 def _provenance_html(e: rp.Entry) -> str:
-    from markupsafe import escape
     m = e.meta or {}
     v = m.get("versions", {})
     commit = m.get("git_commit") or "unknown"
@@ -242,17 +242,16 @@ def _section(e: rp.Entry, out_dir: Path, figures: bool) -> dict:
 
 def build(configs: Path, results: Path, out_dir: Path, figures: bool = True) -> dict[str, bytes]:
     """Every file of the HTML report, by its path under ``out_dir``: index.html, a page per
-    paper, and (``figures``) the SVG figures."""
+    paper (other.html: the experiments that name none), and (``figures``) the SVG figures."""
     env = _env()
     entries = rp.collect(configs, results)
-    papers = {e.exp.reference.key: e.exp.reference for e in entries if e.exp.reference}
-    for key, path in pp.available(pp.folders_for_configs(configs)).items():
-        if key not in papers:
-            p = pp.read(path)
-            if not p.tables and p.findings:
-                papers[key] = p
+    papers = rp.reported_papers(entries, configs)
     by_name = {e.name: e for e in entries}
+    # the experiments that name no paper get a page of their own, as REPORT.md's last section
+    others = [e for e in entries if e.exp.reference is None]
+    other = SimpleNamespace(key="other", citation="experiments that name no paper", about=None)
     nav = [{"key": k, "page": f"{k}.html", "citation": papers[k].citation} for k in sorted(papers)]
+    nav += [{"key": other.key, "page": "other.html", "citation": other.citation}] if others else []
     files: dict[str, bytes] = {}
     with tempfile.TemporaryDirectory() as tmp:
         stage = Path(tmp)
@@ -260,7 +259,8 @@ def build(configs: Path, results: Path, out_dir: Path, figures: bool = True) -> 
         for e in sorted(entries, key=lambda e: (e.exp.paper or "~", e.cells is not None,
                                                 e.exp.table or "", e.path.stem)):
             row = rp._summary_row(e)
-            page = f"{e.exp.paper}.html#{e.name}" if e.exp.paper in papers else None
+            page = (f"{e.exp.paper}.html#{e.name}" if e.exp.paper in papers
+                    else f"other.html#{e.name}" if e in others else None)
             row[2] = (f'<a href="{page}">{e.path.stem}</a>' if page else e.path.stem)
             summary.append([str(c).replace("`", "") if i != 2 else c for i, c in enumerate(row)])
         files["index.html"] = env.get_template("index.html").render(
@@ -281,6 +281,11 @@ def build(configs: Path, results: Path, out_dir: Path, figures: bool = True) -> 
                 # a broken reference: REPORT.md's build has said so; here it is left out
                 findings=rp.findings(p, by_name, lambda _: None) if p.findings else [],
                 ).encode()
+        if others:
+            files["other.html"] = env.get_template("paper.html").render(
+                title="other experiments: pfbench", css=CSS, papers=nav, version=__version__,
+                paper=other, sections=[_section(e, stage, figures) for e in others],
+                choices=[], findings=[]).encode()
         for path in sorted(stage.rglob("*.svg")):
             files[path.relative_to(stage).as_posix()] = path.read_bytes()
     return files

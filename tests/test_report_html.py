@@ -158,3 +158,20 @@ def test_in_a_browser_every_figure_loads_and_nothing_overflows(report):
             assert got["tables"] and all(got["tables"]), (page.name, got["tables"])
     finally:
         browser.quit()
+
+
+def test_an_experiment_without_a_paper_has_a_page_too(tmp_path, write_config, monkeypatch):
+    from pfbench.config import load
+    from pfbench.runner import run_experiment
+    from .conftest import TINY
+    configs, results = tmp_path / "configs", tmp_path / "results"
+    configs.mkdir()
+    cfg = configs / "plain.yaml"
+    cfg.write_text(TINY)
+    monkeypatch.chdir(tmp_path)
+    exp = load(cfg)
+    run_experiment(exp, results / exp.name, traces=False)
+    index, _ = report_html.write(configs, results, figures=False)
+    page = index.parent / "other.html"
+    assert page.exists() and f'id="{exp.name}"' in page.read_text()
+    assert f"other.html#{exp.name}" in _parse(index).links
