@@ -143,9 +143,12 @@ def fill_normal(s, z):
 
 @kernel(types.void(STATE, types.float64, types.float64[::1]), cache=True)
 def add_normal(s, sd, x):
-    """x += sd * z in place, z independent standard normal draws."""
+    """x += sd * z in place, z independent standard normal draws (the draws of as many calls of
+    :func:`normal`: all of them first, by ``fill_normal``, then the sum, a pass that vectorises)."""
+    z = np.empty(x.size)
+    fill_normal(s, z)
     for i in range(x.size):
-        x[i] += sd * normal(s)
+        x[i] += sd * z[i]
 
 
 @kernel(types.void(STATE, types.float64[::1]), cache=True)

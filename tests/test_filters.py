@@ -174,3 +174,50 @@ def test_particles_with_nan_likelihood_get_zero_weight_without_an_event():
     assert np.all(np.isfinite(out["xhat"]))
     assert np.all(out["xhat"][1:] < 0)          # only particles at x <= 0 carry weight
     assert np.all(out["ess"][1:] < 400)
+
+
+def test_model_functions_are_handed_over_by_address_and_stay_the_functions():
+    """A model holds its functions as ModelFunction (the compiled entry's address, looked up once):
+    from a plain @njit function or a lazily built kernel alike; it calls from Python like the
+    function, pickles back to it (the Dask engine ships models), and a filter gives the same
+    trial with it as with the plain dispatcher."""
+    import pickle
+
+    from numba import njit, typeof
+
+    from pfbench.filters.pf import pf_kernel
+    from pfbench.models.scalar import MODEL_SIG, ModelFn, ModelFunction, ScalarModel
+    from pfbench.scenarios import ungm
+
+    @njit(MODEL_SIG)
+    def double(x, t, theta, out):
+        for i in range(x.size):
+            out[i] = 2.0 * x[i]
+
+    base = _linear(steps=3)
+    model = ScalarModel(double, base.observe, base.theta, base.noise, 0.0, 0.0, 1.0, 3)
+    assert isinstance(model.transition, ModelFunction)
+    assert isinstance(model.observe, ModelFunction)
+    assert typeof(model.transition) == ModelFn
+    out = np.empty(2)
+    model.transition(np.array([1.0, -3.0]), 1.0, base.theta, out)
+    assert out.tolist() == [2.0, -6.0]
+    again = pickle.loads(pickle.dumps(model.transition))
+    assert isinstance(again, ModelFunction) and again.address == model.transition.address
+    assert ScalarModel(model.transition, model.observe, base.theta, base.noise, 0.0, 0.0, 1.0,
+                       3).transition is model.transition
+
+    m = ungm.build({k: key.default for k, key in ungm.SCHEMA.items()})
+    y = np.linspace(-2.0, 3.0, 21)
+
+    def trial(f, h):
+        T1 = y.size
+        xhat, ess, d1, d2 = (np.empty(T1) for _ in range(4))
+        res = np.empty(T1, dtype=np.int64)
+        pf_kernel(f, h, m.theta, m.noise, y, m.prior_mean, m.prior_var, 300, 1, np.inf, 0, 0,
+                  -np.inf, 0, np.random.SeedSequence(3).generate_state(4, np.uint64), xhat, ess,
+                  res, d1, d2)
+        return xhat
+
+    assert np.array_equal(trial(m.transition, m.observe),
+                          trial(m.transition.dispatcher, m.observe.dispatcher))

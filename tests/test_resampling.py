@@ -84,3 +84,53 @@ def test_bad_weights_are_rejected():
         ancestors(np.array([0.0, 0.0]), "systematic", _state())
     with pytest.raises(ValueError):
         ancestors(np.array([1.0, np.nan]), "systematic", _state())
+
+
+def _merge_systematic(w, S, u):
+    """Systematic resampling as the plain merge of the positions (u + i) S / N against the running
+    sum, never past the last positive weight: the definition the kernel must reproduce."""
+    N = len(w)
+    step = S / N
+    jmax = max(j for j in range(N) if w[j] > 0.0) if any(x > 0.0 for x in w) else 0
+    out, j, cum = [], 0, w[0]
+    for i in range(N):
+        p = (u + i) * step
+        while p >= cum and j < jmax:
+            j += 1
+            cum += w[j]
+        out.append(j)
+    return out
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.one_of(st.just(0.0), st.floats(1e-300, 1e3), st.floats(0.0, 1.0)),
+                min_size=1, max_size=300),
+       st.integers(0, 2**32 - 1), st.booleans())
+def test_systematic_is_the_merge_bit_for_bit(w, seed, uniform_w):
+    """The counting form of systematic resampling picks the merge's ancestors exactly, ties of a
+    position with a running sum, zero weights, tiny and uniform weights included."""
+    from pfbench.resampling import systematic
+    from pfbench.rng import uniform as draw
+    w = np.array([1.0 / len(w)] * len(w) if uniform_w else w)
+    if not w.sum() > 0:
+        w[len(w) // 2] = 1.0
+    S = 0.0
+    for x in w:
+        S += x
+    state = state_from_seed(np.random.SeedSequence(seed))
+    u = draw(state.copy())
+    idx = np.empty(len(w), dtype=np.int64)
+    systematic(w, S, state, idx)
+    assert idx.tolist() == _merge_systematic(w.tolist(), S, u)
+
+
+def test_systematic_with_positions_on_the_running_sums():
+    """Weights whose running sums fall exactly on the positions (u = 0 ... ): a position equal to
+    cum_j belongs to the next particle, as in the merge."""
+    from pfbench.resampling import systematic
+    for N in (1, 2, 4, 8, 64):
+        w = np.full(N, 0.25)
+        state = np.zeros(4, dtype=np.uint64)     # not a valid generator: u = 0 exactly
+        idx = np.empty(N, dtype=np.int64)
+        systematic(w, float(w.sum()), state, idx)
+        assert idx.tolist() == _merge_systematic(w.tolist(), float(w.sum()), 0.0)

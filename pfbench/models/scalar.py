@@ -19,11 +19,46 @@ from typing import Any
 import numpy as np
 from numba import types
 
+from numba.core.types.function_type import CompileResultWAP
+from numba.core.typing.typeof import typeof_impl
+
 from .._lazy import LazyKernel, kernel
 from ..rng import STATE, add_normal, normal, standard_gamma
 
 MODEL_SIG = types.void(types.float64[::1], types.float64, types.float64[::1], types.float64[::1])
 ModelFn = types.FunctionType(MODEL_SIG)
+
+
+class ModelFunction(CompileResultWAP):
+    """A model function as the kernels take it: the address of its compiled ``MODEL_SIG`` entry,
+    looked up once.
+
+    Handing a numba dispatcher to a kernel as a first-class function costs about 50 us a call
+    (numba types it, then looks its compiled entry up through LLVM, on every call); this object
+    carries the address and its numba type is fixed, so the call costs what any other argument
+    does. It calls like the function from Python and pickles as the function it wraps."""
+
+    def __init__(self, fn):
+        disp = fn.dispatcher if isinstance(fn, (LazyKernel, ModelFunction)) else fn
+        super().__init__(disp.get_compile_result(MODEL_SIG))
+        self.dispatcher = disp
+
+    def __reduce__(self):
+        return ModelFunction, (self.dispatcher,)
+
+    def __repr__(self) -> str:
+        return f"<model function {getattr(self.dispatcher, '__qualname__', self.dispatcher)}>"
+
+
+@typeof_impl.register(ModelFunction)
+def _typeof_model_function(val, c):
+    return ModelFn
+
+
+def model_function(fn):
+    """``fn`` (a numba function of ``MODEL_SIG``, lazily built or not) as the kernels take it;
+    None stays None."""
+    return fn if fn is None or isinstance(fn, ModelFunction) else ModelFunction(fn)
 
 NOISE_GAUSSIAN = 0
 NOISE_GAMMA = 1
@@ -33,7 +68,8 @@ NOISE_GAMMA = 1
 class ScalarModel:
     """A scalar model ready for the kernels.
 
-    transition, observe : @njit functions with ``MODEL_SIG`` (f and h above)
+    transition, observe : @njit functions with ``MODEL_SIG`` (f and h above); the model holds
+        them as ``ModelFunction``
     theta : (p,) float64 parameters handed to both
     noise : (4,) float64 [kind, a, b, R]
     x0 : true initial state; prior_mean, prior_var : the filters' Gaussian prior for x_0
@@ -54,19 +90,15 @@ class ScalarModel:
     observe_jac: Any = None
 
     def __post_init__(self):
-        # a lazily built kernel is handed to the filters as the numba dispatcher it builds (numba
-        # takes only its own dispatchers as first-class functions): it compiles now, when a
-        # scenario builds a model that uses it, not when its module is imported
-        # (the derivatives, which only the EKF uses, when it asks: see ``jacobians``)
+        # the model functions are handed to the filters as ModelFunction: a lazily built kernel
+        # compiles now, when a scenario builds a model that uses it, not when its module is
+        # imported (the derivatives, which only the EKF uses, when it asks: see ``jacobians``)
         for name in ("transition", "observe"):
-            fn = getattr(self, name)
-            if isinstance(fn, LazyKernel):
-                object.__setattr__(self, name, fn.dispatcher)
+            object.__setattr__(self, name, model_function(getattr(self, name)))
 
     def jacobians(self) -> tuple:
-        """(transition_jac, observe_jac) as the kernels take them (numba dispatchers)."""
-        return tuple(fn.dispatcher if isinstance(fn, LazyKernel) else fn
-                     for fn in (self.transition_jac, self.observe_jac))
+        """(transition_jac, observe_jac) as the kernels take them (ModelFunction)."""
+        return tuple(model_function(fn) for fn in (self.transition_jac, self.observe_jac))
 
     @property
     def process_mean(self) -> float:
