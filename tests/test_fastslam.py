@@ -381,3 +381,42 @@ def test_nearest_fitness_never_rewards_pushing_an_observation_out_of_the_gates()
     assert at_truth == pytest.approx(0.0, abs=1e-9)
     assert far == pytest.approx(-0.5 * 100.0 * 2)            # both capped at the gate
     assert at_truth > slightly_off > far
+
+
+def test_nearest_landmark_is_the_exhaustive_search_within_its_bound():
+    """The bounded search (lower bounds of the distance skip far landmarks) finds what the plain
+    search over ``mahalanobis2`` finds, to the bit, wherever the nearest is within the bound, and
+    says 'beyond' (a distance over the bound) where it is not: over random maps, poses, pose
+    uncertainties, observations and bounds, near landmarks and far ones, tiny and large gates."""
+    from pfbench.filters.fastslam import mahalanobis2, nearest_landmark
+    rng = np.random.default_rng(19)
+    checked_within = checked_beyond = 0
+    for case in range(1500):
+        M = int(rng.integers(1, 12))
+        mu = rng.uniform(-20, 20, (1, M, 2))
+        a = rng.uniform(1e-6, 1.0, M) ** 2
+        d = rng.uniform(1e-6, 1.0, M) ** 2
+        c = rng.uniform(-0.9, 0.9, M) * np.sqrt(a * d)
+        sig = np.stack([a, c, d], axis=1)[None].copy()
+        px, py, pth = rng.uniform(-20, 20), rng.uniform(-20, 20), rng.uniform(-np.pi, np.pi)
+        G = rng.normal(size=(3, 3)) * rng.choice([0.0, 1e-3, 0.1])
+        C = G @ G.T
+        pc = np.array([C[0, 0], C[0, 1], C[0, 2], C[1, 1], C[1, 2], C[2, 2]])
+        Rr, Rb = rng.uniform(1e-4, 0.5) ** 2, np.radians(rng.uniform(0.05, 5.0)) ** 2
+        m0 = int(rng.integers(M))
+        dx, dy = mu[0, m0] - (px, py)
+        zr = np.hypot(dx, dy) + rng.normal() * rng.choice([0.01, 0.5, 3.0])
+        zb = np.arctan2(dy, dx) - pth + rng.normal() * rng.choice([0.001, 0.1, 1.0])
+        zb = (zb + np.pi) % (2 * np.pi) - np.pi
+        bound = float(rng.choice([1e-3, 1.0, 9.0, 200.0, 1e4, np.inf]))
+        d2s = [mahalanobis2(px, py, pth, mu[0, m], sig[0, m], zr, zb, Rr, Rb, pc)
+               for m in range(M)]
+        best = int(np.argmin(d2s)) if np.isfinite(min(d2s)) else -1
+        got = nearest_landmark(px, py, pth, 0, mu, sig, M, zr, zb, Rr, Rb, pc, bound)
+        if best >= 0 and d2s[best] <= bound:
+            assert got == (best, d2s[best]), case
+            checked_within += 1
+        else:
+            assert got[1] > bound, case
+            checked_beyond += 1
+    assert checked_within > 300 and checked_beyond > 300

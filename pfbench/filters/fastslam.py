@@ -22,6 +22,7 @@ from numba import typeof, types
 from .._lazy import kernel, stub, variant
 
 from ..angles import wrap
+from .. import vecmath as vm
 from ..models.pose import estimate_pose
 from ..resampling import SCHEME_CODES, SCHEMES, resample, stepwise_ewa_plan
 from ..rng import STATE, normal
@@ -173,18 +174,71 @@ def propagate_pose_cov(c, fx, fy, g1x, g1y, g1t, q1, g2x, g2y, g2t, q2, qxy):
     c[5] = tt + q1 * g1t * g1t + q2 * g2t * g2t
 
 
+@kernel(types.float64(types.float64, types.float64, types.float64, types.float64, types.float64,
+                    types.float64, types.float64, types.float64, types.float64, types.float64,
+                    types.float64, types.float64, _F, types.float64, types.float64,
+                    types.float64), cache=True, inline="always")
+def mahalanobis2_within(px, py, pth, lx, ly, a, c, d, zr, zb, Rr, Rb, pc, co, so, bound):
+    """``mahalanobis2`` where it can be at most ``bound``; inf where it is certainly beyond.
+
+    (lx, ly), [[a, c], [c, d]] : the landmark's mean and covariance; co, so : cos and sin of
+    pth + zb, the direction in which it was observed (for the bound only: to within 1e-12).
+    Two lower bounds of d2 = v^T S^-1 v for a positive definite S (its Schur complements),
+    v1^2 / S11 and v2^2 / S22, need no arctangent: v1 is the range innovation, and |v2| (the
+    wrapped bearing innovation) is at least |sin v2|, the cross product of the observed and the
+    predicted directions. A landmark either bound puts beyond ``bound`` (with margins of 1e-6
+    relative and 1e-12 in the cross product for rounding) costs a square root and a few
+    products instead of the whole distance; any other gets exactly what ``mahalanobis2``
+    computes (the same operations in the same order)."""
+    dx = lx - px
+    dy = ly - py
+    q = dx * dx + dy * dy
+    r = math.sqrt(q)
+    if r < 1e-9:
+        return np.inf
+    h11, h12, h21, h22 = dx / r, dy / r, -dy / q, dx / q
+    p11 = h11 * a + h12 * c
+    p12 = h11 * c + h12 * d
+    p21 = h21 * a + h22 * c
+    p22 = h21 * c + h22 * d
+    S11 = p11 * h11 + p12 * h12 + Rr
+    S12 = p11 * h21 + p12 * h22
+    S22 = p21 * h21 + p22 * h22 + Rb
+    cax = -(h11 * pc[0] + h12 * pc[1])
+    cay = -(h11 * pc[1] + h12 * pc[3])
+    cbx = -(h21 * pc[0] + h22 * pc[1] + pc[2])
+    cby = -(h21 * pc[1] + h22 * pc[3] + pc[4])
+    cbt = -(h21 * pc[2] + h22 * pc[4] + pc[5])
+    S11 -= h11 * cax + h12 * cay
+    S12 -= h11 * cbx + h12 * cby
+    S22 -= h21 * cbx + h22 * cby + cbt
+    v1 = zr - r
+    far = bound * (1.0 + 1e-6)
+    if v1 * v1 > far * S11:
+        return np.inf
+    cr = abs(so * h11 - co * h12) - 1e-12
+    if cr > 0.0 and cr * cr > far * S22:
+        return np.inf
+    v2 = wrap(zb - wrap(math.atan2(dy, dx) - pth))
+    return _maha(v1, v2, S11, S12, S22, S11 * S22 - S12 * S12)
+
+
 @kernel(types.Tuple((types.int64, types.float64))(types.float64, types.float64, types.float64,
                                                 types.int64, _F3, _F3, types.int64, types.float64,
-                                                types.float64, types.float64, types.float64, _F),
+                                                types.float64, types.float64, types.float64, _F,
+                                                types.float64),
       cache=True)
-def nearest_landmark(px, py, pth, i, mu, sig, nl, zr, zb, Rr, Rb, pc):
+def nearest_landmark(px, py, pth, i, mu, sig, nl, zr, zb, Rr, Rb, pc, bound):
     """(index, squared distance) of particle i's landmark nearest (Mahalanobis, with the pose
-    uncertainty pc, see ``mahalanobis2``) to the observation among its nl landmarks; (-1, inf)
-    when it has none at a finite distance."""
+    uncertainty pc, see ``mahalanobis2``) to the observation among its nl landmarks, exact where
+    that distance is at most ``bound``; (-1, inf) when none is within it (every caller treats
+    a distance beyond its largest gate alike, so that is what it passes)."""
     best = -1
     bd = np.inf
+    so, co = vm.sincos(pth + zb)
     for m in range(nl):
-        d2 = mahalanobis2(px, py, pth, mu[i, m], sig[i, m], zr, zb, Rr, Rb, pc)
+        d2 = mahalanobis2_within(px, py, pth, mu[i, m, 0], mu[i, m, 1], sig[i, m, 0],
+                                 sig[i, m, 1], sig[i, m, 2], zr, zb, Rr, Rb, pc, co, so, bound)
         if d2 < bd:
             bd = d2
             best = m
@@ -221,7 +275,7 @@ def pose_loglik(px, py, pth, i, mu, sig, seen, ids, zs, n, Rr, Rb, assoc, nl, ga
     for j in range(n):
         if assoc:
             _, d2 = nearest_landmark(px, py, pth, i, mu, sig, nl, zs[j, 0], zs[j, 1], Rr, Rb,
-                                     pc[i])
+                                     pc[i], gate)
             acc -= 0.5 * min(d2, gate)
             continue
         m = ids[j]
@@ -684,12 +738,13 @@ def update_maps(ps, pc, ids, zs, n, o, lw, stats):
     started]. Returns the largest log-weight."""
     mx = -np.inf
     M = ps.mu.shape[1]
+    far = max(o.gate_reject, o.gate_augment)    # beyond it, how far makes no difference
     for i in range(ps.P.shape[0]):
         px, py, pth = ps.P[i, 0], ps.P[i, 1], ps.P[i, 2]
         for j in range(n):
             if o.assoc:
                 m, d2 = nearest_landmark(px, py, pth, i, ps.mu, ps.sig, ps.nl[i], zs[j, 0],
-                                         zs[j, 1], o.Rr, o.Rb, pc[i])
+                                         zs[j, 1], o.Rr, o.Rb, pc[i], far)
                 if d2 <= o.gate_reject:
                     stats[0] += 1.0
                     if ps.src[i, m] != ids[j]:
