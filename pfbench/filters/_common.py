@@ -7,6 +7,7 @@ import numpy as np
 from numba import types
 from .._lazy import kernel
 
+from .. import vecmath as vm
 from ..rng import STATE, fill_normal, uniform
 from ..models.scalar import ModelFn, add_process_noise
 
@@ -86,6 +87,68 @@ def weigh(lw, w, x, m, t, ess, resampled, div_l1, distinct):
     """One step's weights (see ``normalise``), ESS and weighted mean; the step's resampling
     entries start as 'not resampled'. Returns (S, the weighted mean, underflow)."""
     S, S2, sx, under = normalise(lw, w, x, m)
+    ess[t] = S * S / S2
+    resampled[t] = 0
+    div_l1[t] = np.nan
+    distinct[t] = np.nan
+    return S, sx / S, under
+
+
+@kernel(types.UniTuple(types.float64, 4)(_F, _F, _F, types.float64), cache=True,
+        error_model="numpy")
+def normalise_lanes(lw, w, x, m):
+    """``normalise`` written to vectorise: the exponentials by ``vecmath.exp`` (within 2 ulp of
+    the C library's; 0 below -708, where the library's are subnormal) and the three sums in four
+    partial sums each, added pairwise at the end. Same arguments and results, to rounding."""
+    N = lw.size
+    underflow = 0.0
+    if not (m > -np.inf):
+        underflow = 1.0
+        for i in range(N):
+            lw[i] = 0.0
+        m = 0.0
+    for i in range(N):
+        l = lw[i] - m
+        lw[i] = l
+        w[i] = vm.exp(l)            # NaN and -inf give 0
+    a0 = a1 = a2 = a3 = 0.0
+    b0 = b1 = b2 = b3 = 0.0
+    c0 = c1 = c2 = c3 = 0.0
+    top = N - N % 4
+    for i in range(0, top, 4):
+        e0, e1, e2, e3 = w[i], w[i + 1], w[i + 2], w[i + 3]
+        a0 += e0
+        a1 += e1
+        a2 += e2
+        a3 += e3
+        b0 += e0 * e0
+        b1 += e1 * e1
+        b2 += e2 * e2
+        b3 += e3 * e3
+        c0 += e0 * x[i]
+        c1 += e1 * x[i + 1]
+        c2 += e2 * x[i + 2]
+        c3 += e3 * x[i + 3]
+    for i in range(top, N):
+        a0 += w[i]
+        b0 += w[i] * w[i]
+        c0 += w[i] * x[i]
+    S = (a0 + a1) + (a2 + a3)
+    S2 = (b0 + b1) + (b2 + b3)
+    sx = (c0 + c1) + (c2 + c3)
+    if not math.isfinite(sx):  # rare: a zero-weight particle at +-inf or NaN (0 * inf)
+        sx = 0.0
+        for i in range(N):
+            if w[i] > 0.0:
+                sx += w[i] * x[i]
+    return S, S2, sx, underflow
+
+
+@kernel(types.UniTuple(types.float64, 3)(_F, _F, _F, types.float64, types.int64, _F, _I, _F, _F),
+        cache=True)
+def weigh_lanes(lw, w, x, m, t, ess, resampled, div_l1, distinct):
+    """``weigh`` by ``normalise_lanes``."""
+    S, S2, sx, under = normalise_lanes(lw, w, x, m)
     ess[t] = S * S / S2
     resampled[t] = 0
     div_l1[t] = np.nan

@@ -15,7 +15,7 @@ from ..schema import Key
 from ..resampling import SCHEME_CODES, resample
 from ..rng import STATE
 from ..models.scalar import ModelFn, add_process_noise
-from ._common import floored, mh_move, resampled_step, start, weigh
+from ._common import floored, mh_move, resampled_step, start, weigh_lanes
 from .keys import pf_keys
 from .types import FilterType
 
@@ -77,7 +77,7 @@ def pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, scheme, threshold
                 l = lw[i] + floored(c0 - half_inv_R * d * d, log_floor)
                 lw[i] = l
                 mx = max(mx, l)
-        S, est, under = weigh(lw, w, xn, mx, t, ess, resampled, div_l1, distinct)
+        S, est, under = weigh_lanes(lw, w, xn, mx, t, ess, resampled, div_l1, distinct)
         events += int(under)
         if ess[t] < threshold:
             resample(scheme, w, S, s, idx)
