@@ -140,8 +140,8 @@ def _c_lines(binary: Path, *args) -> list[list[float]]:
 
 def filter_costs(Y, min_time: float, reps: int, N: int = BATCH_N) -> list[dict]:
     """Seconds per step of every filter type at N particles on the benchmark's UNGM data, through
-    the same entry point the runner uses (so the ~65 us per call of handing over the model
-    functions is included), each filter with its default settings."""
+    the same entry point the runner uses (so each call's fixed cost is included), each filter
+    with its default settings."""
     from .config import Params
     from .filters import FILTERS
     model = bench_model()
@@ -427,7 +427,50 @@ def mcl_bench(quick: bool, min_time: float, reps: int, say) -> list[dict]:
     return recs
 
 
-PARTS = ("ungm", "costs", "fastslam", "afsa", "mcl")
+def limit_bench(quick: bool, min_time: float, reps: int, say, console=None) -> list[dict]:
+    """The practical limit of each kernel (pfbench.limits): its irreducible passes timed alone,
+    their sum, and the kernel's time over that sum, for UNGM at N = 100 and 1e5, MCL at 10,000
+    and FastSLAM in the landmark world at 100."""
+    from rich.table import Table
+
+    from . import limits
+    runs = [("UNGM bootstrap PF", lambda: limits.ungm_limit(100, min_time, reps))]
+    if not quick:
+        runs.append(("UNGM bootstrap PF", lambda: limits.ungm_limit(100_000, min_time, reps)))
+    runs += [("MCL, beacon field (sspf_global), systematic resampling every step",
+              lambda: limits.mcl_limit(1000 if quick else 10_000, min_time, reps)),
+             ("FastSLAM, landmark world (afsa_fastslam), nearest-neighbour association",
+              lambda: limits.fastslam_limit(100, 50 if quick else 200, min_time, reps))]
+    records = []
+    for title, run in runs:
+        recs = run()
+        if not recs:
+            say(f"{title}: skipped (its config is not here; run from the repository root)")
+            continue
+        records += recs
+        N = recs[0]["particles"]
+        tab = Table(title=f"{title}, N = {N:,}: each pass alone, per particle and step",
+                    title_justify="left")
+        for h in ("pass", "ns", "share"):
+            tab.add_column(h, justify="right" if h != "pass" else "left")
+        for r in recs:
+            share = (f"{100 * r['share_of_limit']:.0f}%" if "share_of_limit" in r
+                     else f"{r['kernel_over_limit']:.2f}x the limit"
+                     if "kernel_over_limit" in r else "")
+            name = {"limit": "practical limit (the sum)"}.get(r["impl"], r["filter"])
+            if r["impl"] == "pfbench":
+                name = f"the pfbench kernel ({r['filter']})"
+            tab.add_row(name, f"{r['ns_per_particle_step']:.1f}", share)
+        if console:
+            console.print(tab)
+        else:
+            for r in recs:
+                say(f"{r['filter']}: {r['ns_per_particle_step']:.1f} ns")
+    return records
+
+
+PARTS = ("ungm", "costs", "fastslam", "afsa", "mcl", "limit")
+DEFAULT_PARTS = PARTS[:-1]       # the limit runs when asked for (--limit or --only limit)
 
 # What names a bench record (two runs' records with the same identity timed the same work), and
 # the throughput compared, in order of preference.
@@ -513,16 +556,19 @@ def print_comparison(rows: list[dict], path: Path, console) -> None:
 
 
 def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None, only=(),
-              compare=None):
+              compare=None, limit=False):
     """Time every implementation (or the parts named in ``only``: PARTS), print tables of
     throughputs and ratios, optionally write JSON; ``compare``: an earlier run's JSON, each
-    record's ratio to it printed at the end."""
+    record's ratio to it printed at the end; ``limit``: also the practical limits
+    (``limit_bench``)."""
     old = read_records(compare) if compare is not None else None
     unknown = sorted(set(only) - set(PARTS))
     if unknown:
         raise UserError(f"--only {unknown[0]}: no such part of the bench; parts: "
                         f"{', '.join(PARTS)}")
-    parts = set(only) or set(PARTS)
+    parts = set(only) or set(DEFAULT_PARTS)
+    if limit:
+        parts.add("limit")
     if c_ref is not None and not Path(c_ref).is_file():
         raise UserError(f"--c-ref {c_ref}: no such file (build it: gcc -O3 -march=native "
                         "-fopenmp -o ungm_ref bench/ungm_ref.c -lm)")
@@ -544,6 +590,8 @@ def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None, 
         records += afsa_bench(quick, min_time, reps, say, console)
     if "mcl" in parts:
         records += mcl_bench(quick, min_time, reps, say)
+    if "limit" in parts:
+        records += limit_bench(quick, min_time, reps, say, console)
     if json_path is not None:
         Path(json_path).write_text(json.dumps(records, indent=2) + "\n")
         say(f"wrote {json_path}")
@@ -631,6 +679,6 @@ def costs_bench(Y, min_time, reps, say, console) -> list[dict]:
                     f"{1e6 * c['seconds_per_step']:.2f}", f"{c['seconds_per_step'] / base:.2f}x")
     if console:
         console.print(tab)
-    say("per-step costs include each run's fixed cost (about 65 us for handing the model functions "
-        "to numba), which dominates the filters without particles")
+    say("per-step costs include each run's fixed cost (about 9 us a call: the arguments and the "
+        "kernel's set-up), which weighs most on the filters without particles")
     return costs

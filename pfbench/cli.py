@@ -748,7 +748,10 @@ def bench(
     threads: int = typer.Option(0, "--threads", min=0, help="Threads for the batch "
                                 "(0: every core)."),
     only: List[str] = typer.Option([], "--only", help="Only this part, repeatable: ungm, costs, "
-                                   "fastslam, afsa, mcl."),
+                                   "fastslam, afsa, mcl, limit."),
+    limit: bool = typer.Option(False, "--limit", help="Also time each kernel's irreducible "
+                               "passes alone: their sum, the practical limit, beside the "
+                               "kernel (UNGM, MCL, FastSLAM)."),
     compare: Optional[Path] = typer.Option(None, "--compare", help="An earlier run's --json "
                                            "file: print each record's throughput ratio to it."),
 ):
@@ -757,7 +760,7 @@ def bench(
         _load_kernels()
         from .bench import run_bench
         run_bench(json_path=json_path, quick=quick, c_ref=c_ref, threads=threads, console=out,
-                  only=only, compare=compare)
+                  only=only, compare=compare, limit=limit)
 
 
 def main():  # console-script entry point

@@ -1,0 +1,433 @@
+"""``pfbench bench --limit``: how far each kernel is from what this core can do.
+
+A filter step is a few passes over the particles that no implementation can skip: the normal
+draws, the move, the likelihood, the exponentials with their sums, resampling with the gather of
+the survivors (and for FastSLAM the association, the landmark EKF updates and the copy of the
+maps). Each pass is timed here alone, as a plain compiled loop over the same number of particles
+and the same steps' data, the way it runs fastest on this machine; their sum is the practical
+limit of a step, and the kernel's time per step over that sum says how much of a step goes to
+anything else (calls, branches, memory traffic between the passes, diagnostics).
+
+How each workload's passes are written:
+
+- UNGM (the bench's bootstrap PF): every pass in its fastest form: the model's arithmetic in line
+  (the kernel calls it through a function pointer), ``vecmath.exp`` with the three sums in
+  partial sums across lanes, systematic resampling in its counting form and a gather.
+- MCL (plain MCL on the beacon field of configs/sspf_global.yaml): the kernel's own passes, which
+  are written to vectorise already (rows of particles, ``vecmath``), each called alone.
+- FastSLAM (the landmark world of configs/afsa_fastslam.yaml, nearest-neighbour association): the
+  kernel's own per-landmark functions over every particle and observation of each step, the map
+  of each particle being the true landmarks at its truth pose, so association searches that many.
+
+The passes do not run a filter: the numbers they compute are not used, and the particles they
+work on are held fixed (drawn once around the truth); only their time counts.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+from numba import njit, types
+
+from . import vecmath as vm
+from .filters import mcl
+from .filters.fastslam import ekf_landmark_update, nearest_landmark
+from .models.beacons import loglik_const
+from .resampling import systematic
+from .rng import STATE, fill_normal, state_from_seed
+
+_F = types.float64[::1]
+_F2 = types.float64[:, ::1]
+_F3 = types.float64[:, :, ::1]
+_I = types.int64[::1]
+_I2 = types.int64[:, ::1]
+_LANES = 8
+
+
+# --- UNGM ----------------------------------------------------------------------------------------
+
+@njit(types.void(STATE, _F, types.int64), cache=True)
+def _ungm_draws(s, z, T):
+    for _ in range(T):
+        fill_normal(s, z)
+
+
+@njit(types.void(_F, _F, _F, types.float64, types.int64), cache=True, error_model="numpy")
+def _ungm_move(x, z, xn, sd, T):
+    for t in range(1, T + 1):
+        c = 8.0 * math.cos(1.2 * t)
+        for i in range(x.size):
+            xi = x[i]
+            xn[i] = 0.5 * xi + 25.0 * xi / (1.0 + xi * xi) + c + sd * z[i]
+
+
+@njit(types.float64(_F, _F, _F, types.float64), cache=True, error_model="numpy")
+def _ungm_likelihood(xn, lw, y, half_inv_R):
+    mx = np.full(_LANES, -np.inf)
+    N = xn.size
+    top = -np.inf
+    for t in range(1, y.size):
+        yt = y[t]
+        for i in range(N):
+            d = yt - xn[i] * xn[i] / 20.0
+            lw[i] = -half_inv_R * d * d
+        mx[:] = -np.inf
+        for i in range(0, N - N % _LANES, _LANES):
+            for k in range(_LANES):
+                mx[k] = max(mx[k], lw[i + k])
+        for i in range(N - N % _LANES, N):
+            mx[0] = max(mx[0], lw[i])
+        top = mx.max()
+    return top
+
+
+@njit(types.float64(_F, _F, _F, types.float64, types.int64), cache=True, error_model="numpy")
+def _ungm_exp_sums(lw, w, xn, m, T):
+    acc = np.zeros((3, _LANES))
+    N = lw.size
+    for _ in range(T):
+        for i in range(N):
+            w[i] = vm.exp(lw[i] - m)
+        acc[:] = 0.0
+        for i in range(0, N - N % _LANES, _LANES):
+            for k in range(_LANES):
+                e = w[i + k]
+                acc[0, k] += e
+                acc[1, k] += e * e
+                acc[2, k] += e * xn[i + k]
+        for i in range(N - N % _LANES, N):
+            acc[0, 0] += w[i]
+            acc[1, 0] += w[i] * w[i]
+            acc[2, 0] += w[i] * xn[i]
+    return acc.sum()
+
+
+@njit(types.void(_F, types.float64, STATE, _I, _F, _F, types.int64), cache=True,
+      error_model="numpy")
+def _ungm_resample(w, S, s, idx, x, xn, T):
+    for _ in range(T):
+        systematic(w, S, s, idx)
+        for i in range(x.size):
+            x[i] = xn[idx[i]]
+
+
+def _timed(fn, min_time, reps) -> float:
+    from .bench import _best
+    fn()                                   # compile or load, and warm the caches
+    return _best(fn, min_time, reps)[0]
+
+
+def _rows(workload, N, T, passes, kernel_s, label):
+    """Records: one per pass (seconds per step), their sum (the limit) and the kernel."""
+    limit = sum(s for _, s in passes)
+    recs = [{"workload": workload, "impl": "pass", "filter": name, "particles": N, "trials": 1,
+             "steps": T, "seconds": s * T, "seconds_per_step": s,
+             "ns_per_particle_step": 1e9 * s / N, "particle_steps_per_s": N / s,
+             "share_of_limit": s / limit} for name, s in passes]
+    recs.append({"workload": workload, "impl": "limit", "filter": "sum of the passes",
+                 "particles": N, "trials": 1, "steps": T, "seconds": limit * T,
+                 "seconds_per_step": limit, "ns_per_particle_step": 1e9 * limit / N,
+                 "particle_steps_per_s": N / limit})
+    recs.append({"workload": workload, "impl": "pfbench", "filter": label, "particles": N,
+                 "trials": 1, "steps": T, "seconds": kernel_s * T, "seconds_per_step": kernel_s,
+                 "ns_per_particle_step": 1e9 * kernel_s / N, "particle_steps_per_s": N / kernel_s,
+                 "kernel_over_limit": kernel_s / limit})
+    return recs
+
+
+def ungm_limit(N: int, min_time: float, reps: int) -> list[dict]:
+    """The UNGM bootstrap PF's passes at N particles over the bench's T steps, and its kernel."""
+    from .bench import T, Q, R, P0, bench_data, bench_model, pfbench_single
+    _, Y = bench_data(1)
+    y = Y[0]
+    s = state_from_seed(np.random.SeedSequence(31))
+    rng = np.random.default_rng(31)
+    x = rng.normal(0.0, math.sqrt(P0), N)
+    z = rng.standard_normal(N)
+    xn = np.empty(N)
+    lw = np.empty(N)
+    w = np.empty(N)
+    idx = np.empty(N, dtype=np.int64)
+    xo = np.empty(N)
+    _ungm_move(x, z, xn, math.sqrt(Q), 1)
+    m = _ungm_likelihood(xn, lw, y[:2], 0.5 / R)
+    _ungm_exp_sums(lw, w, xn, m, 1)
+    S = float(w.sum())
+    passes = [
+        ("normal draws", _timed(lambda: _ungm_draws(s, z, T), min_time, reps) / T),
+        ("move", _timed(lambda: _ungm_move(x, z, xn, math.sqrt(Q), T), min_time, reps) / T),
+        ("likelihood and max", _timed(lambda: _ungm_likelihood(xn, lw, y, 0.5 / R), min_time,
+                                      reps) / T),
+        ("exponentials and sums", _timed(lambda: _ungm_exp_sums(lw, w, xn, m, T), min_time,
+                                         reps) / T),
+        ("resampling and gather", _timed(lambda: _ungm_resample(w, S, s, idx, xo, xn, T),
+                                         min_time, reps) / T),
+    ]
+    model = bench_model()
+    kern = _timed(lambda: pfbench_single(model, y, N, s), min_time, reps) / T
+    return _rows("ungm-limit", N, T, passes, kern, "bootstrap PF")
+
+
+# --- MCL -----------------------------------------------------------------------------------------
+
+@njit(cache=True, error_model="numpy")
+def _mcl_move(P, CS, Z, ctrl, mnoise, motion):
+    N = P.shape[1]
+    for t in range(ctrl.shape[0]):
+        if motion == 0:
+            mcl._move_odometry(P[0], P[1], P[2], CS[0], CS[1], Z, ctrl[t, 0], ctrl[t, 1],
+                               ctrl[t, 2], mnoise, N)
+        else:
+            mcl._move_rot_trans_rot(P[0], P[1], P[2], CS[0], CS[1], Z, ctrl[t, 0], ctrl[t, 1],
+                                    ctrl[t, 2], mnoise, N)
+
+
+@njit(cache=True, error_model="numpy")
+def _mcl_likelihood(P, bc, obs_n, obs_id, obs_z, o, ll):
+    N = P.shape[1]
+    for t in range(obs_n.size):
+        mcl._loglik(P[0], P[1], P[2], N, bc, obs_n[t], obs_id[t], obs_z[t], o.sensor, o.sr, o.sb,
+                    loglik_const(obs_n[t], o.sensor, o.sr, o.sb), ll)
+
+
+@njit(cache=True, error_model="numpy")
+def _mcl_exp_sums(ll, W, T):
+    N = ll.size
+    for _ in range(T):
+        S = mcl._exp_sum(ll, ll.max(), N, W)
+        for i in range(N):
+            W[i] /= S
+        S2 = 0.0
+        for i in range(N):
+            S2 += W[i] * W[i]
+
+
+@njit(cache=True, error_model="numpy")
+def _mcl_estimate(P, W, CS, T):
+    out = np.empty(3)
+    for _ in range(T):
+        mcl._estimate_rows(P, W, P.shape[1], CS, out)
+
+
+@njit(cache=True, error_model="numpy")
+def _mcl_resample(P, CS, P2, CS2, W, o, idx, s, T):
+    for _ in range(T):
+        mcl.resample_rows(P, CS, P2, CS2, W, o, idx, s)
+
+
+def mcl_limit(N: int, min_time: float, reps: int) -> list[dict]:
+    """Plain MCL's passes (the kernel's own) at N particles over one trial of the beacon field of
+    configs/sspf_global.yaml, and its kernel; [] without that config."""
+    from .config import Params, load
+    from .filters import FILTERS
+    from .runner import trial_data
+    cfg = Path("configs/sspf_global.yaml")
+    if not cfg.exists():
+        return []
+    exp = load(cfg, sets=["scenario.initial=known"])
+    model, truth, data = trial_data(exp, 0)
+    T = data.ctrl.shape[0]
+    ft = FILTERS["mcl"]
+    params = Params({k: key.default for k, key in ft.schema.items()})
+    params = Params({**params, "resample": "always"})
+    s = state_from_seed(np.random.SeedSequence(32))
+    rng = np.random.default_rng(32)
+    P = np.ascontiguousarray((truth.pose[0] + 0.3 * rng.standard_normal((N, 3))).T)
+    CS = np.empty((2, N))
+    mcl._trig(P, 0, N, CS)
+    Z = np.empty(2 * N if model.motion == 0 else 3 * N)
+    ll = np.empty(N)
+    W = np.empty(N)
+    P2, CS2 = np.empty_like(P), np.empty_like(CS)
+    idx = np.empty(N, dtype=np.int64)
+    o = mcl.MclOptions(motion=int(model.motion), sensor=int(model.sensor),
+                       sr=float(model.sense[2]), sb=float(model.sense[3]), N=N,
+                       threshold=np.inf, scheme=1, reset=0, inject_sensor=0, kld=0)
+    P0, CS0 = P.copy(), CS.copy()
+
+    def move():
+        P[:], CS[:] = P0, CS0
+        _mcl_move(P, CS, Z, data.ctrl, model.mnoise, o.motion)
+
+    lik = lambda: _mcl_likelihood(P, model.beacons, data.obs_n, data.obs_id, data.obs_z, o, ll)
+    lik()
+    expsum = lambda: _mcl_exp_sums(ll, W, T)
+    expsum()
+    passes = [
+        ("normal draws", _timed(lambda: _ungm_draws(s, Z, T), min_time, reps) / T),
+        ("move", _timed(move, min_time, reps) / T),
+        ("likelihood", _timed(lik, min_time, reps) / T),
+        ("exponentials and sums", _timed(expsum, min_time, reps) / T),
+        ("estimate", _timed(lambda: _mcl_estimate(P, W, CS, T), min_time, reps) / T),
+        ("resampling and gather", _timed(lambda: _mcl_resample(P, CS, P2, CS2, W, o, idx, s, T),
+                                         min_time, reps) / T),
+    ]
+    kern = _timed(lambda: ft.run(model, data, params, N, s, False), min_time, reps) / T
+    return _rows("mcl-limit", N, T, passes, kern, "MCL")
+
+
+# --- FastSLAM ------------------------------------------------------------------------------------
+
+@njit(cache=True)
+def _fs_draws(s, z, K):
+    for _ in range(K):
+        fill_normal(s, z)
+
+
+@njit(cache=True)
+def _fs_move(P, z, ctrl, K):
+    N = P.shape[0]
+    for k in range(K):
+        v, g = ctrl[k, 0], ctrl[k, 1]
+        for i in range(N):
+            th = P[i, 2] + g + 1e-3 * z[3 * i]
+            st, ct = vm.sincos(th)
+            P[i, 0] += v * ct + 1e-2 * z[3 * i + 1]
+            P[i, 1] += v * st + 1e-2 * z[3 * i + 2]
+            P[i, 2] = vm.wrap(th)
+
+
+@njit(cache=True)
+def _fs_association(poses, mu, sig, nl, obs_n, obs_z, Rr, Rb, pc, bound):
+    acc = 0.0
+    N = mu.shape[0]
+    for k in range(obs_n.size):
+        px, py, pth = poses[k, 0], poses[k, 1], poses[k, 2]
+        for i in range(N):
+            for j in range(obs_n[k]):
+                m, d2 = nearest_landmark(px, py, pth, i, mu, sig, nl[k], obs_z[k, j, 0],
+                                         obs_z[k, j, 1], Rr, Rb, pc[i], bound)
+                acc += d2 + m
+    return acc
+
+
+@njit(cache=True)
+def _fs_update(poses, mu, sig, obs_n, obs_id, obs_z, Rr, Rb, lw):
+    N = mu.shape[0]
+    mu0 = mu.copy()
+    sig0 = sig.copy()
+    for k in range(obs_n.size):
+        px, py, pth = poses[k, 0], poses[k, 1], poses[k, 2]
+        mu[:] = mu0          # each step updates the same maps: its cost, not their drift
+        sig[:] = sig0
+        for i in range(N):
+            for j in range(obs_n[k]):
+                m = obs_id[k, j]
+                lw[i] += ekf_landmark_update(px, py, pth, mu[i, m], sig[i, m], obs_z[k, j, 0],
+                                             obs_z[k, j, 1], Rr, Rb, 1)
+    return lw.sum()
+
+
+@njit(cache=True)
+def _fs_copy_maps(mu0, sig0, mu, sig, K):
+    """What one step's map copy costs at least: the restores _fs_update does once a step."""
+    for _ in range(K):
+        mu[:] = mu0
+        sig[:] = sig0
+
+
+@njit(cache=True, error_model="numpy")
+def _fs_weights(lw, w, x, K):
+    acc = 0.0
+    for _ in range(K):
+        m = lw.max()
+        S = 0.0
+        S2 = 0.0
+        sx = 0.0
+        for i in range(lw.size):
+            e = vm.exp(lw[i] - m)
+            w[i] = e
+            S += e
+            S2 += e * e
+            sx += e * x[i]
+        acc += S + S2 + sx
+    return acc
+
+
+@njit(cache=True)
+def _fs_resample(w, s, idx, P, mu, sig, seen, nl, src, P2, mu2, sig2, seen2, nl2, src2, K):
+    S = w.sum()
+    for _ in range(K):
+        systematic(w, S, s, idx)
+        for i in range(idx.size):
+            j = idx[i]
+            P2[i] = P[j]
+            mu2[i] = mu[j]
+            sig2[i] = sig[j]
+            seen2[i] = seen[j]
+            nl2[i] = nl[j]
+            src2[i] = src[j]
+
+
+def fastslam_limit(N: int, steps: int, min_time: float, reps: int) -> list[dict]:
+    """FastSLAM's passes at N particles over the first ``steps`` steps of one trial of
+    configs/afsa_fastslam.yaml (its first filter: FastSLAM with nearest-neighbour association),
+    and its kernel; [] without that config."""
+    from .config import load
+    from .filters import FILTERS
+    from .runner import trial_data
+    cfg = Path("configs/afsa_fastslam.yaml")
+    if not cfg.exists():
+        return []
+    exp = load(cfg, sets=[f"scenario.steps={steps}"])
+    model, truth, data = trial_data(exp, 0)
+    run = exp.filters[0]
+    ft = FILTERS[run.type]
+    s = state_from_seed(np.random.SeedSequence(33))
+    K = data.obs_n.shape[0]
+    M_true = model.landmarks.shape[0]
+    M = run.params.get("max_landmarks") or 3 * M_true
+    deg = math.pi / 180.0
+    Rr = float(run.params.get("range_noise_m") or model.noise[2]) ** 2
+    Rb = (float(run.params.get("bearing_noise_deg") or model.noise[3] / deg) * deg) ** 2
+    poses = np.ascontiguousarray(truth.pose[1:K + 1] if truth.pose.shape[0] > K else truth.pose)
+    # every particle's map: the true landmarks in the order the trial first sees them (so that
+    # step k searches those seen before it, as a particle that associates them right does), with
+    # a landmark's covariance after a few observations
+    order = list(dict.fromkeys(int(i) for k in range(K) for i in data.obs_id[k, :data.obs_n[k]]))
+    order += [m for m in range(M_true) if m not in order]
+    seen_by = np.array([len(set(int(i) for kk in range(k + 1)
+                                for i in data.obs_id[kk, :data.obs_n[kk]])) for k in range(K)])
+    mu = np.zeros((N, M, 2))
+    sig = np.zeros((N, M, 3))
+    mu[:, :M_true] = model.landmarks[order]
+    sig[:, :M_true] = (1e-4, 0.0, 1e-4)
+    seen = np.zeros((N, M), dtype=np.int8)
+    seen[:, :M_true] = 1
+    src = np.full((N, M), -1, dtype=np.int64)
+    src[:, :M_true] = order
+    nl = np.full(N, M_true, dtype=np.int64)
+    slot = np.empty(M_true, dtype=np.int64)
+    slot[order] = np.arange(M_true)
+    ids = np.ascontiguousarray(slot[np.maximum(data.obs_id, 0)])
+    bound = max(float(run.params["gate_reject"]), float(run.params["gate_augment"]))
+    pc = np.full((N, 6), 1e-6)
+    P = np.tile(poses[0], (N, 1))
+    z = np.empty(3 * N)
+    lw = np.zeros(N)
+    w = np.random.default_rng(33).random(N)
+    idx = np.empty(N, dtype=np.int64)
+    copies = (np.empty_like(P), np.empty_like(mu), np.empty_like(sig), np.empty_like(seen),
+              np.empty_like(nl), np.empty_like(src))
+    mu0, sig0 = mu.copy(), sig.copy()
+    ctrl = np.ascontiguousarray(data.ctrl[:K])
+    n_obs = float(data.obs_n.mean())
+    passes = [
+        ("normal draws", _timed(lambda: _fs_draws(s, z, K), min_time, reps) / K),
+        ("move", _timed(lambda: _fs_move(P, z, ctrl, K), min_time, reps) / K),
+        (f"association ({n_obs:.1f} observations x {seen_by.mean():.1f} landmarks)",
+         _timed(lambda: _fs_association(poses, mu, sig, seen_by, data.obs_n, data.obs_z, Rr, Rb,
+                                        pc, bound), min_time, reps) / K),
+        (f"EKF updates ({n_obs:.1f} landmarks)",
+         _timed(lambda: _fs_update(poses, mu, sig, data.obs_n, ids, data.obs_z, Rr, Rb,
+                                   lw), min_time, reps) / K
+         - _timed(lambda: _fs_copy_maps(mu0, sig0, mu, sig, K), min_time, reps) / K),
+        ("exponentials and sums", _timed(lambda: _fs_weights(lw, w, P[:, 0].copy(), K), min_time,
+                                         reps) / K),
+        ("resampling and map copy", _timed(lambda: _fs_resample(w, s, idx, P, mu, sig, seen, nl,
+                                                                src, *copies, K),
+                                           min_time, reps) / K),
+    ]
+    kern = _timed(lambda: ft.run(model, data, run.params, N, s, False), min_time, reps) / K
+    return _rows("fastslam-limit", N, K, passes, kern, run.label)
