@@ -752,6 +752,9 @@ def bench(
     limit: bool = typer.Option(False, "--limit", help="Also time each kernel's irreducible "
                                "passes alone: their sum, the practical limit, beside the "
                                "kernel (UNGM, MCL, FastSLAM)."),
+    peers: bool = typer.Option(False, "--peers", help="Also time the same UNGM filter written "
+                               "with the particles library and with filterpy's resampling "
+                               "(pip install '.[peers]')."),
     compare: Optional[Path] = typer.Option(None, "--compare", help="An earlier run's --json "
                                            "file: print each record's throughput ratio to it."),
 ):
@@ -760,7 +763,7 @@ def bench(
         _load_kernels()
         from .bench import run_bench
         run_bench(json_path=json_path, quick=quick, c_ref=c_ref, threads=threads, console=out,
-                  only=only, compare=compare, limit=limit)
+                  only=only, compare=compare, limit=limit, peers=peers)
 
 
 def main():  # console-script entry point
