@@ -20,7 +20,7 @@ from ..resampling import SCHEME_CODES, SCHEMES, resample, stepwise_ewa_plan
 from ..rng import STATE, normal
 from ..schema import Key
 from ..models.scalar import NOISE_GAUSSIAN, ModelFn, add_process_noise
-from ._common import resampled_step, start, weigh
+from ._common import resampled_step, start, weigh_lanes
 from .keys import ewa_keys, pf_keys
 from .swarm import (ALGORITHMS, BA, FA, IFA, PSO, afsa_centres, afsa_propose, afsa_select, argmax,
                     ba_accept, ba_propose, fa_move, ifa_move, keys, pack, pso_accept, pso_propose)
@@ -235,7 +235,7 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, p, s, xhat,
             l = lw[i] + wk.ll[i]
             lw[i] = l
             mx = max(mx, l)
-        S, est, under = weigh(lw, w, xn, mx, t, ess, resampled, div_l1, distinct)
+        S, est, under = weigh_lanes(lw, w, xn, mx, t, ess, resampled, div_l1, distinct)
         events += int(under)
         if ess[t] < o.threshold:
             resample_swarm(x, xn, w, S, lw, idx, mutant, o, s)
