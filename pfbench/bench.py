@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import platform
 import struct
 import subprocess
 import tempfile
@@ -639,9 +640,11 @@ def compare_records(new: list[dict], old: list[dict]) -> list[dict]:
     """Each record of ``new`` beside the record of ``old`` that timed the same work (same
     identity: IDENTITY): {'key', 'new', 'old', 'ratio' (new throughput / old; > 1 faster),
     'slower' (ratio below SLOWER)}; records of only one run have None for the other."""
-    before = {record_key(r): r for r in old}
+    before = {record_key(r): r for r in old if r.get("workload") != "run"}
     out = []
     for r in new:
+        if r.get("workload") == "run":          # what ran, not a timing
+            continue
         k = record_key(r)
         o = before.pop(k, None)
         ratio = record_rate(r) / record_rate(o) if o is not None else math.nan
@@ -672,7 +675,8 @@ def print_comparison(rows: list[dict], path: Path, console) -> None:
     for h in ("record", "earlier", "now", "ratio"):
         t.add_column(h, no_wrap=h != "record")
     for r in rows:
-        fmt = lambda rec: "-" if rec is None else f"{record_rate(rec):.3g}"
+        fmt = lambda rec: ("-" if rec is None or record_rate(rec) != record_rate(rec)
+                           else f"{record_rate(rec):.3g}")
         ratio = "-" if r["ratio"] != r["ratio"] else f"{r['ratio']:.2f}"
         t.add_row(_what(r["key"]), fmt(r["old"]), fmt(r["new"]),
                   ratio + ("  SLOWER" if r["slower"] else ""))
@@ -684,11 +688,12 @@ def print_comparison(rows: list[dict], path: Path, console) -> None:
 
 
 def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None, only=(),
-              compare=None, limit=False, peers=False):
+              compare=None, limit=False, peers=False, command="pfbench bench"):
     """Time every implementation (or the parts named in ``only``: PARTS), print tables of
     throughputs and ratios, optionally write JSON; ``compare``: an earlier run's JSON, each
     record's ratio to it printed at the end; ``limit``: also the practical limits
-    (``limit_bench``); ``peers``: also the peers (``peers_bench``, the 'peers' extra)."""
+    (``limit_bench``); ``peers``: also the peers (``peers_bench``, the 'peers' extra);
+    ``command``: the command that ran, for the JSON's run record."""
     old = read_records(compare) if compare is not None else None
     unknown = sorted(set(only) - set(PARTS))
     if unknown:
@@ -724,6 +729,9 @@ def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None, 
         records += peers_bench(quick, min_time, reps, say, console)
     if "limit" in parts:
         records += limit_bench(quick, min_time, reps, say, console)
+    records.append({"workload": "run", "impl": "pfbench", "command": command,
+                    "cores": os.cpu_count(), "numba": numba.__version__,
+                    "numpy": np.__version__, "python": platform.python_version()})
     if json_path is not None:
         Path(json_path).write_text(json.dumps(records, indent=2) + "\n")
         say(f"wrote {json_path}")

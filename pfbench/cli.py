@@ -763,7 +763,13 @@ def bench(
         _load_kernels()
         from .bench import run_bench
         run_bench(json_path=json_path, quick=quick, c_ref=c_ref, threads=threads, console=out,
-                  only=only, compare=compare, limit=limit, peers=peers)
+                  only=only, compare=compare, limit=limit, peers=peers,
+                  command=" ".join(["pfbench bench"] + (["--quick"] if quick else [])
+                                   + ([f"--c-ref {c_ref.name}"] if c_ref else [])
+                                   + ([f"--threads {threads}"] if threads else [])
+                                   + [f"--only {o}" for o in only]
+                                   + (["--limit"] if limit else [])
+                                   + (["--peers"] if peers else [])))
 
 
 def main():  # console-script entry point

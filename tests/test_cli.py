@@ -89,7 +89,10 @@ def test_bench_only_runs_the_parts_named(tmp_path, monkeypatch):
     path = tmp_path / "b.json"
     res = runner.invoke(app, ["bench", "--quick", "--only", "mcl", "--json", str(path)])
     assert res.exit_code == 0, res.output
-    assert {r["workload"] for r in json.loads(path.read_text())} == {"mcl-beacon-field"}
+    recs = json.loads(path.read_text())
+    assert {r["workload"] for r in recs} == {"mcl-beacon-field", "run"}
+    run = next(r for r in recs if r["workload"] == "run")     # what ran, without --json
+    assert run["command"] == "pfbench bench --quick --only mcl"
     assert "UNGM" not in res.output
     res = runner.invoke(app, ["bench", "--only", "nosuch"])
     assert res.exit_code == 2 and "parts: ungm, costs, fastslam, afsa, mcl" in res.output
