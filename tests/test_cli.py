@@ -54,6 +54,9 @@ def test_bench_quick_writes_records(tmp_path, monkeypatch):
     res = runner.invoke(app, ["bench", "--quick", "--json", str(path)])
     assert res.exit_code == 0, res.output
     recs = json.loads(path.read_text())
+    run = [r for r in recs if r["workload"] == "run"]        # what ran: command, cores, versions
+    assert len(run) == 1 and run[0]["command"] == "pfbench bench --quick"
+    recs = [r for r in recs if r["workload"] != "run"]
     keys = {"workload", "impl", "particles", "trials", "steps", "particle_steps_per_s"}
     assert all(keys <= set(r) for r in recs)
     assert {r["impl"] for r in recs} == {"pfbench", "numpy"}
