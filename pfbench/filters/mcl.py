@@ -68,20 +68,44 @@ _I2 = types.int64[:, ::1]
 RESET = {"none": 0, "srl": 1, "asrl": 2, "augmented": 3}
 
 
+@kernel(types.float64(_F, _F, types.int64), cache=True, error_model="numpy")
+def _dot(a, b, n):
+    """sum a[i] b[i] over i < n in four partial sums (lanes the compiler keeps in one vector),
+    added pairwise at the end: a reduction that vectorises (a single running sum does not, as
+    its order is part of its result)."""
+    s0 = s1 = s2 = s3 = 0.0
+    top = n - n % 4
+    for i in range(0, top, 4):
+        s0 += a[i] * b[i]
+        s1 += a[i + 1] * b[i + 1]
+        s2 += a[i + 2] * b[i + 2]
+        s3 += a[i + 3] * b[i + 3]
+    for i in range(top, n):
+        s0 += a[i] * b[i]
+    return (s0 + s1) + (s2 + s3)
+
+
+@kernel(types.float64(_F, types.int64), cache=True, error_model="numpy")
+def _lanesum(a, n):
+    """sum a[i] over i < n in four partial sums (see ``_dot``)."""
+    s0 = s1 = s2 = s3 = 0.0
+    top = n - n % 4
+    for i in range(0, top, 4):
+        s0 += a[i]
+        s1 += a[i + 1]
+        s2 += a[i + 2]
+        s3 += a[i + 3]
+    for i in range(top, n):
+        s0 += a[i]
+    return (s0 + s1) + (s2 + s3)
+
+
 @kernel(types.void(_F2, _F, types.int64, _F2, _F), cache=True)
 def _estimate_rows(P, W, n, CS, out):
     """estimate_pose of particles stored as rows, P (3, N), with the headings' cosines and sines
-    given, CS (2, N)."""
-    ex = 0.0
-    ey = 0.0
-    ec = 0.0
-    es = 0.0
-    for i in range(n):
-        ex += W[i] * P[0, i]
-        ey += W[i] * P[1, i]
-        ec += W[i] * CS[0, i]
-        es += W[i] * CS[1, i]
-    out[0], out[1], out[2] = ex, ey, math.atan2(es, ec)
+    given, CS (2, N): four weighted sums, each in partial sums (``_dot``)."""
+    out[0], out[1] = _dot(W, P[0], n), _dot(W, P[1], n)
+    out[2] = math.atan2(_dot(W, CS[1], n), _dot(W, CS[0], n))
 
 
 @kernel(types.void(_F2, types.int64, types.int64, _F2), cache=True, error_model="numpy")
@@ -160,13 +184,10 @@ def _loglik(X, Y, H, n, bc, m, ids, zs, sensor, sr, sb, cst, ll):
 
 @kernel(types.float64(_F, types.float64, types.int64, _F), cache=True, error_model="numpy")
 def _exp_sum(a, shift, n, out):
-    """out[i] = exp(a[i] - shift) for i < n; returns their sum."""
+    """out[i] = exp(a[i] - shift) for i < n; returns their sum (in partial sums, ``_lanesum``)."""
     for i in range(n):
         out[i] = vm.exp(a[i] - shift)
-    acc = 0.0
-    for i in range(n):
-        acc += out[i]
-    return acc
+    return _lanesum(out, n)
 
 
 @kernel(types.int64(types.int64, types.float64, types.float64), cache=True)
@@ -293,14 +314,25 @@ def weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh):
     Returns (p_mean, the mean likelihood of the moved particles; the ESS; 1 when every weight
     underflowed and was reset). ``fresh``: the log-weights are all zero (a resampled or initial
     set), so the likelihoods are the weights."""
-    mx = -np.inf
-    lmax = -np.inf
     _loglik(P[0], P[1], P[2], n, bc, m, ids, zs, o.sensor, o.sr, o.sb,
             loglik_const(m, o.sensor, o.sr, o.sb), ll)
-    for i in range(n):
+    # the two maxima in four lanes each (the same maxima: a NaN loses every comparison)
+    m0 = m1 = m2 = m3 = -np.inf
+    l0 = l1 = l2 = l3 = -np.inf
+    top = n - n % 4
+    for i in range(0, top, 4):
+        a0, a1, a2, a3 = lw[i] + ll[i], lw[i + 1] + ll[i + 1], lw[i + 2] + ll[i + 2], \
+            lw[i + 3] + ll[i + 3]
+        lw[i], lw[i + 1], lw[i + 2], lw[i + 3] = a0, a1, a2, a3
+        m0, m1, m2, m3 = max(m0, a0), max(m1, a1), max(m2, a2), max(m3, a3)
+        l0, l1 = max(l0, ll[i]), max(l1, ll[i + 1])
+        l2, l3 = max(l2, ll[i + 2]), max(l3, ll[i + 3])
+    for i in range(top, n):
         lw[i] += ll[i]
-        mx = max(mx, lw[i])
-        lmax = max(lmax, ll[i])
+        m0 = max(m0, lw[i])
+        l0 = max(l0, ll[i])
+    mx = max(max(m0, m1), max(m2, m3))
+    lmax = max(max(l0, l1), max(l2, l3))
     # p_mean by log-sum-exp; on a fresh set these terms are the weights themselves
     acc = _exp_sum(ll, lmax, n, W)
     pm = math.exp(lmax) * acc / n if np.isfinite(lmax) else 0.0
@@ -315,10 +347,7 @@ def weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh):
         S = _exp_sum(lw, mx, n, W)
     for i in range(n):
         W[i] /= S
-    S2 = 0.0
-    for i in range(n):
-        S2 += W[i] * W[i]
-    return pm, 1.0 / S2, under
+    return pm, 1.0 / _dot(W, W, n), under
 
 
 @kernel(types.UniTuple(types.float64, 3)(types.float64, types.float64, types.float64, types.int64,
