@@ -273,3 +273,16 @@ def test_a_known_start_tracks_and_plain_mcl_does_not_survive_a_kidnapping():
     assert err[31:].min() > 2.0                         # and stays lost after the kidnapping
     m = localization_metrics(truth.pose, out, 0.5, model.kidnaps)
     assert m["converge_step"] == 1 and m["recovery_failures"] == 1
+
+
+def test_partial_sums_cover_every_element():
+    """MCL's partial sums (four lanes and a tail) add every element once, for every length."""
+    from pfbench.filters.mcl import _dot, _lanesum
+    rng = np.random.default_rng(4)
+    for n in range(0, 23):
+        a = rng.integers(-50, 50, n + 3).astype(float)      # integers: exact in any order
+        b = rng.integers(-50, 50, n + 3).astype(float)
+        assert _lanesum(a, n) == a[:n].sum()
+        assert _dot(a, b, n) == float(a[:n] @ b[:n])
+    x = rng.random(10_001)
+    assert abs(_lanesum(x, x.size) - math.fsum(x)) <= 1e-12 * math.fsum(x)
