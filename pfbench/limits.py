@@ -346,18 +346,22 @@ def _fs_weights(lw, w, x, K):
 
 
 @njit(cache=True)
-def _fs_resample(w, s, idx, P, mu, sig, seen, nl, src, P2, mu2, sig2, seen2, nl2, src2, K):
+def _fs_resample(w, s, idx, P, mu, sig, seen, nl, src, P2, mu2, sig2, seen2, nl2, src2, used, K):
+    """Systematic resampling and the copy of each survivor's pose and the used slots of its map
+    (used[k] at step k: the landmarks seen so far)."""
     S = w.sum()
-    for _ in range(K):
+    for k in range(K):
         systematic(w, S, s, idx)
         for i in range(idx.size):
             j = idx[i]
-            P2[i] = P[j]
-            mu2[i] = mu[j]
-            sig2[i] = sig[j]
-            seen2[i] = seen[j]
+            P2[i, 0], P2[i, 1], P2[i, 2] = P[j, 0], P[j, 1], P[j, 2]
+            for m in range(used[k]):
+                mu2[i, m, 0], mu2[i, m, 1] = mu[j, m, 0], mu[j, m, 1]
+                sig2[i, m, 0], sig2[i, m, 1], sig2[i, m, 2] = sig[j, m, 0], sig[j, m, 1], \
+                    sig[j, m, 2]
+                seen2[i, m] = seen[j, m]
+                src2[i, m] = src[j, m]
             nl2[i] = nl[j]
-            src2[i] = src[j]
 
 
 def fastslam_limit(N: int, steps: int, min_time: float, reps: int) -> list[dict]:
@@ -426,7 +430,7 @@ def fastslam_limit(N: int, steps: int, min_time: float, reps: int) -> list[dict]
         ("exponentials and sums", _timed(lambda: _fs_weights(lw, w, P[:, 0].copy(), K), min_time,
                                          reps) / K),
         ("resampling and map copy", _timed(lambda: _fs_resample(w, s, idx, P, mu, sig, seen, nl,
-                                                                src, *copies, K),
+                                                                src, *copies, seen_by, K),
                                            min_time, reps) / K),
     ]
     kern = _timed(lambda: ft.run(model, data, run.params, N, s, False), min_time, reps) / K

@@ -825,15 +825,23 @@ def resample_set(ps, out, pc, pcm, Wn, w, Ssum, o, board, xbar, xbar_prev, dnois
         resample(o.scheme, w, Ssum, s, idx)
         mutant[:] = 0
     P, P2 = ps.P, out.P
+    M = ps.mu.shape[1]
     for i in range(N):
         j = idx[i]
         for d in range(3):
             P2[i, d] = P[j, d]
-        out.mu[i] = ps.mu[j]
-        out.sig[i] = ps.sig[j]
-        out.seen[i] = ps.seen[j]
+        # a map's slots: all of them with known identities; with nearest-neighbour association
+        # the first nl, the ones in use (a slot beyond is written before it is ever read)
+        used = ps.nl[j] if o.assoc else M
+        for m in range(used):
+            out.mu[i, m, 0] = ps.mu[j, m, 0]
+            out.mu[i, m, 1] = ps.mu[j, m, 1]
+            out.sig[i, m, 0] = ps.sig[j, m, 0]
+            out.sig[i, m, 1] = ps.sig[j, m, 1]
+            out.sig[i, m, 2] = ps.sig[j, m, 2]
+            out.seen[i, m] = ps.seen[j, m]
+            out.src[i, m] = ps.src[j, m]
         out.nl[i] = ps.nl[j]
-        out.src[i] = ps.src[j]
         if mutant[i]:
             for d in range(3):
                 P2[i, d] += P2[i, d] * o.ewa_mu * normal(s)
