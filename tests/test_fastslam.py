@@ -420,3 +420,34 @@ def test_nearest_landmark_is_the_exhaustive_search_within_its_bound():
             assert got[1] > bound, case
             checked_beyond += 1
     assert checked_within > 300 and checked_beyond > 300
+
+
+def test_the_searchs_innovation_updates_as_ekf_landmark_update_does():
+    """update_maps updates the nearest landmark from the innovation the search computed
+    (ekf_apply): the same mean, covariance and log-likelihood, bit for bit, as
+    ekf_landmark_update computing it again."""
+    from pfbench.filters.fastslam import ekf_apply, ekf_landmark_update, nearest_innovation
+    rng = np.random.default_rng(23)
+    for case in range(300):
+        M = int(rng.integers(1, 8))
+        mu = rng.uniform(-10, 10, (1, M, 2))
+        a, d = rng.uniform(1e-4, 0.5, M) ** 2, rng.uniform(1e-4, 0.5, M) ** 2
+        sig = np.stack([a, 0.3 * np.sqrt(a * d), d], axis=1)[None].copy()
+        px, py, pth = rng.uniform(-10, 10), rng.uniform(-10, 10), rng.uniform(-np.pi, np.pi)
+        pc = np.array([1e-4, 0.0, 0.0, 1e-4, 0.0, 1e-5]) * rng.choice([0.0, 1.0])
+        m0 = int(rng.integers(M))
+        dx, dy = mu[0, m0] - (px, py)
+        zr = np.hypot(dx, dy) + 0.05 * rng.normal()
+        zb = (np.arctan2(dy, dx) - pth + 0.02 * rng.normal() + np.pi) % (2 * np.pi) - np.pi
+        Rr, Rb, joseph = 0.01, 1e-4, int(rng.integers(2))
+        fm, d2, v1, v2, S11, S12, S22, h11, h12, h21, h22 = nearest_innovation(
+            px, py, pth, 0, mu, sig, M, zr, zb, Rr, Rb, pc, 1e4)
+        if not np.isfinite(d2):
+            continue
+        m = int(fm)
+        mu_a, sig_a = mu[0, m].copy(), sig[0, m].copy()
+        mu_b, sig_b = mu[0, m].copy(), sig[0, m].copy()
+        la = ekf_apply(mu_a, sig_a, v1, v2, S11, S12, S22, S11 * S22 - S12 * S12, h11, h12,
+                       h21, h22, Rr, Rb, joseph)
+        lb = ekf_landmark_update(px, py, pth, mu_b, sig_b, zr, zb, Rr, Rb, joseph)
+        assert la == lb and np.array_equal(mu_a, mu_b) and np.array_equal(sig_a, sig_b), case

@@ -95,11 +95,20 @@ def ekf_landmark_update(px, py, pth, mu, sig, zr, zb, Rr, Rb, joseph):
     """Update one landmark's EKF (mean mu (2,), covariance sig (3,) = [s11, s12, s22]) with the
     observation [zr, zb] from pose (px, py, pth); return the log-likelihood of the innovation,
     log N(v; 0, S). joseph: 1 = Joseph form, 0 = (I - KH) P symmetrised."""
-    a, c, d = sig[0], sig[1], sig[2]
     v1, v2, S11, S12, S22, det, h11, h12, h21, h22, ok = innovation(
-        px, py, pth, mu[0], mu[1], a, c, d, zr, zb, Rr, Rb)
+        px, py, pth, mu[0], mu[1], sig[0], sig[1], sig[2], zr, zb, Rr, Rb)
     if ok == 0.0:
         return 0.0
+    return ekf_apply(mu, sig, v1, v2, S11, S12, S22, det, h11, h12, h21, h22, Rr, Rb, joseph)
+
+
+@kernel(types.float64(_F, _F, types.float64, types.float64, types.float64, types.float64,
+                    types.float64, types.float64, types.float64, types.float64, types.float64,
+                    types.float64, types.float64, types.float64, types.int64), cache=True)
+def ekf_apply(mu, sig, v1, v2, S11, S12, S22, det, h11, h12, h21, h22, Rr, Rb, joseph):
+    """The update of ``ekf_landmark_update`` from the innovation ``innovation`` computed (v, S
+    without the pose's uncertainty, det S, H)."""
+    a, c, d = sig[0], sig[1], sig[2]
     i11, i12, i22 = S22 / det, -S12 / det, S11 / det
     # K = P H^T S^-1 (2 x 2)
     q11 = a * h11 + c * h12
@@ -174,12 +183,16 @@ def propagate_pose_cov(c, fx, fy, g1x, g1y, g1t, q1, g2x, g2y, g2t, q2, qxy):
     c[5] = tt + q1 * g1t * g1t + q2 * g2t * g2t
 
 
-@kernel(types.float64(types.float64, types.float64, types.float64, types.float64, types.float64,
-                    types.float64, types.float64, types.float64, types.float64, types.float64,
-                    types.float64, types.float64, _F, types.float64, types.float64,
-                    types.float64), cache=True, inline="always")
+@kernel(types.UniTuple(types.float64, 10)(types.float64, types.float64, types.float64,
+                                        types.float64, types.float64, types.float64,
+                                        types.float64, types.float64, types.float64,
+                                        types.float64, types.float64, types.float64, _F,
+                                        types.float64, types.float64, types.float64),
+        cache=True, inline="always")
 def mahalanobis2_within(px, py, pth, lx, ly, a, c, d, zr, zb, Rr, Rb, pc, co, so, bound):
     """``mahalanobis2`` where it can be at most ``bound``; inf where it is certainly beyond.
+    Returns (d2, and the innovation as ``innovation`` computes it: v1, v2, S11, S12, S22
+    without the pose's uncertainty, h11, h12, h21, h22; meaningful where d2 is finite).
 
     (lx, ly), [[a, c], [c, d]] : the landmark's mean and covariance; co, so : cos and sin of
     pth + zb, the direction in which it was observed (for the bound only: to within 1e-12).
@@ -195,7 +208,7 @@ def mahalanobis2_within(px, py, pth, lx, ly, a, c, d, zr, zb, Rr, Rb, pc, co, so
     q = dx * dx + dy * dy
     r = math.sqrt(q)
     if r < 1e-9:
-        return np.inf
+        return np.inf, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0
     h11, h12, h21, h22 = dx / r, dy / r, -dy / q, dx / q
     p11 = h11 * a + h12 * c
     p12 = h11 * c + h12 * d
@@ -209,18 +222,19 @@ def mahalanobis2_within(px, py, pth, lx, ly, a, c, d, zr, zb, Rr, Rb, pc, co, so
     cbx = -(h21 * pc[0] + h22 * pc[1] + pc[2])
     cby = -(h21 * pc[1] + h22 * pc[3] + pc[4])
     cbt = -(h21 * pc[2] + h22 * pc[4] + pc[5])
-    S11 -= h11 * cax + h12 * cay
-    S12 -= h11 * cbx + h12 * cby
-    S22 -= h21 * cbx + h22 * cby + cbt
+    T11 = S11 - (h11 * cax + h12 * cay)
+    T12 = S12 - (h11 * cbx + h12 * cby)
+    T22 = S22 - (h21 * cbx + h22 * cby + cbt)
     v1 = zr - r
     far = bound * (1.0 + 1e-6)
-    if v1 * v1 > far * S11:
-        return np.inf
+    if v1 * v1 > far * T11:
+        return np.inf, v1, 0.0, S11, S12, S22, h11, h12, h21, h22
     cr = abs(so * h11 - co * h12) - 1e-12
-    if cr > 0.0 and cr * cr > far * S22:
-        return np.inf
+    if cr > 0.0 and cr * cr > far * T22:
+        return np.inf, v1, 0.0, S11, S12, S22, h11, h12, h21, h22
     v2 = wrap(zb - wrap(math.atan2(dy, dx) - pth))
-    return _maha(v1, v2, S11, S12, S22, S11 * S22 - S12 * S12)
+    return (_maha(v1, v2, T11, T12, T22, T11 * T22 - T12 * T12), v1, v2, S11, S12, S22, h11, h12,
+            h21, h22)
 
 
 @kernel(types.Tuple((types.int64, types.float64))(types.float64, types.float64, types.float64,
@@ -233,16 +247,33 @@ def nearest_landmark(px, py, pth, i, mu, sig, nl, zr, zb, Rr, Rb, pc, bound):
     uncertainty pc, see ``mahalanobis2``) to the observation among its nl landmarks, exact where
     that distance is at most ``bound``; (-1, inf) when none is within it (every caller treats
     a distance beyond its largest gate alike, so that is what it passes)."""
-    best = -1
+    r = nearest_innovation(px, py, pth, i, mu, sig, nl, zr, zb, Rr, Rb, pc, bound)
+    return np.int64(r[0]), r[1]
+
+
+@kernel(types.UniTuple(types.float64, 11)(types.float64, types.float64, types.float64,
+                                        types.int64, _F3, _F3, types.int64, types.float64,
+                                        types.float64, types.float64, types.float64, _F,
+                                        types.float64), cache=True)
+def nearest_innovation(px, py, pth, i, mu, sig, nl, zr, zb, Rr, Rb, pc, bound):
+    """``nearest_landmark`` (its index as a float, its distance) with the nearest one's
+    innovation as ``innovation`` computes it (v1, v2, S11, S12, S22, h11, h12, h21, h22), so that
+    its update (``ekf_apply``) need not compute it again."""
+    best = -1.0
     bd = np.inf
+    b1 = b2 = bS12 = bh11 = bh12 = bh21 = bh22 = 0.0
+    bS11 = bS22 = 1.0
     so, co = vm.sincos(pth + zb)
     for m in range(nl):
-        d2 = mahalanobis2_within(px, py, pth, mu[i, m, 0], mu[i, m, 1], sig[i, m, 0],
-                                 sig[i, m, 1], sig[i, m, 2], zr, zb, Rr, Rb, pc, co, so, bound)
+        d2, v1, v2, S11, S12, S22, h11, h12, h21, h22 = mahalanobis2_within(
+            px, py, pth, mu[i, m, 0], mu[i, m, 1], sig[i, m, 0], sig[i, m, 1], sig[i, m, 2], zr,
+            zb, Rr, Rb, pc, co, so, bound)
         if d2 < bd:
             bd = d2
-            best = m
-    return best, bd
+            best = float(m)
+            b1, b2, bS11, bS12, bS22, bh11, bh12, bh21, bh22 = v1, v2, S11, S12, S22, h11, h12, \
+                h21, h22
+    return best, bd, b1, b2, bS11, bS12, bS22, bh11, bh12, bh21, bh22
 
 
 @kernel(types.void(types.float64, types.float64, types.float64, types.float64, types.float64,
@@ -743,14 +774,18 @@ def update_maps(ps, pc, ids, zs, n, o, lw, stats):
         px, py, pth = ps.P[i, 0], ps.P[i, 1], ps.P[i, 2]
         for j in range(n):
             if o.assoc:
-                m, d2 = nearest_landmark(px, py, pth, i, ps.mu, ps.sig, ps.nl[i], zs[j, 0],
-                                         zs[j, 1], o.Rr, o.Rb, pc[i], far)
+                fm, d2, v1, v2, S11, S12, S22, h11, h12, h21, h22 = nearest_innovation(
+                    px, py, pth, i, ps.mu, ps.sig, ps.nl[i], zs[j, 0], zs[j, 1], o.Rr, o.Rb,
+                    pc[i], far)
+                m = np.int64(fm)
                 if d2 <= o.gate_reject:
                     stats[0] += 1.0
                     if ps.src[i, m] != ids[j]:
                         stats[1] += 1.0
-                    lw[i] += ekf_landmark_update(px, py, pth, ps.mu[i, m], ps.sig[i, m],
-                                                 zs[j, 0], zs[j, 1], o.Rr, o.Rb, o.joseph)
+                    # the update ekf_landmark_update makes, from the innovation the search found
+                    lw[i] += ekf_apply(ps.mu[i, m], ps.sig[i, m], v1, v2, S11, S12, S22,
+                                       S11 * S22 - S12 * S12, h11, h12, h21, h22, o.Rr, o.Rb,
+                                       o.joseph)
                     continue
                 if d2 <= o.gate_augment or ps.nl[i] >= M:
                     stats[2] += 1.0     # between the gates (ambiguous), or the map is full
