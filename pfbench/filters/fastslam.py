@@ -254,7 +254,7 @@ def nearest_landmark(px, py, pth, i, mu, sig, nl, zr, zb, Rr, Rb, pc, bound):
 @kernel(types.UniTuple(types.float64, 11)(types.float64, types.float64, types.float64,
                                         types.int64, _F3, _F3, types.int64, types.float64,
                                         types.float64, types.float64, types.float64, _F,
-                                        types.float64), cache=True)
+                                        types.float64), cache=True, inline="always")
 def nearest_innovation(px, py, pth, i, mu, sig, nl, zr, zb, Rr, Rb, pc, bound):
     """``nearest_landmark`` (its index as a float, its distance) with the nearest one's
     innovation as ``innovation`` computes it (v1, v2, S11, S12, S22, h11, h12, h21, h22), so that

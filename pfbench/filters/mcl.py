@@ -100,12 +100,40 @@ def _lanesum(a, n):
     return (s0 + s1) + (s2 + s3)
 
 
-@kernel(types.void(_F2, _F, types.int64, _F2, _F), cache=True)
+@kernel(types.void(_F2, _F, types.int64, _F2, _F), cache=True, error_model="numpy")
 def _estimate_rows(P, W, n, CS, out):
     """estimate_pose of particles stored as rows, P (3, N), with the headings' cosines and sines
-    given, CS (2, N): four weighted sums, each in partial sums (``_dot``)."""
-    out[0], out[1] = _dot(W, P[0], n), _dot(W, P[1], n)
-    out[2] = math.atan2(_dot(W, CS[1], n), _dot(W, CS[0], n))
+    given, CS (2, N): the four weighted sums in one pass, each in the four partial sums of
+    ``_dot`` (the same sums to the bit)."""
+    X, Y, C, S = P[0], P[1], CS[0], CS[1]
+    x0 = x1 = x2 = x3 = y0 = y1 = y2 = y3 = 0.0
+    c0 = c1 = c2 = c3 = s0 = s1 = s2 = s3 = 0.0
+    top = n - n % 4
+    for i in range(0, top, 4):
+        w0, w1, w2, w3 = W[i], W[i + 1], W[i + 2], W[i + 3]
+        x0 += w0 * X[i]
+        x1 += w1 * X[i + 1]
+        x2 += w2 * X[i + 2]
+        x3 += w3 * X[i + 3]
+        y0 += w0 * Y[i]
+        y1 += w1 * Y[i + 1]
+        y2 += w2 * Y[i + 2]
+        y3 += w3 * Y[i + 3]
+        c0 += w0 * C[i]
+        c1 += w1 * C[i + 1]
+        c2 += w2 * C[i + 2]
+        c3 += w3 * C[i + 3]
+        s0 += w0 * S[i]
+        s1 += w1 * S[i + 1]
+        s2 += w2 * S[i + 2]
+        s3 += w3 * S[i + 3]
+    for i in range(top, n):
+        x0 += W[i] * X[i]
+        y0 += W[i] * Y[i]
+        c0 += W[i] * C[i]
+        s0 += W[i] * S[i]
+    out[0], out[1] = (x0 + x1) + (x2 + x3), (y0 + y1) + (y2 + y3)
+    out[2] = math.atan2((s0 + s1) + (s2 + s3), (c0 + c1) + (c2 + c3))
 
 
 @kernel(types.void(_F2, types.int64, types.int64, _F2), cache=True, error_model="numpy")
