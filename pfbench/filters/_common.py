@@ -55,12 +55,7 @@ def normalise(lw, w, x, m):
     log-weight was -inf or NaN (the weights were reset to uniform), else 0.0.
     """
     N = lw.size
-    underflow = 0.0
-    if not (m > -np.inf):
-        underflow = 1.0
-        for i in range(N):
-            lw[i] = 0.0
-        m = 0.0
+    m, underflow = _underflow(lw, m)
     S = 0.0
     S2 = 0.0
     sx = 0.0
@@ -73,12 +68,44 @@ def normalise(lw, w, x, m):
         S += e
         S2 += e * e
         sx += e * x[i]
-    if not math.isfinite(sx):  # rare: a zero-weight particle at +-inf or NaN (0 * inf)
-        sx = 0.0
-        for i in range(N):
-            if w[i] > 0.0:
-                sx += w[i] * x[i]
-    return S, S2, sx, underflow
+    return S, S2, _finite_sum(w, x, sx), underflow
+
+
+@kernel(types.UniTuple(types.float64, 2)(_F, types.float64), cache=True, inline="always")
+def _underflow(lw, m):
+    """(the shift, underflow): (m, 0.0), or, when every log-weight was -inf or NaN (m is not
+    above -inf), lw reset to 0 and (0.0, 1.0)."""
+    if m > -np.inf:
+        return m, 0.0
+    for i in range(lw.size):
+        lw[i] = 0.0
+    return 0.0, 1.0
+
+
+@kernel(types.float64(_F, _F, types.float64), cache=True, inline="always")
+def _finite_sum(w, x, sx):
+    """sx, the weighted sum of x, unless it is not finite: then the sum over the particles of
+    positive weight only (rare: a zero-weight particle at +-inf or NaN makes 0 * inf)."""
+    if math.isfinite(sx):
+        return sx
+    sx = 0.0
+    for i in range(w.size):
+        if w[i] > 0.0:
+            sx += w[i] * x[i]
+    return sx
+
+
+@kernel(types.UniTuple(types.float64, 3)(types.float64, types.float64, types.float64,
+                                       types.float64, types.int64, _F, _I, _F, _F),
+        cache=True, inline="always")
+def _record_step(S, S2, sx, under, t, ess, resampled, div_l1, distinct):
+    """Step t's ESS from the sums, its resampling entries as 'not resampled'; returns (S, the
+    weighted mean, underflow)."""
+    ess[t] = S * S / S2
+    resampled[t] = 0
+    div_l1[t] = np.nan
+    distinct[t] = np.nan
+    return S, sx / S, under
 
 
 @kernel(types.UniTuple(types.float64, 3)(_F, _F, _F, types.float64, types.int64, _F, _I, _F, _F),
@@ -87,11 +114,7 @@ def weigh(lw, w, x, m, t, ess, resampled, div_l1, distinct):
     """One step's weights (see ``normalise``), ESS and weighted mean; the step's resampling
     entries start as 'not resampled'. Returns (S, the weighted mean, underflow)."""
     S, S2, sx, under = normalise(lw, w, x, m)
-    ess[t] = S * S / S2
-    resampled[t] = 0
-    div_l1[t] = np.nan
-    distinct[t] = np.nan
-    return S, sx / S, under
+    return _record_step(S, S2, sx, under, t, ess, resampled, div_l1, distinct)
 
 
 @kernel(types.UniTuple(types.float64, 4)(_F, _F, _F, types.float64), cache=True,
@@ -101,12 +124,7 @@ def normalise_lanes(lw, w, x, m):
     the C library's; 0 below -708, where the library's are subnormal) and the three sums in four
     partial sums each, added pairwise at the end. Same arguments and results, to rounding."""
     N = lw.size
-    underflow = 0.0
-    if not (m > -np.inf):
-        underflow = 1.0
-        for i in range(N):
-            lw[i] = 0.0
-        m = 0.0
+    m, underflow = _underflow(lw, m)
     for i in range(N):
         l = lw[i] - m
         lw[i] = l
@@ -133,15 +151,8 @@ def normalise_lanes(lw, w, x, m):
         a0 += w[i]
         b0 += w[i] * w[i]
         c0 += w[i] * x[i]
-    S = (a0 + a1) + (a2 + a3)
-    S2 = (b0 + b1) + (b2 + b3)
     sx = (c0 + c1) + (c2 + c3)
-    if not math.isfinite(sx):  # rare: a zero-weight particle at +-inf or NaN (0 * inf)
-        sx = 0.0
-        for i in range(N):
-            if w[i] > 0.0:
-                sx += w[i] * x[i]
-    return S, S2, sx, underflow
+    return (a0 + a1) + (a2 + a3), (b0 + b1) + (b2 + b3), _finite_sum(w, x, sx), underflow
 
 
 @kernel(types.UniTuple(types.float64, 3)(_F, _F, _F, types.float64, types.int64, _F, _I, _F, _F),
@@ -149,11 +160,7 @@ def normalise_lanes(lw, w, x, m):
 def weigh_lanes(lw, w, x, m, t, ess, resampled, div_l1, distinct):
     """``weigh`` by ``normalise_lanes``."""
     S, S2, sx, under = normalise_lanes(lw, w, x, m)
-    ess[t] = S * S / S2
-    resampled[t] = 0
-    div_l1[t] = np.nan
-    distinct[t] = np.nan
-    return S, sx / S, under
+    return _record_step(S, S2, sx, under, t, ess, resampled, div_l1, distinct)
 
 
 @kernel(types.UniTuple(types.float64, 2)(_F), cache=True)

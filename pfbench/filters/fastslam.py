@@ -73,14 +73,22 @@ def innovation(px, py, pth, lx, ly, a, c, d, zr, zb, Rr, Rb):
     r, b, h11, h12, h21, h22, ok = observe_landmark(px, py, pth, lx, ly)
     if ok == 0.0:
         return 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    S11, S12, S22 = innovation_cov(h11, h12, h21, h22, a, c, d, Rr, Rb)
+    return (zr - r, wrap(zb - b), S11, S12, S22, S11 * S22 - S12 * S12, h11, h12, h21, h22, 1.0)
+
+
+@kernel(types.UniTuple(types.float64, 3)(types.float64, types.float64, types.float64,
+                                       types.float64, types.float64, types.float64,
+                                       types.float64, types.float64, types.float64),
+        cache=True, inline="always")
+def innovation_cov(h11, h12, h21, h22, a, c, d, Rr, Rb):
+    """(S11, S12, S22) of S = H P H^T + R, H = [[h11, h12], [h21, h22]], P = [[a, c], [c, d]],
+    R = diag(Rr, Rb)."""
     p11 = h11 * a + h12 * c
     p12 = h11 * c + h12 * d
     p21 = h21 * a + h22 * c
     p22 = h21 * c + h22 * d
-    S11 = p11 * h11 + p12 * h12 + Rr
-    S12 = p11 * h21 + p12 * h22
-    S22 = p21 * h21 + p22 * h22 + Rb
-    return (zr - r, wrap(zb - b), S11, S12, S22, S11 * S22 - S12 * S12, h11, h12, h21, h22, 1.0)
+    return (p11 * h11 + p12 * h12 + Rr, p11 * h21 + p12 * h22, p21 * h21 + p22 * h22 + Rb)
 
 
 @kernel(types.float64(types.float64, types.float64, types.float64, types.float64, types.float64,
@@ -210,13 +218,7 @@ def mahalanobis2_within(px, py, pth, lx, ly, a, c, d, zr, zb, Rr, Rb, pc, co, so
     if r < 1e-9:
         return np.inf, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0
     h11, h12, h21, h22 = dx / r, dy / r, -dy / q, dx / q
-    p11 = h11 * a + h12 * c
-    p12 = h11 * c + h12 * d
-    p21 = h21 * a + h22 * c
-    p22 = h21 * c + h22 * d
-    S11 = p11 * h11 + p12 * h12 + Rr
-    S12 = p11 * h21 + p12 * h22
-    S22 = p21 * h21 + p22 * h22 + Rb
+    S11, S12, S22 = innovation_cov(h11, h12, h21, h22, a, c, d, Rr, Rb)
     cax = -(h11 * pc[0] + h12 * pc[1])
     cay = -(h11 * pc[1] + h12 * pc[3])
     cbx = -(h21 * pc[0] + h22 * pc[1] + pc[2])
