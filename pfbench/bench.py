@@ -80,8 +80,10 @@ def pfbench_single(model, y, N, state):
     return xhat
 
 
-def numpy_pf(y: np.ndarray, N: int, rng: np.random.Generator) -> np.ndarray:
-    """The same filter written as plain vectorised numpy (the usual way without a compiler)."""
+def numpy_pf(y: np.ndarray, N: int, rng, resample=None) -> np.ndarray:
+    """The same filter written as plain vectorised numpy (the usual way without a compiler).
+    rng: a numpy Generator (or the numpy.random module); resample: a function from normalised
+    weights to ancestor indices (filterpy's), else systematic resampling by searchsorted."""
     sq = math.sqrt(Q)
     x = rng.normal(0.0, math.sqrt(P0), N)
     xhat = np.zeros(y.size)
@@ -90,6 +92,11 @@ def numpy_pf(y: np.ndarray, N: int, rng: np.random.Generator) -> np.ndarray:
         xn = 0.5 * x + 25.0 * x / (1.0 + x * x) + 8.0 * math.cos(1.2 * t) + sq * rng.standard_normal(N)
         lw = -0.5 * (y[t] - xn * xn / 20.0) ** 2 / R
         w = np.exp(lw - lw.max())
+        if resample is not None:            # it sums the weights its own way
+            S = w.sum()
+            xhat[t] = w @ xn / S
+            x = xn[resample(w / S)]
+            continue
         c = np.cumsum(w)
         S = c[-1]
         xhat[t] = w @ xn / S
@@ -153,24 +160,9 @@ def particles_pf(mods):
 
 def filterpy_pf(mods):
     """numpy_pf with its resampling by filterpy's ``monte_carlo.systematic_resample`` (the usual
-    filterpy particle filter: numpy for the rest). Returns run(y, N) -> estimates at t = 1..T."""
-    systematic_resample = mods[4]
-    sq = math.sqrt(Q)
-
-    def run(y, N):
-        x = np.random.normal(0.0, math.sqrt(P0), N)
-        out = np.empty(y.size - 1)
-        for t in range(1, y.size):
-            x = (0.5 * x + 25.0 * x / (1.0 + x * x) + 8.0 * math.cos(1.2 * t)
-                 + sq * np.random.standard_normal(N))
-            lw = -0.5 * (y[t] - x * x / 20.0) ** 2 / R
-            w = np.exp(lw - lw.max())
-            w /= w.sum()
-            out[t - 1] = w @ x
-            x = x[systematic_resample(w)]
-        return out
-
-    return run
+    filterpy particle filter: numpy for the rest; its random numbers from numpy's global
+    generator, which filterpy draws from). Returns run(y, N) -> estimates at t = 1..T."""
+    return lambda y, N: numpy_pf(y, N, np.random, resample=mods[4])[1:]
 
 
 def peers_bench(quick: bool, min_time: float, reps: int, say, console=None) -> list[dict]:

@@ -32,7 +32,7 @@ from numba import njit, types
 
 from . import vecmath as vm
 from .filters import mcl
-from .filters.fastslam import ekf_apply, innovation, nearest_innovation
+from .filters.fastslam import ekf_apply, innovation, nearest_innovation, options
 from .models.beacons import loglik_const
 from .resampling import systematic
 from .rng import STATE, fill_normal, state_from_seed
@@ -229,8 +229,7 @@ def mcl_limit(N: int, min_time: float, reps: int) -> list[dict]:
     model, truth, data = trial_data(exp, 0)
     T = data.ctrl.shape[0]
     ft = FILTERS["mcl"]
-    params = Params({k: key.default for k, key in ft.schema.items()})
-    params = Params({**params, "resample": "always"})
+    params = Params({**{k: key.default for k, key in ft.schema.items()}, "resample": "always"})
     s = state_from_seed(np.random.SeedSequence(32))
     rng = np.random.default_rng(32)
     P = np.ascontiguousarray((truth.pose[0] + 0.3 * rng.standard_normal((N, 3))).T)
@@ -399,10 +398,8 @@ def fastslam_limit(N: int, steps: int, min_time: float, reps: int) -> list[dict]
     s = state_from_seed(np.random.SeedSequence(33))
     K = data.obs_n.shape[0]
     M_true = model.landmarks.shape[0]
-    M = run.params.get("max_landmarks") or 3 * M_true
-    deg = math.pi / 180.0
-    Rr = float(run.params.get("range_noise_m") or model.noise[2]) ** 2
-    Rb = (float(run.params.get("bearing_noise_deg") or model.noise[3] / deg) * deg) ** 2
+    o = options(model, run.params, N, False)      # the kernel's own settings
+    M, Rr, Rb = o.M, o.Rr, o.Rb
     poses = np.ascontiguousarray(truth.pose[1:K + 1] if truth.pose.shape[0] > K else truth.pose)
     # every particle's map: the true landmarks in the order the trial first sees them (so that
     # step k searches those seen before it, as a particle that associates them right does), with
@@ -423,7 +420,7 @@ def fastslam_limit(N: int, steps: int, min_time: float, reps: int) -> list[dict]
     slot = np.empty(M_true, dtype=np.int64)
     slot[order] = np.arange(M_true)
     ids = np.ascontiguousarray(slot[np.maximum(data.obs_id, 0)])
-    bound = max(float(run.params["gate_reject"]), float(run.params["gate_augment"]))
+    bound = max(o.gate_reject, o.gate_augment)
     pc = np.full((N, 6), 1e-6)
     P = np.tile(poses[0], (N, 1))
     z = np.empty(3 * N)

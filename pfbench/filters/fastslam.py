@@ -158,20 +158,10 @@ def mahalanobis2(px, py, pth, mu, sig, zr, zb, Rr, Rb, pc):
     from the pose (inf where the landmark sits on the pose), with the pose's own uncertainty pc
     (6,) = [xx, xy, xt, yy, yt, tt] added to the innovation covariance: S + Hx C Hx^T, Hx the
     Jacobian with respect to the pose (all zeros: the plain FastSLAM 1.0 distance)."""
-    v1, v2, S11, S12, S22, det, h11, h12, h21, h22, ok = innovation(
-        px, py, pth, mu[0], mu[1], sig[0], sig[1], sig[2], zr, zb, Rr, Rb)
-    if ok == 0.0:
-        return np.inf
-    # Hx = [[a], [b]] = [[-h11, -h12, 0], [-h21, -h22, -1]]; S += [[aCa, aCb], [aCb, bCb]]
-    cax = -(h11 * pc[0] + h12 * pc[1])
-    cay = -(h11 * pc[1] + h12 * pc[3])
-    cbx = -(h21 * pc[0] + h22 * pc[1] + pc[2])
-    cby = -(h21 * pc[1] + h22 * pc[3] + pc[4])
-    cbt = -(h21 * pc[2] + h22 * pc[4] + pc[5])
-    S11 -= h11 * cax + h12 * cay
-    S12 -= h11 * cbx + h12 * cby
-    S22 -= h21 * cbx + h22 * cby + cbt
-    return _maha(v1, v2, S11, S12, S22, S11 * S22 - S12 * S12)
+    # Hx = [[a], [b]] = [[-h11, -h12, 0], [-h21, -h22, -1]] adds [[aCa, aCb], [aCb, bCb]] to S:
+    # the bounded search without a bound (it computes this exactly where it does not skip)
+    return mahalanobis2_within(px, py, pth, mu[0], mu[1], sig[0], sig[1], sig[2], zr, zb, Rr,
+                               Rb, pc, 0.0, 0.0, np.inf)[0]
 
 
 @kernel(types.void(_F, types.float64, types.float64, types.float64, types.float64, types.float64,
@@ -1046,10 +1036,8 @@ fastslam_kernel_core = variant(fastslam_kernel, _CORE, refine_poses=refine_poses
                                note_board=stub(note_board, _no_board))
 
 
-def run(model, data, params, particles, state, diag=True):
-    """Run FastSLAM (with the configured refinement) on a course trial; return the traces."""
-    T = data.ctrl.shape[0]
-    K = data.obs_n.shape[0]
+def options(model, params, particles, diag=True) -> Options:
+    """The kernel's settings (``Options``) for a filter run of ``particles`` on ``model``."""
     M_true = model.landmarks.shape[0]
     nearest = params["association"] == "nearest"
     M = (params["max_landmarks"] or 3 * M_true) if nearest else M_true
@@ -1067,11 +1055,30 @@ def run(model, data, params, particles, state, diag=True):
                           pick("steer_noise_deg", model.noise[1] / deg) * deg])
     R = np.array([pick("range_noise_m", model.noise[2]) ** 2,
                   (pick("bearing_noise_deg", model.noise[3] / deg) * deg) ** 2])
-    refine = params["refine"]
     scheme = {"stepwise_ewa": EWA, "directional": DIRECTIONAL, **SCHEME_CODES}[params["resampling"]]
     threshold = np.inf if params["resample"] == "always" else params["neff_ratio"] * particles
+    return Options(
+        every=int(model.sensor[2]), N=int(particles), M=int(M), dt=float(model.vehicle[1]),
+        L=float(model.vehicle[2]), motion=int(motion), q0=float(qctrl[0]), q1=float(qctrl[1]),
+        predict_noise=int(params["predict_noise"]), Rr=float(R[0]), Rb=float(R[1]),
+        joseph=int(params["update"] == "joseph"), assoc=int(nearest),
+        gate_reject=float(params["gate_reject"]), gate_augment=float(params["gate_augment"]),
+        gate_pose=int(params["gate_pose"] and nearest),
+        refine=ALGORITHMS.get(params["refine"], NO_SWARM), iters=int(params["iterations"]),
+        scheme=int(scheme), threshold=float(threshold), ewa_beta=float(params["ewa_beta"]),
+        ewa_mu=float(params["ewa_mu"]), ewa_printed=int(params["ewa_correction"] == "as_printed"),
+        diag=int(diag))
+
+
+def run(model, data, params, particles, state, diag=True):
+    """Run FastSLAM (with the configured refinement) on a course trial; return the traces."""
+    T = data.ctrl.shape[0]
+    K = data.obs_n.shape[0]
+    M_true = model.landmarks.shape[0]
+    o = options(model, params, particles, diag)
+    refine, scheme = params["refine"], o.scheme
     dnoise = np.array([params["directional_noise_m"], params["directional_noise_m"],
-                       params["directional_noise_deg"] * deg])
+                       params["directional_noise_deg"] * (math.pi / 180.0)])
     out = {"pose": np.empty((T + 1, 3)), "ess": np.empty(K),
            "resampled": np.zeros(K, dtype=np.int64), "lm_est": np.empty((M_true, 2)),
            "lm_seen": np.zeros(M_true, dtype=np.int64)}
@@ -1079,16 +1086,6 @@ def run(model, data, params, particles, state, diag=True):
     stats = np.zeros(5)
     div = np.empty((K, 2))
     out["lm_trace"] = np.empty(K)
-    o = Options(
-        every=int(model.sensor[2]), N=int(particles), M=int(M), dt=float(model.vehicle[1]),
-        L=float(model.vehicle[2]), motion=int(motion), q0=float(qctrl[0]), q1=float(qctrl[1]),
-        predict_noise=int(params["predict_noise"]), Rr=float(R[0]), Rb=float(R[1]),
-        joseph=int(params["update"] == "joseph"), assoc=int(nearest),
-        gate_reject=float(params["gate_reject"]), gate_augment=float(params["gate_augment"]),
-        gate_pose=int(params["gate_pose"] and nearest), refine=ALGORITHMS.get(refine, NO_SWARM),
-        iters=int(params["iterations"]), scheme=int(scheme), threshold=float(threshold),
-        ewa_beta=float(params["ewa_beta"]), ewa_mu=float(params["ewa_mu"]),
-        ewa_printed=int(params["ewa_correction"] == "as_printed"), diag=int(diag))
     full = refine == "afsa" or scheme == DIRECTIONAL
     out["underflow_steps"] = (fastslam_kernel if full else fastslam_kernel_core)(
         data.ctrl, data.obs_n, data.obs_id, data.obs_z, o, model.start, pack(refine, params),
@@ -1097,7 +1094,7 @@ def run(model, data, params, particles, state, diag=True):
         out["lm_trace"])
     out["div_l1"], out["distinct"] = div[:, 0], div[:, 1]
     out["lik_evals_per_step"] = float(evals.mean()) if K else 0.0
-    if nearest:
+    if o.assoc:
         out["association_errors"] = stats[1] / stats[0] if stats[0] else 0.0
         total = stats[0] + stats[2] + stats[3]
         out["dropped_frac"] = stats[2] / total if total else 0.0
