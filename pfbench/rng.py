@@ -41,6 +41,11 @@ def _ziggurat_tables():
 
 
 _ZKI, _ZWI, _ZFI = _ziggurat_tables()
+# the widths with the sign folded in: entry 2 i + b is wi[i], negated when b = 1, so that the top
+# nine bits of a draw (its layer, then its sign bit) index the signed width in one load;
+# -(m wi) and m (-wi) are the same double
+_ZWS = np.empty(2 * _ZWI.size)
+_ZWS[0::2], _ZWS[1::2] = _ZWI, -_ZWI
 _ZR = 3.6541528853610088
 _ZINV_R = 1.0 / _ZR
 _MANT52 = uint64(0x000FFFFFFFFFFFFF)
@@ -95,11 +100,10 @@ def _layer(r):
     """The ziggurat's reading of 64 random bits: (layer, 52-bit magnitude, signed candidate).
 
     The layer is bits 56-63 and the sign bit 55, the magnitude bits 3-54: xoshiro256+'s lowest
-    bits are its weakest (their authors say so), and the lowest three are not used at all."""
-    idx = r >> uint64(56)
+    bits are its weakest (their authors say so), and the lowest three are not used at all. The
+    sign comes with the width (``_ZWS``): no branch or select for it."""
     rabs = (r >> uint64(3)) & _MANT52
-    x = rabs * _ZWI[idx]
-    return idx, rabs, -x if (r >> uint64(55)) & uint64(1) else x
+    return r >> uint64(56), rabs, rabs * _ZWS[r >> uint64(55)]
 
 
 @kernel(types.float64(STATE), cache=True)

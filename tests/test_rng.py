@@ -125,3 +125,19 @@ def test_the_draws_of_each_ziggurat_layer_are_uniform():
         sel = idx == k
         assert abs(neg[sel].mean() - 0.5) < 5 * math.sqrt(0.25 / per)
         assert abs(mag[sel].mean() - 0.5) < 5 * math.sqrt(1 / 12 / per)
+
+
+def test_the_signed_width_table_gives_the_sign_the_select_gave():
+    # the candidate is rabs * wi[layer], negated when bit 55 is set; the table of signed widths
+    # must give that double bit for bit, signed zeros included (rabs = 0)
+    from pfbench.rng import _MANT52, _ZWI, _layer
+    rng = np.random.default_rng(3)
+    raw = rng.integers(0, 2**63, size=4000, dtype=np.uint64) * np.uint64(2) \
+        + rng.integers(0, 2, size=4000, dtype=np.uint64)
+    raw[:512] = np.arange(512, dtype=np.uint64) << np.uint64(55)    # every layer and sign, rabs 0
+    for r in raw:
+        idx, rabs, x = _layer(r)
+        assert rabs == (int(r) >> 3) & int(_MANT52)
+        ref = float(rabs) * _ZWI[idx]
+        ref = -ref if (int(r) >> 55) & 1 else ref
+        assert np.float64(x).view(np.int64) == np.float64(ref).view(np.int64)
