@@ -133,6 +133,124 @@ def _kld_draw(P, kp, seed=0, nmax=100000, noise=0.0):
     return m, out[:, :m].T, area
 
 
+@pytest.fixture(scope="module")
+def kld_one_at_a_time():
+    """KLD-sampling as Fox writes it, one particle at a time (draw, move, bin, count): the
+    reference the kernel's passes must reproduce bit for bit."""
+    from numba import njit
+
+    from pfbench.angles import wrap
+    from pfbench.models.odometry import noisy_odometry
+    from pfbench.rng import uniform
+
+    @njit(cache=False)
+    def ref(P, W, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob, inject_sensor,
+            sensor, bc, nobs, ids, zs, sr, sb, s, out, cum):
+        acc = 0.0
+        for i in range(n):
+            acc += W[i]
+            cum[i] = acc
+        nmin = int(kp[4])
+        target = nmin
+        k = m = injected = 0
+        pose = np.empty(3)
+        while m < nmax:
+            if prob > 0.0 and uniform(s) < prob:
+                sensor_pose(area, sensor, bc, nobs if inject_sensor else 0, ids, zs, sr, sb,
+                            pose, s)
+                injected += 1
+            else:
+                j = min(np.searchsorted(cum[:n], uniform(s) * acc, side="right"), n - 1)
+                pose[0], pose[1], pose[2] = P[0, j], P[1, j], P[2, j]
+            a1, a2, a3 = noisy_odometry(u[0], u[1], u[2], motion, mnoise, s)
+            th = pose[2] + a1
+            out[0, m] = pose[0] + a2 * math.cos(th)
+            out[1, m] = pose[1] + a2 * math.sin(th)
+            out[2, m] = wrap(th + a3)
+            b = kld_bin(out[0, m], out[1, m], out[2, m], area, kp)
+            if occ[b] == 0:
+                occ[b] = 1
+                touched[k] = b
+                k += 1
+                target = max(nmin, kld_count(k, kp[0], kp[1]))
+            m += 1
+            if m >= target:
+                break
+        for r in range(k):
+            occ[touched[r]] = 0
+        return m, injected
+
+    return ref
+
+
+def test_kld_sampling_in_passes_is_the_one_at_a_time_loop_bit_for_bit(kld_one_at_a_time):
+    # the kernel draws in rounds of passes and takes back the draws past its stopping particle:
+    # its particles, count, injections and generator state must be the loop's, over weights
+    # spread, peaked or with zeros, spread or clustered sets (few or many bins, stops inside a
+    # round or at nmax), both motion models, and injection from the field or the sensor model
+    rng = np.random.default_rng(2024)
+    area = np.array([40.0, 40.0])
+    bc = np.array([[5.0, 5.0], [35.0, 8.0], [20.0, 30.0]])
+    ids = np.array([0, 2], dtype=np.int64)
+    zs = np.array([[7.0, 0.4], [12.0, -1.1]])
+    for case in range(80):
+        n = int(rng.choice([1, 2, 7, 100, 3000]))
+        spread = float(rng.choice([0.2, 3.0, 40.0]))
+        P = np.ascontiguousarray(np.column_stack([
+            rng.uniform(0, spread, n), rng.uniform(0, spread, n),
+            rng.uniform(-math.pi, math.pi, n)]).T)
+        W = rng.random(n) ** float(rng.choice([1.0, 8.0, 40.0]))
+        W[rng.random(n) < 0.3] = 0.0
+        if not W.any():
+            W[-1] = 1.0
+        W /= W.sum()
+        kp = np.array([float(rng.choice([0.02, 0.05, 0.3])), NormalDist().inv_cdf(0.99), 0.5,
+                       math.radians(10.0), float(rng.choice([1, 20, 300]))])
+        nmax = int(rng.choice([5, 50, 700, 6000]))
+        motion = int(rng.integers(0, 2))
+        mnoise = np.array([0.05, 0.02, 0.1, 0.05]) if motion else np.array([0.3, 0.05, 0, 0])
+        u = np.array([0.0 if motion == 0 else 0.2, 0.5, -0.1])
+        prob = float(rng.choice([0.0, 0.0, 0.05, 0.6]))
+        inj_sensor, sensor = int(rng.integers(0, 2)), int(rng.integers(0, 2))
+        seed = int(rng.integers(1 << 30))
+        res = []
+        for f in (kld_sample, kld_one_at_a_time):
+            occ = np.zeros(kld_bins(area, kp), dtype=np.uint8)
+            out = np.full((3, nmax), np.nan)
+            s = state_from_seed(np.random.SeedSequence(seed))
+            m, inj = f(P, W, n, u, motion, mnoise, area, kp, nmax, occ,
+                       np.empty(nmax, dtype=np.int64), prob, inj_sensor, sensor, bc, 2, ids, zs,
+                       0.2, 0.05, s, out, np.empty(n))
+            assert not occ.any()
+            res.append((m, inj, out[:, :m].copy(), s.copy()))
+        (m1, i1, o1, s1), (m2, i2, o2, s2) = res
+        assert (m1, i1) == (m2, i2), case
+        assert np.array_equal(o1, o2) and np.array_equal(s1, s2), case
+
+
+def test_the_guided_search_counts_the_running_sums_up_to_a_position():
+    # against numpy's searchsorted (side right) at the positions where rounding could bite:
+    # each running sum and the doubles beside it, each guide cell's edge g acc / n and the
+    # doubles beside it, over equal weights (running sums on the cell edges), peaked weights
+    # and weights with zeros (repeated running sums)
+    from pfbench.filters.mcl import guide_table, guided_upper_bound
+    rng = np.random.default_rng(5)
+    sets = [np.full(n, 1.0 / n) for n in (1, 3, 10, 1000)]
+    sets += [np.full(64, 0.1), rng.random(500) ** 30, np.where(rng.random(400) < 0.5, 0.0, 1.0)]
+    for w in sets:
+        n = w.size
+        cum = np.cumsum(w)
+        guide = np.empty(n, dtype=np.int64)
+        ginv = guide_table(cum, n, guide)
+        acc = cum[-1]
+        edges = np.arange(n) * (acc / n)
+        v = np.concatenate([cum, edges, [0.0, acc, rng.random() * acc]])
+        v = np.concatenate([v, np.nextafter(v, -np.inf), np.nextafter(v, np.inf)])
+        v = v[(v >= 0) & (v <= acc)]
+        got = np.array([guided_upper_bound(cum, n, guide, ginv, x) for x in v])
+        assert np.array_equal(got, np.searchsorted(cum, v, side="right")), n
+
+
 def test_kld_count_is_the_chi_square_quantile():
     from scipy.stats import chi2
     for eps, delta in ((0.05, 0.01), (0.15, 0.05)):

@@ -50,10 +50,11 @@ from .._lazy import kernel
 
 from ..angles import wrap
 from ..resampling import SCHEME_CODES, resample
-from ..rng import STATE, fill_normal, uniform
+from ..rng import (STATE, _ZKI, _layer, _normal_slow, fill_normal, load_local, next_local, normal,
+                   store_local, uniform, unit)
 from .. import vecmath as vm
 from ..models.beacons import loglik_const, sensor_pose
-from ..models.odometry import noisy_odometry, odometry_with
+from ..models.odometry import _odometry, odometry_with
 from ..models.pose import init_particles, snapshot, snapshot_arrays
 from ..schema import Key
 from .keys import pf_keys
@@ -249,10 +250,43 @@ def kld_bins(area, kp):
             * math.ceil(2.0 * math.pi / kp[3]))
 
 
+KLD_CHUNK = 256     # particles KLD-sampling draws per round of its passes, at most
+
+
+@kernel(types.float64(_F, types.int64, _I), cache=True)
+def guide_table(cum, n, guide):
+    """A guide table (Chen and Asau) for searching the running sums cum[:n] (non-decreasing,
+    cum[n - 1] > 0): guide[g] = #{i < n : cum[i] <= g acc / n}, acc = cum[n - 1]. Returns
+    n / acc, for ``guided_upper_bound``."""
+    acc = cum[n - 1]
+    gstep = acc / n
+    j = 0
+    for g in range(n):
+        t = g * gstep
+        while j < n and cum[j] <= t:
+            j += 1
+        guide[g] = j
+    return n / acc
+
+
+@kernel(types.int64(_F, types.int64, _I, types.float64, types.float64), cache=True,
+        inline="always")
+def guided_upper_bound(cum, n, guide, ginv, v):
+    """#{i < n : cum[i] <= v} for v >= 0 (np.searchsorted(cum[:n], v, side="right")), from the
+    guide table: v lies above (g - 1) acc / n for g = floor(v n / acc) (a whole cell of margin
+    for the rounding), so the count starts at guide[g - 1], which cannot pass it, and walks up.
+    The walk passes about two running sums on average, whatever the weights: a binary search's
+    fourteen steps at n = 10,000, each a likely misprediction, cost about five times as much."""
+    j = guide[min(max(int(v * ginv) - 1, 0), n - 1)]
+    while j < n and cum[j] <= v:
+        j += 1
+    return j
+
+
 @kernel(types.UniTuple(types.int64, 2)(
     _F2, _F, types.int64, _F, types.int64, _F, _F, _F, types.int64, types.uint8[::1], _I,
     types.float64, types.int64, types.int64, _F2, types.int64, _I, _F2, types.float64,
-    types.float64, STATE, _F2, _F), cache=True)
+    types.float64, STATE, _F2, _F), cache=True, error_model="numpy")
 def kld_sample(P, W, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob, inject_sensor,
                sensor, bc, nobs, ids, zs, sr, sb, s, out, cum):
     """KLD-sampling: draw particles from the weighted set (P[:, :n] as rows, W[:n]) one at a
@@ -261,7 +295,14 @@ def kld_sample(P, W, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob, i
     the bins they occupy (kp: [eps, z_(1-delta), bin m, bin rad, n_min]) or nmax. With
     probability ``prob`` a draw is a new pose (uniform, or from the sensor model of the
     observations (ids, zs)[:nobs] when inject_sensor) instead of a copy. occ (bins,) must be all
-    zero; it is left so. Returns (count, injected)."""
+    zero; it is left so. Returns (count, injected).
+
+    It runs in rounds of passes over up to KLD_CHUNK particles (at least the count the bound
+    still asks for): their random draws in the generator's order, the generator's state kept
+    after each particle; the searches for the drawn positions (from a guide table); the moves
+    and the bins; then the count, which stops at the bound. Draws past the stopping particle are taken back by
+    restoring the state kept after it, so the particles, their order and the generator's state
+    are those of drawing one particle at a time, bit for bit."""
     acc = 0.0
     for i in range(n):
         acc += W[i]
@@ -271,26 +312,90 @@ def kld_sample(P, W, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob, i
     k = 0
     m = 0
     injected = 0
+    CH = KLD_CHUNK
+    src = np.empty(CH, dtype=np.int64)      # the particle copied, -1 for a new pose
+    pos = np.empty(CH)                      # the position drawn in [0, acc)
+    odo = np.empty((3, CH))                 # the noisy odometry of each draw
+    kept = np.empty((CH, 4), dtype=np.uint64)
+    bins = np.empty(CH, dtype=np.int64)
     pose = np.empty(3)
+    guide = np.empty(n, dtype=np.int64)
+    ginv = guide_table(cum, n, guide)
+    nx = int(math.ceil(area[0] / kp[2]))     # kld_bin's cells
+    ny = int(math.ceil(area[1] / kp[2]))
+    nt = int(math.ceil(2.0 * math.pi / kp[3]))
     while m < nmax:
-        if prob > 0.0 and uniform(s) < prob:
-            sensor_pose(area, sensor, bc, nobs if inject_sensor else 0, ids, zs, sr, sb, pose, s)
-            injected += 1
-        else:
-            j = min(np.searchsorted(cum[:n], uniform(s) * acc, side="right"), n - 1)
-            pose[0], pose[1], pose[2] = P[0, j], P[1, j], P[2, j]
-        a1, a2, a3 = noisy_odometry(u[0], u[1], u[2], motion, mnoise, s)
-        th = pose[2] + a1
-        out[0, m] = pose[0] + a2 * math.cos(th)
-        out[1, m] = pose[1] + a2 * math.sin(th)
-        out[2, m] = wrap(th + a3)
-        b = kld_bin(out[0, m], out[1, m], out[2, m], area, kp)
-        if occ[b] == 0:
-            occ[b] = 1
-            touched[k] = b
-            k += 1
-            target = max(nmin, kld_count(k, kp[0], kp[1]))
-        m += 1
+        c = min(CH, nmax - m, max(target - m, 32))
+        # the draws, in the order of the one-at-a-time loop, the state in registers
+        q = load_local(s)
+        for r in range(c):
+            new = False
+            if prob > 0.0:
+                bits, q = next_local(q)
+                new = unit(bits) < prob
+            if new:
+                store_local(s, q)
+                sensor_pose(area, sensor, bc, nobs if inject_sensor else 0, ids, zs, sr, sb,
+                            pose, s)
+                q = load_local(s)
+                out[0, m + r], out[1, m + r], out[2, m + r] = pose[0], pose[1], pose[2]
+                src[r] = -1
+            else:
+                bits, q = next_local(q)
+                pos[r] = unit(bits) * acc
+                src[r] = 0
+            n1 = n2 = n3 = 0.0
+            for d in range(2 if motion == 0 else 3):     # noisy_odometry's normal draws
+                bits, q = next_local(q)
+                idx, rabs, x = _layer(bits)
+                if rabs >= _ZKI[idx]:
+                    store_local(s, q)
+                    x = _normal_slow(s, idx, rabs, x)
+                    x = x if x == x else normal(s)
+                    q = load_local(s)
+                if d == 0:
+                    n1 = x
+                elif d == 1:
+                    n2 = x
+                else:
+                    n3 = x
+            odo[0, r], odo[1, r], odo[2, r] = _odometry(u[0], u[1], u[2], motion, mnoise, n1,
+                                                        n2, n3)
+            kept[r, 0], kept[r, 1], kept[r, 2], kept[r, 3] = q
+        store_local(s, q)
+        # the copies: the first particle whose running weight passes the position, from the
+        # guide table's entry below it
+        for r in range(c):
+            if src[r] >= 0:
+                j = min(guided_upper_bound(cum, n, guide, ginv, pos[r]), n - 1)
+                src[r] = j
+                out[0, m + r], out[1, m + r], out[2, m + r] = P[0, j], P[1, j], P[2, j]
+        # the moves and the histogram bins (kld_bin's)
+        for r in range(c):
+            th = out[2, m + r] + odo[0, r]
+            x = out[0, m + r] + odo[1, r] * math.cos(th)
+            y = out[1, m + r] + odo[1, r] * math.sin(th)
+            h = wrap(th + odo[2, r])
+            out[0, m + r], out[1, m + r], out[2, m + r] = x, y, h
+            ix = min(max(int(math.floor(x / kp[2])), 0), nx - 1)
+            iy = min(max(int(math.floor(y / kp[2])), 0), ny - 1)
+            it = min(max(int(math.floor((h + math.pi) / kp[3])), 0), nt - 1)
+            bins[r] = (ix * ny + iy) * nt + it
+        # the count, up to the bound
+        for r in range(c):
+            b = bins[r]
+            if occ[b] == 0:
+                occ[b] = 1
+                touched[k] = b
+                k += 1
+                target = max(nmin, kld_count(k, kp[0], kp[1]))
+            if src[r] < 0:
+                injected += 1
+            m += 1
+            if m >= target:
+                if r < c - 1:       # take back the draws of the particles after this one
+                    store_local(s, (kept[r, 0], kept[r, 1], kept[r, 2], kept[r, 3]))
+                break
         if m >= target:
             break
     for r in range(k):
