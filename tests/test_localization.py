@@ -135,11 +135,12 @@ def _kld_draw(P, kp, seed=0, nmax=100000, noise=0.0):
 
 @pytest.fixture(scope="module")
 def kld_one_at_a_time():
-    """KLD-sampling as Fox writes it, one particle at a time (draw, move, bin, count): the
-    reference the kernel's passes must reproduce bit for bit."""
+    """KLD-sampling as Fox writes it, one particle at a time (draw, move, bin, count; the move
+    with vecmath's sine, cosine and wrap, as the kernel's): the reference the kernel's passes
+    must reproduce bit for bit."""
     from numba import njit
 
-    from pfbench.angles import wrap
+    from pfbench import vecmath as vm
     from pfbench.models.odometry import noisy_odometry
     from pfbench.rng import uniform
 
@@ -164,9 +165,10 @@ def kld_one_at_a_time():
                 pose[0], pose[1], pose[2] = P[0, j], P[1, j], P[2, j]
             a1, a2, a3 = noisy_odometry(u[0], u[1], u[2], motion, mnoise, s)
             th = pose[2] + a1
-            out[0, m] = pose[0] + a2 * math.cos(th)
-            out[1, m] = pose[1] + a2 * math.sin(th)
-            out[2, m] = wrap(th + a3)
+            st, ct = vm.sincos(th)
+            out[0, m] = pose[0] + a2 * ct
+            out[1, m] = pose[1] + a2 * st
+            out[2, m] = vm.wrap(th + a3)
             b = kld_bin(out[0, m], out[1, m], out[2, m], area, kp)
             if occ[b] == 0:
                 occ[b] = 1

@@ -36,7 +36,8 @@ and sines (2, N)) and runs each step as passes over them: all the move's normal 
 (``fill_normal``), then the move, the range likelihood and the weights' exponentials each in a
 loop the compiler vectorises, with the branch-free sine, cosine, arctangent and exponential of
 ``pfbench.vecmath`` (within 2 ulp of the C library's; the beacon-field results moved by at most
-1e-11 relative when they came in).
+1e-11 relative when they came in). KLD-sampling runs in rounds of such passes too (see
+``kld_sample``).
 """
 from __future__ import annotations
 
@@ -48,7 +49,6 @@ import numpy as np
 from numba import typeof, types
 from .._lazy import kernel
 
-from ..angles import wrap
 from ..resampling import SCHEME_CODES, resample
 from ..rng import (STATE, _ZKI, _layer, _normal_slow, fill_normal, load_local, next_local, normal,
                    store_local, uniform, unit)
@@ -300,9 +300,10 @@ def kld_sample(P, W, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob, i
     It runs in rounds of passes over up to KLD_CHUNK particles (at least the count the bound
     still asks for): their random draws in the generator's order, the generator's state kept
     after each particle; the searches for the drawn positions (from a guide table); the moves
-    and the bins; then the count, which stops at the bound. Draws past the stopping particle are taken back by
-    restoring the state kept after it, so the particles, their order and the generator's state
-    are those of drawing one particle at a time, bit for bit."""
+    (vecmath's sine, cosine and wrap, vectorised, as plain MCL's) and the bins; then the count,
+    which stops at the bound. Draws past the stopping particle are taken back by restoring the
+    state kept after it, so the particles, their order and the generator's state are those of
+    drawing one particle at a time, bit for bit."""
     acc = 0.0
     for i in range(n):
         acc += W[i]
@@ -371,15 +372,17 @@ def kld_sample(P, W, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob, i
                 src[r] = j
                 out[0, m + r], out[1, m + r], out[2, m + r] = P[0, j], P[1, j], P[2, j]
         # the moves and the histogram bins (kld_bin's)
+        X, Y, H = out[0, m:m + c], out[1, m:m + c], out[2, m:m + c]
+        for r in range(c):      # two loops: one has too many arrays for the vectoriser
+            th = H[r] + odo[0, r]
+            st, ct = vm.sincos(th)
+            X[r] += odo[1, r] * ct
+            Y[r] += odo[1, r] * st
+            H[r] = vm.wrap(th + odo[2, r])
         for r in range(c):
-            th = out[2, m + r] + odo[0, r]
-            x = out[0, m + r] + odo[1, r] * math.cos(th)
-            y = out[1, m + r] + odo[1, r] * math.sin(th)
-            h = wrap(th + odo[2, r])
-            out[0, m + r], out[1, m + r], out[2, m + r] = x, y, h
-            ix = min(max(int(math.floor(x / kp[2])), 0), nx - 1)
-            iy = min(max(int(math.floor(y / kp[2])), 0), ny - 1)
-            it = min(max(int(math.floor((h + math.pi) / kp[3])), 0), nt - 1)
+            ix = min(max(int(math.floor(X[r] / kp[2])), 0), nx - 1)
+            iy = min(max(int(math.floor(Y[r] / kp[2])), 0), ny - 1)
+            it = min(max(int(math.floor((H[r] + math.pi) / kp[3])), 0), nt - 1)
             bins[r] = (ix * ny + iy) * nt + it
         # the count, up to the bound
         for r in range(c):
