@@ -252,7 +252,7 @@ def observation_vector(zs, m, o, wk):
     return r
 
 
-@kernel(types.void(_F, _F2, _F, _F, UKF_WORK), cache=True)
+@kernel(types.void(_F, _F2, _F, _F, UKF_WORK), cache=True, inline="always")
 def predict_moments(x, P, u, jit, wk):
     """The sigma points of [pose, odometry noise] (pose x, covariance P; the noises' deviations
     wk.sd) through the motion u into wk.Y, and their mean wk.xm and covariance wk.Pm (plus the
@@ -305,7 +305,7 @@ def predict_moments(x, P, u, jit, wk):
     Pm[2, 2] += jit[1] * jit[1]
 
 
-@kernel(types.void(_F2, _I, _F2, types.int64, types.int64, FIELD_OPTIONS, UKF_WORK), cache=True)
+@kernel(types.void(_F2, _I, _F2, types.int64, types.int64, FIELD_OPTIONS, UKF_WORK), cache=True, inline="always")
 def sensor_moments(bc, ids, zs, m, nz, o, wk):
     """The sigma points through the sensor (wk.Z), their mean wk.zm, covariance wk.S (plus the
     sensor noise) and cross-covariance with the pose wk.C."""
@@ -343,7 +343,7 @@ def sensor_moments(bc, ids, zs, m, nz, o, wk):
                 C[b, a] += Wc[j] * d[b] * da
 
 
-@kernel(types.void(types.int64, UKF_WORK), cache=True)
+@kernel(types.void(types.int64, UKF_WORK), cache=True, inline="always")
 def kalman_update(nz, wk):
     """The UKF's measurement update of wk.xm, wk.Pn (from wk.Pm) with gain K = C S^-1; leaves
     them predicted when S is not positive definite."""
@@ -379,7 +379,7 @@ def kalman_update(nz, wk):
 
 
 @kernel(types.float64(PROPOSALS, types.int64, _F, _F2, _I, _F2, types.int64, FIELD_OPTIONS,
-                    UKF_WORK, _F, STATE), cache=True)
+                    UKF_WORK, _F, STATE), cache=True, inline="always")
 def draw_particle(pp, i, u, bc, ids, zs, m, o, wk, jit, s):
     """Draw particle i from its proposal N(wk.xm, wk.Pn) and keep the proposal with it; returns
     its weight's log factor p(z | x) p(x | x_prev) / q(x)."""
