@@ -310,6 +310,83 @@ def test_kld_with_sensor_resetting_is_a_config_error(tmp_path):
 from pfbench.filters.sspf_field import chol, chol_solve, lognormal3, transition_cov  # noqa: E402
 
 
+def _ukf_reference(x, P, u, sd, jit, Wm, Wc, sq, bc, ids, zs, sr, sb):
+    """The augmented UKF of one particle in numpy: sigma points of [pose, odometry noise], the
+    motion, the circular mean heading, the range-bearing sensor and the update."""
+    wrap_ = lambda a: (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
+    try:
+        L = np.linalg.cholesky(P)
+    except np.linalg.LinAlgError:
+        L = np.diag([jit[0], jit[0], jit[1]])
+    pts = [(x.copy(), np.zeros(3))]
+    for sgn in (1.0, -1.0):
+        for k in range(6):
+            px, w = x.copy(), np.zeros(3)
+            if k < 3:
+                px = px + sgn * sq * L[:, k]
+            else:
+                w[k - 3] = sgn * sq * sd[k - 3]
+            pts.append((px, w))
+    Y = np.array([[p[0] + (u[1] + w[1]) * np.cos(p[2] + u[0] + w[0]),
+                   p[1] + (u[1] + w[1]) * np.sin(p[2] + u[0] + w[0]),
+                   wrap_(p[2] + u[0] + w[0] + u[2] + w[2])] for p, w in pts])
+    xm = np.array([Wm @ Y[:, 0], Wm @ Y[:, 1], wrap_(Y[0, 2] + Wm @ wrap_(Y[:, 2] - Y[0, 2]))])
+    D = Y - xm
+    D[:, 2] = wrap_(D[:, 2])
+    Pm = (Wc[:, None, None] * D[:, :, None] * D[:, None, :]).sum(0) + np.diag(
+        [jit[0] ** 2, jit[0] ** 2, jit[1] ** 2])
+    Z = np.column_stack([f(j) for j in ids for f in (
+        lambda j: np.hypot(bc[j, 0] - Y[:, 0], bc[j, 1] - Y[:, 1]),
+        lambda j: wrap_(np.arctan2(bc[j, 1] - Y[:, 1], bc[j, 0] - Y[:, 0]) - Y[:, 2]))])
+    isb = np.arange(Z.shape[1]) % 2 == 1
+    zm = np.where(isb, wrap_(Z[0] + Wm @ wrap_(Z - Z[0])), Wm @ Z)
+    DZ = Z - zm
+    DZ[:, isb] = wrap_(DZ[:, isb])
+    S = (Wc[:, None, None] * DZ[:, :, None] * DZ[:, None, :]).sum(0) + np.diag(
+        np.where(isb, sb * sb, sr * sr))
+    C = (Wc[:, None, None] * D[:, :, None] * DZ[:, None, :]).sum(0)
+    K = C @ np.linalg.inv(S)
+    inn = zs.ravel() - zm
+    inn[isb] = wrap_(inn[isb])
+    xn = xm + K @ inn
+    xn[2] = wrap_(xn[2])
+    Pn = Pm - K @ C.T
+    return xn, 0.5 * (Pn + Pn.T)
+
+
+def test_the_particles_ukfs_in_rows_are_each_particles_augmented_ukf():
+    # the row passes against a numpy UKF per particle: spread poses (headings near +-pi, where
+    # the sigma points wrap), covariances from tight to wide, and one that is not positive
+    # definite (the jitter's factor instead); two range-bearing observations
+    from pfbench.filters import sspf_field as sf
+    from pfbench.filters.ukf import ut_weights
+    rng = np.random.default_rng(8)
+    c = 7
+    pr, wk = sf.new_rows(c), sf.new_chunk_work(8, 12)
+    pr.X[:] = np.array([rng.uniform(5, 35, c), rng.uniform(5, 35, c),
+                        [3.1, -3.1, 0.0, 1.0, -2.0, 2.9, 0.5]])
+    for p in range(c):
+        A = rng.normal(size=(3, 3)) * 10.0 ** rng.uniform(-2, 0)
+        pr.Pc[:, p] = (A @ A.T + 1e-4 * np.eye(3)).ravel()
+    pr.Pc[:, 2] = np.array([[1.0, 2.0, 0.0], [2.0, 1.0, 0.0], [0.0, 0.0, 1.0]]).ravel()
+    Wm, Wc = np.empty(13), np.empty(13)
+    sq = ut_weights(6, 0.9, 2.0, 0.0, Wm, Wc)
+    u, sd, jit = np.array([0.1, 0.8, -0.05]), np.array([0.02, 0.1, 0.03]), np.array([0.05, 0.02])
+    bc = np.array([[4.0, 20.0], [14.0, 3.0], [30.0, 6.0]])
+    ids = np.array([0, 2], dtype=np.int64)
+    zs = np.array([[18.0, 0.7], [9.0, -2.5]])
+    o = sf.FieldOptions(1, 1, 0.3, 0.05, c, 2, 0.0, 3, 1)
+    zobs, isb = np.empty(12), np.zeros(12, dtype=np.int64)
+    nz = sf.observation_vector(zs, 2, o, zobs, isb)
+    sf.predict_moments(pr, 0, c, u, sq, sd, jit, wk, Wm, Wc)
+    sf.sensor_update(bc, ids, zs, 2, nz, o, zobs, isb, wk, Wm, Wc, c)
+    for p in range(c):
+        xr, Pr = _ukf_reference(pr.X[:, p], pr.Pc[:, p].reshape(3, 3), u, sd, jit, Wm, Wc, sq,
+                                bc, ids, zs, 0.3, 0.05)
+        assert np.allclose(wk.xm[:, p], xr, rtol=1e-9, atol=1e-12), p
+        assert np.allclose(wk.Pn[:, p].reshape(3, 3), Pr, rtol=1e-7, atol=1e-12), p
+
+
 def test_sspf_linear_algebra_matches_numpy():
     from scipy.stats import multivariate_normal
     rng = np.random.default_rng(5)
