@@ -754,7 +754,7 @@ def bench(
                                "kernel (UNGM, MCL, FastSLAM)."),
     peers: bool = typer.Option(False, "--peers", help="Also time the same UNGM filter written "
                                "with the particles library and with filterpy's resampling "
-                               "(pip install '.[peers]')."),
+                               "(pip install '.\\[peers]')."),
     compare: Optional[Path] = typer.Option(None, "--compare", help="An earlier run's --json "
                                            "file: print each record's throughput ratio to it."),
 ):

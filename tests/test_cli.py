@@ -301,3 +301,20 @@ def test_a_run_and_a_sweep_do_not_take_each_others_folder(tmp_path, write_config
     (lone / "trials.csv").write_text("trial,filter\n")
     line = one_line_exit_2(runner.invoke(app, ["run", str(cfg), "--out", str(lone)]))
     assert "no meta.json or run.json describes" in line
+
+
+def test_every_help_text_shows_its_brackets():
+    # rich reads "[peers]" in a help text as markup and drops it; a literal bracket must be
+    # escaped, and every command's --help must show the brackets its options' help texts hold
+    import re
+
+    import typer.main
+    group = typer.main.get_command(app)
+    for name, cmd in group.commands.items():
+        res = runner.invoke(app, [name, "--help"], env={"COLUMNS": "400"}, terminal_width=400)
+        assert res.exit_code == 0, name
+        shown = " ".join(res.output.split())
+        for param in cmd.params:
+            text = " ".join((getattr(param, "help", None) or "").split()).replace("\\[", "[")
+            for bracket in re.findall(r"\[[^\]]*\]", text):
+                assert bracket in shown, (name, param.name, bracket)
