@@ -508,7 +508,9 @@ def mcl_bench(quick: bool, min_time: float, reps: int, say) -> list[dict]:
     configs/sspf_global.yaml at 1000 and 10000 particles, one thread: the pfbench kernel and the
     numpy implementation on the same trial, and a check that both compute the same filter: their
     mean position errors over the same trials tracking from a known start (from a uniform start
-    this MCL mostly settles on a wrong mode, and its errors are too spread to compare)."""
+    this MCL mostly settles on a wrong mode, and its errors are too spread to compare). Then
+    KLD-sampling MCL (at most 10,000 particles) and the field SSPF (1000) on the same trial,
+    pfbench alone; their particle-steps count the particles each step drew."""
     from .config import Params, load
     from .filters import FILTERS
     from .runner import trial_data
@@ -545,6 +547,22 @@ def mcl_bench(quick: bool, min_time: float, reps: int, say) -> list[dict]:
             f"Check, the same filter: mean position error tracking from a known start, "
             f"{len(trials)} trials: pfbench {np.mean(e_pf):.3f} m (standard error "
             f"{se(e_pf):.3f}), numpy {np.mean(e_np):.3f} m ({se(e_np):.3f})")
+    # KLD-sampling MCL and the field SSPF on the same trial (global localization), pfbench alone
+    runs = [("kld-mcl-global", "KLD-MCL", "mcl", 10_000, {"sampling": "kld"}),
+            ("sspf-field", "SSPF", "sspf_field", 1000,
+             {"resample": "weight_change", "mh_steps": 1})]
+    for workload, label, ftype, N, extra in runs:
+        f = FILTERS[ftype]
+        p = Params({**{k: key.default for k, key in f.schema.items()}, **extra})
+        drawn = float(np.sum(f.run(model, data, p, N, state.copy(), False)["n"]))
+        st = state.copy()
+        sec, _ = _best(lambda: f.run(model, data, p, N, st, False), min_time, reps)
+        recs.append({"workload": workload, "impl": "pfbench", "filter": label, "particles": N,
+                     "trials": 1, "steps": T, "seconds": sec, "steps_per_s": T / sec,
+                     "particle_steps_per_s": drawn / sec, "mean_particles": drawn / T})
+        say(f"{label} on the beacon field (sspf_global, global localization), at most N = "
+            f"{N:,}, one thread: {T / sec:,.0f} steps/s, {drawn / T:,.0f} particles a step on "
+            f"average, {sec / drawn * 1e9:,.0f} ns a particle-step")
     return recs
 
 

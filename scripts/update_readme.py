@@ -198,6 +198,14 @@ def bench_block() -> str:
                     f"numpy {mcl[('numpy', N)]['steps_per_s']:,.0f} "
                     f"({_x(mcl[('pfbench', N)]['steps_per_s'] / mcl[('numpy', N)]['steps_per_s'])})"
                     for N in sorted({k[1] for k in mcl})) + "."]
+    more = [r for r in recs if r["workload"] in ("kld-mcl-global", "sspf-field")]
+    if more:
+        out += ["", "On the same trial, global localization (one thread; a particle-step is a "
+                "particle a step drew):", "", "| filter | N (at most) | particles a step | "
+                "steps / s | ns / particle-step |", "| --- | --- | --- | --- | --- |"]
+        out += [f"| {r['filter']} | {r['particles']:,} | {r['mean_particles']:,.0f} | "
+                f"{r['steps_per_s']:,.0f} | {1e9 / r['particle_steps_per_s']:,.0f} |"
+                for r in more]
     return "\n".join(out + [""])
 
 
