@@ -93,7 +93,8 @@ def test_bench_only_runs_the_parts_named(tmp_path, monkeypatch):
     res = runner.invoke(app, ["bench", "--quick", "--only", "mcl", "--json", str(path)])
     assert res.exit_code == 0, res.output
     recs = json.loads(path.read_text())
-    assert {r["workload"] for r in recs} == {"mcl-beacon-field", "run"}
+    assert {r["workload"] for r in recs} == {"mcl-beacon-field", "kld-mcl-global", "sspf-field",
+                                           "run"}
     run = next(r for r in recs if r["workload"] == "run")     # what ran, without --json
     assert run["command"] == "pfbench bench --quick --only mcl"
     assert "UNGM" not in res.output
