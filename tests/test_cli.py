@@ -61,7 +61,14 @@ def test_bench_quick_writes_records(tmp_path, monkeypatch):
     assert all(keys <= set(r) for r in recs)
     assert {r["impl"] for r in recs} == {"pfbench", "numpy"}
     assert {r["workload"] for r in recs} == {"ungm", "ungm-filters", "fastslam-course",
-                                             "afsa-world", "mcl-beacon-field"}
+                                             "afsa-world", "mcl-beacon-field", "kld-mcl-global",
+                                             "sspf-field"}
+    # KLD-MCL and the field SSPF: the particles each step drew, at most the N allowed
+    for r in recs:
+        if r["workload"] in ("kld-mcl-global", "sspf-field"):
+            assert 0 < r["mean_particles"] <= r["particles"]
+            assert r["particle_steps_per_s"] == pytest.approx(
+                r["mean_particles"] * r["steps_per_s"])
     mcl = {(r["impl"], r["particles"]): r for r in recs if r["workload"] == "mcl-beacon-field"}
     assert set(mcl) == {(i, n) for i in ("pfbench", "numpy") for n in (1000, 10_000)}
     # the same filter tracking the same 2 trials (--quick): mean position errors ~0.13 m with a
