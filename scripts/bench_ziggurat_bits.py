@@ -6,8 +6,8 @@ import time
 import numpy as np
 from numba import njit, types, uint64
 
-from pfbench.rng import _MANT52, _ZKI, _ZWI, STATE, _normal_slow, fill_normal, normal, \
-    state_from_seed
+from pfbench.rng import _MANT52, _ZKI, _ZWI, STATE, _normal_slow, fill_normal, load_local, \
+    next_local, normal, state_from_seed, store_local
 
 
 @njit(types.Tuple((types.uint64, types.uint64, types.float64))(types.uint64), inline="always")
@@ -30,25 +30,18 @@ def _layer_high(r):
 def _make_fill(layer):
     @njit(types.void(STATE, types.float64[::1]))
     def fill(s, z):
-        s0, s1, s2, s3 = s[0], s[1], s[2], s[3]
+        q = load_local(s)
         for i in range(z.size):
-            r = s0 + s3
-            t = s1 << uint64(17)
-            s2 ^= s0
-            s3 ^= s1
-            s1 ^= s2
-            s0 ^= s3
-            s2 ^= t
-            s3 = (s3 << uint64(45)) | (s3 >> uint64(19))
+            r, q = next_local(q)
             idx, rabs, x = layer(r)
             if rabs < _ZKI[idx]:
                 z[i] = x
                 continue
-            s[0], s[1], s[2], s[3] = s0, s1, s2, s3
+            store_local(s, q)
             x = _normal_slow(s, idx, rabs, x)
             z[i] = x if x == x else normal(s)
-            s0, s1, s2, s3 = s[0], s[1], s[2], s[3]
-        s[0], s[1], s[2], s[3] = s0, s1, s2, s3
+            q = load_local(s)
+        store_local(s, q)
     return fill
 
 
