@@ -61,9 +61,11 @@ def test_bench_compares_with_an_earlier_run(tmp_path, monkeypatch):
     res = runner.invoke(app, ["bench", "--quick", "--only", "costs", "--json", str(path)])
     assert res.exit_code == 0, res.output
     recs = json.loads(path.read_text())
-    for r in recs:                  # an earlier run twice as fast on the PF
+    # an earlier run 100 times as fast on the PF: far beyond what two runs of one build move on
+    # a shared machine (twice as fast was not: a noisy first run once came out 2.4x slower)
+    for r in recs:
         if r.get("filter") == "pf":
-            r["particle_steps_per_s"] *= 2
+            r["particle_steps_per_s"] *= 100
     path.write_text(json.dumps(recs))
     res = runner.invoke(app, ["bench", "--quick", "--only", "costs", "--compare", str(path)],
                         env={"COLUMNS": "200"})
