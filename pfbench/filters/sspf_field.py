@@ -309,7 +309,7 @@ def chol_rows(A, n, c, L, ok):
 
 
 @kernel(types.void(FIELD_ROWS, types.int64, types.int64, _F, types.float64, _F, _F, CHUNK_WORK,
-                   _F, _F), cache=True, inline="always", error_model="numpy")
+                   _F, _F), cache=True, error_model="numpy")
 def predict_moments(pr, i0, c, u, sq, sd, jit, wk, Wm, Wc):
     """For the particles i0 .. i0 + c (pose pr.X, covariance pr.Pc; where it is not positive
     definite, the jitter's): the sigma points of [pose, odometry noise] (the noises' deviations
@@ -385,7 +385,7 @@ def predict_moments(pr, i0, c, u, sq, sd, jit, wk, Wm, Wc):
 
 
 @kernel(types.void(_F2, _I, _F2, types.int64, types.int64, FIELD_OPTIONS, _F, _I, CHUNK_WORK, _F,
-                   _F, types.int64), cache=True, inline="always", error_model="numpy")
+                   _F, types.int64), cache=True, error_model="numpy")
 def sensor_update(bc, ids, zs, m, nz, o, zobs, isb, wk, Wm, Wc, c):
     """For a chunk's c particles, after predict_moments: the sigma points through the sensor of
     the step's observations (zobs (nz,), bearings flagged in isb), their mean, covariance (plus
@@ -503,7 +503,7 @@ def sensor_update(bc, ids, zs, m, nz, o, zobs, isb, wk, Wm, Wc, c):
 
 @kernel(types.float64(FIELD_ROWS, types.int64, types.int64, _F, _F2, _I, _F2, types.int64,
                       FIELD_OPTIONS, CHUNK_WORK, _F, _F, _F, _F, _F, _F3), cache=True,
-        inline="always", error_model="numpy")
+        error_model="numpy")
 def draw_particles(pr, i0, c, u, bc, ids, zs, m, o, wk, sd, jit, z, lw, xm, T3):
     """For a chunk's c particles, one at a time (each particle's factor, densities and
     transition are a few scalar steps): particle i0 + p is drawn from N(wk.xm, wk.Pn) (where Pn
