@@ -49,7 +49,7 @@ def _merge(w, S, pos, idx, start):
         idx[start + i] = j
 
 
-@kernel(types.void(_W, types.float64, STATE, _IDX), cache=True)
+@kernel(types.void(_W, types.float64, STATE, _IDX), cache=True, error_model="numpy")
 def systematic(w, S, s, idx):
     """Systematic resampling: positions p_i = (u + i) S / N with one u ~ U[0, 1).
 

@@ -2,7 +2,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from pfbench.resampling import SCHEMES, ancestors
@@ -106,6 +106,7 @@ def _merge_systematic(w, S, u):
 @given(st.lists(st.one_of(st.just(0.0), st.floats(1e-300, 1e3), st.floats(0.0, 1.0)),
                 min_size=1, max_size=300),
        st.integers(0, 2**32 - 1), st.booleans())
+@example([0.0, 5e-324], 0, False)     # S / N rounds to 0: the step is zero, its inverse inf
 def test_systematic_is_the_merge_bit_for_bit(w, seed, uniform_w):
     """The counting form of systematic resampling picks the merge's ancestors exactly, ties of a
     position with a running sum, zero weights, tiny and uniform weights included."""
