@@ -554,9 +554,9 @@ def mcl_bench(quick: bool, min_time: float, reps: int, say) -> list[dict]:
     for workload, label, ftype, N, extra in runs:
         f = FILTERS[ftype]
         p = Params({**{k: key.default for k, key in f.schema.items()}, **extra})
+        # every timed run from the same state, so that each draws the particles counted here
         drawn = float(np.sum(f.run(model, data, p, N, state.copy(), False)["n"]))
-        st = state.copy()
-        sec, _ = _best(lambda: f.run(model, data, p, N, st, False), min_time, reps)
+        sec, _ = _best(lambda: f.run(model, data, p, N, state.copy(), False), min_time, reps)
         recs.append({"workload": workload, "impl": "pfbench", "filter": label, "particles": N,
                      "trials": 1, "steps": T, "seconds": sec, "steps_per_s": T / sec,
                      "particle_steps_per_s": drawn / sec, "mean_particles": drawn / T})

@@ -1004,7 +1004,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, o, start, sp, dnoise, lm_true, s
                 board, next_board = next_board, board
                 xbar_prev[:] = xbar
             k += 1
-        estimate_pose(ps.P, Wn, N, est[t + 1])
+        estimate_pose(ps.P, Wn, N, est[t + 1], False)
     assoc_stats[:4] = stats
     final_map(ps, Wn, o, lm_est, lm_seen, assoc_stats)
     return events

@@ -230,24 +230,38 @@ def kld_count(k, eps, z):
     return int(math.ceil(d / (2.0 * eps) * (1.0 - a + math.sqrt(a) * z) ** 3))
 
 
+@kernel(types.UniTuple(types.int64, 3)(_F, _F), cache=True, inline="always")
+def kld_cells(area, kp):
+    """KLD-sampling's histogram: cells along x, y and the heading (kp[2] m x kp[2] m x kp[3] rad
+    over the field)."""
+    return (int(math.ceil(area[0] / kp[2])), int(math.ceil(area[1] / kp[2])),
+            int(math.ceil(2.0 * math.pi / kp[3])))
+
+
+@kernel(types.int64(types.float64, types.float64, types.float64, types.float64, types.float64,
+                    types.int64, types.int64, types.int64), cache=True, inline="always")
+def kld_cell(x, y, th, bm, br, nx, ny, nt):
+    """``kld_bin`` with the bin sizes (bm m, br rad) and the histogram's cells (``kld_cells``)
+    given."""
+    ix = min(max(int(math.floor(x / bm)), 0), nx - 1)
+    iy = min(max(int(math.floor(y / bm)), 0), ny - 1)
+    it = min(max(int(math.floor((th + math.pi) / br)), 0), nt - 1)
+    return (ix * ny + iy) * nt + it
+
+
 @kernel(types.int64(types.float64, types.float64, types.float64, _F, _F), cache=True)
 def kld_bin(x, y, th, area, kp):
     """Histogram bin of a pose: cells of kp[2] m x kp[2] m x kp[3] rad over the field (poses
     outside it fall into the edge cells)."""
-    nx = int(math.ceil(area[0] / kp[2]))
-    ny = int(math.ceil(area[1] / kp[2]))
-    nt = int(math.ceil(2.0 * math.pi / kp[3]))
-    ix = min(max(int(math.floor(x / kp[2])), 0), nx - 1)
-    iy = min(max(int(math.floor(y / kp[2])), 0), ny - 1)
-    it = min(max(int(math.floor((th + math.pi) / kp[3])), 0), nt - 1)
-    return (ix * ny + iy) * nt + it
+    nx, ny, nt = kld_cells(area, kp)
+    return kld_cell(x, y, th, kp[2], kp[3], nx, ny, nt)
 
 
 @kernel(types.int64(_F, _F), cache=True)
 def kld_bins(area, kp):
     """Number of histogram bins of KLD-sampling over the field."""
-    return (math.ceil(area[0] / kp[2]) * math.ceil(area[1] / kp[2])
-            * math.ceil(2.0 * math.pi / kp[3]))
+    nx, ny, nt = kld_cells(area, kp)
+    return nx * ny * nt
 
 
 KLD_CHUNK = 256     # particles KLD-sampling draws per round of its passes, at most
@@ -322,9 +336,7 @@ def kld_sample(P, W, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob, i
     pose = np.empty(3)
     guide = np.empty(n, dtype=np.int64)
     ginv = guide_table(cum, n, guide)
-    nx = int(math.ceil(area[0] / kp[2]))     # kld_bin's cells
-    ny = int(math.ceil(area[1] / kp[2]))
-    nt = int(math.ceil(2.0 * math.pi / kp[3]))
+    nx, ny, nt = kld_cells(area, kp)
     while m < nmax:
         c = min(CH, nmax - m, max(target - m, 32))
         # the draws, in the order of the one-at-a-time loop, the state in registers
@@ -380,10 +392,7 @@ def kld_sample(P, W, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob, i
             Y[r] += odo[1, r] * st
             H[r] = vm.wrap(th + odo[2, r])
         for r in range(c):
-            ix = min(max(int(math.floor(X[r] / kp[2])), 0), nx - 1)
-            iy = min(max(int(math.floor(Y[r] / kp[2])), 0), ny - 1)
-            it = min(max(int(math.floor((H[r] + math.pi) / kp[3])), 0), nt - 1)
-            bins[r] = (ix * ny + iy) * nt + it
+            bins[r] = kld_cell(X[r], Y[r], H[r], kp[2], kp[3], nx, ny, nt)
         # the count, up to the bound
         for r in range(c):
             b = bins[r]

@@ -45,7 +45,7 @@ from ..resampling import SCHEME_CODES, resample
 from ..rng import STATE, fill_normal, normal, uniform
 from .. import vecmath as vm
 from ..models.beacons import pose_loglik
-from ..models.pose import init_particles, snapshot, snapshot_arrays
+from ..models.pose import estimate_pose, init_particles, snapshot, snapshot_arrays
 from ..schema import Key
 from .keys import sigma_check, sigma_keys
 from .types import FilterType
@@ -594,22 +594,6 @@ def mh_moves(pr, bc, ids, zs, m, o, s, T3):
     return acc
 
 
-@kernel(types.void(_F2, _F, types.int64, _F), cache=True)
-def estimate_rows(X, W, n, out):
-    """The weighted mean pose of the particles X[:, :n] (rows; circular mean heading) into
-    out."""
-    ex = 0.0
-    ey = 0.0
-    ec = 0.0
-    es = 0.0
-    for i in range(n):
-        ex += W[i] * X[0, i]
-        ey += W[i] * X[1, i]
-        ec += W[i] * math.cos(X[2, i])
-        es += W[i] * math.sin(X[2, i])
-    out[0], out[1], out[2] = ex, ey, math.atan2(es, ec)
-
-
 @kernel(SSPF_SIG, cache=True, error_model="numpy")
 def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, up, init, jit, start, s,
                      est, ess, resampled, accepted, snap_t, snap, snap_n):
@@ -642,7 +626,7 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, up, init,
     xm3 = np.empty(3)
     T3 = np.zeros((5, 3, 3))
     events = 0
-    estimate_rows(pr.X, W, N, est[0])
+    estimate_pose(pr.X, W, N, est[0], True)
     si = snapshot(0, pr.X, N, snap_t, snap, snap_n, 0, True)
     for t in range(T):
         u, m, ids, zs = ctrl[t], obs_n[t], obs_id[t], obs_z[t]
@@ -661,7 +645,7 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, up, init,
                                    T3))
         under, ess[t], Kc = weigh(lw, W, Wprev, mx)
         events += int(under)
-        estimate_rows(pr.X, W, N, est[t + 1])
+        estimate_pose(pr.X, W, N, est[t + 1], True)
         si = snapshot(t + 1, pr.X, N, snap_t, snap, snap_n, si, True)
         accepted[t] = np.nan
         resampled[t] = 0

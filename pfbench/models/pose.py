@@ -32,18 +32,20 @@ def init_particles(P, area, init, s):
             P[i, 2] = wrap(init[3] + init[5] * normal(s))
 
 
-@kernel(types.void(_F2, _F, types.int64, _F), cache=True)
-def estimate_pose(P, W, n, out):
-    """The weighted mean pose of P[:n] (circular mean heading) into out."""
+@kernel(types.void(_F2, _F, types.int64, _F, types.boolean), cache=True)
+def estimate_pose(P, W, n, out, rows):
+    """The weighted mean pose of P[:n] (P[:, :n] with ``rows``: stored as rows x, y, heading;
+    circular mean heading) into out."""
     ex = 0.0
     ey = 0.0
     ec = 0.0
     es = 0.0
     for i in range(n):
-        ex += W[i] * P[i, 0]
-        ey += W[i] * P[i, 1]
-        ec += W[i] * math.cos(P[i, 2])
-        es += W[i] * math.sin(P[i, 2])
+        x, y, th = (P[0, i], P[1, i], P[2, i]) if rows else (P[i, 0], P[i, 1], P[i, 2])
+        ex += W[i] * x
+        ey += W[i] * y
+        ec += W[i] * math.cos(th)
+        es += W[i] * math.sin(th)
     out[0], out[1], out[2] = ex, ey, math.atan2(es, ec)
 
 
