@@ -172,15 +172,19 @@ def ungm_limit(N: int, min_time: float, reps: int) -> list[dict]:
 # --- MCL -----------------------------------------------------------------------------------------
 
 @njit(cache=True, error_model="numpy")
-def _mcl_move(P, CS, Z, ctrl, mnoise, motion):
+def _mcl_draws(s, Z, P, CS, idx, P2, CS2, motion, T):
     N = P.shape[1]
-    for t in range(ctrl.shape[0]):
+    for _ in range(T):
         if motion == 0:
-            mcl._move_odometry(P[0], P[1], P[2], CS[0], CS[1], Z, ctrl[t, 0], ctrl[t, 1],
-                               ctrl[t, 2], mnoise, N)
+            mcl._draws_copying(s, Z, 2, P, CS, idx, P2, CS2, N)
         else:
-            mcl._move_rot_trans_rot(P[0], P[1], P[2], CS[0], CS[1], Z, ctrl[t, 0], ctrl[t, 1],
-                                    ctrl[t, 2], mnoise, N)
+            mcl._draws_copying(s, Z, 3, P, CS, idx, P2, CS2, N)
+
+
+@njit(cache=True, error_model="numpy")
+def _mcl_move(P, CS, Z, ctrl, mnoise, o):
+    for t in range(ctrl.shape[0]):
+        mcl.move_particles(P, CS, Z, ctrl[t], o, mnoise)
 
 
 @njit(cache=True, error_model="numpy")
@@ -198,22 +202,19 @@ def _mcl_exp_sums(ll, W, T):
         S = mcl._exp_sum(ll, ll.max(), N, W)
         for i in range(N):
             W[i] /= S
-        S2 = 0.0
-        for i in range(N):
-            S2 += W[i] * W[i]
 
 
 @njit(cache=True, error_model="numpy")
-def _mcl_estimate(P, W, CS, T):
+def _mcl_summarise(P, W, CS, cum, T):
     out = np.empty(3)
     for _ in range(T):
-        mcl._estimate_rows(P, W, P.shape[1], CS, out)
+        mcl.summarise(P, W, P.shape[1], CS, cum, out)
 
 
 @njit(cache=True, error_model="numpy")
-def _mcl_resample(P, CS, P2, CS2, W, o, idx, s, T):
+def _mcl_resample(W, cum, o, idx, scratch, s, T):
     for _ in range(T):
-        mcl.resample_rows(P, CS, P2, CS2, W, o, idx, s)
+        mcl.ancestors(W, cum, o, idx, scratch, s)
 
 
 def mcl_limit(N: int, min_time: float, reps: int) -> list[dict]:
@@ -244,23 +245,29 @@ def mcl_limit(N: int, min_time: float, reps: int) -> list[dict]:
                        sr=float(model.sense[2]), sb=float(model.sense[3]), N=N,
                        threshold=np.inf, scheme=1, reset=0, inject_sensor=0, kld=0)
     P0, CS0 = P.copy(), CS.copy()
+    cum = np.empty(N)
+    scratch = np.empty(N, dtype=np.int64)
 
     def move():
         P[:], CS[:] = P0, CS0
-        _mcl_move(P, CS, Z, data.ctrl, model.mnoise, o.motion)
+        _mcl_move(P, CS, Z, data.ctrl, model.mnoise, o)
 
     lik = lambda: _mcl_likelihood(P, model.beacons, data.obs_n, data.obs_id, data.obs_z, o, ll)
     lik()
     expsum = lambda: _mcl_exp_sums(ll, W, T)
     expsum()
+    _mcl_summarise(P, W, CS, cum, 1)
+    _mcl_resample(W, cum, o, idx, scratch, s, 1)
     passes = [
-        ("normal draws", _timed(lambda: _ungm_draws(s, Z, T), min_time, reps) / T),
+        ("normal draws, copying the resampled set",
+         _timed(lambda: _mcl_draws(s, Z, P, CS, idx, P2, CS2, o.motion, T), min_time, reps) / T),
         ("move", _timed(move, min_time, reps) / T),
         ("likelihood", _timed(lik, min_time, reps) / T),
         ("exponentials and sums", _timed(expsum, min_time, reps) / T),
-        ("estimate", _timed(lambda: _mcl_estimate(P, W, CS, T), min_time, reps) / T),
-        ("resampling and gather", _timed(lambda: _mcl_resample(P, CS, P2, CS2, W, o, idx, s, T),
-                                         min_time, reps) / T),
+        ("running sums, estimate and ESS",
+         _timed(lambda: _mcl_summarise(P, W, CS, cum, T), min_time, reps) / T),
+        ("resampling", _timed(lambda: _mcl_resample(W, cum, o, idx, scratch, s, T), min_time,
+                              reps) / T),
     ]
     kern = _timed(lambda: ft.run(model, data, params, N, s, False), min_time, reps) / T
     return _rows("mcl-limit", N, T, passes, kern, "MCL")

@@ -83,6 +83,50 @@ def systematic(w, S, s, idx):
         idx[k] = acc
 
 
+@kernel(types.void(_W, _W, types.float64, STATE, _IDX, _IDX), cache=True, error_model="numpy")
+def systematic_from_sums(w, cum, S, s, idx, c):
+    """``systematic`` with the running sums of the weights given: cum[j] = w[0] + ... + w[j],
+    added in that order (as a caller's pass over the weights can compute them with other work
+    at no cost). c (N,) is scratch. The same ancestors and generator state, bit for bit.
+
+    Each c_j comes from its quotient with one step down and one up, in a pass the compiler
+    vectorises; a c_j that needs more (only in extreme cases: a step that rounds to zero, say)
+    sends the pass through ``systematic``'s loops, which settle it whatever it starts from."""
+    N = idx.size
+    step = S / N
+    u = uniform(s)
+    jmax = _last_positive(w)
+    inv = 1.0 / step
+    fN = float(N)
+    bad = False
+    for j in range(jmax):
+        cj = cum[j]
+        q = math.ceil(cj * inv - u)
+        q = q if q >= 0.0 else 0.0          # NaN (0 * inf): from 0, as systematic
+        q = q if q <= fN else fN
+        q -= 1.0 if q > 0.0 and (u + (q - 1.0)) * step >= cj else 0.0
+        q += 1.0 if q < fN and (u + q) * step < cj else 0.0
+        bad |= (q > 0.0 and (u + (q - 1.0)) * step >= cj) or (q < fN and (u + q) * step < cj)
+        c[j] = int(q)
+    if bad:
+        for j in range(jmax):
+            k = c[j]
+            while k > 0 and (u + (k - 1)) * step >= cum[j]:
+                k -= 1
+            while k < N and (u + k) * step < cum[j]:
+                k += 1
+            c[j] = k
+    for k in range(N):
+        idx[k] = 0
+    for j in range(jmax):
+        if c[j] < N:
+            idx[c[j]] += 1
+    acc = 0
+    for k in range(N):
+        acc += idx[k]
+        idx[k] = acc
+
+
 @kernel(types.void(_W, types.float64, STATE, _IDX), cache=True)
 def stratified(w, S, s, idx):
     """Stratified resampling: positions (u_i + i) S / N with independent u_i ~ U[0, 1)."""

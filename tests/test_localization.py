@@ -474,12 +474,68 @@ def test_a_known_start_tracks_and_plain_mcl_does_not_survive_a_kidnapping():
 
 def test_partial_sums_cover_every_element():
     """MCL's partial sums (four lanes and a tail) add every element once, for every length."""
-    from pfbench.filters.mcl import _dot, _lanesum
+    from pfbench.filters.mcl import _lanesum
     rng = np.random.default_rng(4)
     for n in range(0, 23):
         a = rng.integers(-50, 50, n + 3).astype(float)      # integers: exact in any order
-        b = rng.integers(-50, 50, n + 3).astype(float)
         assert _lanesum(a, n) == a[:n].sum()
-        assert _dot(a, b, n) == float(a[:n] @ b[:n])
     x = rng.random(10_001)
     assert abs(_lanesum(x, x.size) - math.fsum(x)) <= 1e-12 * math.fsum(x)
+
+
+@pytest.mark.parametrize("motion,sensor,resampling,resample", [
+    ("odometry", "range", "systematic", "always"),
+    ("rot_trans_rot", "range_bearing", "systematic", "neff"),
+    ("odometry", "range_bearing", "multinomial", "always"),
+    ("rot_trans_rot", "range", "residual", "neff")])
+def test_the_set_copied_while_drawing_is_the_gathered_set(motion, sensor, resampling, resample):
+    """Plain MCL copies its resampled set while the next step draws its noise. Sensor resetting
+    that never fires (threshold 0) gathers the set at once, and draws nothing more: the two runs
+    must agree bit for bit, for either motion model, each scheme's ancestors, and resampling at
+    every step or only on a low ESS."""
+    model = _field(motion=motion, sensor=sensor, steps=40)
+    truth, data = bf.simulate(model, state_from_seed(np.random.SeedSequence(3)))
+    over = {"resampling": resampling, "resample": resample, "neff_ratio": 0.6}
+    plain = _mcl(model, data, 203, seed=5, **over)
+    gathered = _mcl(model, data, 203, seed=5, reset="srl", srl_threshold=0.0, **over)
+    assert gathered["injected"].sum() == 0
+    assert 0 < plain["resampled"].sum() <= 40
+    for key in ("pose", "ess", "resampled", "pmean", "n"):
+        assert np.array_equal(plain[key], gathered[key]), key
+
+
+def _lanes(terms, n):
+    """A sum in four partial sums, element i in lane i % 4 and the tail past the last multiple
+    of 4 in lane 0, added pairwise: what the kernel's lanes compute, in plain Python."""
+    s = [0.0] * 4
+    top = n - n % 4
+    for i in range(n):
+        s[i % 4 if i < top else 0] += terms[i]
+    return (s[0] + s[1]) + (s[2] + s[3])
+
+
+def test_the_summary_pass_is_its_sums_bit_for_bit():
+    """``summarise``: the running sums in order, the estimate (weighted means of x and y, the
+    heading's circular mean) and the ESS 1 / sum W^2, each sum in four lanes, for every length;
+    nothing past n is read or written."""
+    from pfbench.filters.mcl import summarise
+    rng = np.random.default_rng(8)
+    for n in list(range(0, 13)) + [1001]:
+        P = rng.normal(size=(3, n + 2))
+        CS = np.vstack([np.cos(P[2]), np.sin(P[2])])
+        W = rng.random(n + 2)
+        W[rng.random(n + 2) < 0.2] = 0.0
+        W[n:] = np.nan
+        cum, out = np.full(n + 2, -1.0), np.empty(3)
+        ess = summarise(P, W, n, CS, cum, out)
+        acc, sums = 0.0, []
+        for x in W[:n]:
+            acc += x
+            sums.append(acc)
+        w = W.tolist()
+        wx, wy, wc, ws = ([w[i] * R[i] for i in range(n)] for R in (P[0], P[1], CS[0], CS[1]))
+        assert out.tolist() == [_lanes(wx, n), _lanes(wy, n),
+                                math.atan2(_lanes(ws, n), _lanes(wc, n))]
+        assert cum[:n].tolist() == sums and (cum[n:] == -1.0).all()
+        q = _lanes([x * x for x in w[:n]], n)
+        assert ess == (1.0 / q if q else math.inf)

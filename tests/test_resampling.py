@@ -125,6 +125,65 @@ def test_systematic_is_the_merge_bit_for_bit(w, seed, uniform_w):
     assert idx.tolist() == _merge_systematic(w.tolist(), S, u)
 
 
+def _from_sums(w, S, seed):
+    """systematic_from_sums on w with its running sums (in order): ancestors and the state."""
+    from pfbench.resampling import systematic_from_sums
+    cum = np.empty(len(w))
+    acc = 0.0
+    for j, x in enumerate(w):
+        acc += x
+        cum[j] = acc
+    state = state_from_seed(np.random.SeedSequence(seed))
+    idx = np.full(len(w), -7, dtype=np.int64)
+    systematic_from_sums(w, cum, S, state, idx, np.full(len(w), 99, dtype=np.int64))
+    return idx.tolist(), state.tolist()
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.one_of(st.just(0.0), st.floats(1e-300, 1e3), st.floats(0.0, 1.0),
+                          st.floats(0.0, 1e-305)), min_size=1, max_size=300),
+       st.integers(0, 2**32 - 1), st.sampled_from(["sum", "one", "tiny"]))
+@example([0.0, 5e-324], 0, "sum")     # S / N rounds to 0: the step is zero, its inverse inf
+@example([1e-310, 3e-310, 0.0, 2e-309], 5, "tiny")   # quotients far off: settled by the loops
+def test_systematic_from_sums_is_systematic_bit_for_bit(w, seed, total):
+    """Given the running sums, the vectorised counts pick systematic's ancestors exactly and draw
+    the same, whatever S: the weights' sum, 1 (normalised weights, as MCL passes), or a sum of
+    subnormal weights, whose step's inverse is so inexact that quotients miss by more than one."""
+    from pfbench.resampling import systematic
+    w = np.array(w)
+    if not w.sum() > 0:
+        w[len(w) // 2] = 1e-310 if total == "tiny" else 1.0
+    if total == "one":
+        w = w / w.sum()
+    S = 0.0
+    for x in w:
+        S += x
+    S = 1.0 if total == "one" else S
+    state = state_from_seed(np.random.SeedSequence(seed))
+    idx = np.empty(len(w), dtype=np.int64)
+    systematic(w, S, state, idx)
+    assert _from_sums(w, S, seed) == (idx.tolist(), state.tolist())
+
+
+def test_systematic_from_sums_settles_far_quotients():
+    """Subnormal weights: the step S / N keeps few bits, its inverse is far off, and the
+    quotients miss their counts by more than a step; the result is still systematic's."""
+    from pfbench.resampling import systematic
+    w = np.array([1e-322, 3e-322, 0.0, 5e-321, 2e-322, 7e-322])
+    S = float(np.sum(w))
+    N = len(w)
+    step, u = S / N, 0.5
+    cum = np.cumsum(w)
+    q = np.clip(np.ceil(cum * (1.0 / step) - u), 0, N)
+    exact = np.array([sum((u + i) * step < c for i in range(N)) for c in cum])
+    assert np.max(np.abs(q - exact)) > 1       # the case the loops exist for
+    for seed in range(20):
+        state = state_from_seed(np.random.SeedSequence(seed))
+        idx = np.empty(N, dtype=np.int64)
+        systematic(w, S, state, idx)
+        assert _from_sums(w, S, seed) == (idx.tolist(), state.tolist())
+
+
 def test_systematic_with_positions_on_the_running_sums():
     """Weights whose running sums fall exactly on the positions (u = 0 ... ): a position equal to
     cum_j belongs to the next particle, as in the merge."""

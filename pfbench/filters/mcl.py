@@ -36,7 +36,11 @@ and sines (2, N)) and runs each step as passes over them: all the move's normal 
 (``fill_normal``), then the move, the range likelihood and the weights' exponentials each in a
 loop the compiler vectorises, with the branch-free sine, cosine, arctangent and exponential of
 ``pfbench.vecmath`` (within 2 ulp of the C library's; the beacon-field results moved by at most
-1e-11 relative when they came in). KLD-sampling runs in rounds of such passes too (see
+1e-11 relative when they came in). Work that must run one element after another carries other
+work in its wait: the weights' running sum carries the estimate's and the ESS's sums
+(``summarise``), and the generator's draws carry the copy of the last step's resampled set
+(``_draws_copying``); systematic resampling counts from those running sums in a vectorised pass
+(``resampling.systematic_from_sums``). KLD-sampling runs in rounds of passes too (see
 ``kld_sample``).
 """
 from __future__ import annotations
@@ -45,11 +49,12 @@ import math
 from statistics import NormalDist
 from typing import NamedTuple
 
+import numba
 import numpy as np
 from numba import typeof, types
 from .._lazy import kernel
 
-from ..resampling import SCHEME_CODES, resample
+from ..resampling import SCHEME_CODES, resample, systematic_from_sums
 from ..rng import (STATE, _ZKI, _layer, _normal_slow, fill_normal, load_local, next_local, normal,
                    store_local, uniform, unit)
 from .. import vecmath as vm
@@ -69,26 +74,11 @@ _I2 = types.int64[:, ::1]
 RESET = {"none": 0, "srl": 1, "asrl": 2, "augmented": 3}
 
 
-@kernel(types.float64(_F, _F, types.int64), cache=True, error_model="numpy")
-def _dot(a, b, n):
-    """sum a[i] b[i] over i < n in four partial sums (lanes the compiler keeps in one vector),
-    added pairwise at the end: a reduction that vectorises (a single running sum does not, as
-    its order is part of its result)."""
-    s0 = s1 = s2 = s3 = 0.0
-    top = n - n % 4
-    for i in range(0, top, 4):
-        s0 += a[i] * b[i]
-        s1 += a[i + 1] * b[i + 1]
-        s2 += a[i + 2] * b[i + 2]
-        s3 += a[i + 3] * b[i + 3]
-    for i in range(top, n):
-        s0 += a[i] * b[i]
-    return (s0 + s1) + (s2 + s3)
-
-
 @kernel(types.float64(_F, types.int64), cache=True, error_model="numpy")
 def _lanesum(a, n):
-    """sum a[i] over i < n in four partial sums (see ``_dot``)."""
+    """sum a[i] over i < n in four partial sums (lanes the compiler keeps in one vector), added
+    pairwise at the end: a reduction that vectorises (a single running sum does not, as its
+    order is part of its result)."""
     s0 = s1 = s2 = s3 = 0.0
     top = n - n % 4
     for i in range(0, top, 4):
@@ -99,42 +89,6 @@ def _lanesum(a, n):
     for i in range(top, n):
         s0 += a[i]
     return (s0 + s1) + (s2 + s3)
-
-
-@kernel(types.void(_F2, _F, types.int64, _F2, _F), cache=True, error_model="numpy")
-def _estimate_rows(P, W, n, CS, out):
-    """estimate_pose of particles stored as rows, P (3, N), with the headings' cosines and sines
-    given, CS (2, N): the four weighted sums in one pass, each in the four partial sums of
-    ``_dot`` (the same sums to the bit)."""
-    X, Y, C, S = P[0], P[1], CS[0], CS[1]
-    x0 = x1 = x2 = x3 = y0 = y1 = y2 = y3 = 0.0
-    c0 = c1 = c2 = c3 = s0 = s1 = s2 = s3 = 0.0
-    top = n - n % 4
-    for i in range(0, top, 4):
-        w0, w1, w2, w3 = W[i], W[i + 1], W[i + 2], W[i + 3]
-        x0 += w0 * X[i]
-        x1 += w1 * X[i + 1]
-        x2 += w2 * X[i + 2]
-        x3 += w3 * X[i + 3]
-        y0 += w0 * Y[i]
-        y1 += w1 * Y[i + 1]
-        y2 += w2 * Y[i + 2]
-        y3 += w3 * Y[i + 3]
-        c0 += w0 * C[i]
-        c1 += w1 * C[i + 1]
-        c2 += w2 * C[i + 2]
-        c3 += w3 * C[i + 3]
-        s0 += w0 * S[i]
-        s1 += w1 * S[i + 1]
-        s2 += w2 * S[i + 2]
-        s3 += w3 * S[i + 3]
-    for i in range(top, n):
-        x0 += W[i] * X[i]
-        y0 += W[i] * Y[i]
-        c0 += W[i] * C[i]
-        s0 += W[i] * S[i]
-    out[0], out[1] = (x0 + x1) + (x2 + x3), (y0 + y1) + (y2 + y3)
-    out[2] = math.atan2((s0 + s1) + (s2 + s3), (c0 + c1) + (c2 + c3))
 
 
 @kernel(types.void(_F2, types.int64, types.int64, _F2), cache=True, error_model="numpy")
@@ -441,24 +395,49 @@ class MclOptions(NamedTuple):
 MCL_OPTIONS = typeof(MclOptions(0, 0, 1.0, 1.0, 1, 1.0, 0, 0, 0, 0))
 
 
-@kernel(types.void(_F2, _F2, _F, _F, MCL_OPTIONS, _F, STATE), cache=True, error_model="numpy")
-def move_particles(P, CS, Z, u, o, mnoise, s):
-    """Move every particle (rows P, CS) by the odometry u with its own draw of the motion noise
-    (all draws first, in order, into Z)."""
-    fill_normal(s, Z)
+@numba.njit(cache=True, error_model="numpy")
+def _draws_copying(s, Z, per, P, CS, idx, P2, CS2, n):
+    """fill_normal(s, Z) (per draws a particle, n particles), and meanwhile the resampled set:
+    (P2, CS2)[:, i] = (P, CS)[:, idx[i]]. The draws wait on the generator, one step after
+    another; the copy's loads and stores fill that wait, and cost far less there than in a pass
+    of their own. The ziggurat is written out as in ``fill_normal`` (a helper that returned the
+    generator's state ran three times slower). Compiled for each ``per`` it is called with (a
+    constant: the loop over a particle's draws unrolls)."""
+    q = load_local(s)
+    for i in range(n):
+        k = idx[i]
+        P2[0, i], P2[1, i], P2[2, i] = P[0, k], P[1, k], P[2, k]
+        CS2[0, i], CS2[1, i] = CS[0, k], CS[1, k]
+        for d in range(per):
+            r, q = next_local(q)
+            layer, rabs, x = _layer(r)
+            if rabs >= _ZKI[layer]:
+                store_local(s, q)
+                x = _normal_slow(s, layer, rabs, x)
+                if x != x:
+                    x = normal(s)
+                q = load_local(s)
+            Z[per * i + d] = x
+    store_local(s, q)
+
+
+@kernel(types.void(_F2, _F2, _F, _F, MCL_OPTIONS, _F), cache=True, error_model="numpy")
+def move_particles(P, CS, Z, u, o, mnoise):
+    """Move every particle (rows P, CS) by the odometry u, particle i with the motion noise of
+    its draws in Z (2 or 3 a particle, see ``odometry_with``)."""
     if o.motion == 0:
         _move_odometry(P[0], P[1], P[2], CS[0], CS[1], Z, u[0], u[1], u[2], mnoise, o.N)
     else:
         _move_rot_trans_rot(P[0], P[1], P[2], CS[0], CS[1], Z, u[0], u[1], u[2], mnoise, o.N)
 
 
-@kernel(types.UniTuple(types.float64, 3)(_F2, types.int64, _F2, types.int64, _I, _F2, MCL_OPTIONS,
+@kernel(types.UniTuple(types.float64, 2)(_F2, types.int64, _F2, types.int64, _I, _F2, MCL_OPTIONS,
                                        _F, _F, _F, types.boolean), cache=True, error_model="numpy")
 def weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh):
     """Weigh the n particles by the step's m observations: log-weights lw, normalised weights W.
-    Returns (p_mean, the mean likelihood of the moved particles; the ESS; 1 when every weight
-    underflowed and was reset). ``fresh``: the log-weights are all zero (a resampled or initial
-    set), so the likelihoods are the weights."""
+    Returns (p_mean, the mean likelihood of the moved particles; 1 when every weight
+    underflowed and was reset). ``fresh``: the set was just resampled or drawn (its log-weights
+    all zero, whatever lw holds), so the likelihoods are the weights."""
     _loglik(P[0], P[1], P[2], n, bc, m, ids, zs, o.sensor, o.sr, o.sb,
             loglik_const(m, o.sensor, o.sr, o.sb), ll)
     # the two maxima in four lanes each (the same maxima: a NaN loses every comparison)
@@ -466,14 +445,17 @@ def weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh):
     l0 = l1 = l2 = l3 = -np.inf
     top = n - n % 4
     for i in range(0, top, 4):
-        a0, a1, a2, a3 = lw[i] + ll[i], lw[i + 1] + ll[i + 1], lw[i + 2] + ll[i + 2], \
-            lw[i + 3] + ll[i + 3]
+        if fresh:
+            a0, a1, a2, a3 = ll[i], ll[i + 1], ll[i + 2], ll[i + 3]
+        else:
+            a0, a1, a2, a3 = lw[i] + ll[i], lw[i + 1] + ll[i + 1], lw[i + 2] + ll[i + 2], \
+                lw[i + 3] + ll[i + 3]
         lw[i], lw[i + 1], lw[i + 2], lw[i + 3] = a0, a1, a2, a3
         m0, m1, m2, m3 = max(m0, a0), max(m1, a1), max(m2, a2), max(m3, a3)
         l0, l1 = max(l0, ll[i]), max(l1, ll[i + 1])
         l2, l3 = max(l2, ll[i + 2]), max(l3, ll[i + 3])
     for i in range(top, n):
-        lw[i] += ll[i]
+        lw[i] = ll[i] if fresh else lw[i] + ll[i]
         m0 = max(m0, lw[i])
         l0 = max(l0, ll[i])
     mx = max(max(m0, m1), max(m2, m3))
@@ -492,7 +474,64 @@ def weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh):
         S = _exp_sum(lw, mx, n, W)
     for i in range(n):
         W[i] /= S
-    return pm, 1.0 / _dot(W, W, n), under
+    return pm, under
+
+
+@kernel(types.float64(_F2, _F, types.int64, _F2, _F, _F), cache=True, error_model="numpy")
+def summarise(P, W, n, CS, cum, out):
+    """One pass over the n weighted particles (rows P, their headings' cosines and sines CS):
+    the running sums of the weights into cum (summed in order, for the resampling), the
+    estimate into out (``estimate_pose``'s weighted mean and circular mean heading) and,
+    returned, the ESS 1 / sum W^2. The estimate's four sums and the ESS's are each in four
+    partial sums (``_lanesum``'s). The running sum waits on each addition before the next; the
+    other sums are done in that wait."""
+    X, Y, C, S = P[0], P[1], CS[0], CS[1]
+    x0 = x1 = x2 = x3 = y0 = y1 = y2 = y3 = 0.0
+    c0 = c1 = c2 = c3 = s0 = s1 = s2 = s3 = 0.0
+    q0 = q1 = q2 = q3 = 0.0
+    acc = 0.0
+    top = n - n % 4
+    for i in range(0, top, 4):
+        w0, w1, w2, w3 = W[i], W[i + 1], W[i + 2], W[i + 3]
+        acc += w0
+        cum[i] = acc
+        acc += w1
+        cum[i + 1] = acc
+        acc += w2
+        cum[i + 2] = acc
+        acc += w3
+        cum[i + 3] = acc
+        x0 += w0 * X[i]
+        x1 += w1 * X[i + 1]
+        x2 += w2 * X[i + 2]
+        x3 += w3 * X[i + 3]
+        y0 += w0 * Y[i]
+        y1 += w1 * Y[i + 1]
+        y2 += w2 * Y[i + 2]
+        y3 += w3 * Y[i + 3]
+        c0 += w0 * C[i]
+        c1 += w1 * C[i + 1]
+        c2 += w2 * C[i + 2]
+        c3 += w3 * C[i + 3]
+        s0 += w0 * S[i]
+        s1 += w1 * S[i + 1]
+        s2 += w2 * S[i + 2]
+        s3 += w3 * S[i + 3]
+        q0 += w0 * w0
+        q1 += w1 * w1
+        q2 += w2 * w2
+        q3 += w3 * w3
+    for i in range(top, n):
+        acc += W[i]
+        cum[i] = acc
+        x0 += W[i] * X[i]
+        y0 += W[i] * Y[i]
+        c0 += W[i] * C[i]
+        s0 += W[i] * S[i]
+        q0 += W[i] * W[i]
+    out[0], out[1] = (x0 + x1) + (x2 + x3), (y0 + y1) + (y2 + y3)
+    out[2] = math.atan2((s0 + s1) + (s2 + s3), (c0 + c1) + (c2 + c3))
+    return 1.0 / ((q0 + q1) + (q2 + q3))
 
 
 @kernel(types.UniTuple(types.float64, 3)(types.float64, types.float64, types.float64, types.int64,
@@ -513,12 +552,20 @@ def likelihood_averages(w_slow, w_fast, pm, m, o, rp):
     return w_slow, w_fast, max(0.0, 1.0 - w_fast / w_slow) if w_slow > 0.0 else 0.0
 
 
-@kernel(types.void(_F2, _F2, _F2, _F2, _F, MCL_OPTIONS, _I, STATE), cache=True,
-      error_model="numpy")
-def resample_rows(P, CS, P2, CS2, W, o, idx, s):
+@kernel(types.void(_F, _F, MCL_OPTIONS, _I, _I, STATE), cache=True, error_model="numpy")
+def ancestors(W, cum, o, idx, scratch, s):
+    """The resampled set's ancestors idx of the normalised weights W (cum: their running sums,
+    from ``summarise``) by the scheme of o."""
+    if o.scheme == 1:
+        systematic_from_sums(W, cum, 1.0, s, idx, scratch)
+    else:
+        resample(o.scheme, W, 1.0, s, idx)
+
+
+@kernel(types.void(_F2, _F2, _F2, _F2, _I, types.int64), cache=True, error_model="numpy")
+def gather_rows(P, CS, P2, CS2, idx, n):
     """The resampled set (rows, with the headings' cosines and sines) into P2, CS2."""
-    resample(o.scheme, W, 1.0, s, idx)
-    for i in range(o.N):
+    for i in range(n):
         k = idx[i]
         P2[0, i], P2[1, i], P2[2, i] = P[0, k], P[1, k], P[2, k]
         CS2[0, i], CS2[1, i] = CS[0, k], CS[1, k]
@@ -586,6 +633,7 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
     lw = np.zeros(N)
     W = np.full(N, 1.0 / N)
     idx = np.empty(N, dtype=np.int64)
+    scratch = np.empty(N, dtype=np.int64)
     perm = np.empty(N, dtype=np.int64)
     ll = np.empty(N)
     pose = np.empty(3)
@@ -603,7 +651,8 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
     Z = np.empty(N * (2 if o.motion == 0 else 3))
     _trig(P, 0, N, CS)
     fresh = True            # the log-weights are all zero (a resampled or initial set)
-    _estimate_rows(P, W, N, CS, est[0])
+    pending = False         # (P, CS) is the last step's set, to be resampled by idx
+    summarise(P, W, N, CS, cum, est[0])
     si = snapshot(0, P, N, snap_t, snap, snap_n, 0, True)
     for t in range(T):
         if o.kld:
@@ -615,19 +664,28 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
                               obs_id[tp], obs_z[tp], o.sr, o.sb, s, P2, cum)
             P, P2 = P2, P
             _trig(P, 0, n, CS)
-            lw[:n] = 0.0
             fresh = True
             resampled[t] = 1
             injected[t] = k
         else:
-            move_particles(P, CS, Z, ctrl[t], o, mnoise, s)
+            if pending:         # the resampled set is copied while the noise is drawn
+                if o.motion == 0:
+                    _draws_copying(s, Z, 2, P, CS, idx, P2, CS2, N)
+                else:
+                    _draws_copying(s, Z, 3, P, CS, idx, P2, CS2, N)
+                P, P2 = P2, P
+                CS, CS2 = CS2, CS
+                pending = False
+            else:
+                fill_normal(s, Z)
+            move_particles(P, CS, Z, ctrl[t], o, mnoise)
         count[t] = n
         m, ids, zs = obs_n[t], obs_id[t], obs_z[t]
-        pm, ess[t], under = weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh)
+        pm, under = weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh)
         pmean[t] = pm
         events += int(under)
         fresh = False
-        _estimate_rows(P, W, n, CS, est[t + 1])
+        ess[t] = summarise(P, W, n, CS, cum, est[t + 1])
         si = snapshot(t + 1, P, n, snap_t, snap, snap_n, si, True)
         if o.reset == 3 and m > 0:
             w_slow, w_fast, prob = likelihood_averages(w_slow, w_fast, pm, m, o, rp)
@@ -635,18 +693,18 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
             continue            # the next step's sampling resamples (and injects)
         resampled[t] = 0
         if ess[t] < o.threshold:
-            resample_rows(P, CS, P2, CS2, W, o, idx, s)
-            P, P2 = P2, P
-            CS, CS2 = CS2, CS
-            lw[:] = 0.0
-            W[:] = 1.0 / N
+            ancestors(W, cum, o, idx, scratch, s)
+            if o.reset == 0:
+                pending = True      # nothing is injected: the next step's draws copy the set
+            else:
+                gather_rows(P, CS, P2, CS2, idx, N)
+                P, P2 = P2, P
+                CS, CS2 = CS2, CS
             fresh = True
             resampled[t] = 1
         injected[t] = inject(P, CS, area, bc, m, ids, zs, o, rp, pm, prob, perm, pose, s)
         if injected[t] > 0 and resampled[t] == 0:
-            lw[:] = 0.0        # injected particles join a set of equal weights
-            W[:] = 1.0 / N
-            fresh = True
+            fresh = True        # injected particles join a set of equal weights
     return events
 
 
