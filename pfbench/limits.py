@@ -13,8 +13,10 @@ How each workload's passes are written:
 - UNGM (the bench's bootstrap PF): every pass in its fastest form: the model's arithmetic in line
   (the kernel calls it through a function pointer), ``vecmath.exp`` with the three sums in
   partial sums across lanes, systematic resampling in its counting form and a gather.
-- MCL (plain MCL on the beacon field of configs/sspf_global.yaml): the kernel's own passes, which
-  are written to vectorise already (rows of particles, ``vecmath``), each called alone.
+- MCL (plain MCL on the beacon field of configs/sspf_global.yaml): the kernel's own passes, each
+  called alone: the draws with the copy of the resampled set they carry, the move, the
+  likelihood and the exponentials (vectorised, rows of particles, ``vecmath``), the running sums
+  with the normalisation, estimate and ESS they carry, and the resampling's counts.
 - FastSLAM (the landmark world of configs/afsa_fastslam.yaml, nearest-neighbour association): the
   kernel's own per-landmark functions over every particle and observation of each step, the map
   of each particle being the true landmarks at its truth pose, so association searches that many.
@@ -199,16 +201,14 @@ def _mcl_likelihood(P, bc, obs_n, obs_id, obs_z, o, ll):
 def _mcl_exp_sums(ll, W, T):
     N = ll.size
     for _ in range(T):
-        S = mcl._exp_sum(ll, ll.max(), N, W)
-        for i in range(N):
-            W[i] /= S
+        mcl._exp_sum(ll, ll.max(), N, W)
 
 
 @njit(cache=True, error_model="numpy")
 def _mcl_summarise(P, W, CS, cum, T):
     out = np.empty(3)
     for _ in range(T):
-        mcl.summarise(P, W, P.shape[1], CS, cum, out)
+        mcl.summarise(P, W, 1.0, P.shape[1], CS, cum, out)
 
 
 @njit(cache=True, error_model="numpy")
@@ -264,7 +264,7 @@ def mcl_limit(N: int, min_time: float, reps: int) -> list[dict]:
         ("move", _timed(move, min_time, reps) / T),
         ("likelihood", _timed(lik, min_time, reps) / T),
         ("exponentials and sums", _timed(expsum, min_time, reps) / T),
-        ("running sums, estimate and ESS",
+        ("normalisation, running sums, estimate and ESS",
          _timed(lambda: _mcl_summarise(P, W, CS, cum, T), min_time, reps) / T),
         ("resampling", _timed(lambda: _mcl_resample(W, cum, o, idx, scratch, s, T), min_time,
                               reps) / T),

@@ -12,14 +12,36 @@ them.
 
 A loop only vectorises when nothing in it can raise: compile it with ``error_model="numpy"`` (a
 float division by zero gives inf instead of raising ZeroDivisionError).
+
+``fma`` is a fused multiply-add written out. numba's ``fastmath={"contract"}`` would fuse products
+and sums too, but the compiler chooses which, afresh in each context a function is compiled or
+inlined in, so a kernel's results would depend on what the process had compiled or loaded from
+its cache before (seen: the same trials differed in the last bits between two runs).
 """
 from __future__ import annotations
 
 import math
 
 import numpy as np
+from llvmlite import ir
 from numba import types
+from numba.extending import intrinsic
 from ._lazy import kernel
+
+
+
+@intrinsic
+def fma(typingctx, a, b, c):
+    """a * b + c rounded once (LLVM's llvm.fma: the processor's fused multiply-add where it has
+    one, and the same result bit for bit where it does not); vectorises."""
+    sig = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, signature, args):
+        d = ir.DoubleType()
+        f = builder.module.declare_intrinsic("llvm.fma", [d], ir.FunctionType(d, [d, d, d]))
+        return builder.call(f, args)
+    return sig, codegen
+
 
 # sin and cos on [-pi/4, pi/4] (Cephes sin.c), pi/4 in three parts for the reduction
 _S0, _S1, _S2 = 1.58962301576546568060e-10, -2.50507477628578072866e-8, 2.75573136213857245213e-6

@@ -514,28 +514,38 @@ def _lanes(terms, n):
     return (s[0] + s[1]) + (s[2] + s[3])
 
 
-def test_the_summary_pass_is_its_sums_bit_for_bit():
-    """``summarise``: the running sums in order, the estimate (weighted means of x and y, the
-    heading's circular mean) and the ESS 1 / sum W^2, each sum in four lanes, for every length;
-    nothing past n is read or written."""
+def test_the_summary_pass_is_its_sums():
+    """``summarise``: the weights scaled in place, their running sums in order, the estimate
+    (weighted means of x and y, the heading's circular mean) and the ESS 1 / sum W^2, each sum
+    in four lanes, for every length; nothing past n is read or written. With whole numbers
+    every product and sum is exact, so the lanes must give these sums to the bit whether or not
+    a multiply-add is fused; with real numbers, to rounding."""
     from pfbench.filters.mcl import summarise
     rng = np.random.default_rng(8)
-    for n in list(range(0, 13)) + [1001]:
-        P = rng.normal(size=(3, n + 2))
-        CS = np.vstack([np.cos(P[2]), np.sin(P[2])])
-        W = rng.random(n + 2)
-        W[rng.random(n + 2) < 0.2] = 0.0
-        W[n:] = np.nan
-        cum, out = np.full(n + 2, -1.0), np.empty(3)
-        ess = summarise(P, W, n, CS, cum, out)
-        acc, sums = 0.0, []
-        for x in W[:n]:
-            acc += x
-            sums.append(acc)
-        w = W.tolist()
-        wx, wy, wc, ws = ([w[i] * R[i] for i in range(n)] for R in (P[0], P[1], CS[0], CS[1]))
-        assert out.tolist() == [_lanes(wx, n), _lanes(wy, n),
-                                math.atan2(_lanes(ws, n), _lanes(wc, n))]
-        assert cum[:n].tolist() == sums and (cum[n:] == -1.0).all()
-        q = _lanes([x * x for x in w[:n]], n)
-        assert ess == (1.0 / q if q else math.inf)
+    for whole in (True, False):
+        for n in list(range(0, 13)) + [1001]:
+            P = rng.integers(-40, 40, (3, n + 2)).astype(float)
+            CS = rng.integers(-9, 9, (2, n + 2)).astype(float)
+            W = rng.integers(0, 30, n + 2).astype(float)
+            scale = 1.0 if whole else 1.0 / 3.0
+            if not whole:
+                P, CS, W = rng.normal(size=P.shape), rng.normal(size=CS.shape), rng.random(n + 2)
+            W[n:] = np.nan
+            before = W.copy()
+            cum, out = np.full(n + 2, -1.0), np.empty(3)
+            ess = summarise(P, W, scale, n, CS, cum, out)
+            w = (before[:n] * scale).tolist()
+            acc, sums = 0.0, []
+            for x in w:
+                acc += x
+                sums.append(acc)
+            wx, wy, wc, ws = ([w[i] * R[i] for i in range(n)] for R in (P[0], P[1], CS[0], CS[1]))
+            q = _lanes([x * x for x in w], n)
+            want = [_lanes(wx, n), _lanes(wy, n), math.atan2(_lanes(ws, n), _lanes(wc, n)),
+                    1.0 / q if q else math.inf]
+            assert W[:n].tolist() == w and np.isnan(W[n:]).all()
+            assert cum[:n].tolist() == sums and (cum[n:] == -1.0).all()
+            if whole:
+                assert out.tolist() + [ess] == want, n
+            else:
+                assert np.allclose(out.tolist() + [ess], want, rtol=1e-13, atol=1e-13), n

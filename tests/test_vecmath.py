@@ -99,3 +99,31 @@ def test_the_loops_vectorise():
     for f in (_exp, _sincos, _atan2):
         asm = f.inspect_asm(f.signatures[0])
         assert re.search(r"\bv?(mul|add|fmadd\w*)pd\b", asm), f
+
+
+@njit(error_model="numpy")
+def _fma(a, b, c, out):
+    for i in range(a.size):
+        out[i] = vecmath.fma(a[i], b[i], c[i])
+
+
+def test_fma_rounds_once():
+    """fma(a, b, c) is a b + c rounded once: exact where the product and sum are, and the low
+    bits that a rounded product loses are kept (a b + c with a b = 1 - 2^-60 in exact
+    arithmetic)."""
+    from fractions import Fraction
+    a = np.array([1.0 + 2.0**-30, 3.0, 0.1, -2.5, 1e300])
+    b = np.array([1.0 - 2.0**-30, 4.0, 0.3, 1e-300, 10.0])
+    c = np.array([-1.0, 5.0, -0.03, 0.0, -np.inf])
+    out = np.empty(5)
+    _fma(a, b, c, out)
+    assert out[0] == -2.0**-60 and (a[0] * b[0] + c[0]) == 0.0
+    assert out[1] == 17.0 and out[4] == -np.inf
+    for i in (2, 3):
+        exact = Fraction(a[i]) * Fraction(b[i]) + Fraction(c[i])
+        assert out[i] == float(exact)          # the exact value, rounded once
+    x = np.linspace(0.1, 1.0, 16)
+    _fma(x, x, x, np.empty_like(x))
+    if platform.machine() in ("x86_64", "AMD64"):
+        asm = _fma.inspect_asm(_fma.signatures[0])
+        assert re.search(r"\bvfmadd\w*pd\b", asm) or "fma" in asm

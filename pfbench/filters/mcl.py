@@ -36,8 +36,12 @@ and sines (2, N)) and runs each step as passes over them: all the move's normal 
 (``fill_normal``), then the move, the range likelihood and the weights' exponentials each in a
 loop the compiler vectorises, with the branch-free sine, cosine, arctangent and exponential of
 ``pfbench.vecmath`` (within 2 ulp of the C library's; the beacon-field results moved by at most
-1e-11 relative when they came in). Work that must run one element after another carries other
-work in its wait: the weights' running sum carries the estimate's and the ESS's sums
+1e-11 relative when they came in). The likelihood and the normalisation multiply by the
+reciprocals of the noise levels and of the weights' sum, and ``summarise``'s sums are fused
+multiply-adds (``vecmath.fma``): changes in the last bits, which moved the beacon-field results
+by at most 1e-11 relative when they came in (no trial took another path). Work that must run
+one element after another carries other work in its wait: the
+weights' running sum carries their normalisation and the estimate's and the ESS's sums
 (``summarise``), and the generator's draws carry the copy of the last step's resampled set
 (``_draws_copying``); systematic resampling counts from those running sums in a vectorised pass
 (``resampling.systematic_from_sums``). KLD-sampling runs in rounds of passes too (see
@@ -145,6 +149,7 @@ def _loglik(X, Y, H, n, bc, m, ids, zs, sensor, sr, sb, cst, ll):
     """ll[:n] = log p(z | particle i) of the step's m observations (pose_quad's sum, in its
     order, + loglik_const), an observation at a time over all particles: passes the vectoriser
     takes, with vecmath's arctangent and wrap for the bearings."""
+    rr, rb = 1.0 / sr, 1.0 / sb
     for i in range(n):
         ll[i] = 0.0
     for j in range(m):
@@ -152,14 +157,14 @@ def _loglik(X, Y, H, n, bc, m, ids, zs, sensor, sr, sb, cst, ll):
         if sensor == 1:
             for i in range(n):
                 dx, dy = bx - X[i], by - Y[i]
-                v = (z - math.sqrt(dx * dx + dy * dy)) / sr
-                u = vm.wrap(zb - (vm.atan2(dy, dx) - H[i])) / sb
+                v = (z - math.sqrt(dx * dx + dy * dy)) * rr
+                u = vm.wrap(zb - (vm.atan2(dy, dx) - H[i])) * rb
                 ll[i] -= 0.5 * v * v
                 ll[i] -= 0.5 * u * u
         else:
             for i in range(n):
                 dx, dy = bx - X[i], by - Y[i]
-                v = (z - math.sqrt(dx * dx + dy * dy)) / sr
+                v = (z - math.sqrt(dx * dx + dy * dy)) * rr
                 ll[i] -= 0.5 * v * v
     for i in range(n):
         ll[i] += cst
@@ -405,7 +410,7 @@ def _draws_copying(s, Z, per, P, CS, idx, P2, CS2, n):
     constant: the loop over a particle's draws unrolls)."""
     q = load_local(s)
     for i in range(n):
-        k = idx[i]
+        k = np.uint64(idx[i])       # unsigned: no wraparound of a negative index to handle
         P2[0, i], P2[1, i], P2[2, i] = P[0, k], P[1, k], P[2, k]
         CS2[0, i], CS2[1, i] = CS[0, k], CS[1, k]
         for d in range(per):
@@ -431,33 +436,41 @@ def move_particles(P, CS, Z, u, o, mnoise):
         _move_rot_trans_rot(P[0], P[1], P[2], CS[0], CS[1], Z, u[0], u[1], u[2], mnoise, o.N)
 
 
-@kernel(types.UniTuple(types.float64, 2)(_F2, types.int64, _F2, types.int64, _I, _F2, MCL_OPTIONS,
+@kernel(types.UniTuple(types.float64, 3)(_F2, types.int64, _F2, types.int64, _I, _F2, MCL_OPTIONS,
                                        _F, _F, _F, types.boolean), cache=True, error_model="numpy")
 def weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh):
-    """Weigh the n particles by the step's m observations: log-weights lw, normalised weights W.
-    Returns (p_mean, the mean likelihood of the moved particles; 1 when every weight
-    underflowed and was reset). ``fresh``: the set was just resampled or drawn (its log-weights
-    all zero, whatever lw holds), so the likelihoods are the weights."""
+    """Weigh the n particles by the step's m observations: log-weights lw, weights W (not yet
+    normalised: ``summarise`` scales them by the reciprocal of their sum). Returns (p_mean, the
+    mean likelihood of the moved particles; 1 when every weight underflowed and was reset; the
+    weights' sum). ``fresh``: the set was just resampled or drawn (its log-weights all zero,
+    whatever lw holds), so the likelihoods are the weights, and lw is left as it is: unless
+    every weight underflowed (then lw is all zero), the log-weights are ll, and the caller
+    swaps the two arrays."""
     _loglik(P[0], P[1], P[2], n, bc, m, ids, zs, o.sensor, o.sr, o.sb,
             loglik_const(m, o.sensor, o.sr, o.sb), ll)
     # the two maxima in four lanes each (the same maxima: a NaN loses every comparison)
     m0 = m1 = m2 = m3 = -np.inf
     l0 = l1 = l2 = l3 = -np.inf
     top = n - n % 4
-    for i in range(0, top, 4):
-        if fresh:
-            a0, a1, a2, a3 = ll[i], ll[i + 1], ll[i + 2], ll[i + 3]
-        else:
+    if fresh:       # the log-weights are the log-likelihoods: the caller takes ll as lw
+        for i in range(0, top, 4):
+            l0, l1 = max(l0, ll[i]), max(l1, ll[i + 1])
+            l2, l3 = max(l2, ll[i + 2]), max(l3, ll[i + 3])
+        for i in range(top, n):
+            l0 = max(l0, ll[i])
+        m0, m1, m2, m3 = l0, l1, l2, l3
+    else:
+        for i in range(0, top, 4):
             a0, a1, a2, a3 = lw[i] + ll[i], lw[i + 1] + ll[i + 1], lw[i + 2] + ll[i + 2], \
                 lw[i + 3] + ll[i + 3]
-        lw[i], lw[i + 1], lw[i + 2], lw[i + 3] = a0, a1, a2, a3
-        m0, m1, m2, m3 = max(m0, a0), max(m1, a1), max(m2, a2), max(m3, a3)
-        l0, l1 = max(l0, ll[i]), max(l1, ll[i + 1])
-        l2, l3 = max(l2, ll[i + 2]), max(l3, ll[i + 3])
-    for i in range(top, n):
-        lw[i] = ll[i] if fresh else lw[i] + ll[i]
-        m0 = max(m0, lw[i])
-        l0 = max(l0, ll[i])
+            lw[i], lw[i + 1], lw[i + 2], lw[i + 3] = a0, a1, a2, a3
+            m0, m1, m2, m3 = max(m0, a0), max(m1, a1), max(m2, a2), max(m3, a3)
+            l0, l1 = max(l0, ll[i]), max(l1, ll[i + 1])
+            l2, l3 = max(l2, ll[i + 2]), max(l3, ll[i + 3])
+        for i in range(top, n):
+            lw[i] += ll[i]
+            m0 = max(m0, lw[i])
+            l0 = max(l0, ll[i])
     mx = max(max(m0, m1), max(m2, m3))
     lmax = max(max(l0, l1), max(l2, l3))
     # p_mean by log-sum-exp; on a fresh set these terms are the weights themselves
@@ -472,19 +485,18 @@ def weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh):
     S = acc
     if not fresh:
         S = _exp_sum(lw, mx, n, W)
-    for i in range(n):
-        W[i] /= S
-    return pm, under
+    return pm, under, S
 
 
-@kernel(types.float64(_F2, _F, types.int64, _F2, _F, _F), cache=True, error_model="numpy")
-def summarise(P, W, n, CS, cum, out):
+@kernel(types.float64(_F2, _F, types.float64, types.int64, _F2, _F, _F), cache=True,
+        error_model="numpy")
+def summarise(P, W, scale, n, CS, cum, out):
     """One pass over the n weighted particles (rows P, their headings' cosines and sines CS):
-    the running sums of the weights into cum (summed in order, for the resampling), the
-    estimate into out (``estimate_pose``'s weighted mean and circular mean heading) and,
-    returned, the ESS 1 / sum W^2. The estimate's four sums and the ESS's are each in four
-    partial sums (``_lanesum``'s). The running sum waits on each addition before the next; the
-    other sums are done in that wait."""
+    the weights normalised, W[i] *= scale (1 / their sum); their running sums into cum (summed
+    in order, for the resampling); the estimate into out (``estimate_pose``'s weighted mean and
+    circular mean heading) and, returned, the ESS 1 / sum W^2. The estimate's four sums and the
+    ESS's are each in four partial sums (``_lanesum``'s) of fused multiply-adds (``vm.fma``).
+    The running sum waits on each addition before the next; the rest is done in that wait."""
     X, Y, C, S = P[0], P[1], CS[0], CS[1]
     x0 = x1 = x2 = x3 = y0 = y1 = y2 = y3 = 0.0
     c0 = c1 = c2 = c3 = s0 = s1 = s2 = s3 = 0.0
@@ -492,7 +504,8 @@ def summarise(P, W, n, CS, cum, out):
     acc = 0.0
     top = n - n % 4
     for i in range(0, top, 4):
-        w0, w1, w2, w3 = W[i], W[i + 1], W[i + 2], W[i + 3]
+        w0, w1, w2, w3 = W[i] * scale, W[i + 1] * scale, W[i + 2] * scale, W[i + 3] * scale
+        W[i], W[i + 1], W[i + 2], W[i + 3] = w0, w1, w2, w3
         acc += w0
         cum[i] = acc
         acc += w1
@@ -501,34 +514,35 @@ def summarise(P, W, n, CS, cum, out):
         cum[i + 2] = acc
         acc += w3
         cum[i + 3] = acc
-        x0 += w0 * X[i]
-        x1 += w1 * X[i + 1]
-        x2 += w2 * X[i + 2]
-        x3 += w3 * X[i + 3]
-        y0 += w0 * Y[i]
-        y1 += w1 * Y[i + 1]
-        y2 += w2 * Y[i + 2]
-        y3 += w3 * Y[i + 3]
-        c0 += w0 * C[i]
-        c1 += w1 * C[i + 1]
-        c2 += w2 * C[i + 2]
-        c3 += w3 * C[i + 3]
-        s0 += w0 * S[i]
-        s1 += w1 * S[i + 1]
-        s2 += w2 * S[i + 2]
-        s3 += w3 * S[i + 3]
-        q0 += w0 * w0
-        q1 += w1 * w1
-        q2 += w2 * w2
-        q3 += w3 * w3
+        x0 = vm.fma(w0, X[i], x0)
+        x1 = vm.fma(w1, X[i + 1], x1)
+        x2 = vm.fma(w2, X[i + 2], x2)
+        x3 = vm.fma(w3, X[i + 3], x3)
+        y0 = vm.fma(w0, Y[i], y0)
+        y1 = vm.fma(w1, Y[i + 1], y1)
+        y2 = vm.fma(w2, Y[i + 2], y2)
+        y3 = vm.fma(w3, Y[i + 3], y3)
+        c0 = vm.fma(w0, C[i], c0)
+        c1 = vm.fma(w1, C[i + 1], c1)
+        c2 = vm.fma(w2, C[i + 2], c2)
+        c3 = vm.fma(w3, C[i + 3], c3)
+        s0 = vm.fma(w0, S[i], s0)
+        s1 = vm.fma(w1, S[i + 1], s1)
+        s2 = vm.fma(w2, S[i + 2], s2)
+        s3 = vm.fma(w3, S[i + 3], s3)
+        q0 = vm.fma(w0, w0, q0)
+        q1 = vm.fma(w1, w1, q1)
+        q2 = vm.fma(w2, w2, q2)
+        q3 = vm.fma(w3, w3, q3)
     for i in range(top, n):
+        W[i] *= scale
         acc += W[i]
         cum[i] = acc
-        x0 += W[i] * X[i]
-        y0 += W[i] * Y[i]
-        c0 += W[i] * C[i]
-        s0 += W[i] * S[i]
-        q0 += W[i] * W[i]
+        x0 = vm.fma(W[i], X[i], x0)
+        y0 = vm.fma(W[i], Y[i], y0)
+        c0 = vm.fma(W[i], C[i], c0)
+        s0 = vm.fma(W[i], S[i], s0)
+        q0 = vm.fma(W[i], W[i], q0)
     out[0], out[1] = (x0 + x1) + (x2 + x3), (y0 + y1) + (y2 + y3)
     out[2] = math.atan2((s0 + s1) + (s2 + s3), (c0 + c1) + (c2 + c3))
     return 1.0 / ((q0 + q1) + (q2 + q3))
@@ -652,7 +666,7 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
     _trig(P, 0, N, CS)
     fresh = True            # the log-weights are all zero (a resampled or initial set)
     pending = False         # (P, CS) is the last step's set, to be resampled by idx
-    summarise(P, W, N, CS, cum, est[0])
+    summarise(P, W, 1.0, N, CS, cum, est[0])
     si = snapshot(0, P, N, snap_t, snap, snap_n, 0, True)
     for t in range(T):
         if o.kld:
@@ -681,11 +695,13 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
             move_particles(P, CS, Z, ctrl[t], o, mnoise)
         count[t] = n
         m, ids, zs = obs_n[t], obs_id[t], obs_z[t]
-        pm, under = weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh)
+        pm, under, S = weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh)
+        if fresh and under == 0.0:
+            lw, ll = ll, lw         # the log-weights of a fresh set are its log-likelihoods
         pmean[t] = pm
         events += int(under)
         fresh = False
-        ess[t] = summarise(P, W, n, CS, cum, est[t + 1])
+        ess[t] = summarise(P, W, 1.0 / S, n, CS, cum, est[t + 1])
         si = snapshot(t + 1, P, n, snap_t, snap, snap_n, si, True)
         if o.reset == 3 and m > 0:
             w_slow, w_fast, prob = likelihood_averages(w_slow, w_fast, pm, m, o, rp)
