@@ -49,6 +49,27 @@ def _merge(w, S, pos, idx, start):
         idx[start + i] = j
 
 
+@kernel(types.int64(types.int64, types.float64, types.float64, types.float64, types.int64),
+        cache=True, inline="always")
+def _settle(k, cum, u, step, N):
+    """#{i < N : (u + i) step < cum}, walked to from any start k: the positions rise with i, so
+    the walk down stops at it from above and the walk up from below (NaN: k)."""
+    while k > 0 and (u + (k - 1)) * step >= cum:
+        k -= 1
+    while k < N and (u + k) * step < cum:
+        k += 1
+    return k
+
+
+@kernel(types.void(_IDX), cache=True, inline="always")
+def _running_counts(idx):
+    """idx[i] = idx[0] + ... + idx[i], in place: the ancestors from their histogram."""
+    acc = 0
+    for k in range(idx.size):
+        acc += idx[k]
+        idx[k] = acc
+
+
 @kernel(types.void(_W, types.float64, STATE, _IDX), cache=True, error_model="numpy")
 def systematic(w, S, s, idx):
     """Systematic resampling: positions p_i = (u + i) S / N with one u ~ U[0, 1).
@@ -71,16 +92,10 @@ def systematic(w, S, s, idx):
         cum += w[j]
         q = math.ceil(cum * inv - u)
         k = int(q) if 0.0 <= q <= N else (N if q > N else 0)     # NaN (0 * inf): from 0
-        while k > 0 and (u + (k - 1)) * step >= cum:
-            k -= 1
-        while k < N and (u + k) * step < cum:
-            k += 1
+        k = _settle(k, cum, u, step, N)
         if k < N:
             idx[k] += 1
-    acc = 0
-    for k in range(N):
-        acc += idx[k]
-        idx[k] = acc
+    _running_counts(idx)
 
 
 @kernel(types.void(_W, _W, types.float64, STATE, _IDX, _IDX), cache=True, error_model="numpy")
@@ -91,7 +106,7 @@ def systematic_from_sums(w, cum, S, s, idx, c):
 
     Each c_j comes from its quotient with one step down and one up, in a pass the compiler
     vectorises; a c_j that needs more (only in extreme cases: a step that rounds to zero, say)
-    sends the pass through ``systematic``'s loops, which settle it whatever it starts from."""
+    sends the pass through ``_settle``, systematic's walk, which settles it from any start."""
     N = idx.size
     step = S / N
     u = uniform(s)
@@ -110,21 +125,13 @@ def systematic_from_sums(w, cum, S, s, idx, c):
         c[j] = int(q)
     if bad:
         for j in range(jmax):
-            k = c[j]
-            while k > 0 and (u + (k - 1)) * step >= cum[j]:
-                k -= 1
-            while k < N and (u + k) * step < cum[j]:
-                k += 1
-            c[j] = k
+            c[j] = _settle(c[j], cum[j], u, step, N)
     for k in range(N):
         idx[k] = 0
     for j in range(jmax):
         if c[j] < N:
             idx[c[j]] += 1
-    acc = 0
-    for k in range(N):
-        acc += idx[k]
-        idx[k] = acc
+    _running_counts(idx)
 
 
 @kernel(types.void(_W, types.float64, STATE, _IDX), cache=True)

@@ -29,7 +29,6 @@ from numba.extending import intrinsic
 from ._lazy import kernel
 
 
-
 @intrinsic
 def fma(typingctx, a, b, c):
     """a * b + c rounded once (LLVM's llvm.fma: the processor's fused multiply-add where it has

@@ -122,13 +122,13 @@ from pfbench.filters.mcl import kld_bin, kld_bins, kld_count, kld_sample  # noqa
 def _kld_draw(P, kp, seed=0, nmax=100000, noise=0.0):
     area = np.array([40.0, 40.0])
     n = P.shape[0]
-    W = np.full(n, 1.0 / n)
+    cum = np.cumsum(np.full(n, 1.0 / n))        # the running sums of equal weights
     occ = np.zeros(kld_bins(area, kp), dtype=np.uint8)
     out = np.empty((3, nmax))                  # the kernel keeps particles as rows
-    m, inj = kld_sample(np.ascontiguousarray(P.T), W, n, np.zeros(3), 0, np.array([noise, 0.0, 0.0, 0.0]), area, kp, nmax,
+    m, inj = kld_sample(np.ascontiguousarray(P.T), cum, n, np.zeros(3), 0, np.array([noise, 0.0, 0.0, 0.0]), area, kp, nmax,
                         occ, np.empty(nmax, dtype=np.int64), 0.0, 0, 0, np.zeros((1, 2)), 0,
                         np.zeros(1, dtype=np.int64), np.zeros((1, 2)), 0.1, 0.1,
-                        state_from_seed(np.random.SeedSequence(seed)), out, np.empty(n))
+                        state_from_seed(np.random.SeedSequence(seed)), out)
     assert inj == 0 and not occ.any()           # the histogram is left empty for the next step
     return m, out[:, :m].T, area
 
@@ -145,12 +145,9 @@ def kld_one_at_a_time():
     from pfbench.rng import uniform
 
     @njit(cache=False)
-    def ref(P, W, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob, inject_sensor,
-            sensor, bc, nobs, ids, zs, sr, sb, s, out, cum):
-        acc = 0.0
-        for i in range(n):
-            acc += W[i]
-            cum[i] = acc
+    def ref(P, cum, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob, inject_sensor,
+            sensor, bc, nobs, ids, zs, sr, sb, s, out):
+        acc = cum[n - 1]
         nmin = int(kp[4])
         target = nmin
         k = m = injected = 0
@@ -206,6 +203,7 @@ def test_kld_sampling_in_passes_is_the_one_at_a_time_loop_bit_for_bit(kld_one_at
         if not W.any():
             W[-1] = 1.0
         W /= W.sum()
+        cum = np.cumsum(W)                      # the running sums, in order (summarise's)
         kp = np.array([float(rng.choice([0.02, 0.05, 0.3])), NormalDist().inv_cdf(0.99), 0.5,
                        math.radians(10.0), float(rng.choice([1, 20, 300]))])
         nmax = int(rng.choice([5, 50, 700, 6000]))
@@ -220,9 +218,9 @@ def test_kld_sampling_in_passes_is_the_one_at_a_time_loop_bit_for_bit(kld_one_at
             occ = np.zeros(kld_bins(area, kp), dtype=np.uint8)
             out = np.full((3, nmax), np.nan)
             s = state_from_seed(np.random.SeedSequence(seed))
-            m, inj = f(P, W, n, u, motion, mnoise, area, kp, nmax, occ,
+            m, inj = f(P, cum, n, u, motion, mnoise, area, kp, nmax, occ,
                        np.empty(nmax, dtype=np.int64), prob, inj_sensor, sensor, bc, 2, ids, zs,
-                       0.2, 0.05, s, out, np.empty(n))
+                       0.2, 0.05, s, out)
             assert not occ.any()
             res.append((m, inj, out[:, :m].copy(), s.copy()))
         (m1, i1, o1, s1), (m2, i2, o2, s2) = res

@@ -259,12 +259,12 @@ def guided_upper_bound(cum, n, guide, ginv, v):
 @kernel(types.UniTuple(types.int64, 2)(
     _F2, _F, types.int64, _F, types.int64, _F, _F, _F, types.int64, types.uint8[::1], _I,
     types.float64, types.int64, types.int64, _F2, types.int64, _I, _F2, types.float64,
-    types.float64, STATE, _F2, _F), cache=True, error_model="numpy")
-def kld_sample(P, W, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob, inject_sensor,
-               sensor, bc, nobs, ids, zs, sr, sb, s, out, cum):
-    """KLD-sampling: draw particles from the weighted set (P[:, :n] as rows, W[:n]) one at a
-    time, move each
-    by the odometry u (3,) with its own noise, into out, until their count reaches the bound for
+    types.float64, STATE, _F2), cache=True, error_model="numpy")
+def kld_sample(P, cum, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob, inject_sensor,
+               sensor, bc, nobs, ids, zs, sr, sb, s, out):
+    """KLD-sampling: draw particles from the weighted set (P[:, :n] as rows, cum[:n] the running
+    sums of its weights, added in order: ``summarise``'s) one at a time, move each by the
+    odometry u (3,) with its own noise, into out, until their count reaches the bound for
     the bins they occupy (kp: [eps, z_(1-delta), bin m, bin rad, n_min]) or nmax. With
     probability ``prob`` a draw is a new pose (uniform, or from the sensor model of the
     observations (ids, zs)[:nobs] when inject_sensor) instead of a copy. occ (bins,) must be all
@@ -277,10 +277,7 @@ def kld_sample(P, W, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob, i
     which stops at the bound. Draws past the stopping particle are taken back by restoring the
     state kept after it, so the particles, their order and the generator's state are those of
     drawing one particle at a time, bit for bit."""
-    acc = 0.0
-    for i in range(n):
-        acc += W[i]
-        cum[i] = acc
+    acc = cum[n - 1]
     nmin = int(kp[4])
     target = nmin
     k = 0
@@ -400,6 +397,16 @@ class MclOptions(NamedTuple):
 MCL_OPTIONS = typeof(MclOptions(0, 0, 1.0, 1.0, 1, 1.0, 0, 0, 0, 0))
 
 
+@kernel(types.void(_F2, _F2, _F2, _F2, types.int64, types.int64), cache=True, inline="always")
+def _copy_particle(P, CS, P2, CS2, i, k):
+    """(P2, CS2)[:, i] = (P, CS)[:, k]: particle k of a set stored as rows, with its heading's
+    cosine and sine, becomes particle i of another (k >= 0: read as unsigned, so the loop has
+    no negative index to wrap around)."""
+    k = np.uint64(k)
+    P2[0, i], P2[1, i], P2[2, i] = P[0, k], P[1, k], P[2, k]
+    CS2[0, i], CS2[1, i] = CS[0, k], CS[1, k]
+
+
 @numba.njit(cache=True, error_model="numpy")
 def _draws_copying(s, Z, per, P, CS, idx, P2, CS2, n):
     """fill_normal(s, Z) (per draws a particle, n particles), and meanwhile the resampled set:
@@ -410,9 +417,7 @@ def _draws_copying(s, Z, per, P, CS, idx, P2, CS2, n):
     constant: the loop over a particle's draws unrolls)."""
     q = load_local(s)
     for i in range(n):
-        k = np.uint64(idx[i])       # unsigned: no wraparound of a negative index to handle
-        P2[0, i], P2[1, i], P2[2, i] = P[0, k], P[1, k], P[2, k]
-        CS2[0, i], CS2[1, i] = CS[0, k], CS[1, k]
+        _copy_particle(P, CS, P2, CS2, i, idx[i])
         for d in range(per):
             r, q = next_local(q)
             layer, rabs, x = _layer(r)
@@ -488,6 +493,18 @@ def weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh):
     return pm, under, S
 
 
+_F4 = types.UniTuple(types.float64, 4)
+
+
+@kernel(_F4(types.float64, types.float64, types.float64, types.float64, _F, types.int64,
+            types.float64, types.float64, types.float64, types.float64), cache=True,
+        inline="always")
+def _fma_lanes(w0, w1, w2, w3, A, i, s0, s1, s2, s3):
+    """The four lanes' partial sums s_l += w_l A[i + l] (fused multiply-adds), l = 0 .. 3."""
+    return (vm.fma(w0, A[i], s0), vm.fma(w1, A[i + 1], s1), vm.fma(w2, A[i + 2], s2),
+            vm.fma(w3, A[i + 3], s3))
+
+
 @kernel(types.float64(_F2, _F, types.float64, types.int64, _F2, _F, _F), cache=True,
         error_model="numpy")
 def summarise(P, W, scale, n, CS, cum, out):
@@ -514,26 +531,11 @@ def summarise(P, W, scale, n, CS, cum, out):
         cum[i + 2] = acc
         acc += w3
         cum[i + 3] = acc
-        x0 = vm.fma(w0, X[i], x0)
-        x1 = vm.fma(w1, X[i + 1], x1)
-        x2 = vm.fma(w2, X[i + 2], x2)
-        x3 = vm.fma(w3, X[i + 3], x3)
-        y0 = vm.fma(w0, Y[i], y0)
-        y1 = vm.fma(w1, Y[i + 1], y1)
-        y2 = vm.fma(w2, Y[i + 2], y2)
-        y3 = vm.fma(w3, Y[i + 3], y3)
-        c0 = vm.fma(w0, C[i], c0)
-        c1 = vm.fma(w1, C[i + 1], c1)
-        c2 = vm.fma(w2, C[i + 2], c2)
-        c3 = vm.fma(w3, C[i + 3], c3)
-        s0 = vm.fma(w0, S[i], s0)
-        s1 = vm.fma(w1, S[i + 1], s1)
-        s2 = vm.fma(w2, S[i + 2], s2)
-        s3 = vm.fma(w3, S[i + 3], s3)
-        q0 = vm.fma(w0, w0, q0)
-        q1 = vm.fma(w1, w1, q1)
-        q2 = vm.fma(w2, w2, q2)
-        q3 = vm.fma(w3, w3, q3)
+        x0, x1, x2, x3 = _fma_lanes(w0, w1, w2, w3, X, i, x0, x1, x2, x3)
+        y0, y1, y2, y3 = _fma_lanes(w0, w1, w2, w3, Y, i, y0, y1, y2, y3)
+        c0, c1, c2, c3 = _fma_lanes(w0, w1, w2, w3, C, i, c0, c1, c2, c3)
+        s0, s1, s2, s3 = _fma_lanes(w0, w1, w2, w3, S, i, s0, s1, s2, s3)
+        q0, q1, q2, q3 = _fma_lanes(w0, w1, w2, w3, W, i, q0, q1, q2, q3)   # W[i:i+4] = w
     for i in range(top, n):
         W[i] *= scale
         acc += W[i]
@@ -580,9 +582,7 @@ def ancestors(W, cum, o, idx, scratch, s):
 def gather_rows(P, CS, P2, CS2, idx, n):
     """The resampled set (rows, with the headings' cosines and sines) into P2, CS2."""
     for i in range(n):
-        k = np.uint64(idx[i])       # unsigned: no wraparound of a negative index to handle
-        P2[0, i], P2[1, i], P2[2, i] = P[0, k], P[1, k], P[2, k]
-        CS2[0, i], CS2[1, i] = CS[0, k], CS[1, k]
+        _copy_particle(P, CS, P2, CS2, i, idx[i])
 
 
 @kernel(types.int64(_F2, _F2, _F, _F2, types.int64, _I, _F2, MCL_OPTIONS, _F, types.float64,
@@ -670,12 +670,12 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
     si = snapshot(0, P, N, snap_t, snap, snap_n, 0, True)
     for t in range(T):
         if o.kld:
-            # resample (the last step's weighted set) and move in one loop, as many as the bins
-            # the moved particles occupy call for
+            # resample (the last step's weighted set, by the running sums summarise left in
+            # cum) and move in one loop, as many as the bins the moved particles occupy call for
             tp = max(t - 1, 0)
-            n, k = kld_sample(P, W, n, ctrl[t], o.motion, mnoise, area, kp, N, occ, touched, prob,
-                              o.inject_sensor, o.sensor, bc, obs_n[tp] if t > 0 else 0,
-                              obs_id[tp], obs_z[tp], o.sr, o.sb, s, P2, cum)
+            n, k = kld_sample(P, cum, n, ctrl[t], o.motion, mnoise, area, kp, N, occ, touched,
+                              prob, o.inject_sensor, o.sensor, bc, obs_n[tp] if t > 0 else 0,
+                              obs_id[tp], obs_z[tp], o.sr, o.sb, s, P2)
             P, P2 = P2, P
             _trig(P, 0, n, CS)
             fresh = True
