@@ -63,6 +63,8 @@ _B0, _B1 = 2.485846490142306297962e1, 1.650270098316988542046e2
 _B2, _B3, _B4 = 4.328810604912902668951e2, 4.853903996359136964868e2, 1.945506571482613964425e2
 _PIO2, _PIO4 = math.pi / 2.0, math.pi / 4.0
 _MOREBITS = 6.123233995736765886130e-17   # pi/2 - _PIO2
+_TWO_PI = 2.0 * math.pi
+_INV_TWO_PI = 1.0 / _TWO_PI
 EXP_MIN = -708.0          # exp is 0 below (the library's result is subnormal there)
 _EXP_MAX = 709.0
 
@@ -92,7 +94,7 @@ def exp(x):
     """e^x: 0 below EXP_MIN, inf above 709 (the library's overflows above 709.78)."""
     xc = x if x > EXP_MIN else EXP_MIN
     xc = xc if xc < _EXP_MAX else _EXP_MAX
-    n = math.floor(_LOG2E * xc + 0.5)
+    n = np.floor(_LOG2E * xc + 0.5)         # a float: no conversion back from an integer
     r = (xc - n * _LN2_HI) - n * _LN2_LO
     rr = r * r
     px = r * ((_P0 * rr + _P1) * rr + _P2)
@@ -126,7 +128,11 @@ def atan2(y, x):
 def wrap(a):
     """a wrapped to [-pi, pi) without a branch the vectoriser cannot follow: exact for an angle
     already inside; outside, a - 2 pi floor((a + pi) / 2 pi) (pfbench.angles.wrap takes the
-    remainder instead; the two may differ in the last bit)."""
-    w = a - 2.0 * math.pi * math.floor((a + math.pi) / (2.0 * math.pi))
-    w = w - 2.0 * math.pi if w >= math.pi else w      # rounding up to pi exactly
+    remainder instead; the two may differ in the last bit). The quotient is a product by
+    1 / (2 pi): a division cost the move a seventh of its time, and the product's floor was the
+    quotient's at every angle tried (all within 200,000 ulps of each multiple of pi up to 9 pi,
+    and millions drawn up to 1e4). Where a + pi itself rounds up to a multiple of 2 pi (at
+    a = 5 pi, say) the result falls one ulp below -pi, as the division's did."""
+    w = a - _TWO_PI * np.floor((a + math.pi) * _INV_TWO_PI)
+    w = w - _TWO_PI if w >= math.pi else w
     return a if -math.pi <= a < math.pi else w

@@ -64,6 +64,37 @@ def test_wrap_agrees_with_the_angle_wrap():
             assert w == a
 
 
+@njit
+def _wrap_by_division(a):
+    w = a - 2.0 * math.pi * math.floor((a + math.pi) / (2.0 * math.pi))
+    w = w - 2.0 * math.pi if w >= math.pi else w
+    return a if -math.pi <= a < math.pi else w
+
+
+@njit
+def _wrap_mismatches(centres, k):
+    """How many of the 2 k doubles around each centre wrap differently from the division."""
+    bad = 0
+    for c in centres:
+        x = c
+        for _ in range(k):
+            x = np.nextafter(x, -np.inf)
+        for _ in range(2 * k):
+            bad += vecmath.wrap(x) != _wrap_by_division(x)
+            x = np.nextafter(x, np.inf)
+    return bad
+
+
+def test_wrap_is_the_division_form_bit_for_bit():
+    """wrap's quotient is a product by 1 / (2 pi); next to the multiples of pi, where a floor
+    one off would show, and at random, it gives what the division gives."""
+    centres = np.arange(-9, 10) * np.pi
+    assert _wrap_mismatches(centres, 20_000) == 0
+    rng = np.random.default_rng(8)
+    for a in rng.uniform(-1e4, 1e4, 20_000):
+        assert vecmath.wrap(a) == _wrap_by_division(a)
+
+
 @njit(error_model="numpy")
 def _atan2(y, x, out):
     for i in range(x.size):

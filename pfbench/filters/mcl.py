@@ -148,26 +148,29 @@ def _move_rot_trans_rot(X, Y, H, C, S, Z, rot1, trans, rot2, mnoise, n):
 def _loglik(X, Y, H, n, bc, m, ids, zs, sensor, sr, sb, cst, ll):
     """ll[:n] = log p(z | particle i) of the step's m observations (pose_quad's sum, in its
     order, + loglik_const), an observation at a time over all particles: passes the vectoriser
-    takes, with vecmath's arctangent and wrap for the bearings."""
+    takes, with vecmath's arctangent and wrap for the bearings. The first pass starts each sum
+    from zero and the last adds the constant (no passes of their own for either)."""
     rr, rb = 1.0 / sr, 1.0 / sb
-    for i in range(n):
-        ll[i] = 0.0
+    if m == 0:
+        for i in range(n):
+            ll[i] = 0.0 + cst
     for j in range(m):
         bx, by, z, zb = bc[ids[j], 0], bc[ids[j], 1], zs[j, 0], zs[j, 1]
+        first, last = j == 0, j == m - 1
         if sensor == 1:
             for i in range(n):
                 dx, dy = bx - X[i], by - Y[i]
                 v = (z - math.sqrt(dx * dx + dy * dy)) * rr
                 u = vm.wrap(zb - (vm.atan2(dy, dx) - H[i])) * rb
-                ll[i] -= 0.5 * v * v
-                ll[i] -= 0.5 * u * u
+                a = (0.0 if first else ll[i]) - 0.5 * v * v
+                a -= 0.5 * u * u
+                ll[i] = a + cst if last else a
         else:
             for i in range(n):
                 dx, dy = bx - X[i], by - Y[i]
                 v = (z - math.sqrt(dx * dx + dy * dy)) * rr
-                ll[i] -= 0.5 * v * v
-    for i in range(n):
-        ll[i] += cst
+                a = (0.0 if first else ll[i]) - 0.5 * v * v
+                ll[i] = a + cst if last else a
 
 
 @kernel(types.float64(_F, types.float64, types.int64, _F), cache=True, error_model="numpy")
