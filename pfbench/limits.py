@@ -16,7 +16,7 @@ How each workload's passes are written:
 - MCL (plain MCL on the beacon field of configs/sspf_global.yaml): the kernel's own passes, each
   called alone: the draws with the copy of the resampled set they carry, the move, the
   likelihood and the exponentials (vectorised, rows of particles, ``vecmath``), the running sums
-  with the normalisation, estimate and ESS they carry, and the resampling's counts.
+  with the estimate and ESS they carry, and the resampling's counts.
 - FastSLAM (the landmark world of configs/afsa_fastslam.yaml, nearest-neighbour association): the
   kernel's own per-landmark functions over every particle and observation of each step, the map
   of each particle being the true landmarks at its truth pose, so association searches that many.
@@ -198,17 +198,17 @@ def _mcl_likelihood(P, bc, obs_n, obs_id, obs_z, o, ll):
 
 
 @njit(cache=True, error_model="numpy")
-def _mcl_exp_sums(ll, W, T):
+def _mcl_exps(ll, W, T):
     N = ll.size
     for _ in range(T):
-        mcl._exp_sum(ll, ll.max(), N, W)
+        mcl._exps(ll, ll.max(), N, W)
 
 
 @njit(cache=True, error_model="numpy")
 def _mcl_summarise(P, W, CS, cum, T):
     out = np.empty(3)
     for _ in range(T):
-        mcl.summarise(P, W, 1.0, P.shape[1], CS, cum, out)
+        mcl.summarise(P, W, P.shape[1], CS, cum, out)
 
 
 @njit(cache=True, error_model="numpy")
@@ -254,8 +254,8 @@ def mcl_limit(N: int, min_time: float, reps: int) -> list[dict]:
 
     lik = lambda: _mcl_likelihood(P, model.beacons, data.obs_n, data.obs_id, data.obs_z, o, ll)
     lik()
-    expsum = lambda: _mcl_exp_sums(ll, W, T)
-    expsum()
+    exps = lambda: _mcl_exps(ll, W, T)
+    exps()
     _mcl_summarise(P, W, CS, cum, 1)
     _mcl_resample(W, cum, o, idx, scratch, s, 1)
     passes = [
@@ -263,8 +263,8 @@ def mcl_limit(N: int, min_time: float, reps: int) -> list[dict]:
          _timed(lambda: _mcl_draws(s, Z, P, CS, idx, P2, CS2, o.motion, T), min_time, reps) / T),
         ("move", _timed(move, min_time, reps) / T),
         ("likelihood", _timed(lik, min_time, reps) / T),
-        ("exponentials and sums", _timed(expsum, min_time, reps) / T),
-        ("normalisation, running sums, estimate and ESS",
+        ("maximum and exponentials", _timed(exps, min_time, reps) / T),
+        ("running sums, estimate and ESS",
          _timed(lambda: _mcl_summarise(P, W, CS, cum, T), min_time, reps) / T),
         ("resampling", _timed(lambda: _mcl_resample(W, cum, o, idx, scratch, s, T), min_time,
                               reps) / T),

@@ -513,35 +513,35 @@ def _lanes(terms, n):
 
 
 def test_the_summary_pass_is_its_sums():
-    """``summarise``: the weights scaled in place, their running sums in order, the estimate
-    (weighted means of x and y, the heading's circular mean) and the ESS 1 / sum W^2, each sum
-    in four lanes, for every length; nothing past n is read or written. With whole numbers
-    every product and sum is exact, so the lanes must give these sums to the bit whether or not
-    a multiply-add is fused; with real numbers, to rounding."""
+    """``summarise``: the weights' running sums in order (the last, S, their sum), the estimate
+    (weighted means of x and y, sums over S; the heading's circular mean) and the ESS
+    S^2 / sum W^2, each sum in four lanes, for every length; the weights are not touched and
+    nothing past n is read or written. With whole numbers every product and sum is exact, so
+    the lanes must give these sums to the bit whether or not a multiply-add is fused; with real
+    numbers, to rounding."""
     from pfbench.filters.mcl import summarise
     rng = np.random.default_rng(8)
     for whole in (True, False):
-        for n in list(range(0, 13)) + [1001]:
+        for n in list(range(1, 13)) + [1001]:
             P = rng.integers(-40, 40, (3, n + 2)).astype(float)
             CS = rng.integers(-9, 9, (2, n + 2)).astype(float)
-            W = rng.integers(0, 30, n + 2).astype(float)
-            scale = 1.0 if whole else 1.0 / 3.0
+            W = rng.integers(1, 30, n + 2).astype(float)
             if not whole:
                 P, CS, W = rng.normal(size=P.shape), rng.normal(size=CS.shape), rng.random(n + 2)
             W[n:] = np.nan
             before = W.copy()
             cum, out = np.full(n + 2, -1.0), np.empty(3)
-            ess = summarise(P, W, scale, n, CS, cum, out)
-            w = (before[:n] * scale).tolist()
+            ess = summarise(P, W, n, CS, cum, out)
+            w = before[:n].tolist()
             acc, sums = 0.0, []
             for x in w:
                 acc += x
                 sums.append(acc)
             wx, wy, wc, ws = ([w[i] * R[i] for i in range(n)] for R in (P[0], P[1], CS[0], CS[1]))
-            q = _lanes([x * x for x in w], n)
-            want = [_lanes(wx, n), _lanes(wy, n), math.atan2(_lanes(ws, n), _lanes(wc, n)),
-                    1.0 / q if q else math.inf]
-            assert W[:n].tolist() == w and np.isnan(W[n:]).all()
+            want = [_lanes(wx, n) / acc, _lanes(wy, n) / acc,
+                    math.atan2(_lanes(ws, n), _lanes(wc, n)),
+                    acc * acc / _lanes([x * x for x in w], n)]
+            assert np.array_equal(W, before, equal_nan=True)
             assert cum[:n].tolist() == sums and (cum[n:] == -1.0).all()
             if whole:
                 assert out.tolist() + [ess] == want, n

@@ -36,14 +36,15 @@ and sines (2, N)) and runs each step as passes over them: all the move's normal 
 (``fill_normal``), then the move, the range likelihood and the weights' exponentials each in a
 loop the compiler vectorises, with the branch-free sine, cosine, arctangent and exponential of
 ``pfbench.vecmath`` (within 2 ulp of the C library's; the beacon-field results moved by at most
-1e-11 relative when they came in). The likelihood and the normalisation multiply by the
-reciprocals of the noise levels and of the weights' sum, and ``summarise``'s sums are fused
-multiply-adds (``vecmath.fma``): changes in the last bits, which moved the beacon-field results
-by at most 4e-12 relative when they came in (no trial took another path). Work that must run
-one element after another carries other work in its wait: the weights' running sum carries
-their normalisation and the estimate's and the ESS's sums (``summarise``), and the generator's
-draws carry the copy of the last step's resampled set (``_draws_copying``); systematic
-resampling counts from those running sums in a vectorised pass
+1e-11 relative when they came in). The likelihood multiplies by the reciprocals of the noise
+levels, ``summarise``'s sums and ``vecmath.sincos`` are fused multiply-adds (``vecmath.fma``),
+and the weights are never normalised: the estimate's sums are divided by the weights' sum once,
+and the resampling takes that sum as its total. Each of these changed the last bits and moved
+the beacon-field results by at most 4e-11 relative when it came in (no trial took another
+path). Work that must run one element after another carries other work in its wait: the
+weights' running sum carries the estimate's and the ESS's sums (``summarise``), and the
+generator's draws carry the copy of the last step's resampled set (``_draws_copying``);
+systematic resampling counts from those running sums in a vectorised pass
 (``resampling.systematic_from_sums``). KLD-sampling runs in rounds of passes too (see
 ``kld_sample``).
 """
@@ -173,11 +174,17 @@ def _loglik(X, Y, H, n, bc, m, ids, zs, sensor, sr, sb, cst, ll):
                 ll[i] = a + cst if last else a
 
 
-@kernel(types.float64(_F, types.float64, types.int64, _F), cache=True, error_model="numpy")
-def _exp_sum(a, shift, n, out):
-    """out[i] = exp(a[i] - shift) for i < n; returns their sum (in partial sums, ``_lanesum``)."""
+@kernel(types.void(_F, types.float64, types.int64, _F), cache=True, error_model="numpy")
+def _exps(a, shift, n, out):
+    """out[i] = exp(a[i] - shift) for i < n."""
     for i in range(n):
         out[i] = vm.exp(a[i] - shift)
+
+
+@kernel(types.float64(_F, types.float64, types.int64, _F), cache=True, error_model="numpy")
+def _exp_sum(a, shift, n, out):
+    """``_exps``, returning their sum (in partial sums, ``_lanesum``)."""
+    _exps(a, shift, n, out)
     return _lanesum(out, n)
 
 
@@ -444,16 +451,20 @@ def move_particles(P, CS, Z, u, o, mnoise):
         _move_rot_trans_rot(P[0], P[1], P[2], CS[0], CS[1], Z, u[0], u[1], u[2], mnoise, o.N)
 
 
-@kernel(types.UniTuple(types.float64, 3)(_F2, types.int64, _F2, types.int64, _I, _F2, MCL_OPTIONS,
-                                       _F, _F, _F, types.boolean), cache=True, error_model="numpy")
+@kernel(types.Tuple((types.float64, types.float64, types.float64, types.boolean))(
+    _F2, types.int64, _F2, types.int64, _I, _F2, MCL_OPTIONS, _F, _F, _F, types.boolean),
+    cache=True, error_model="numpy")
 def weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh):
-    """Weigh the n particles by the step's m observations: log-weights lw, weights W (not yet
-    normalised: ``summarise`` scales them by the reciprocal of their sum). Returns (p_mean, the
-    mean likelihood of the moved particles; 1 when every weight underflowed and was reset; the
-    weights' sum). ``fresh``: the set was just resampled or drawn (its log-weights all zero,
-    whatever lw holds), so the likelihoods are the weights, and lw is left as it is: unless
-    every weight underflowed (then lw is all zero), the log-weights are ll, and the caller
-    swaps the two arrays."""
+    """Weigh the n particles by the step's m observations: log-weights lw, weights W (as they
+    are: W = exp(lw - max lw), never normalised; ``summarise`` divides by their sum where it
+    matters). Returns (1 when every weight underflowed and was reset, else 0; the largest
+    log-likelihood lmax; the sum of exp(ll - lmax); whether W holds those very terms). The mean
+    likelihood of the moved particles is exp(lmax) times that sum over n (``mean_likelihood``);
+    when W holds the terms, their sum is not computed here: ``summarise``'s running sums end
+    with it. ``fresh``: the set was just resampled or drawn (its log-weights all zero, whatever
+    lw holds), so the likelihoods are the weights, and lw is left as it is: unless every weight
+    underflowed (then lw is all zero), the log-weights are ll, and the caller swaps the two
+    arrays."""
     _loglik(P[0], P[1], P[2], n, bc, m, ids, zs, o.sensor, o.sr, o.sb,
             loglik_const(m, o.sensor, o.sr, o.sb), ll)
     # the two maxima in four lanes each (the same maxima: a NaN loses every comparison)
@@ -481,19 +492,24 @@ def weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh):
             l0 = max(l0, ll[i])
     mx = max(max(m0, m1), max(m2, m3))
     lmax = max(max(l0, l1), max(l2, l3))
-    # p_mean by log-sum-exp; on a fresh set these terms are the weights themselves
-    acc = _exp_sum(ll, lmax, n, W)
-    pm = math.exp(lmax) * acc / n if np.isfinite(lmax) else 0.0
+    if fresh and np.isfinite(mx):       # the weights are the likelihood's terms
+        _exps(ll, lmax, n, W)
+        return 0.0, lmax, 0.0, True
+    acc = _exp_sum(ll, lmax, n, W)      # W as scratch
     under = 0.0
     if not np.isfinite(mx):
         under = 1.0
         lw[:n] = 0.0
         mx = 0.0
-        fresh = False
-    S = acc
-    if not fresh:
-        S = _exp_sum(lw, mx, n, W)
-    return pm, under, S
+    _exps(lw, mx, n, W)
+    return under, lmax, acc, False
+
+
+@kernel(types.float64(types.float64, types.float64, types.int64), cache=True)
+def mean_likelihood(lmax, acc, n):
+    """p_mean, the mean likelihood of n particles, from the largest log-likelihood lmax and
+    acc, the sum of the likelihoods over exp(lmax) (log-sum-exp); 0 when lmax is not finite."""
+    return math.exp(lmax) * acc / n if np.isfinite(lmax) else 0.0
 
 
 _F4 = types.UniTuple(types.float64, 4)
@@ -508,15 +524,15 @@ def _fma_lanes(w0, w1, w2, w3, A, i, s0, s1, s2, s3):
             vm.fma(w3, A[i + 3], s3))
 
 
-@kernel(types.float64(_F2, _F, types.float64, types.int64, _F2, _F, _F), cache=True,
-        error_model="numpy")
-def summarise(P, W, scale, n, CS, cum, out):
-    """One pass over the n weighted particles (rows P, their headings' cosines and sines CS):
-    the weights normalised, W[i] *= scale (1 / their sum); their running sums into cum (summed
-    in order, for the resampling); the estimate into out (``estimate_pose``'s weighted mean and
-    circular mean heading) and, returned, the ESS 1 / sum W^2. The estimate's four sums and the
-    ESS's are each in four partial sums (``_lanesum``'s) of fused multiply-adds (``vm.fma``).
-    The running sum waits on each addition before the next; the rest is done in that wait."""
+@kernel(types.float64(_F2, _F, types.int64, _F2, _F, _F), cache=True, error_model="numpy")
+def summarise(P, W, n, CS, cum, out):
+    """One pass over the n weighted particles (rows P, their headings' cosines and sines CS;
+    weights W, not normalised): the weights' running sums into cum (summed in order, for the
+    resampling; cum[n - 1] is their sum S), the estimate into out (``estimate_pose``'s weighted
+    mean and circular mean heading) and, returned, the ESS S^2 / sum W^2. The estimate's four
+    sums and the ESS's are each in four partial sums (``_lanesum``'s) of fused multiply-adds
+    (``vm.fma``), divided by S once at the end. The running sum waits on each addition before
+    the next; the rest is done in that wait."""
     X, Y, C, S = P[0], P[1], CS[0], CS[1]
     x0 = x1 = x2 = x3 = y0 = y1 = y2 = y3 = 0.0
     c0 = c1 = c2 = c3 = s0 = s1 = s2 = s3 = 0.0
@@ -524,8 +540,7 @@ def summarise(P, W, scale, n, CS, cum, out):
     acc = 0.0
     top = n - n % 4
     for i in range(0, top, 4):
-        w0, w1, w2, w3 = W[i] * scale, W[i + 1] * scale, W[i + 2] * scale, W[i + 3] * scale
-        W[i], W[i + 1], W[i + 2], W[i + 3] = w0, w1, w2, w3
+        w0, w1, w2, w3 = W[i], W[i + 1], W[i + 2], W[i + 3]
         acc += w0
         cum[i] = acc
         acc += w1
@@ -540,7 +555,6 @@ def summarise(P, W, scale, n, CS, cum, out):
         s0, s1, s2, s3 = _fma_lanes(w0, w1, w2, w3, S, i, s0, s1, s2, s3)
         q0, q1, q2, q3 = _fma_lanes(w0, w1, w2, w3, W, i, q0, q1, q2, q3)   # W[i:i+4] = w
     for i in range(top, n):
-        W[i] *= scale
         acc += W[i]
         cum[i] = acc
         x0 = vm.fma(W[i], X[i], x0)
@@ -548,9 +562,9 @@ def summarise(P, W, scale, n, CS, cum, out):
         c0 = vm.fma(W[i], C[i], c0)
         s0 = vm.fma(W[i], S[i], s0)
         q0 = vm.fma(W[i], W[i], q0)
-    out[0], out[1] = (x0 + x1) + (x2 + x3), (y0 + y1) + (y2 + y3)
+    out[0], out[1] = ((x0 + x1) + (x2 + x3)) / acc, ((y0 + y1) + (y2 + y3)) / acc
     out[2] = math.atan2((s0 + s1) + (s2 + s3), (c0 + c1) + (c2 + c3))
-    return 1.0 / ((q0 + q1) + (q2 + q3))
+    return acc * acc / ((q0 + q1) + (q2 + q3))
 
 
 @kernel(types.UniTuple(types.float64, 3)(types.float64, types.float64, types.float64, types.int64,
@@ -573,12 +587,13 @@ def likelihood_averages(w_slow, w_fast, pm, m, o, rp):
 
 @kernel(types.void(_F, _F, MCL_OPTIONS, _I, _I, STATE), cache=True, error_model="numpy")
 def ancestors(W, cum, o, idx, scratch, s):
-    """The resampled set's ancestors idx of the normalised weights W (cum: their running sums,
-    from ``summarise``) by the scheme of o."""
+    """The resampled set's ancestors idx of the weights W (cum: their running sums, from
+    ``summarise``; their sum cum[-1]) by the scheme of o."""
+    S = cum[cum.size - 1]
     if o.scheme == 1:
-        systematic_from_sums(W, cum, 1.0, s, idx, scratch)
+        systematic_from_sums(W, cum, S, s, idx, scratch)
     else:
-        resample(o.scheme, W, 1.0, s, idx)
+        resample(o.scheme, W, S, s, idx)
 
 
 @kernel(types.void(_F2, _F2, _F2, _F2, _I, types.int64), cache=True, error_model="numpy")
@@ -648,7 +663,7 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
     P2 = np.empty((3, N))
     n = N
     lw = np.zeros(N)
-    W = np.full(N, 1.0 / N)
+    W = np.ones(N)          # the weights as they are, never normalised (see summarise)
     idx = np.empty(N, dtype=np.int64)
     scratch = np.empty(N, dtype=np.int64)
     perm = np.empty(N, dtype=np.int64)
@@ -669,7 +684,7 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
     _trig(P, 0, N, CS)
     fresh = True            # the log-weights are all zero (a resampled or initial set)
     pending = False         # (P, CS) is the last step's set, to be resampled by idx
-    summarise(P, W, 1.0, N, CS, cum, est[0])
+    summarise(P, W, N, CS, cum, est[0])
     si = snapshot(0, P, N, snap_t, snap, snap_n, 0, True)
     for t in range(T):
         if o.kld:
@@ -698,13 +713,14 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
             move_particles(P, CS, Z, ctrl[t], o, mnoise)
         count[t] = n
         m, ids, zs = obs_n[t], obs_id[t], obs_z[t]
-        pm, under, S = weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh)
+        under, lmax, acc, terms = weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh)
         if fresh and under == 0.0:
             lw, ll = ll, lw         # the log-weights of a fresh set are its log-likelihoods
-        pmean[t] = pm
         events += int(under)
         fresh = False
-        ess[t] = summarise(P, W, 1.0 / S, n, CS, cum, est[t + 1])
+        ess[t] = summarise(P, W, n, CS, cum, est[t + 1])
+        pm = mean_likelihood(lmax, cum[n - 1] if terms else acc, n)
+        pmean[t] = pm
         si = snapshot(t + 1, P, n, snap_t, snap, snap_n, si, True)
         if o.reset == 3 and m > 0:
             w_slow, w_fast, prob = likelihood_averages(w_slow, w_fast, pm, m, o, rp)
