@@ -177,10 +177,7 @@ def ungm_limit(N: int, min_time: float, reps: int) -> list[dict]:
 def _mcl_draws(s, Z, P, CS, idx, P2, CS2, motion, T):
     N = P.shape[1]
     for _ in range(T):
-        if motion == 0:
-            mcl._draws_copying(s, Z, 2, P, CS, idx, P2, CS2, N)
-        else:
-            mcl._draws_copying(s, Z, 3, P, CS, idx, P2, CS2, N)
+        mcl.draws_copying(s, Z, motion, P, CS, idx, P2, CS2, N)
 
 
 @njit(cache=True, error_model="numpy")

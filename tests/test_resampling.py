@@ -147,7 +147,7 @@ def _from_sums(w, S, seed):
 @example([1e-310, 3e-310, 0.0, 2e-309], 5, "tiny")   # quotients far off: settled by the loops
 def test_systematic_from_sums_is_systematic_bit_for_bit(w, seed, total):
     """Given the running sums, the vectorised counts pick systematic's ancestors exactly and draw
-    the same, whatever S: the weights' sum, 1 (normalised weights, as MCL passes), or a sum of
+    the same, whatever S: the weights' sum (as MCL passes), 1 (normalised weights), or a sum of
     subnormal weights, whose step's inverse is so inexact that quotients miss by more than one."""
     from pfbench.resampling import systematic
     w = np.array(w)

@@ -441,6 +441,17 @@ def _draws_copying(s, Z, per, P, CS, idx, P2, CS2, n):
     store_local(s, q)
 
 
+@kernel(types.void(STATE, _F, types.int64, _F2, _F2, _I, _F2, _F2, types.int64), cache=True,
+        error_model="numpy")
+def draws_copying(s, Z, motion, P, CS, idx, P2, CS2, n):
+    """``_draws_copying`` with the draws a particle of the motion model (see ``odometry_with``:
+    2 for motion 0, else 3), each compiled for its count."""
+    if motion == 0:
+        _draws_copying(s, Z, 2, P, CS, idx, P2, CS2, n)
+    else:
+        _draws_copying(s, Z, 3, P, CS, idx, P2, CS2, n)
+
+
 @kernel(types.void(_F2, _F2, _F, _F, MCL_OPTIONS, _F), cache=True, error_model="numpy")
 def move_particles(P, CS, Z, u, o, mnoise):
     """Move every particle (rows P, CS) by the odometry u, particle i with the motion noise of
@@ -701,10 +712,7 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
             injected[t] = k
         else:
             if pending:         # the resampled set is copied while the noise is drawn
-                if o.motion == 0:
-                    _draws_copying(s, Z, 2, P, CS, idx, P2, CS2, N)
-                else:
-                    _draws_copying(s, Z, 3, P, CS, idx, P2, CS2, N)
+                draws_copying(s, Z, o.motion, P, CS, idx, P2, CS2, N)
                 P, P2 = P2, P
                 CS, CS2 = CS2, CS
                 pending = False
