@@ -61,7 +61,12 @@ class LazyKernel:
 
 
 def kernel(sigs, **options):
-    """``numba.njit(sigs, **options)``, built on first use (see the module)."""
+    """``numba.njit(sigs, **options)``, built on first use (see the module). Kernels take numpy's
+    error model unless they say otherwise: a float division by zero gives an infinity or NaN,
+    which the filters count (underflow steps) and the metrics report (diverged steps), never a
+    ZeroDivisionError out of a trial."""
+    options.setdefault("error_model", "numpy")
+
     def decorate(func):
         return LazyKernel(func, sigs, options)
     return decorate

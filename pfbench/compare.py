@@ -198,6 +198,13 @@ def _mean(x, axis=-1):
     return np.mean(x, axis=axis)
 
 
+def _ratio(a, b) -> float:
+    """a / b as numpy divides: an infinity or NaN for b = 0 (a baseline of zero error, a paper
+    value of zero), never a ZeroDivisionError."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        return float(np.float64(a) / np.float64(b))
+
+
 def _var(x, axis=-1):
     return np.var(x, axis=axis, ddof=1)
 
@@ -228,10 +235,10 @@ def estimate(q: Quantity, g: pd.DataFrame, base: pd.DataFrame | None, seed: int 
         b = base.set_index("trial")["rmse"].reindex(a.index)
         if q.metric == "gain_mean":         # 100 (1 - mean_a / mean_b), paired by trial
             d = summarize(a.values - b.values)
-            value = -100 * d["mean"] / float(b.mean())
+            value = -100 * _ratio(d["mean"], b.mean())
             return _bootstrap((a.values, b.values), _gain_mean, value, seed, key)
         sa, sb = summarize(a.values), summarize(b.values)    # 100 (1 - var_a / var_b)
-        value = 100 * (1 - sa["var"] / sb["var"])
+        value = 100 * (1 - _ratio(sa["var"], sb["var"]))
         return _bootstrap((a.values, b.values), _gain_var, value, seed, key)
     values = _metric_values(q.metric, g, base) * q.scale
     s = summarize(values)
@@ -401,10 +408,10 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame,
                 r[f"method_{q.key}"] = est.method
                 if isinstance(paper, tuple):      # a range: shown as such, ratio to its middle
                     r[f"paper_{q.key}"] = f"{paper[0]:g}-{paper[1]:g}"
-                    r[f"ratio_{q.key}"] = ours / (0.5 * (paper[0] + paper[1]))
+                    r[f"ratio_{q.key}"] = _ratio(ours, 0.5 * (paper[0] + paper[1]))
                 else:
                     r[f"paper_{q.key}"] = paper
-                    r[f"ratio_{q.key}"] = ours / paper if paper else math.nan
+                    r[f"ratio_{q.key}"] = _ratio(ours, paper) if paper else math.nan
                 floored_q = q.metric == "rmse" and q.stat == "mean"  # the floor is an RMSE level
                 judge = est
                 if q.judged_by is not None:     # a deterministic measure of the same thing
