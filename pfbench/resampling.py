@@ -4,6 +4,15 @@ Each scheme maps non-negative weights ``w`` (N,), not necessarily normalised, to
 All of them merge sorted positions in [0, S) against the running sum of ``w`` (S = sum of w). Indices
 never pass the last particle of positive weight, so round-off in S (weights that sum to 1 - 1e-12, a
 last position that rounds up to S) can neither index past the end nor pick a zero-weight particle.
+
+Any magnitude: weights whose total lies outside [2^-900, 2^960 / N] (a sum that overflows, say
+twelve weights of 3.1e307, or weights so small that S / N is subnormal) are first scaled by a
+power of two that brings the largest to [0.5, 1) (exact, so the ancestors are those of the same
+weights at an ordinary scale) and summed again; inside that range nothing is scaled, so ordinary
+weights take the path they always took, bit for bit. In that scaled path an infinite weight
+counts as 1 and every finite one as 0, a NaN or negative one as 0, and weights without a positive
+entry as uniform: a kernel never fails and never indexes out of [0, N). The Python entry
+``ancestors`` refuses negative, NaN and infinite weights, and weights that sum to zero.
 """
 from __future__ import annotations
 
@@ -25,6 +34,44 @@ SCHEME_CODES = {name: code for code, name in enumerate(SCHEMES)}
 
 _IDX = types.int64[::1]
 _W = types.float64[::1]
+
+_S_LO = 2.0 ** -900     # a total below it: S / N and the positions could reach the subnormals
+_S_HI = 2.0 ** 960      # S N above it: N w_i, the positions or the sum could overflow
+
+
+@kernel(types.boolean(types.float64, types.int64), cache=True, inline="always")
+def _extreme(S, N):
+    """Whether the total S of N weights lies outside the range the schemes handle as they are
+    (NaN and infinite totals included)."""
+    return not (S >= _S_LO and S * N <= _S_HI)
+
+
+@kernel(types.Tuple((_W, types.float64))(_W), cache=True)
+def scaled_weights(w):
+    """(v, T): the weights w scaled by the power of two that brings the largest to [0.5, 1)
+    (exact for every weight that stays normal; a weight 2^-1022 below the largest adds nothing),
+    and their sum T, added in order. Infinite weights become 1 and every finite one 0; NaN and
+    negative weights 0; without a positive weight, all 1 (uniform)."""
+    N = w.size
+    m = 0.0
+    for i in range(N):
+        if w[i] > m:
+            m = w[i]
+    v = np.empty(N)
+    if m == 0.0:
+        v[:] = 1.0
+        return v, float(N)
+    if m == np.inf:
+        for i in range(N):
+            v[i] = 1.0 if w[i] == np.inf else 0.0
+    else:
+        e = math.frexp(m)[1]
+        for i in range(N):
+            v[i] = math.ldexp(w[i], -e) if w[i] > 0.0 else 0.0
+    T = 0.0
+    for i in range(N):
+        T += v[i]
+    return v, T
 
 
 @kernel(types.int64(_W), cache=True)
@@ -81,6 +128,8 @@ def systematic(w, S, s, idx):
     a histogram of the c_j and its running sum. Per particle this is a few predictable
     comparisons instead of a branch the processor mispredicts about once a particle."""
     N = idx.size
+    if _extreme(S, N):
+        w, S = scaled_weights(w)
     step = S / N
     u = uniform(s)
     jmax = _last_positive(w)
@@ -106,8 +155,17 @@ def systematic_from_sums(w, cum, S, s, idx, c):
 
     Each c_j comes from its quotient with one step down and one up, in a pass the compiler
     vectorises; a c_j that needs more (only in extreme cases: a step that rounds to zero, say)
-    sends the pass through ``_settle``, systematic's walk, which settles it from any start."""
+    sends the pass through ``_settle``, systematic's walk, which settles it from any start.
+    A total out of range (see the module) scales the weights and sums them again, as systematic
+    does, and ignores cum."""
     N = idx.size
+    if _extreme(S, N):
+        w, S = scaled_weights(w)
+        cum = np.empty(w.size)
+        acc = 0.0
+        for j in range(w.size):
+            acc += w[j]
+            cum[j] = acc
     step = S / N
     u = uniform(s)
     jmax = _last_positive(w)
@@ -138,6 +196,8 @@ def systematic_from_sums(w, cum, S, s, idx, c):
 def stratified(w, S, s, idx):
     """Stratified resampling: positions (u_i + i) S / N with independent u_i ~ U[0, 1)."""
     N = idx.size
+    if _extreme(S, N):
+        w, S = scaled_weights(w)
     step = S / N
     jmax = _last_positive(w)
     j = 0
@@ -170,6 +230,8 @@ def _multinomial_into(w, S, s, idx, start, M):
 @kernel(types.void(_W, types.float64, STATE, _IDX), cache=True)
 def multinomial(w, S, s, idx):
     """Multinomial resampling: N independent draws from the normalised weights."""
+    if _extreme(S, idx.size):
+        w, S = scaled_weights(w)
     _multinomial_into(w, S, s, idx, 0, idx.size)
 
 
@@ -177,6 +239,8 @@ def multinomial(w, S, s, idx):
 def residual(w, S, s, idx):
     """Residual resampling: floor(N W_i) copies of i, the remainder multinomial on the residuals."""
     N = idx.size
+    if _extreme(S, N):
+        w, S = scaled_weights(w)
     r = np.empty(N)
     k = 0
     for i in range(N):
@@ -212,12 +276,38 @@ def resample(scheme, w, S, s, idx):
 
 
 def ancestors(weights, scheme: str, state: np.ndarray) -> np.ndarray:
-    """Python entry point: ancestor indices (N,) for ``weights`` (N,) under ``scheme``."""
-    w = np.ascontiguousarray(weights, dtype=np.float64)
-    if w.ndim != 1 or w.size == 0 or not np.all(w >= 0) or not np.isfinite(w).all() or w.sum() <= 0:
-        raise ValueError("weights must be a non-empty 1-D array of finite non-negative numbers with a positive sum")
+    """Python entry point: ancestor indices (N,) for ``weights`` (N,) under ``scheme`` (a name
+    of ``SCHEMES``), drawing from the generator ``state`` (a uint64 array of 4, advanced in place).
+
+    The weights need not be normalised and may have any finite magnitude, from subnormal to a
+    sum past the largest double: the ancestors are those of the same weights scaled to an
+    ordinary range (see the module). Raises ValueError, naming what is wrong, for weights that
+    are not a non-empty 1-D array of finite non-negative numbers with a positive sum (negative,
+    NaN or infinite entries, all zeros), for an unknown scheme and for a state that is not a
+    uint64 array of 4."""
+    if scheme not in SCHEME_CODES:
+        raise ValueError(f"unknown resampling scheme {scheme!r}: expected one of "
+                         f"{', '.join(SCHEMES)}")
+    if (not isinstance(state, np.ndarray) or state.dtype != np.uint64 or state.shape != (4,)
+            or not state.flags.c_contiguous or not state.flags.writeable):
+        raise ValueError("state must be a writeable uint64 array of 4 (a generator state, as "
+                         "pfbench.rng.state_from_seed makes it)")
+    try:
+        w = np.ascontiguousarray(weights, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"weights must be an array of numbers: {exc}") from None
+    if w.ndim != 1 or w.size == 0:
+        raise ValueError(f"weights must be a non-empty 1-D array, got shape {w.shape}")
+    bad = np.flatnonzero(~(w >= 0.0) | ~np.isfinite(w))
+    if bad.size:
+        raise ValueError(f"weights must be finite and non-negative: weights[{bad[0]}] = "
+                         f"{float(w[bad[0]])!r}")
+    if not (w > 0.0).any():
+        raise ValueError("weights must have a positive sum (every weight is zero)")
     idx = np.empty(w.size, dtype=np.int64)
-    resample(SCHEME_CODES[scheme], w, float(w.sum()), state, idx)
+    with np.errstate(over="ignore"):
+        S = float(np.sum(w))    # inf when the sum overflows: the kernels rescale then
+    resample(SCHEME_CODES[scheme], w, S, state, idx)
     return idx
 
 
