@@ -4,7 +4,8 @@ A trial holds its scenario's truth and measurements (steps x what a step stores)
 run at a time: its particles (particle count x what a particle stores) and its traces (steps x a
 few numbers). The runner keeps every finished trial's rows until it writes ``trials.csv``. Each
 worker process holds a trial of its own and the loaded kernels. The estimate is an upper bound of
-that order, not an exact count: it is there to refuse, in one line and before a file is written,
+that order, not an exact count (KLD-sampling's histogram included: at most 4 MiB dense, a hash set
+of the particles' size past that, whatever the bin sizes): it is there to refuse, in one line and before a file is written,
 what cannot fit (a billion particles, 1e11 steps, a billion trials, a thousand workers), never to
 refuse a run that fits.
 """
@@ -36,7 +37,7 @@ def estimate(exp, workers: int = 1) -> Need:
               f"the scenario's {steps:,} steps")]
     for run in exp.filters:
         n = run.particles or 1
-        particles = 8 * n * kind.particle_floats(run.params, scen)
+        particles = 8 * n * kind.particle_floats(run.params, scen) + _extra_bytes(run, n)
         traces = 8 * steps * TRACE_FLOATS
         what = (f"filters.{run.name}: {n:,} particles" if particles >= traces
                 else f"filters.{run.name}: the traces of {steps:,} steps")
@@ -53,6 +54,15 @@ def estimate(exp, workers: int = 1) -> Need:
              (rows, f"the rows of {exp.trials:,} trials x {len(exp.filters)} filter runs"),
              (workers * PROCESS_BYTES, f"{workers:,} worker processes")]
     return Need(total, max(parts, key=lambda p: p[0])[1])
+
+
+def _extra_bytes(run, n: int) -> int:
+    """What a filter run holds besides its particles: KLD-sampling's histogram of bins."""
+    params = run.params or {}
+    if getattr(run, "type", None) == "mcl" and params.get("sampling") == "kld":
+        from .filters.mcl import kld_histogram_bytes
+        return kld_histogram_bytes(n)
+    return 0
 
 
 def available_bytes() -> int:

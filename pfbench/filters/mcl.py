@@ -188,23 +188,69 @@ def _exp_sum(a, shift, n, out):
     return _lanesum(out, n)
 
 
+KLD_COUNT_MAX = 2 ** 62    # kld_count saturates here (any bound past the particles is the same)
+KLD_DENSE_BINS = 1 << 22   # histograms of more bins count the occupied ones in a hash set
+
+
 @kernel(types.int64(types.int64, types.float64, types.float64), cache=True)
 def kld_count(k, eps, z):
     """Fox's sample count for k occupied bins: the (1 - delta) quantile of chi^2 with k - 1 degrees
-    of freedom over 2 eps (Wilson-Hilferty), rounded up; 0 for one bin."""
+    of freedom over 2 eps (Wilson-Hilferty), rounded up; 0 for one bin, 0 where the quantile's
+    cube is not positive (delta near 1), and KLD_COUNT_MAX for a count past it (a tiny eps):
+    non-increasing in eps and delta, never wrapped."""
     if k <= 1:
         return 0
     d = k - 1.0
     a = 2.0 / (9.0 * d)
-    return int(math.ceil(d / (2.0 * eps) * (1.0 - a + math.sqrt(a) * z) ** 3))
+    b = 1.0 - a + math.sqrt(a) * z
+    if not (b > 0.0):
+        return 0
+    v = d / (2.0 * eps) * b ** 3
+    if not (v < KLD_COUNT_MAX):         # inf (eps so small the quotient overflows) or past it
+        return KLD_COUNT_MAX
+    return int(math.ceil(v))
+
+
+def kld_quantile(delta: float) -> float:
+    """z_(1-delta), the standard normal's (1 - delta) quantile, for any delta in (0, 1): as
+    ``NormalDist().inv_cdf(1 - delta)`` down to delta = 2^-20, below it from delta itself (1 -
+    delta keeps too few of delta's bits there, and is 1 below 1.1e-16), so that it keeps rising
+    as delta falls toward 0."""
+    lo = 2.0 ** -20
+    if not 0.0 < delta < 1.0:
+        raise ValueError(f"kld_delta must lie in (0, 1), got {delta!r}")
+    if delta >= lo:
+        return NormalDist().inv_cdf(1.0 - delta)
+    return max(-NormalDist().inv_cdf(delta), NormalDist().inv_cdf(1.0 - lo))
+
+
+@kernel(types.UniTuple(types.float64, 3)(_F, _F), cache=True, inline="always")
+def kld_grid(area, kp):
+    """The histogram's cells along x, y and the heading (kp[2] m x kp[2] m x kp[3] rad over the
+    field), as floats (at least 1; infinite when the quotient overflows)."""
+    return (max(np.ceil(area[0] / kp[2]), 1.0), max(np.ceil(area[1] / kp[2]), 1.0),
+            max(np.ceil(2.0 * math.pi / kp[3]), 1.0))
 
 
 @kernel(types.UniTuple(types.int64, 3)(_F, _F), cache=True, inline="always")
 def kld_cells(area, kp):
     """KLD-sampling's histogram: cells along x, y and the heading (kp[2] m x kp[2] m x kp[3] rad
-    over the field)."""
-    return (int(math.ceil(area[0] / kp[2])), int(math.ceil(area[1] / kp[2])),
-            int(math.ceil(2.0 * math.pi / kp[3])))
+    over the field); each saturates at KLD_COUNT_MAX (only grids of at most KLD_DENSE_BINS bins
+    are indexed by them)."""
+    fx, fy, ft = kld_grid(area, kp)
+    lim = float(KLD_COUNT_MAX)
+    return (int(min(fx, lim)), int(min(fy, lim)), int(min(ft, lim)))
+
+
+@kernel(types.int64(types.float64, types.float64, types.int64), cache=True, inline="always")
+def _cell_index(v, size, n):
+    """floor(v / size) clamped to [0, n - 1] (NaN: 0), clamped before it becomes an integer."""
+    c = np.floor(v / size)
+    if not (c > 0.0):
+        return 0
+    if c >= n - 1.0:
+        return n - 1
+    return int(c)
 
 
 @kernel(types.int64(types.float64, types.float64, types.float64, types.float64, types.float64,
@@ -212,25 +258,81 @@ def kld_cells(area, kp):
 def kld_cell(x, y, th, bm, br, nx, ny, nt):
     """``kld_bin`` with the bin sizes (bm m, br rad) and the histogram's cells (``kld_cells``)
     given."""
-    ix = min(max(int(math.floor(x / bm)), 0), nx - 1)
-    iy = min(max(int(math.floor(y / bm)), 0), ny - 1)
-    it = min(max(int(math.floor((th + math.pi) / br)), 0), nt - 1)
+    ix = _cell_index(x, bm, nx)
+    iy = _cell_index(y, bm, ny)
+    it = _cell_index(th + math.pi, br, nt)
     return (ix * ny + iy) * nt + it
 
 
 @kernel(types.int64(types.float64, types.float64, types.float64, _F, _F), cache=True)
 def kld_bin(x, y, th, area, kp):
     """Histogram bin of a pose: cells of kp[2] m x kp[2] m x kp[3] rad over the field (poses
-    outside it fall into the edge cells)."""
+    outside it fall into the edge cells), on a grid of at most KLD_DENSE_BINS bins."""
     nx, ny, nt = kld_cells(area, kp)
     return kld_cell(x, y, th, kp[2], kp[3], nx, ny, nt)
 
 
 @kernel(types.int64(_F, _F), cache=True)
 def kld_bins(area, kp):
-    """Number of histogram bins of KLD-sampling over the field."""
+    """Size of the dense histogram KLD-sampling keeps over the field: its number of bins, or 0
+    when there are more than KLD_DENSE_BINS (then it counts the occupied bins in a hash set of
+    at most twice the particles' slots, whatever the bin sizes)."""
+    fx, fy, ft = kld_grid(area, kp)
+    if not (fx * fy * ft <= KLD_DENSE_BINS):
+        return 0
     nx, ny, nt = kld_cells(area, kp)
     return nx * ny * nt
+
+
+def kld_histogram_bytes(particles: int) -> int:
+    """Memory KLD-sampling's histogram takes at most, for a set of at most ``particles``: the
+    dense histogram (a byte a bin, at most KLD_DENSE_BINS) or the hash set, and the list of the
+    occupied bins."""
+    slots = 1 << max(2 * int(particles), 1).bit_length()
+    return max(KLD_DENSE_BINS, slots * 25) + 8 * int(particles)
+
+
+_SPLIT = 2.0 ** 53      # cells past it along an axis are finer than the doubles there
+
+
+@kernel(types.float64(types.float64, types.float64, types.float64, types.float64),
+        cache=True, inline="always")
+def _cell_key(v, size, n, ext):
+    """The cell of v along an axis of n cells of ``size`` (extent ``ext``), clamped to its edge
+    cells, as a float key: floor(v / size), or, where that passes 2^53 (cells finer than the
+    spacing of the doubles there, so that each value lies in a cell of its own), -1 - v (v at
+    most ext): distinct keys for distinct cells, however fine, with no integer to overflow."""
+    c = np.floor(v / size)
+    if not (c > 0.0):
+        return 0.0
+    if c < _SPLIT:
+        return c if c <= n - 1.0 else n - 1.0
+    if n - 1.0 < _SPLIT:
+        return n - 1.0
+    return -1.0 - min(v, ext)
+
+
+@kernel(types.int64(_F2, types.uint8[::1], types.float64, types.float64, types.float64),
+        cache=True)
+def _hash_insert(hk, hused, a, b, c):
+    """Insert the key (a, b, c) into the open-addressing set (hk (cap, 3), hused (cap,), cap a
+    power of two); return its slot when it is new, else -1."""
+    mask = hused.size - 1
+    h = np.uint64(0x9E3779B97F4A7C15)
+    for v in (a, b, c):
+        f, e = math.frexp(v)
+        h = (h ^ np.uint64(np.int64(f * 9007199254740992.0) & 0x7FFFFFFFFFFFFFFF)) \
+            * np.uint64(0xBF58476D1CE4E5B9)
+        h = (h ^ np.uint64(e + 2048)) * np.uint64(0x94D049BB133111EB)
+        h ^= h >> np.uint64(31)
+    j = np.int64(h & np.uint64(mask))
+    while hused[j]:
+        if hk[j, 0] == a and hk[j, 1] == b and hk[j, 2] == c:
+            return -1
+        j = (j + 1) & mask
+    hused[j] = 1
+    hk[j, 0], hk[j, 1], hk[j, 2] = a, b, c
+    return j
 
 
 KLD_CHUNK = 256     # particles KLD-sampling draws per round of its passes, at most
@@ -277,8 +379,9 @@ def kld_sample(P, cum, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob,
     odometry u (3,) with its own noise, into out, until their count reaches the bound for
     the bins they occupy (kp: [eps, z_(1-delta), bin m, bin rad, n_min]) or nmax. With
     probability ``prob`` a draw is a new pose (uniform, or from the sensor model of the
-    observations (ids, zs)[:nobs] when inject_sensor) instead of a copy. occ (bins,) must be all
-    zero; it is left so. Returns (count, injected).
+    observations (ids, zs)[:nobs] when inject_sensor) instead of a copy. occ (``kld_bins``,) must
+    be all zero; it is left so (a histogram of more bins, or an occ too small for it, counts the
+    occupied bins in a hash set instead: the same count). Returns (count, injected).
 
     It runs in rounds of passes over up to KLD_CHUNK particles (at least the count the bound
     still asks for): their random draws in the generator's order, the generator's state kept
@@ -302,7 +405,15 @@ def kld_sample(P, cum, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob,
     pose = np.empty(3)
     guide = np.empty(n, dtype=np.int64)
     ginv = guide_table(cum, n, guide)
-    nx, ny, nt = kld_cells(area, kp)
+    nb = kld_bins(area, kp)
+    dense = 0 < nb <= occ.size
+    nx, ny, nt = kld_cells(area, kp) if dense else (1, 1, 1)
+    fx, fy, ft = kld_grid(area, kp)
+    cap = 1
+    while cap < 2 * nmax and not dense:
+        cap *= 2
+    hk = np.empty((cap, 3))                 # the hash set of occupied bins (sparse histograms)
+    hused = np.zeros(cap, dtype=np.uint8)
     while m < nmax:
         c = min(CH, nmax - m, max(target - m, 32))
         # the draws, in the order of the one-at-a-time loop, the state in registers
@@ -357,13 +468,22 @@ def kld_sample(P, cum, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob,
             X[r] += odo[1, r] * ct
             Y[r] += odo[1, r] * st
             H[r] = vm.wrap(th + odo[2, r])
-        for r in range(c):
-            bins[r] = kld_cell(X[r], Y[r], H[r], kp[2], kp[3], nx, ny, nt)
+        if dense:
+            for r in range(c):
+                bins[r] = kld_cell(X[r], Y[r], H[r], kp[2], kp[3], nx, ny, nt)
         # the count, up to the bound
         for r in range(c):
-            b = bins[r]
-            if occ[b] == 0:
-                occ[b] = 1
+            if dense:
+                b = bins[r]
+                new_bin = occ[b] == 0
+                if new_bin:
+                    occ[b] = 1
+            else:
+                b = _hash_insert(hk, hused, _cell_key(X[r], kp[2], fx, area[0]),
+                                 _cell_key(Y[r], kp[2], fy, area[1]),
+                                 _cell_key(H[r] + math.pi, kp[3], ft, 2.0 * math.pi))
+                new_bin = b >= 0
+            if new_bin:
                 touched[k] = b
                 k += 1
                 target = max(nmin, kld_count(k, kp[0], kp[1]))
@@ -376,8 +496,9 @@ def kld_sample(P, cum, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob,
                 break
         if m >= target:
             break
-    for r in range(k):
-        occ[touched[r]] = 0
+    if dense:
+        for r in range(k):
+            occ[touched[r]] = 0
     return m, injected
 
 
@@ -762,7 +883,7 @@ def run(model, data, params, particles, state, diag=True, snapshots=()):
            "resampled": np.zeros(T, dtype=np.int64), "injected": np.zeros(T, dtype=np.int64),
            "pmean": np.empty(T)}
     kld = params["sampling"] == "kld"
-    kp = np.array([params["kld_epsilon"], NormalDist().inv_cdf(1.0 - params["kld_delta"]),
+    kp = np.array([params["kld_epsilon"], kld_quantile(params["kld_delta"]),
                    params["kld_bin_m"], math.radians(params["kld_bin_deg"]),
                    min(params["kld_min"], particles)])
     out["n"] = np.empty(T, dtype=np.int64)
