@@ -326,9 +326,16 @@ def stepwise_ewa_plan(W, beta, printed, src, mutant):
     4. copy each kept particle ceil(W_i / delta) times, heaviest first, at most N in all;
     5. fill the rest with mutants of the kept particles in descending weight order, cycling.
     Both comparisons with delta carry a relative round-off guard of 1e-12 (the average of equal
-    weights must equal them: uniform weights keep every particle once).
+    weights must equal them: uniform weights keep every particle once). Unnormalised weights of
+    any magnitude plan as the same weights at an ordinary scale (their largest out of
+    [2^-900, 2^960 / N]: scaled by a power of two, as the schemes do).
     """
     N = W.size
+    m = 0.0
+    for i in range(N):
+        m = max(m, W[i])
+    if _extreme(m, N) and m > 0.0:  # any scale: the weights scaled to [0.5, 1) (see the module)
+        W = scaled_weights(W)[0]
     order = np.argsort(-W, kind="mergesort")   # stable: ties keep index order
     v = 0.0
     bk = 1.0

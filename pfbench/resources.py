@@ -5,9 +5,9 @@ run at a time: its particles (particle count x what a particle stores) and its t
 few numbers). The runner keeps every finished trial's rows until it writes ``trials.csv``. Each
 worker process holds a trial of its own and the loaded kernels. The estimate is an upper bound of
 that order, not an exact count (KLD-sampling's histogram included: at most 4 MiB dense, a hash set
-of the particles' size past that, whatever the bin sizes): it is there to refuse, in one line and before a file is written,
-what cannot fit (a billion particles, 1e11 steps, a billion trials, a thousand workers), never to
-refuse a run that fits.
+of the particles' size past that, whatever the bin sizes): it is there to refuse, in one line and
+before a file is written, what cannot fit (a billion particles, 1e11 steps, a billion trials, a
+thousand workers), never to refuse a run that fits.
 """
 from __future__ import annotations
 

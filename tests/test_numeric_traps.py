@@ -90,6 +90,24 @@ def test_the_python_entry_refuses_an_unknown_scheme_and_a_bad_state():
             ancestors([1.0, 2.0], "systematic", state)
 
 
+@settings(max_examples=60, deadline=None)
+@given(_base, st.integers(-962, 1023), st.integers(0, 1))
+@example([1.0] * 12, 1022, 0)
+def test_the_stepwise_ewa_plan_does_not_depend_on_the_scale_of_the_weights(base, k, printed):
+    """ifa2021's stepwise EWA plan of weights scaled by 2^k is the plan of the weights (it kept
+    one particle and mutated the rest when their sum overflowed)."""
+    from pfbench.resampling import stepwise_ewa_plan
+    w = np.array(base)
+    if not (w > 0).any():
+        w[0] = 1.0
+
+    def plan(v):
+        src, mut = np.empty(v.size, dtype=np.int64), np.empty(v.size, dtype=np.int8)
+        kept = stepwise_ewa_plan(v, 0.9, printed, src, mut)
+        return kept, src.tolist(), mut.tolist()
+    assert plan(np.ldexp(w, k)) == plan(w)
+
+
 @pytest.mark.parametrize("scheme", ALL)
 def test_kernels_stay_in_bounds_on_weights_the_entry_refuses(scheme):
     """The kernels (what the built-in filters call) never index out of [0, N): an infinite
@@ -273,8 +291,9 @@ def _noise_keys(schema) -> list[str]:
 
 
 def _trap_configs():
-    """(id, config) for every built-in scenario and trap: one step and one particle, noise
-    levels of 1e-150 and 1e150 (every noise key at once), a long run of 3000 steps."""
+    """(id, config, particles) for every built-in scenario and trap: one step at two particles
+    (the fewest), noise levels of 1e-150 and 1e150 (every noise key at once), no noise (zero
+    where allowed, else 5e-324), a prior variance of 1e300, 3000 steps."""
     from pfbench.scenarios import BUILTIN
 
     from .conftest import ROOT
@@ -284,9 +303,15 @@ def _trap_configs():
         if world is not None:
             base["world"] = str(ROOT / "configs" / world.default)
         noise = _noise_keys(scen.SCHEMA)
-        yield f"{name}-one-step", {**base, "steps": 1}, 1
+        yield f"{name}-one-step", {**base, "steps": 1}, 2
         yield f"{name}-tiny-noise", {**base, "steps": 40, **{k: 1e-150 for k in noise}}, 20
         yield f"{name}-huge-noise", {**base, "steps": 40, **{k: 1e150 for k in noise}}, 20
+        # zero where a key allows it, else the smallest double (its square is 0)
+        least = {k: 0.0 if scen.SCHEMA[k].min == 0.0 and not scen.SCHEMA[k].min_exclusive
+                 else 5e-324 for k in noise}
+        yield f"{name}-no-noise", {**base, "steps": 40, **least}, 20
+        if "prior_var" in scen.SCHEMA:
+            yield f"{name}-huge-prior", {**base, "steps": 40, "prior_var": 1e300}, 20
         yield f"{name}-long", {**base, "steps": 3000}, 5
 
 
@@ -294,7 +319,7 @@ def _trap_configs():
 @pytest.mark.parametrize("trap", list(_trap_configs()), ids=lambda t: t[0])
 def test_every_filter_on_every_scenario_survives_numerical_traps(trap):
     """No exception, and every row's error finite or its lost steps counted: for every filter
-    that runs on the scenario, at one particle and one step, at noise levels of 1e-150 and
+    that runs on the scenario, at two particles and one step, at noise levels of 1e-150 and
     1e150, and over a long run."""
     from pfbench.api import run_experiment
     from pfbench.errors import UserError
