@@ -158,10 +158,11 @@ def summarize(values) -> dict:
     out["mean"] = mean
     if n < 2:
         return out
-    var = float(v.var(ddof=1))
+    with np.errstate(invalid="ignore", over="ignore"):  # an infinite value (a diverged trial)
+        var = float(v.var(ddof=1))                      # gives an infinite or NaN spread
+        m4 = float(np.mean((v - mean) ** 4))
     se = math.sqrt(var / n)
     half = t975(n - 1) * se
-    m4 = float(np.mean((v - mean) ** 4))
     var_se = math.sqrt(max(m4 - var * var * (n - 3) / (n - 1), 0.0) / n)
     out.update(var=var, se=se, ci_lo=mean - half, ci_hi=mean + half, var_se=var_se,
                var_ci_lo=max(var - Z975 * var_se, 0.0), var_ci_hi=var + Z975 * var_se)

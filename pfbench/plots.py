@@ -88,6 +88,7 @@ def distribution_figure(exp: Experiment, rows: pd.DataFrame, path: Path, metric:
     runs = list(exp.filters)
     data = [rows.loc[rows["filter"] == r.key, metric].dropna().to_numpy(float) * scale
             for r in runs]
+    data = [d[np.isfinite(d)] for d in data]    # a diverged trial's inf has no place on an axis
     keep = [i for i, d in enumerate(data) if d.size]
     if not keep:
         return

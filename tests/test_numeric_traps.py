@@ -340,3 +340,19 @@ def test_every_filter_on_every_scenario_survives_numerical_traps(trap):
         pytest.skip(str(exc))
     for _, r in rows.iterrows():
         assert math.isfinite(r["rmse"]) or r["diverged_steps"] > 0, r["filter"]
+
+
+def test_diverged_trials_reach_the_table_and_figures_without_warnings(tmp_path):
+    """Infinite and NaN errors over several trials: the summaries, the bootstrap and the box plot
+    take them without a RuntimeWarning on the console (inf - inf in a spread or a range)."""
+    import warnings
+
+    from pfbench.api import run_experiment
+    cfg = {"seed": 1, "trials": 3,
+           "scenario": {"name": "linear_gaussian", "a": 1.45, "steps": 1100},
+           "filters": {"pf": {"particles": 20}, "ukf": {}, "kf": {}}}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        res = run_experiment(cfg, out=tmp_path / "o")
+    rmse = res.trials.set_index("filter")["rmse"]
+    assert not np.isfinite(rmse["pf@20"]).all() and np.isfinite(rmse["kf"]).all()
