@@ -1,8 +1,10 @@
 """Trials -> rows; seeding; executors; the results folder.
 
-Seeding: trial k's randomness is the SeedSequence child ``(seed, spawn_key=(k,))``
-(what ``SeedSequence(seed).spawn(n)[k]`` gives); inside it the data come from child ``(k, 0)`` and
-filter run F from child ``(k, 1, crc32(F.key))``. Seeds depend on (base seed, trial, filter key), never
+Seeding: trial k's data come from the SeedSequence child ``(seed, spawn_key=(k, 0))``; filter run
+F of trial k from ``SeedSequence(int_words(seed) + int_words(k) + key_words(F.key))``
+(pfbench.seeding: an integer as its count of 32-bit words and the words, the key as the eight
+words of the SHA-256 digest of its UTF-8 bytes), an injective encoding, so two runs share a
+stream only if their keys' digests collide. Seeds depend on (base seed, trial, filter key), never
 on run order, the number of workers, or which other filters the experiment has.
 """
 from __future__ import annotations
@@ -17,7 +19,6 @@ import socket
 import subprocess
 import sys
 import time
-import zlib
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from functools import lru_cache, partial
@@ -34,6 +35,7 @@ from .filters import FILTERS, LOAD_SECONDS
 from .kinds import kind_of
 from .rng import state_from_seed
 from .scenarios import SCENARIOS
+from .seeding import run_seed
 from .store import (TIMINGS, TIMINGS_PARTIAL, atomic_write, clear_staged_traces,
                     complete_trials, csv_text, finish_traces, read_staged_traces, read_timings,
                     read_traces, read_trials, stage_trace, timings_text, trial_columns,
@@ -49,7 +51,8 @@ def data_seed(seed: int, trial: int) -> np.random.SeedSequence:
 
 
 def filter_seed(seed: int, trial: int, key: str) -> np.random.SeedSequence:
-    return np.random.SeedSequence(seed, spawn_key=(trial, 1, zlib.crc32(key.encode())))
+    """The seed of filter run ``key`` of trial ``trial`` (pfbench.seeding.run_seed)."""
+    return run_seed(seed, trial, key)
 
 
 @lru_cache(maxsize=8)
@@ -357,9 +360,10 @@ class RunResult:
 def uncompiled(exp: Experiment) -> list[str]:
     """The names of the experiment's filter types (and its scenario) whose kernels the numba
     cache does not hold yet: they compile when the first trial uses them (pfbench._lazy)."""
-    from . import CACHE_DIR
+    from . import CACHE_DIR, _cache
     index = Path(CACHE_DIR) / "pfbench"
-    have = {p.name.split(".")[0] for p in index.rglob("*.nbi")} if index.is_dir() else set()
+    have = ({p.name.split(".")[0] for p in index.rglob("*.nbi")}
+            if _cache.ENABLED and index.is_dir() else set())
     out = []
     for what, obj in ([(f.type, FILTERS[f.type].run) for f in exp.filters]
                       + [(exp.scenario, getattr(SCENARIOS[exp.scenario], "simulate", None))]):
