@@ -1,0 +1,187 @@
+"""Filters that misbehave, as a plug-in's might: one that writes into its inputs changes nothing
+another run sees; malformed outputs, errors and exits are one line naming the filter run; each
+optional output is optional on its own."""
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from pfbench import plugins
+from pfbench.cli import app
+from pfbench.config import load
+from pfbench.errors import UserError
+from pfbench.filters import FILTERS, FilterType
+from pfbench.runner import run_experiment, run_trial
+from pfbench.schema import Key
+
+cli = CliRunner()
+
+BASE = """\
+seed: 3
+trials: 3
+scenario: {name: ungm, steps: 25}
+filters:
+"""
+PF = "  pf: {label: PF, particles: 40}\n  ukf: {label: UKF}\n"
+
+
+def _register(monkeypatch, name, run, package=None, schema=None):
+    monkeypatch.setitem(FILTERS, name, FilterType(name, "a hostile filter", schema or {}, run,
+                                                  particles=False))
+    if package:
+        monkeypatch.setitem(plugins.ORIGIN, (plugins.FILTER_GROUP, name), package)
+
+
+def _vandal(model, y, params, particles, state, diag=True):
+    """Writes into everything it is given, then returns a fine estimate."""
+    xhat = np.full(y.size, model.prior_mean)
+    y[:] = 1e6
+    model.theta[:] = -7.0
+    model.noise[:] = 123.0
+    params["box"].append(5.0)
+    params["box"][0] = 99.0
+    state[:] = 0
+    return {"xhat": xhat, "lik_evals_per_step": 1.0}
+
+
+def test_a_filter_that_writes_into_its_inputs_changes_no_other_run(monkeypatch, write_config,
+                                                                   tmp_path):
+    _register(monkeypatch, "vandal", _vandal, schema={"box": Key("floats", [1.0], "a list")})
+    clean = load(write_config(BASE + PF, "clean.yaml"))
+    # the vandal runs first, between the pf and the ukf, and last
+    for order in ("  v1: {type: vandal, label: V1}\n" + PF,
+                  PF.replace("  ukf", "  v1: {type: vandal, label: V1}\n  ukf"),
+                  PF + "  v1: {type: vandal, label: V1}\n"):
+        exp = load(write_config(BASE + order, "hostile.yaml"))
+        for k in range(exp.trials):
+            want = {r["filter"]: r["rmse"] for r in run_trial(clean, k)}
+            got = {r["filter"]: r["rmse"] for r in run_trial(exp, k)}
+            assert {f: got[f] for f in want} == want, (order, k)
+    assert list(exp.filter("v1").params["box"]) == [1.0]     # the experiment's own value stays
+    # and through a run's child process, trial after trial
+    a = run_experiment(clean, tmp_path / "a")
+    b = run_experiment(exp, tmp_path / "b")
+    rows = pd.DataFrame(b.rows)
+    rows = rows[rows["filter"] != "v1"].reset_index(drop=True)
+    pd.testing.assert_frame_equal(pd.DataFrame(a.rows).drop(columns="wall_s"),
+                                  rows.drop(columns="wall_s"), check_exact=True)
+
+
+def _returning(out):
+    def run(model, y, params, particles, state, diag=True):
+        return out(y.size) if callable(out) else out
+    return run
+
+
+GOOD = lambda n: {"xhat": np.zeros(n), "lik_evals_per_step": 1.0}     # noqa: E731
+
+MALFORMED = {
+    "a tuple": (lambda n: (np.zeros(n), 1.0), "expected a dict of outputs"),
+    "a list": (lambda n: [np.zeros(n)], "expected a dict of outputs"),
+    "None": (lambda n: None, "expected a dict of outputs"),
+    "no xhat": (lambda n: {"lik_evals_per_step": 1.0}, "no 'xhat'"),
+    "no count": (lambda n: {"xhat": np.zeros(n)}, "no 'lik_evals_per_step'"),
+    "short xhat": (lambda n: {"xhat": np.zeros(n - 1), "lik_evals_per_step": 1.0},
+                   "'xhat' has shape (25,), expected (26,)"),
+    "2-d xhat": (lambda n: {"xhat": np.zeros((n, 1)), "lik_evals_per_step": 1.0},
+                 "expected (26,)"),
+    "scalar xhat": (lambda n: {"xhat": 0.0, "lik_evals_per_step": 1.0}, "expected (26,)"),
+    "string xhat": (lambda n: {"xhat": np.array(["a"] * n), "lik_evals_per_step": 1.0},
+                    "expected an array of real numbers"),
+    "complex xhat": (lambda n: {"xhat": np.zeros(n, complex), "lik_evals_per_step": 1.0},
+                     "expected an array of real numbers"),
+    "object xhat": (lambda n: {"xhat": [object()] * n, "lik_evals_per_step": 1.0},
+                    "expected an array of real numbers"),
+    "ragged xhat": (lambda n: {"xhat": [[1.0], [1.0, 2.0]], "lik_evals_per_step": 1.0},
+                    "expected an array of real numbers"),
+    "NaN count": (lambda n: {**GOOD(n), "lik_evals_per_step": math.nan},
+                  "'lik_evals_per_step' is float nan, expected a finite number >= 0"),
+    "inf count": (lambda n: {**GOOD(n), "underflow_steps": math.inf}, "'underflow_steps'"),
+    "negative count": (lambda n: {**GOOD(n), "underflow_steps": -1}, "finite number >= 0"),
+    "string count": (lambda n: {**GOOD(n), "lik_evals_per_step": "1"}, "str '1'"),
+    "array count": (lambda n: {**GOOD(n), "lik_evals_per_step": np.ones(3)}, "shape (3,)"),
+    "huge count": (lambda n: {**GOOD(n), "lik_evals_per_step": 10 ** 400}, "finite number"),
+    "short ess": (lambda n: {**GOOD(n), "ess": np.ones(n + 2)}, "'ess' has shape (28,)"),
+    "string resampled": (lambda n: {**GOOD(n), "resampled": "yes"}, "'resampled'"),
+}
+
+
+@pytest.mark.parametrize("case", list(MALFORMED))
+def test_a_malformed_output_is_one_line_naming_the_filter(case, monkeypatch, write_config):
+    out, expected = MALFORMED[case]
+    _register(monkeypatch, "shabby", _returning(out), package="pfbench-shabby")
+    exp = load(write_config(BASE + PF + "  odd: {type: shabby, label: Odd}\n"))
+    with pytest.raises(UserError) as info:
+        run_trial(exp, 1)
+    text = str(info.value)
+    assert "\n" not in text
+    assert "filter run 'odd' (type shabby) (plug-in package pfbench-shabby), trial 1" in text
+    assert expected in text, text
+
+
+def test_a_malformed_output_through_the_cli_is_one_line_and_exit_2(monkeypatch, write_config,
+                                                                   tmp_path):
+    _register(monkeypatch, "shabby", _returning(lambda n: (np.zeros(n), 1.0)))
+    cfg = write_config(BASE + "  odd: {type: shabby, label: Odd}\n")
+    res = cli.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2 and "Traceback" not in res.output, res.output
+    errors = [line for line in res.output.splitlines() if "error" in line]
+    assert len(errors) == 1 and errors[0].startswith("pfbench: error: "), res.output
+    assert "filter run 'odd' (type shabby), trial 0: returned tuple" in errors[0]
+
+
+def _raising(exc):
+    def run(model, y, params, particles, state, diag=True):
+        raise exc
+    return run
+
+
+@pytest.mark.parametrize("exc,name", [(KeyError("div_l1"), "KeyError: 'div_l1'"),
+                                      (ValueError("bad\nthing"), "ValueError: bad thing"),
+                                      (SystemExit(3), "SystemExit: 3"),
+                                      (KeyboardInterrupt(), "KeyboardInterrupt")])
+def test_an_error_or_exit_inside_a_filter_is_one_line_naming_it(exc, name, monkeypatch,
+                                                                 write_config, tmp_path):
+    """In a run's worker process (where a KeyboardInterrupt is the filter's own: Ctrl-C goes to
+    the parent) and, but for KeyboardInterrupt, in this process."""
+    _register(monkeypatch, "raiser", _raising(exc), package="pfbench-raiser")
+    exp = load(write_config(BASE + "  r: {type: raiser}\n"))
+    with pytest.raises(UserError) as info:
+        run_experiment(exp, tmp_path / "o")
+    text = str(info.value)
+    assert "filter run 'r' (type raiser) (plug-in package pfbench-raiser), trial" in text
+    assert name in text and "\n" not in text
+    if not isinstance(exc, KeyboardInterrupt):
+        with pytest.raises(UserError, match="filter run 'r'"):
+            run_trial(exp, 0)
+
+
+OPTIONAL = ("ess", "resampled", "div_l1", "distinct", "underflow_steps")
+COLUMNS = {"ess": "mean_ess", "resampled": "resample_count", "div_l1": "diversity_l1",
+           "distinct": "distinct_frac"}
+
+
+@pytest.mark.parametrize("subset", [s for n in range(len(OPTIONAL) + 1)
+                                    for s in itertools.combinations(OPTIONAL, n)],
+                         ids=lambda s: "+".join(s) or "none")
+def test_each_optional_output_is_optional_on_its_own(subset, monkeypatch, write_config):
+    def run(model, y, params, particles, state, diag=True):
+        n = y.size
+        out = {"xhat": np.zeros(n), "lik_evals_per_step": 2.0}
+        full = {"ess": np.full(n, 5.0), "resampled": np.ones(n, dtype=bool),
+                "div_l1": np.full(n, 0.5), "distinct": np.full(n, 0.25), "underflow_steps": 4}
+        out.update({k: full[k] for k in subset})
+        return out
+    _register(monkeypatch, "partial", run)
+    exp = load(write_config(BASE + "  p: {type: partial}\n"))
+    (row,) = run_trial(exp, 0)
+    want = {"mean_ess": 5.0, "resample_count": 25.0, "diversity_l1": 0.5, "distinct_frac": 0.25}
+    for out, col in COLUMNS.items():
+        assert (row[col] == want[col]) if out in subset else math.isnan(row[col]), (out, row)
+    assert row["underflow_steps"] == (4.0 if "underflow_steps" in subset else 0.0)
+    assert row["lik_evals_per_step"] == 2.0
