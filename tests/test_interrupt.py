@@ -1,0 +1,88 @@
+"""Ctrl-C is seen at once, even while a kernel holds the interpreter: a run's trials go to a child
+process (one worker included); the message names the filter runs that were running."""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pandas as pd
+
+from .conftest import ROOT
+
+# A `pfbench run` whose filter 'stuck' spins in a numba loop (holding the interpreter) from its
+# third call on, that is from trial 2 of a one-worker run.
+SCRIPT = """
+import sys
+import numba
+import numpy as np
+from pfbench.filters import FILTERS, FilterType
+
+@numba.njit
+def spin(x):
+    while x >= 0.0:         # never false: x grows to inf
+        x = x * 1.0000001 + 1.0
+    return x
+
+CALLS = [0]
+
+def run(model, y, params, particles, state, diag=True):
+    CALLS[0] += 1
+    if CALLS[0] >= 3:
+        spin(1.0)
+    return {"xhat": np.zeros(y.size), "lik_evals_per_step": 1.0}
+
+spin(-1.0)      # compiled here, before the run
+FILTERS["stuck"] = FilterType("stuck", "spins from its third run on", {}, run, particles=False)
+from pfbench.cli import main
+sys.argv = ["pfbench", *sys.argv[1:]]
+main()
+"""
+
+CONFIG = """\
+seed: 1
+trials: 5
+scenario: {name: ungm, steps: 20}
+filters:
+  ukf: {label: UKF}
+  stuck: {label: Stuck}
+"""
+
+
+def test_ctrl_c_in_a_long_kernel_stops_the_run_at_once_naming_what_ran(tmp_path):
+    script = tmp_path / "stuck_run.py"
+    script.write_text(SCRIPT)
+    cfg = tmp_path / "exp.yaml"
+    cfg.write_text(CONFIG)
+    out = tmp_path / "out"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    # a shell's background job starts with SIGINT ignored, which Python keeps: give the run the
+    # default disposition a terminal would
+    proc = subprocess.Popen([sys.executable, str(script), "run", str(cfg), "--out", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
+                            start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    partial = out / "trials.partial.csv"
+    deadline = time.monotonic() + 300
+    try:
+        while time.monotonic() < deadline and proc.poll() is None:
+            if partial.exists() and len(partial.read_text().splitlines()) == 1 + 2 * 2:
+                break
+            time.sleep(0.05)
+        assert proc.poll() is None, proc.communicate()[0]
+        time.sleep(1.0)                          # trial 2 is spinning now
+        assert proc.poll() is None
+        os.killpg(proc.pid, signal.SIGINT)      # what Ctrl-C in a terminal sends
+        output, _ = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 130, output
+    assert "Traceback" not in output
+    assert "running: filter run 'stuck' (type stuck), trial 2" in output, output
+    assert "2 of 5 trials saved" in output and "--resume" in output, output
+    kept = pd.read_csv(partial)
+    assert sorted(set(kept["trial"])) == [0, 1]
