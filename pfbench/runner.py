@@ -119,6 +119,15 @@ def fresh(value):
     return value
 
 
+class FilterError(UserError):
+    """A filter run that failed: its error (``cause``, None for a malformed output), named in one
+    line with the run, its type and its plug-in package."""
+
+    def __init__(self, message: str, cause: BaseException | None = None):
+        super().__init__(message)
+        self.cause = cause
+
+
 def _package(group: str, name: str) -> str:
     """' (plug-in package PKG)' for a plug-in's filter or scenario; '' for pfbench's own."""
     from .plugins import ORIGIN
@@ -157,7 +166,7 @@ def run_filter(exp: Experiment, trial: int, run, model, y, diag: bool = True,
     try:
         out = FILTERS[run.type].run(model, y, params, run.particles, state, diag, **extra)
     except (Exception, SystemExit) as exc:
-        raise UserError(f"{_who(run, trial)} raised {_exception_text(exc)}") from None
+        raise FilterError(f"{_who(run, trial)} raised {_exception_text(exc)}", exc) from None
     return out, time.perf_counter() - t0
 
 
@@ -171,7 +180,7 @@ def checked_output(exp: Experiment, trial: int, run, model, truth, data, out,
         if snapshots is not None:
             out["snapshots"] = _checked_snapshots(out.get("snapshots"), snapshots)
     except ValueError as exc:
-        raise UserError(f"{_who(run, trial)}: {exc}") from None
+        raise FilterError(f"{_who(run, trial)}: {exc}") from None
     return out
 
 

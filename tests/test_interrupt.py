@@ -8,6 +8,7 @@ import subprocess
 import sys
 import time
 
+import numpy as np
 import pandas as pd
 
 from .conftest import ROOT
@@ -86,3 +87,40 @@ def test_ctrl_c_in_a_long_kernel_stops_the_run_at_once_naming_what_ran(tmp_path)
     assert "2 of 5 trials saved" in output and "--resume" in output, output
     kept = pd.read_csv(partial)
     assert sorted(set(kept["trial"])) == [0, 1]
+
+
+def _sleeper(model, y, params, particles, state, diag=True):
+    time.sleep(3600)
+
+
+def _prompt(model, y, params, particles, state, diag=True):
+    return {"xhat": np.zeros(y.size), "lik_evals_per_step": 1.0}
+
+
+def test_a_contract_probe_that_never_finishes_is_stopped_and_named(monkeypatch):
+    from pfbench import contract
+    from pfbench.filters import FILTERS, FilterType
+    configs = ROOT / "configs"
+    monkeypatch.setitem(FILTERS, "sleeper", FilterType("sleeper", "never returns", {}, _sleeper,
+                                                       particles=False))
+    monkeypatch.setitem(FILTERS, "prompt", FilterType("prompt", "returns at once", {}, _prompt,
+                                                      particles=False))
+    stuck = contract.Probe("sleeper", "ungm", ["filter sleeper"])
+    fine = contract.Probe("prompt", "ungm", ["filter prompt"])
+    monkeypatch.setattr(contract, "probes", lambda: ([stuck, fine], []))
+    n, problems = contract.check_all(configs, timeout=5.0)
+    assert n == 2
+    assert problems == ["filter sleeper: sleeper on ungm did not finish within 5 s "
+                        "(--probe-timeout); stopped"]
+
+
+def test_list_check_refuses_a_bad_probe_timeout():
+    from typer.testing import CliRunner
+
+    from pfbench.cli import app
+
+    from .conftest import one_line_exit_2
+    for bad in ("0", "-1", "nan", "inf"):
+        line = one_line_exit_2(CliRunner().invoke(app, ["list", "--check", "--probe-timeout",
+                                                        bad]))
+        assert "--probe-timeout" in line
