@@ -76,9 +76,9 @@ def test_the_encoding_is_injective_where_plain_words_would_not_be():
 
 def test_a_runs_stream_depends_on_its_key_not_on_order_or_company(write_config):
     exp = load(write_config(TWINS))
-    flipped = load(write_config(TWINS.replace(
-        "  plumless: {type: pf, label: A, particles: 30}\n", "") + "  plumless: {type: pf, label: A, "
-        "particles: 30}\n  other: {type: pf, label: C, particles: 30}\n", "flipped.yaml"))
+    plum = "  plumless: {type: pf, label: A, particles: 30}\n"
+    flipped = load(write_config(TWINS.replace(plum, "") + plum
+                                + "  other: {type: pf, label: C, particles: 30}\n", "flipped.yaml"))
     assert [r.key for r in flipped.filters] == ["buckeroo@30", "plumless@30", "other@30"]
     for k in (2, 0):     # trials in another order
         a = {r["filter"]: r["rmse"] for r in run_trial(exp, k)}
