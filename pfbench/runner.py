@@ -296,20 +296,31 @@ def _running_text(exp: Experiment, marks) -> str:
 
 # ---------------------------------------------------------------- executors
 
-def _worker_init(now=None, taken=None):
+def _worker_init(now=None, pids=None, taken=None):
     """A pool worker leaves Ctrl-C to the parent, which stops it, and closes the parent's folder
-    locks (the parent keeps them). ``now``: the array of two slots per worker the parent reads
-    to say what was running; ``taken`` counts the slots given out (a worker that replaces one
-    that died takes its slot)."""
+    locks (the parent keeps them). ``now``: two entries per slot, what the worker of that slot
+    runs (_NOW), which the parent reads to say what was running; ``pids``: the worker's process
+    id per slot; ``taken`` counts the slots given out (there are two per worker: one that
+    replaces a worker that died takes a spare one, leaving the dead one's as it was)."""
     global _NOW
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     close_inherited_locks()
     if now is not None:
         with taken.get_lock():
-            slot = taken.value % (len(now) // 2)
+            slot = taken.value % len(pids)
             taken.value += 1
+        pids[slot] = os.getpid()
         _NOW = (now, 2 * slot)
         _mark(-1, -1)
+
+
+def _signal_name(code: int | None) -> str:
+    if code is not None and code < 0:
+        try:
+            return f"killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"killed by signal {-code}"
+    return f"exit status {code}"
 
 
 def _chunks(trials: Iterable[int], size: int) -> Iterable[list[int]]:
@@ -360,17 +371,43 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
     import multiprocessing as mp
     ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
     size = 1 if workers == 1 else max(1, min(25, math.ceil(count / (workers * 6))))
-    now, taken = ctx.RawArray("q", [-1] * (2 * workers)), ctx.Value("q", 0)
+    slots = 2 * workers
+    now, pids = ctx.RawArray("q", [-1] * (2 * slots)), ctx.RawArray("q", [0] * slots)
+    taken = ctx.Value("q", 0)
     if running is not None:
         running.append(lambda: [tuple(now[i:i + 2]) for i in range(0, len(now), 2)])
-    pool = ctx.Pool(workers, initializer=_worker_init, initargs=(now, taken))
+    pool = ctx.Pool(workers, initializer=_worker_init, initargs=(now, pids, taken))
+    procs = list(pool._pool)        # a worker ends only when it dies: seen by its exit code
     try:
-        yield from pool.imap_unordered(partial(_run_chunk_in_worker, exp, traces=traces),
-                                       _chunks(trials, size))
+        results = pool.imap_unordered(partial(_run_chunk_in_worker, exp, traces=traces),
+                                      _chunks(trials, size))
+        while True:
+            try:
+                chunk = results.next(timeout=0.25)
+            except StopIteration:
+                break
+            except mp.TimeoutError:
+                dead = [p for p in procs if p.exitcode is not None]
+                if dead:
+                    raise _died(exp, dead[0], now, pids) from None
+                continue
+            yield chunk
         pool.close()
     finally:
         pool.terminate()
         pool.join()
+
+
+def _died(exp: Experiment, proc, now, pids) -> UserError:
+    """The error of a worker process that died (a crash in a kernel, a filter that ended its
+    process), naming what it was running."""
+    what = ""
+    for slot, pid in enumerate(pids):
+        if pid == proc.pid:
+            what = _running_text(exp, [tuple(now[2 * slot:2 * slot + 2])])
+    return UserError(f"a worker process ended ({_signal_name(proc.exitcode)}) while running "
+                     f"{what or 'a trial'}; the trials finished before it are kept (--resume "
+                     "continues)")
 
 
 class LocalExecutor:

@@ -185,3 +185,34 @@ def test_each_optional_output_is_optional_on_its_own(subset, monkeypatch, write_
         assert (row[col] == want[col]) if out in subset else math.isnan(row[col]), (out, row)
     assert row["underflow_steps"] == (4.0 if "underflow_steps" in subset else 0.0)
     assert row["lik_evals_per_step"] == 2.0
+
+
+def _dies(how):
+    calls = [0]
+
+    def run(model, y, params, particles, state, diag=True):
+        import os
+        import signal
+        calls[0] += 1
+        if calls[0] == 2:           # in trial 1 of a one-worker run
+            if how == "exit":
+                os._exit(7)
+            import faulthandler
+            faulthandler.disable()          # pytest's: no dump of this deliberate crash
+            os.kill(os.getpid(), signal.SIGSEGV)
+        return {"xhat": np.zeros(y.size), "lik_evals_per_step": 1.0}
+    return run
+
+
+@pytest.mark.parametrize("how,said", [("exit", "exit status 7"), ("crash", "killed by SIGSEGV")])
+def test_a_filter_that_ends_its_process_is_named_and_the_finished_trials_kept(
+        how, said, monkeypatch, write_config, tmp_path):
+    _register(monkeypatch, "doomed", _dies(how))
+    exp = load(write_config(BASE + "  d: {type: doomed}\n"))
+    with pytest.raises(UserError) as info:
+        run_experiment(exp, tmp_path / "o")
+    text = str(info.value)
+    assert f"a worker process ended ({said}) while running filter run 'd' (type doomed), " \
+           "trial 1" in text, text
+    kept = set(pd.read_csv(tmp_path / "o" / "trials.partial.csv")["trial"])
+    assert 0 in kept and 1 not in kept
