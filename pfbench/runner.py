@@ -249,15 +249,58 @@ def _run_chunk(exp: Experiment, trials: list[int], traces: bool = False) -> list
     return [trial_result(exp, k, traces) for k in trials]
 
 
-def _run_chunk_in_worker(exp: Experiment, trials: list[int], traces: bool = False) -> list[Trial]:
-    """_run_chunk in a pool worker, where SIGINT is ignored: a KeyboardInterrupt or SystemExit
-    there is a filter's own, and would end the worker and leave its trials to wait for ever; it
-    comes back as a UserError naming what ran."""
+def _run_chunk_in_worker(exp: Experiment, trials: list[int], traces: bool = False
+                         ) -> tuple[list[Trial], frozenset | None]:
+    """_run_chunk in a pool worker, with the kernels the worker has built when they are more
+    than it last said (else None; see _preload). SIGINT is ignored there: a KeyboardInterrupt or
+    SystemExit is a filter's own, and would end the worker and leave its trials to wait for
+    ever; it comes back as a UserError naming what ran."""
+    global _SAID
     try:
-        return _run_chunk(exp, trials, traces)
+        done = _run_chunk(exp, trials, traces)
     except (KeyboardInterrupt, SystemExit) as exc:
         what = _running_text(exp, [_now()]) or f"a trial of {exp.name}"
         raise UserError(f"{what} raised {_exception_text(exc)}") from None
+    built = frozenset(key for key, k in _kernels() if k.built)
+    news = built if built != _SAID else None
+    _SAID = built
+    return done, news
+
+
+# ---------------------------------------------------------------- kernels the children built
+
+# The kernels (module, name) a pool worker of this process built (compiled or loaded from the
+# disk cache): this process builds them before it forks the next pool, whose workers then start
+# with them. A run's workers never hand their kernels back to the process that forked them, so
+# without this every run of a sweep, of `tables` or of the API in one process would load its
+# kernels again.
+_CHILD_KERNELS: set[tuple[str, str]] = set()
+_SAID: frozenset = frozenset()
+_KERNELS: list | None = None
+
+
+def _kernels() -> list:
+    """[((module, name), kernel)] of the numba kernels (pfbench._lazy) of pfbench's modules
+    imported in this process (found once)."""
+    global _KERNELS
+    if _KERNELS is None:
+        from ._lazy import LazyKernel
+        _KERNELS = [((name, attr), v) for name, mod in list(sys.modules.items())
+                    if mod is not None and (name == "pfbench" or name.startswith("pfbench."))
+                    for attr, v in list(vars(mod).items()) if isinstance(v, LazyKernel)]
+    return _KERNELS
+
+
+def _preload() -> None:
+    """Build here the kernels the workers of earlier runs built (_CHILD_KERNELS): loaded from
+    the disk cache they were saved to."""
+    for module, name in sorted(_CHILD_KERNELS):
+        kernel = getattr(sys.modules.get(module), name, None)
+        if kernel is not None and not kernel.built:
+            try:
+                kernel.dispatcher
+            except Exception:       # a worker's failure stays the worker's
+                pass
 
 
 # ---------------------------------------------------------------- what runs now
@@ -371,6 +414,7 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
     import multiprocessing as mp
     ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
     size = 1 if workers == 1 else max(1, min(25, math.ceil(count / (workers * 6))))
+    _preload()
     slots = 2 * workers
     now, pids = ctx.RawArray("q", [-1] * (2 * slots)), ctx.RawArray("q", [0] * slots)
     taken = ctx.Value("q", 0)
@@ -383,7 +427,7 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
                                       _chunks(trials, size))
         while True:
             try:
-                chunk = results.next(timeout=0.25)
+                chunk, built = results.next(timeout=0.25)
             except StopIteration:
                 break
             except mp.TimeoutError:
@@ -391,6 +435,8 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
                 if dead:
                     raise _died(exp, dead[0], now, pids) from None
                 continue
+            if built:
+                _CHILD_KERNELS.update(built)
             yield chunk
         pool.close()
     finally:
