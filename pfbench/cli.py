@@ -206,7 +206,7 @@ def _stop_on_interrupt(bar, before: str = "", after: str = ""):
         yield
     except Interrupted as exc:
         bar.stop()
-        err.print(f"pfbench: {before}{exc}{after}", markup=False)
+        err.print(f"pfbench: {before}{exc}{after}", markup=False, soft_wrap=True)
         raise typer.Exit(130) from None
 
 

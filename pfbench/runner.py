@@ -633,9 +633,9 @@ class Interrupted(Exception):
 
     def __init__(self, done: int, total: int, path: Path, running: str = ""):
         self.done, self.total, self.path, self.running = done, total, path, running
-        while_ = f" (running: {running})" if running else ""
-        super().__init__(f"interrupted{while_}: {done} of {total} trials saved in {path}; "
-                         "run again with --resume to continue")
+        what = f" (it was running: {running})" if running else ""
+        super().__init__(f"interrupted: {done} of {total} trials saved in {path}; "
+                         f"run again with --resume to continue{what}")
 
 
 @dataclass
@@ -682,6 +682,9 @@ def difference(old: dict, exp: Experiment) -> str:
 def _identity_difference(ident: dict, old: dict, exp: Experiment) -> str:
     new = exp.identity
     out = []
+    if ident.get("streams") != new["streams"]:
+        out.append("random streams drawn by another pfbench (its trials cannot be this "
+                   "one's)")
     for key in ("seed", "scenario"):
         if ident.get(key) != new[key]:
             out.append(f"{key} {ident.get(key)} -> {new[key]}")

@@ -83,7 +83,7 @@ def test_ctrl_c_in_a_long_kernel_stops_the_run_at_once_naming_what_ran(tmp_path)
             proc.wait()
     assert proc.returncode == 130, output
     assert "Traceback" not in output
-    assert "running: filter run 'stuck' (type stuck), trial 2" in output, output
+    assert "(it was running: filter run 'stuck' (type stuck), trial 2)" in output, output
     assert "2 of 5 trials saved" in output and "--resume" in output, output
     kept = pd.read_csv(partial)
     assert sorted(set(kept["trial"])) == [0, 1]

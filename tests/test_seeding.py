@@ -84,3 +84,26 @@ def test_a_runs_stream_depends_on_its_key_not_on_order_or_company(write_config):
         a = {r["filter"]: r["rmse"] for r in run_trial(exp, k)}
         b = {r["filter"]: r["rmse"] for r in run_trial(flipped, k)}
         assert a["plumless@30"] == b["plumless@30"] and a["buckeroo@30"] == b["buckeroo@30"]
+
+
+def test_a_folder_of_trials_drawn_by_the_older_streams_is_not_taken_for_this_experiment(
+        tmp_path, write_config):
+    """A results folder from before the streams changed holds the same seed, scenario and filters
+    but other numbers: it is refused (and never resumed into), naming why."""
+    import hashlib as hl
+    import json
+
+    from pfbench.errors import UserError
+    from pfbench.runner import run_experiment
+    exp = load(write_config(TWINS))
+    out = tmp_path / "old"
+    run_experiment(exp, out)
+    meta = json.loads((out / "meta.json").read_text())
+    ident = {k: v for k, v in meta["identity"].items() if k != "streams"}   # as older ones
+    meta["identity"] = ident
+    meta["experiment_hash"] = hl.sha256(json.dumps(ident, sort_keys=True).encode()).hexdigest()[:16]
+    (out / "meta.json").write_text(json.dumps(meta))
+    with pytest.raises(UserError, match="random streams drawn by another pfbench"):
+        run_experiment(exp, out)
+    with pytest.raises(UserError, match="different experiment"):
+        run_experiment(exp, out, resume=True)
