@@ -82,41 +82,49 @@ def trial_data(exp: Experiment, trial: int):
     return model, truth, data
 
 
-def fresh(value):
+def fresh(value, _memo: dict | None = None):
     """A copy of ``value`` that shares no array with it: numpy arrays copied, and the lists,
-    tuples, dicts, dataclasses and plain objects holding them rebuilt around the copies; functions,
-    kernels and immutable values are shared. What a filter run gets, so that one that writes into
-    its inputs (the measurements, the model's parameters) changes nothing another run sees."""
+    tuples, dicts, dataclasses and plain objects holding them rebuilt around the copies (an
+    object met twice is copied once); functions, kernels and immutable values are shared. What a
+    filter run gets, so that one that writes into its inputs (the measurements, the model's
+    parameters) changes nothing another run sees."""
+    if value is None or isinstance(value, (str, bytes, int, float, complex, bool, np.generic,
+                                           type, set, frozenset, types.ModuleType)):
+        return value
     if isinstance(value, np.ndarray):
         return value.copy()
-    if value is None or isinstance(value, (str, bytes, int, float, complex, bool, np.generic,
-                                           type)) or callable(value):
+    if callable(value):                 # a function, a kernel
         return value
+    memo = {} if _memo is None else _memo
+    if id(value) in memo:
+        return memo[id(value)]
     if isinstance(value, list):
-        return [fresh(v) for v in value]
+        memo[id(value)] = out = []
+        out.extend(fresh(v, memo) for v in value)
+        return out
     if isinstance(value, tuple):
-        items = [fresh(v) for v in value]
+        items = [fresh(v, memo) for v in value]
         if hasattr(value, "_fields"):            # a named tuple
-            return type(value)(*items)
-        return tuple(items) if type(value) is tuple else type(value)(items)
-    if isinstance(value, dict):
-        copied = copy.copy(value)
+            out = type(value)(*items)
+        else:
+            out = tuple(items) if type(value) is tuple else type(value)(items)
+    elif isinstance(value, dict):
+        memo[id(value)] = out = copy.copy(value)
         for k, v in value.items():
-            copied[k] = fresh(v)
-        return copied
-    if isinstance(value, Params):
-        return Params({k: fresh(v) for k, v in value.items()})
-    if isinstance(value, (set, frozenset, types.ModuleType)):
-        return value
-    if dataclasses.is_dataclass(value) or hasattr(value, "__dict__"):
+            out[k] = fresh(v, memo)
+    elif isinstance(value, Params):
+        out = Params({k: fresh(v, memo) for k, v in value.items()})
+    elif dataclasses.is_dataclass(value) or hasattr(value, "__dict__"):
         try:
-            copied = copy.copy(value)
+            memo[id(value)] = out = copy.copy(value)
             for k, v in vars(value).items():
-                object.__setattr__(copied, k, fresh(v))
+                object.__setattr__(out, k, fresh(v, memo))
         except Exception:       # an object that will not be copied: shared as it is
-            return value
-        return copied
-    return value
+            out = value
+    else:
+        out = value
+    memo[id(value)] = out
+    return out
 
 
 class FilterError(UserError):
@@ -323,7 +331,7 @@ def _now() -> tuple[int, int]:
 
 
 def _running_text(exp: Experiment, marks) -> str:
-    """'filter run KEY (type ...), trial K' (or 'the data of trial K') for each [trial, index]
+    """'filter run KEY (type ...), trial K' (or 'the simulation of trial K') for each [trial, index]
     of ``marks`` that runs something, '; '-joined."""
     out = []
     for trial, index in marks:

@@ -216,3 +216,26 @@ def test_a_filter_that_ends_its_process_is_named_and_the_finished_trials_kept(
            "trial 1" in text, text
     kept = set(pd.read_csv(tmp_path / "o" / "trials.partial.csv")["trial"])
     assert 0 in kept and 1 not in kept
+
+
+def test_a_runs_copy_shares_no_array_whatever_holds_them():
+    """Plug-in models and data come in many shapes: plain objects, named tuples, nested
+    containers, objects that refer to themselves."""
+    import types
+    from collections import namedtuple
+
+    from pfbench.runner import fresh
+
+    Data = namedtuple("Data", "y extra")
+    model = types.SimpleNamespace(theta=np.arange(3.0), parts={"a": [np.ones(2)]},
+                                  f=np.cumsum)
+    model.me = model                                    # a cycle
+    data = Data(np.zeros(4), (np.ones(1), "text"))
+    m2, d2 = fresh(model), fresh(data)
+    m2.theta[:] = 9
+    m2.parts["a"][0][:] = 9
+    d2.y[:] = 9
+    d2.extra[0][:] = 9
+    assert model.theta.tolist() == [0.0, 1.0, 2.0] and model.parts["a"][0].tolist() == [1, 1]
+    assert data.y.tolist() == [0, 0, 0, 0] and data.extra[0].tolist() == [1.0]
+    assert m2.me is m2 and m2.f is np.cumsum and isinstance(d2, Data)
