@@ -4,6 +4,7 @@ optional output is optional on its own."""
 from __future__ import annotations
 
 import itertools
+import re
 import math
 
 import numpy as np
@@ -239,3 +240,57 @@ def test_a_runs_copy_shares_no_array_whatever_holds_them():
     assert model.theta.tolist() == [0.0, 1.0, 2.0] and model.parts["a"][0].tolist() == [1, 1]
     assert data.y.tolist() == [0, 0, 0, 0] and data.extra[0].tolist() == [1.0]
     assert m2.me is m2 and m2.f is np.cumsum and isinstance(d2, Data)
+
+
+def _pose_world(T=10, M=4, K=3):
+    import types
+    pose = np.zeros((T + 1, 3))
+    pose[:, 0] = np.linspace(1, 2, T + 1)
+    model = types.SimpleNamespace(landmarks=np.ones((M, 2)), bound=1.0,
+                                  kidnaps=np.zeros(0, np.int64), score_from=1, report_step=0,
+                                  area=np.array([10.0, 10.0]), hold=2)
+    truth = types.SimpleNamespace(pose=pose)
+    data = types.SimpleNamespace(obs_n=np.zeros(K, np.int64), ctrl=np.zeros((T, 3)))
+    return model, truth, data
+
+
+SLAM_OPTIONAL = ("ess", "resampled", "div_l1", "distinct", "lm_trace", "underflow_steps",
+                 "association_errors", "dropped_frac", "map_duplicates")
+
+
+@pytest.mark.parametrize("kind", ["slam", "localization"])
+def test_pose_kinds_check_outputs_and_take_each_optional_one_alone(kind):
+    from pfbench.kinds import KINDS, check_outputs
+    k = KINDS[kind]
+    model, truth, data = _pose_world()
+    T1, K = truth.pose.shape[0], data.obs_n.shape[0]
+    base = {"pose": truth.pose + 0.1, "lik_evals_per_step": 3.0}
+    n = K if kind == "slam" else T1 - 1
+    full = {"ess": np.full(n, 4.0), "resampled": np.ones(n, np.int64), "n": np.full(n, 7),
+            "div_l1": np.full(n, 0.5), "distinct": np.full(n, 0.5), "lm_trace": np.ones(n),
+            "underflow_steps": 1, "association_errors": 0.1, "dropped_frac": 0.2,
+            "map_duplicates": 2}
+    if kind == "slam":
+        base.update(lm_est=np.ones((4, 2)), lm_seen=np.ones(4, bool))
+        optional = SLAM_OPTIONAL
+    else:
+        optional = ("ess", "resampled", "n", "underflow_steps")
+    for r in range(len(optional) + 1):
+        for subset in itertools.combinations(optional, r):
+            out = check_outputs(k, {**base, **{o: full[o] for o in subset}}, model, truth, data)
+            row = k.row(model, truth, out)
+            assert math.isnan(row["mean_ess"]) == ("ess" not in subset), subset
+            assert math.isnan(row["resample_count"]) == ("resampled" not in subset), subset
+            assert math.isfinite(row["rmse"])
+    for bad, said in ((("pose", np.zeros((T1, 2))), f"expected ({T1}, 3)"),
+                      (("ess", np.ones(n + 1)), f"expected ({n},)"),
+                      (("lik_evals_per_step", math.nan), "finite number"),
+                      (("underflow_steps", None), "finite number")):
+        with pytest.raises(ValueError, match=re.escape(said)):
+            check_outputs(k, {**base, bad[0]: bad[1]}, model, truth, data)
+    with pytest.raises(ValueError, match="no 'pose'"):
+        check_outputs(k, {"lik_evals_per_step": 1.0}, model, truth, data)
+    if kind == "slam":
+        said = "'lm_est' has shape (3, 2), expected (4, 2)"
+        with pytest.raises(ValueError, match=re.escape(said)):
+            check_outputs(k, {**base, "lm_est": np.ones((3, 2))}, model, truth, data)
