@@ -724,7 +724,7 @@ def list_(configs: Path = typer.Option(Path("configs"), "--configs",
 def _check_contract(configs: Path, executor: str, workers: int, scheduler: str | None,
                     timeout: float = 600.0) -> None:
     import time
-    from .contract import check_all
+    from .contract import ProbeInterrupted, check_all
     if not configs.is_dir():
         raise UserError(f"--configs {configs}: no such folder (the contract's scenarios read "
                         "their world files from it, as configs/ of pfbench's repository)")
@@ -735,8 +735,13 @@ def _check_contract(configs: Path, executor: str, workers: int, scheduler: str |
     with ex_cm as ex:
         with _bar() as bar:
             task = bar.add_task("contract", total=None)
-            n, problems = check_all(configs, ex, lambda done, total: bar.update(
-                task, completed=done, total=total), timeout)
+            try:
+                n, problems = check_all(configs, ex, lambda done, total: bar.update(
+                    task, completed=done, total=total), timeout)
+            except ProbeInterrupted as exc:
+                bar.stop()
+                err.print(f"pfbench: {exc}", markup=False, soft_wrap=True)
+                raise typer.Exit(130) from None
         where = f", and under {ex.describe()}" if ex is not None else ""
     for p in problems:
         err.print(f"pfbench: contract: {p}", markup=False)

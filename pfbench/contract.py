@@ -167,6 +167,10 @@ def check_probe(probe: Probe, configs: Path) -> tuple[list[str], object, list[di
     return problems, exp, rows
 
 
+class ProbeInterrupted(Exception):
+    """Ctrl-C during the contract: which probe was running."""
+
+
 def _probe_child(conn, probe: Probe, configs: Path) -> None:
     """check_probe in a child process: its problems and rows go back through ``conn``."""
     try:
@@ -228,7 +232,12 @@ def check_all(configs: Path = Path("configs"), executor=None, progress=None,
     found, problems = probes()
     done: list[tuple[Probe, object, list[dict]]] = []
     for i, probe in enumerate(found):
-        p, exp, rows = run_probe(probe, configs, timeout)
+        try:
+            p, exp, rows = run_probe(probe, configs, timeout)
+        except KeyboardInterrupt:
+            raise ProbeInterrupted(f"interrupted in the probe {probe.filter} on "
+                                   f"{probe.scenario} ({' and '.join(probe.subjects)}); {i} of "
+                                   f"{len(found)} probes done") from None
         problems += p
         if exp is not None and not p:
             done.append((probe, exp, rows))

@@ -124,3 +124,48 @@ def test_list_check_refuses_a_bad_probe_timeout():
         line = one_line_exit_2(CliRunner().invoke(app, ["list", "--check", "--probe-timeout",
                                                         bad]))
         assert "--probe-timeout" in line
+
+
+CHECK_SCRIPT = """
+import os, sys, time
+import numpy as np
+from pfbench import contract
+from pfbench.filters import FILTERS, FilterType
+
+def run(model, y, params, particles, state, diag=True):
+    open(os.environ["MARK"], "w").close()
+    time.sleep(3600)
+
+FILTERS["sleeper"] = FilterType("sleeper", "never returns", {}, run, particles=False)
+contract.probes = lambda: ([contract.Probe("sleeper", "ungm", ["filter sleeper"])], [])
+from pfbench.cli import main
+sys.argv = ["pfbench", *sys.argv[1:]]
+main()
+"""
+
+
+def test_ctrl_c_in_list_check_names_the_probe_and_exits_130(tmp_path):
+    script = tmp_path / "check.py"
+    script.write_text(CHECK_SCRIPT)
+    proc = subprocess.Popen([sys.executable, str(script), "list", "--check", "--configs",
+                             str(ROOT / "configs")], stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, start_new_session=True,
+                            env={**os.environ, "PYTHONPATH": str(ROOT),
+                                 "MARK": str(tmp_path / "sleeping")},
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    try:
+        deadline = time.monotonic() + 300
+        while not (tmp_path / "sleeping").exists() and time.monotonic() < deadline:
+            assert proc.poll() is None, proc.communicate()[0]
+            time.sleep(0.05)
+        assert proc.poll() is None, proc.communicate()[0]
+        os.killpg(proc.pid, signal.SIGINT)
+        output, _ = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 130, output
+    assert "Traceback" not in output
+    assert ("pfbench: interrupted in the probe sleeper on ungm (filter sleeper); 0 of 1 probes "
+            "done") in output, output
