@@ -135,6 +135,9 @@ class FilterError(UserError):
         super().__init__(message)
         self.cause = cause
 
+    def __reduce__(self):       # from a worker process: the message (a cause may not pickle)
+        return FilterError, (str(self),)
+
 
 def _package(group: str, name: str) -> str:
     """' (plug-in package PKG)' for a plug-in's filter or scenario; '' for pfbench's own."""
@@ -144,7 +147,10 @@ def _package(group: str, name: str) -> str:
 
 
 def _exception_text(exc: BaseException) -> str:
-    text = " ".join(str(exc).split())
+    try:
+        text = " ".join(str(exc).split())
+    except Exception:           # an exception that cannot say what it is
+        text = "(its message cannot be shown)"
     text = text if len(text) <= 300 else text[:297] + "..."
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 

@@ -294,3 +294,26 @@ def test_pose_kinds_check_outputs_and_take_each_optional_one_alone(kind):
         said = "'lm_est' has shape (3, 2), expected (4, 2)"
         with pytest.raises(ValueError, match=re.escape(said)):
             check_outputs(k, {**base, "lm_est": np.ones((3, 2))}, model, truth, data)
+
+
+class _Unpicklable(Exception):
+    def __init__(self):
+        super().__init__("a lock inside")
+        import threading
+        self.lock = threading.Lock()
+
+
+class _Unprintable(Exception):
+    def __str__(self):
+        raise RuntimeError("no")
+
+
+@pytest.mark.parametrize("exc,said", [(_Unpicklable(), "_Unpicklable: a lock inside"),
+                                      (_Unprintable(), "_Unprintable: (its message cannot")])
+def test_an_odd_exception_from_a_filter_is_still_one_line(exc, said, monkeypatch, write_config,
+                                                          tmp_path):
+    _register(monkeypatch, "odd", _raising(exc))
+    exp = load(write_config(BASE + "  o: {type: odd}\n"))
+    with pytest.raises(UserError) as info:
+        run_experiment(exp, tmp_path / "o")         # raised in a worker, sent back
+    assert "filter run 'o' (type odd), trial 0 raised " + said in str(info.value)
