@@ -4,11 +4,14 @@ numba keys a cached kernel on its own file's timestamp only; a kernel that inlin
 another module (a resampling scheme, the random generator) would keep stale code after that module
 changes. Keying the whole cache folder on a hash of the package's numba source files means an
 upgrade or an edit never meets a stale kernel. Must run before any ``@njit(cache=True)`` decorates.
+A cache folder that cannot be written is never an error (see ``configure``).
 """
 from __future__ import annotations
 
 import hashlib
 import os
+import sys
+import tempfile
 from pathlib import Path
 
 import numba
@@ -70,21 +73,102 @@ def _register_locator() -> None:
         classes.insert(0, _package_locator())
 
 
+def _usable(path: Path) -> str | None:
+    """None when ``path`` is (or can be made) a folder this process can write a file into, else
+    why not."""
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        tempfile.TemporaryFile(dir=path).close()
+    except OSError as exc:
+        return exc.strerror or type(exc).__name__
+    return None
+
+
+def _private_temp() -> Path | None:
+    """``<temp>/pfbench-<uid>/numba``: a folder of the temporary folder that only this user owns
+    and writes (a cached kernel is code: never one another user could have put there), or None."""
+    uid = os.getuid() if hasattr(os, "getuid") else 0
+    top = Path(tempfile.gettempdir()) / f"pfbench-{uid}"
+    try:
+        top.mkdir(mode=0o700, exist_ok=True)
+        st = top.lstat()
+        if (not top.is_dir() or top.is_symlink()
+                or (hasattr(os, "getuid") and (st.st_uid != uid or st.st_mode & 0o022))):
+            return None
+    except OSError:
+        return None
+    return top / "numba"
+
+
+def warn(message: str) -> None:
+    """One warning line on stderr (once per message and process)."""
+    if message not in _WARNED:
+        _WARNED.add(message)
+        sys.stderr.write(f"pfbench: warning: {message}\n")
+        sys.stderr.flush()
+
+
+_WARNED: set[str] = set()
+# False when no folder could hold the kernel cache: kernels compile in each process
+ENABLED = True
+
+
+def _guard_caching() -> None:
+    """Where numba finds no folder it can write a function's cache into (``cannot cache
+    function``), compile that function without its disk cache, with one warning line, rather than
+    fail; with the cache off (ENABLED False), every function compiles so."""
+    from numba.core.dispatcher import Dispatcher
+    if getattr(Dispatcher.enable_caching, "_pfbench_guard", False):
+        return
+    original = Dispatcher.enable_caching
+
+    def enable_caching(self):
+        if not ENABLED:
+            return
+        try:
+            original(self)
+        except (RuntimeError, OSError) as exc:
+            warn(f"numba cannot cache {getattr(self.py_func, '__qualname__', 'a function')} "
+                 f"({' '.join(str(exc).split())[:160]}); it compiles in each process (set "
+                 "NUMBA_CACHE_DIR to a writable folder)")
+
+    enable_caching._pfbench_guard = True
+    Dispatcher.enable_caching = enable_caching
+
+
 def configure(version: str) -> Path:
     """Set ``numba.config.CACHE_DIR`` to ``<base>/pfbench-<version>-<srchash>`` and return it.
 
     ``<base>`` is ``$NUMBA_CACHE_DIR`` if the user set one, else ``$XDG_CACHE_HOME`` (or
-    ``~/.cache``) ``/pfbench/numba``.
+    ``~/.cache``) ``/pfbench/numba``. When that folder cannot be created or written (a read-only
+    home, a file in the way), the cache goes to ``pfbench-<uid>/numba`` in the temporary folder,
+    and when that fails too, kernels compile without a disk cache; either way with one warning
+    line, never an error. The fallback is handed on to child processes through
+    ``NUMBA_CACHE_DIR``.
     """
+    global ENABLED
+    _guard_caching()
+    name = f"pfbench-{version}-{_source_hash()}"
     base = os.environ.get("NUMBA_CACHE_DIR")
+    what = "NUMBA_CACHE_DIR" if base else "the kernel cache"
     if not base:
-        base = os.path.join(os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"),
-                            "pfbench", "numba")
-    path = Path(base) / f"pfbench-{version}-{_source_hash()}"
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-    except OSError:  # read-only home: let numba fall back to its own locations
-        return Path(numba.config.CACHE_DIR or "")
+        home = os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache")
+        base = os.path.join(home, "pfbench", "numba")
+    path = Path(base) / name
+    why = _usable(path)
+    if why is not None:
+        temp = _private_temp()
+        if temp is not None and _usable(temp / name) is None:
+            warn(f"{what} {path}: {why}; kernels are cached in {temp} instead (set "
+                 "NUMBA_CACHE_DIR to choose a folder)")
+            os.environ["NUMBA_CACHE_DIR"] = str(temp)
+            path = temp / name
+        else:
+            warn(f"{what} {path}: {why}; kernels compile in each process without a disk cache "
+                 "(set NUMBA_CACHE_DIR to a writable folder)")
+            ENABLED = False
+            numba.config.CACHE_DIR = ""
+            return Path("")
     numba.config.CACHE_DIR = str(path)
     _register_locator()
     return path

@@ -206,7 +206,7 @@ def _stop_on_interrupt(bar, before: str = "", after: str = ""):
         yield
     except Interrupted as exc:
         bar.stop()
-        err.print(f"pfbench: {before}{exc}{after}", markup=False)
+        err.print(f"pfbench: {before}{exc}{after}", markup=False, soft_wrap=True)
         raise typer.Exit(130) from None
 
 
@@ -672,8 +672,16 @@ def list_(configs: Path = typer.Option(Path("configs"), "--configs",
           workers: int = typer.Option(1, "--workers", "-w", min=1, help="--check with "
                                       "--executor dask: workers of the local cluster."),
           scheduler: Optional[str] = typer.Option(None, "--scheduler", help="--check with "
-                                                  "--executor dask: a scheduler tcp://HOST:PORT.")):
+                                                  "--executor dask: a scheduler tcp://HOST:PORT."),
+          probe_timeout: float = typer.Option(600.0, "--probe-timeout", help="--check: seconds "
+                                              "each probe may take, its kernels' first "
+                                              "compilation included, before it is stopped and "
+                                              "reported as a problem naming its filter.")):
     """List scenarios, filters, resampling schemes and configs, one line each."""
+    import math
+    if not math.isfinite(probe_timeout) or probe_timeout <= 0:
+        with _guard():
+            raise UserError(f"--probe-timeout: expected a finite number > 0, got {probe_timeout}")
     _load_kernels()
     from . import plugins
     from .config import read_yaml
@@ -710,12 +718,13 @@ def list_(configs: Path = typer.Option(Path("configs"), "--configs",
         _warn(f"{problem}; left out")
     if check:
         with _guard():
-            _check_contract(configs, executor, workers, scheduler)
+            _check_contract(configs, executor, workers, scheduler, probe_timeout)
 
 
-def _check_contract(configs: Path, executor: str, workers: int, scheduler: str | None) -> None:
+def _check_contract(configs: Path, executor: str, workers: int, scheduler: str | None,
+                    timeout: float = 600.0) -> None:
     import time
-    from .contract import check_all
+    from .contract import ProbeInterrupted, check_all
     if not configs.is_dir():
         raise UserError(f"--configs {configs}: no such folder (the contract's scenarios read "
                         "their world files from it, as configs/ of pfbench's repository)")
@@ -726,8 +735,13 @@ def _check_contract(configs: Path, executor: str, workers: int, scheduler: str |
     with ex_cm as ex:
         with _bar() as bar:
             task = bar.add_task("contract", total=None)
-            n, problems = check_all(configs, ex, lambda done, total: bar.update(
-                task, completed=done, total=total))
+            try:
+                n, problems = check_all(configs, ex, lambda done, total: bar.update(
+                    task, completed=done, total=total), timeout)
+            except ProbeInterrupted as exc:
+                bar.stop()
+                err.print(f"pfbench: {exc}", markup=False, soft_wrap=True)
+                raise typer.Exit(130) from None
         where = f", and under {ex.describe()}" if ex is not None else ""
     for p in problems:
         err.print(f"pfbench: contract: {p}", markup=False)

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import math
 import warnings
-import zlib
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -159,8 +158,8 @@ def interval_method(q: Quantity) -> str:
 def _bootstrap(samples: tuple, statistic, value: float, seed: int, key: str) -> Estimate:
     """A BCa bootstrap estimate of statistic(*samples) (paired by trial when there are two
     samples; vectorised over the last axis), its value ``value``; seeded by the experiment's
-    seed and ``key``, so the same trials give the same interval. A sample too small or too
-    uniform to bootstrap keeps Student's t."""
+    seed and ``key`` (pfbench.seeding.keyed_seed), so the same trials give the same interval. A
+    sample too small or too uniform to bootstrap keeps Student's t."""
     samples = tuple(np.asarray(x, dtype=float) for x in samples)
     ok = np.logical_and.reduce([~np.isnan(x) for x in samples])
     samples = tuple(x[ok] for x in samples)
@@ -170,7 +169,8 @@ def _bootstrap(samples: tuple, statistic, value: float, seed: int, key: str) -> 
     if n < 3 or all(flat):
         return Estimate(value, 0.0 if n >= 2 else math.nan, n)
     from scipy import stats         # here, not at import: a run's first trial need not wait for it
-    rng = np.random.default_rng([seed, zlib.crc32(key.encode())])
+    from .seeding import keyed_seed
+    rng = np.random.default_rng(keyed_seed(seed, key))
     kw = dict(paired=len(samples) > 1, vectorized=True, method="BCa")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")     # a degenerate jackknife gives NaN: handled below

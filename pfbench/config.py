@@ -24,6 +24,9 @@ from .schema import ConfigError, Key, check_mapping, check_section, describe, di
 from .yamlio import parse_yaml, read_yaml  # noqa: F401  (read_yaml: part of this module's API)
 
 FORMAT_VERSION = 7   # 7: run times in timings.csv, not in trials.csv or meta.json
+# How filter runs' random streams derive from (seed, trial, key) (pfbench.seeding); part of an
+# experiment's identity, so trials drawn otherwise are never taken for this experiment's.
+STREAMS = "sha256-v2"
 
 
 class Params(Mapping):
@@ -98,7 +101,7 @@ class Experiment:
         """Everything a trial's rows depend on: seed, scenario, filters (not ``trials``), as
         JSON-ready values (meta.json keeps it, so that a run into the folder of another
         experiment can say what differs)."""
-        payload = {"seed": self.seed, "scenario": self.scenario,
+        payload = {"seed": self.seed, "streams": STREAMS, "scenario": self.scenario,
                    "scenario_params": dict(self.scenario_params),
                    "filters": [[f.key, f.type, f.label, f.particles, dict(f.params)]
                                for f in self.filters]}

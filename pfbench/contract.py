@@ -9,7 +9,11 @@ its kind; for each scenario, one with the first registered filter that runs on i
 - finite on its kind: the kind's headline metrics (``pfbench.kinds``) are finite numbers;
 - the scenario's truth and data are the same for the same seed;
 - what its kind keeps of a trial for the figures (pfbench.traces) is kept without an error;
-- under an executor (Dask): the rows are the in-process rows, bit for bit.
+- under an executor (Dask): the rows are the in-process rows, bit for bit;
+- in time: a probe that has not finished after ``timeout`` seconds (PROBE_SECONDS by default,
+  ``pfbench list --check --probe-timeout``) is stopped and reported, and the check goes on. Each
+  probe runs in a child process for that (where this platform can fork one), so a filter that never
+  returns, or crashes the interpreter, is named like any other problem.
 """
 from __future__ import annotations
 
@@ -25,6 +29,9 @@ TRIALS = (0, 1)
 SEED = 20261201
 STEPS = 30            # steps of a probe, where the scenario has a 'steps' key
 PARTICLES = 64
+# Seconds a probe may take, its kernels' first compilation included (minutes for the largest
+# with an empty kernel cache), before it counts as a filter that never finishes.
+PROBE_SECONDS = 600.0
 
 
 @dataclass
@@ -117,7 +124,7 @@ def check_probe(probe: Probe, configs: Path) -> tuple[list[str], object, list[di
     """Run one probe in this process: (problems, experiment, its rows)."""
     from .kinds import kind_of
     from .rng import state_from_seed
-    from .runner import data_seed, run_trial, trial_data, trial_result
+    from .runner import FilterError, data_seed, run_trial, trial_data, trial_result
     from .scenarios import SCENARIOS
     who = " and ".join(probe.subjects)
     where = f"{probe.filter} on {probe.scenario}"
@@ -148,20 +155,89 @@ def check_probe(probe: Probe, configs: Path) -> tuple[list[str], object, list[di
                     problems.append(f"{who}: {where}, trial {k}: {m} is {v!r}, expected a "
                                     f"finite number on a {kind.name} scenario")
             rows += first
+    except FilterError as exc:  # the filter's own error, or a malformed output
+        if exc.cause is not None:
+            problems.append(f"{who}: {where} raised {type(exc.cause).__name__}: "
+                            f"{' '.join(str(exc.cause).split())}")
+        else:
+            problems.append(f"{who}: {where}: {exc}")
     except Exception as exc:    # a plug-in's error is reported, not raised
         problems.append(f"{who}: {where} raised {type(exc).__name__}: "
                         f"{' '.join(str(exc).split())}")
     return problems, exp, rows
 
 
-def check_all(configs: Path = Path("configs"), executor=None, progress=None) -> tuple[int, list[str]]:
+class ProbeInterrupted(Exception):
+    """Ctrl-C during the contract: which probe was running."""
+
+
+def _probe_child(conn, probe: Probe, configs: Path) -> None:
+    """check_probe in a child process: its problems and rows go back through ``conn``."""
+    try:
+        problems, _, rows = check_probe(probe, configs)
+        conn.send((problems, rows))
+    except BaseException as exc:    # noqa: BLE001 (a plug-in's exit or interrupt is a problem too)
+        conn.send(([f"{' and '.join(probe.subjects)}: {probe.filter} on {probe.scenario} raised "
+                    f"{type(exc).__name__}: {' '.join(str(exc).split())}"], []))
+    finally:
+        conn.close()
+
+
+def run_probe(probe: Probe, configs: Path, timeout: float | None = PROBE_SECONDS
+              ) -> tuple[list[str], object, list[dict]]:
+    """check_probe with a time limit: in a child process stopped after ``timeout`` seconds (a
+    problem naming the probe's filter and scenario). ``timeout`` None, or a platform that cannot
+    fork: in this process, without a limit."""
+    import multiprocessing as mp
+    if timeout is None or "fork" not in mp.get_all_start_methods() or mp.current_process().daemon:
+        return check_probe(probe, configs)
+    try:
+        exp = experiment(probe, configs)
+    except UserError as exc:
+        return [f"{' and '.join(probe.subjects)}: the probe {probe.filter} on {probe.scenario} "
+                f"does not validate: {exc}"], None, []
+    ctx = mp.get_context("fork")
+    mine, theirs = ctx.Pipe(duplex=False)
+    child = ctx.Process(target=_probe_child, args=(theirs, probe, configs), daemon=True)
+    child.start()
+    theirs.close()
+    who, where = " and ".join(probe.subjects), f"{probe.filter} on {probe.scenario}"
+    try:
+        if mine.poll(timeout):
+            try:
+                problems, rows = mine.recv()
+                return problems, exp, rows
+            except (EOFError, OSError):
+                pass
+            child.join(5)
+            return [f"{who}: {where} ended the process that ran it (exit code "
+                    f"{child.exitcode})"], exp, []
+        return [f"{who}: {where} did not finish within {timeout:g} s (--probe-timeout); "
+                "stopped"], exp, []
+    finally:
+        mine.close()
+        if child.is_alive():
+            child.terminate()
+            child.join(5)
+            if child.is_alive():
+                child.kill()
+                child.join()
+
+
+def check_all(configs: Path = Path("configs"), executor=None, progress=None,
+              timeout: float | None = PROBE_SECONDS) -> tuple[int, list[str]]:
     """Run the contract over every registered filter and scenario: (probes run, problems).
     ``executor`` (a runner executor, such as Dask's): the probes' trials are run there too and
-    compared with this process's rows."""
+    compared with this process's rows. ``timeout``: seconds each probe may take (run_probe)."""
     found, problems = probes()
     done: list[tuple[Probe, object, list[dict]]] = []
     for i, probe in enumerate(found):
-        p, exp, rows = check_probe(probe, configs)
+        try:
+            p, exp, rows = run_probe(probe, configs, timeout)
+        except KeyboardInterrupt:
+            raise ProbeInterrupted(f"interrupted in the probe {probe.filter} on "
+                                   f"{probe.scenario} ({' and '.join(probe.subjects)}); {i} of "
+                                   f"{len(found)} probes done") from None
         problems += p
         if exp is not None and not p:
             done.append((probe, exp, rows))

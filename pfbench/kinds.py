@@ -5,20 +5,33 @@ A scenario declares its kind (``KIND = "scalar"``) and a filter the kind it runs
 filter's output must hold and how a trial is scored:
 
 - ``scalar``: a one-dimensional state. ``simulate`` gives (x (T+1,), y (T+1,)); a filter returns
-  ``xhat`` (T+1,), the posterior mean, and ``lik_evals_per_step``.
+  ``xhat`` (T+1,), the posterior mean, and ``lik_evals_per_step``; optionally ``ess``,
+  ``resampled``, ``div_l1``, ``distinct`` (T+1,) and ``underflow_steps``.
 - ``slam``: a robot's pose (x, y, heading) and a landmark map. The truth has ``pose`` (T+1, 3); a
-  filter returns ``pose`` (T+1, 3), ``lm_est`` (M, 2), ``lm_seen`` (M,), ``ess`` and
-  ``resampled`` per observation.
+  filter returns ``pose`` (T+1, 3), ``lm_est`` (M, 2), ``lm_seen`` (M,), ``lik_evals_per_step``;
+  optionally ``ess``, ``resampled``, ``div_l1``, ``distinct``, ``lm_trace`` per observation (K,)
+  and the counts ``underflow_steps``, ``association_errors``, ``dropped_frac``,
+  ``map_duplicates``.
 - ``localization``: a robot's pose on a known map, with convergence and kidnapping. A filter
-  returns ``pose`` (T+1, 3), ``ess`` (T,), ``resampled`` (T,), optionally ``n`` (T,).
+  returns ``pose`` (T+1, 3) and ``lik_evals_per_step``; optionally ``ess``, ``resampled``, ``n``
+  (T,) and ``underflow_steps``.
+
+Each optional output is optional on its own: a metric whose output is missing is NaN. What a
+filter run returns is checked against its kind's ``outputs`` (``check_outputs``) before it is
+scored: a mapping, each output of its shape, real numbers, each count a finite number >= 0.
 
 Nothing here branches on a kind's name: the runner, the memory estimate, the figures and the
 contract ask the kind.
 """
 from __future__ import annotations
 
+import math
+import numbers
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Callable
+
+import numpy as np
 
 from .metrics import (CONVERGE_HOLD_STEPS, METRICS, localization_metrics, slam_metrics,
                       trial_metrics)
@@ -48,6 +61,8 @@ class Kind:
     figures : the name of the function of pfbench.plots that draws an experiment of this kind
         (exp, rows, traces, folder) -> paths, or None
     tracer : what a trial keeps for those figures while it runs (pfbench.traces), or None
+    outputs(model, truth, data) -> {name: (shape, required)}: what a filter run returns; shape
+        a tuple of sizes (None: any size) for an array, COUNT for a number (check_outputs)
 
     A trials file of the kind has the columns ``columns``: the trial, the filter run, its
     ``metrics`` (in the order of pfbench.metrics.METRICS) and the row's checksum.
@@ -63,6 +78,7 @@ class Kind:
     step_floats: Callable
     figures: str | None = None
     tracer: object | None = None
+    outputs: Callable | None = None
 
     def __post_init__(self):
         unknown = [m for m in self.metrics if m not in METRICS]
@@ -86,6 +102,97 @@ def _slam_particle_floats(params, scen: dict) -> int:
     return 16 + 12 * max(int(m), 1) * 2
 
 
+# An output that is one number (a count or a fraction): finite and >= 0.
+COUNT = "count"
+
+
+def _size(obj, name: str, axis: int = 0):
+    """The size of axis ``axis`` of the array ``obj.name`` (None when it has none)."""
+    a = getattr(obj, name, None)
+    shape = getattr(a, "shape", None)
+    return shape[axis] if shape is not None and len(shape) > axis else None
+
+
+def _scalar_outputs(model, truth, data) -> dict:
+    T1 = len(truth)
+    return {"xhat": ((T1,), True), "lik_evals_per_step": (COUNT, True),
+            "ess": ((T1,), False), "resampled": ((T1,), False), "div_l1": ((T1,), False),
+            "distinct": ((T1,), False), "underflow_steps": (COUNT, False)}
+
+
+def _slam_outputs(model, truth, data) -> dict:
+    T1, M, K = _size(truth, "pose"), _size(model, "landmarks"), _size(data, "obs_n")
+    out = {"pose": ((T1, 3), True), "lm_est": ((M, 2), True), "lm_seen": ((M,), True),
+           "lik_evals_per_step": (COUNT, True)}
+    out.update({k: ((K,), False) for k in ("ess", "resampled", "div_l1", "distinct",
+                                           "lm_trace")})
+    out.update({k: (COUNT, False) for k in ("underflow_steps", "association_errors",
+                                            "dropped_frac", "map_duplicates")})
+    return out
+
+
+def _localization_outputs(model, truth, data) -> dict:
+    T1 = _size(truth, "pose")
+    T = None if T1 is None else T1 - 1
+    return {"pose": ((T1, 3), True), "lik_evals_per_step": (COUNT, True),
+            "ess": ((T,), False), "resampled": ((T,), False), "n": ((T,), False),
+            "underflow_steps": (COUNT, False)}
+
+
+def _shape_text(shape) -> str:
+    return "(" + ", ".join("any" if n is None else str(n) for n in shape) + ("," if len(shape) == 1
+                                                                          else "") + ")"
+
+
+def _what(v) -> str:
+    """A short description of a value that is not what was expected."""
+    if isinstance(v, np.ndarray):
+        return f"an array of shape {v.shape} and dtype {v.dtype}"
+    text = repr(v)
+    return f"{type(v).__name__} {text if len(text) <= 40 else text[:37] + '...'}"
+
+
+def check_outputs(kind: Kind, out, model, truth, data) -> dict:
+    """``out``, a filter run's outputs, checked against ``kind.outputs``: the outputs it names as
+    numpy arrays (or floats, for counts), the others as they came. A ValueError says in one line
+    what was expected and what came."""
+    spec = kind.outputs(model, truth, data)
+    if not isinstance(out, Mapping):
+        needed = ", ".join(k for k, (_, required) in spec.items() if required)
+        raise ValueError(f"returned {_what(out)}, expected a dict of outputs ({needed}, ...)")
+    clean = dict(out)
+    for name, (shape, required) in spec.items():
+        if name not in out:
+            if required:
+                raise ValueError(f"returned no '{name}' (its outputs: "
+                                 f"{', '.join(map(str, out)) or 'none'})")
+            continue
+        v = out[name]
+        if shape == COUNT:
+            if isinstance(v, np.ndarray) and v.shape == ():
+                v = v[()]
+            try:
+                ok = (isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_))
+                      and math.isfinite(float(v)) and float(v) >= 0)
+            except (TypeError, ValueError, OverflowError):
+                ok = False
+            if not ok:
+                raise ValueError(f"'{name}' is {_what(v)}, expected a finite number >= 0")
+            clean[name] = float(v)
+            continue
+        try:
+            a = np.asarray(v)
+        except Exception:       # a ragged list, an object that is no array
+            a = None
+        if a is None or a.dtype.kind not in "biuf":
+            raise ValueError(f"'{name}' is {_what(v)}, expected an array of real numbers of "
+                             f"shape {_shape_text(shape)}")
+        if a.ndim != len(shape) or any(n is not None and n != m for n, m in zip(shape, a.shape)):
+            raise ValueError(f"'{name}' has shape {a.shape}, expected {_shape_text(shape)}")
+        clean[name] = a
+    return clean
+
+
 SCALAR = Kind(
     "scalar", "a one-dimensional state-space model x_t = f(x_{t-1}, t) + w_t, y_t = h(x_t, t) + v_t",
     metrics=("rmse", "mse", "diversity_l1", "distinct_frac") + _DIAGNOSTICS,
@@ -93,7 +200,8 @@ SCALAR = Kind(
     score=lambda model, truth, out: trial_metrics(truth, out),
     unit="",
     particle_floats=lambda params, scen: 24,
-    step_floats=lambda scen: 8)
+    step_floats=lambda scen: 8,
+    outputs=_scalar_outputs)
 
 SLAM = Kind(
     "slam", "a robot's pose and a map of point landmarks, estimated together",
@@ -105,7 +213,7 @@ SLAM = Kind(
     unit="m",
     particle_floats=_slam_particle_floats,
     step_floats=lambda scen: 16 + 3 * len(scen.get("landmarks", ())),
-    figures="slam_figures", tracer=SlamTracer())
+    figures="slam_figures", tracer=SlamTracer(), outputs=_slam_outputs)
 
 LOCALIZATION = Kind(
     "localization", "a robot's pose on a known map: global localization, tracking and kidnapping",
@@ -119,7 +227,8 @@ LOCALIZATION = Kind(
     unit="m",
     particle_floats=lambda params, scen: 64,
     step_floats=lambda scen: 16 + 3 * len(scen.get("beacons", ())),
-    figures="localization_figures", tracer=LocalizationTracer())
+    figures="localization_figures", tracer=LocalizationTracer(),
+    outputs=_localization_outputs)
 
 KINDS = {k.name: k for k in (SCALAR, SLAM, LOCALIZATION)}
 

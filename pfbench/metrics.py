@@ -60,8 +60,18 @@ def _nanmean(a) -> float:
     return float(a.mean()) if a.size else math.nan
 
 
+def _mean_or_nan(a) -> float:
+    """The mean of ``a``; NaN when it is None (an optional output not given) or empty."""
+    if a is None:
+        return math.nan
+    a = np.asarray(a, dtype=float)
+    return float(np.mean(a)) if a.size else math.nan
+
+
 def trial_metrics(x: np.ndarray, out: dict) -> dict:
-    """Metrics of one filter run: truth ``x`` (T+1,), filter output ``out`` (traces (T+1,))."""
+    """Metrics of one filter run: truth ``x`` (T+1,), filter output ``out`` (traces (T+1,)): 'xhat'
+    and 'lik_evals_per_step'; 'underflow_steps', 'ess', 'resampled', 'div_l1' and 'distinct' each
+    optional (a metric without its output is NaN; underflow_steps 0)."""
     err = out["xhat"][1:] - x[1:]
     with np.errstate(over="ignore", invalid="ignore"):
         sq = err * err
@@ -70,10 +80,14 @@ def trial_metrics(x: np.ndarray, out: dict) -> dict:
            "underflow_steps": float(out.get("underflow_steps", 0)),
            "diverged_steps": float(np.sum(~np.isfinite(out["xhat"][1:]) | ~np.isfinite(sq))),
            "lik_evals_per_step": float(out["lik_evals_per_step"])}
+    # each optional output on its own: a metric whose output is missing stays NaN
     if "ess" in out:
         row["mean_ess"] = float(np.mean(out["ess"][1:]))
+    if "resampled" in out:
         row["resample_count"] = float(np.sum(out["resampled"][1:]))
+    if "div_l1" in out:
         row["diversity_l1"] = _nanmean(out["div_l1"][1:])
+    if "distinct" in out:
         row["distinct_frac"] = _nanmean(out["distinct"][1:])
     return row
 
@@ -81,10 +95,11 @@ def trial_metrics(x: np.ndarray, out: dict) -> dict:
 def _pose_metrics(pose: np.ndarray, out: dict, score_from: int = 1,
                   area: np.ndarray | None = None) -> tuple[dict, np.ndarray, np.ndarray]:
     """The pose-error and filter-diagnostic metrics shared by SLAM and localization runs (true
-    poses (T+1, 3), the filter's 'pose' (T+1, 3), 'ess', 'resampled'), with the position error
-    vectors d (T, 2) and distances err (T,) over t = 1..T. The error averages count the steps
-    from ``score_from`` on. A step diverged when its estimate or error is not finite, or (with
-    ``area``, the world [0, area[0]] x [0, area[1]]) when its estimate lies outside the world."""
+    poses (T+1, 3), the filter's 'pose' (T+1, 3), optionally 'ess', 'resampled'), with the
+    position error vectors d (T, 2) and distances err (T,) over t = 1..T. The error averages
+    count the steps from ``score_from`` on. A step diverged when its estimate or error is not
+    finite, or (with ``area``, the world [0, area[0]] x [0, area[1]]) when its estimate lies
+    outside the world."""
     est = out["pose"]
     d = est[1:, :2] - pose[1:, :2]
     err = np.hypot(d[:, 0], d[:, 1])
@@ -96,8 +111,9 @@ def _pose_metrics(pose: np.ndarray, out: dict, score_from: int = 1,
            "position_error": float(np.mean(err[k:])),
            "heading_error": float(np.mean(np.abs(dth))),
            "final_error": float(err[-1]),
-           "mean_ess": float(np.mean(out["ess"])) if out["ess"].size else math.nan,
-           "resample_count": float(np.sum(out["resampled"])),
+           "mean_ess": _mean_or_nan(out.get("ess")),
+           "resample_count": (float(np.sum(out["resampled"])) if "resampled" in out
+                              else math.nan),
            "underflow_steps": float(out.get("underflow_steps", 0)),
            "diverged_steps": float(np.sum(_diverged(est[1:], err, area))),
            "lik_evals_per_step": float(out["lik_evals_per_step"])}

@@ -1,12 +1,16 @@
 """Trials -> rows; seeding; executors; the results folder.
 
-Seeding: trial k's randomness is the SeedSequence child ``(seed, spawn_key=(k,))``
-(what ``SeedSequence(seed).spawn(n)[k]`` gives); inside it the data come from child ``(k, 0)`` and
-filter run F from child ``(k, 1, crc32(F.key))``. Seeds depend on (base seed, trial, filter key), never
+Seeding: trial k's data come from the SeedSequence child ``(seed, spawn_key=(k, 0))``; filter run
+F of trial k from ``SeedSequence(int_words(seed) + int_words(k) + key_words(F.key))``
+(pfbench.seeding: an integer as its count of 32-bit words and the words, the key as the eight
+words of the SHA-256 digest of its UTF-8 bytes), an injective encoding, so two runs share a
+stream only if their keys' digests collide. Seeds depend on (base seed, trial, filter key), never
 on run order, the number of workers, or which other filters the experiment has.
 """
 from __future__ import annotations
 
+import copy
+import dataclasses
 import itertools
 import json
 import math
@@ -17,7 +21,7 @@ import socket
 import subprocess
 import sys
 import time
-import zlib
+import types
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from functools import lru_cache, partial
@@ -27,13 +31,15 @@ from typing import Callable, Iterable, NamedTuple
 import numpy as np
 
 from . import __version__
-from .config import FORMAT_VERSION, Experiment
+from .config import FORMAT_VERSION, Experiment, Params
 from .errors import UserError
 from .fsutil import FolderLock, close_inherited_locks
 from .filters import FILTERS, LOAD_SECONDS
-from .kinds import kind_of
+from .kinds import check_outputs, kind_of
+from .plugins import FILTER_GROUP, SCENARIO_GROUP
 from .rng import state_from_seed
 from .scenarios import SCENARIOS
+from .seeding import run_seed
 from .store import (TIMINGS, TIMINGS_PARTIAL, atomic_write, clear_staged_traces,
                     complete_trials, csv_text, finish_traces, read_staged_traces, read_timings,
                     read_traces, read_trials, stage_trace, timings_text, trial_columns,
@@ -49,7 +55,8 @@ def data_seed(seed: int, trial: int) -> np.random.SeedSequence:
 
 
 def filter_seed(seed: int, trial: int, key: str) -> np.random.SeedSequence:
-    return np.random.SeedSequence(seed, spawn_key=(trial, 1, zlib.crc32(key.encode())))
+    """The seed of filter run ``key`` of trial ``trial`` (pfbench.seeding.run_seed)."""
+    return run_seed(seed, trial, key)
 
 
 @lru_cache(maxsize=8)
@@ -64,10 +71,94 @@ def build_model(exp: Experiment):
 
 def trial_data(exp: Experiment, trial: int):
     """(model, truth, data): the truth and measurements of trial ``trial``, shared by every
-    filter."""
+    filter (each filter run gets its own copy: run_filter)."""
     model = build_model(exp)
-    truth, data = SCENARIOS[exp.scenario].simulate(model, state_from_seed(data_seed(exp.seed, trial)))
+    try:
+        truth, data = SCENARIOS[exp.scenario].simulate(
+            fresh(model), state_from_seed(data_seed(exp.seed, trial)))
+    except Exception as exc:
+        raise UserError(f"scenario '{exp.scenario}'{_package(SCENARIO_GROUP, exp.scenario)}, "
+                        f"trial {trial}: simulate raised {_exception_text(exc)}") from None
     return model, truth, data
+
+
+def fresh(value, _memo: dict | None = None):
+    """A copy of ``value`` that shares no array with it: numpy arrays copied, and the lists,
+    tuples, dicts, dataclasses and plain objects holding them rebuilt around the copies (an
+    object met twice is copied once); functions, kernels and immutable values are shared. What a
+    filter run gets, so that one that writes into its inputs (the measurements, the model's
+    parameters) changes nothing another run sees."""
+    if value is None or isinstance(value, (str, bytes, int, float, complex, bool, np.generic,
+                                           type, set, frozenset, types.ModuleType)):
+        return value
+    if isinstance(value, np.ndarray):
+        return value.copy()
+    if callable(value):                 # a function, a kernel
+        return value
+    memo = {} if _memo is None else _memo
+    if id(value) in memo:
+        return memo[id(value)]
+    if isinstance(value, list):
+        memo[id(value)] = out = []
+        out.extend(fresh(v, memo) for v in value)
+        return out
+    if isinstance(value, tuple):
+        items = [fresh(v, memo) for v in value]
+        if hasattr(value, "_fields"):            # a named tuple
+            out = type(value)(*items)
+        else:
+            out = tuple(items) if type(value) is tuple else type(value)(items)
+    elif isinstance(value, dict):
+        memo[id(value)] = out = copy.copy(value)
+        for k, v in value.items():
+            out[k] = fresh(v, memo)
+    elif isinstance(value, Params):
+        out = Params({k: fresh(v, memo) for k, v in value.items()})
+    elif dataclasses.is_dataclass(value) or hasattr(value, "__dict__"):
+        try:
+            memo[id(value)] = out = copy.copy(value)
+            for k, v in vars(value).items():
+                object.__setattr__(out, k, fresh(v, memo))
+        except Exception:       # an object that will not be copied: shared as it is
+            out = value
+    else:
+        out = value
+    memo[id(value)] = out
+    return out
+
+
+class FilterError(UserError):
+    """A filter run that failed: its error (``cause``, None for a malformed output), named in one
+    line with the run, its type and its plug-in package."""
+
+    def __init__(self, message: str, cause: BaseException | None = None):
+        super().__init__(message)
+        self.cause = cause
+
+    def __reduce__(self):       # from a worker process: the message (a cause may not pickle)
+        return FilterError, (str(self),)
+
+
+def _package(group: str, name: str) -> str:
+    """' (plug-in package PKG)' for a plug-in's filter or scenario; '' for pfbench's own."""
+    from .plugins import ORIGIN
+    pkg = ORIGIN.get((group, name), "pfbench")
+    return "" if pkg == "pfbench" else f" (plug-in package {pkg})"
+
+
+def _exception_text(exc: BaseException) -> str:
+    try:
+        text = " ".join(str(exc).split())
+    except Exception:           # an exception that cannot say what it is
+        text = "(its message cannot be shown)"
+    text = text if len(text) <= 300 else text[:297] + "..."
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def _who(run, trial: int) -> str:
+    """How a message names filter run ``run`` of trial ``trial``."""
+    return (f"filter run '{run.key}' (type {run.type}){_package(FILTER_GROUP, run.type)}, "
+            f"trial {trial}")
 
 
 def metrics_of(exp: Experiment, model, truth, out) -> dict:
@@ -78,11 +169,53 @@ def metrics_of(exp: Experiment, model, truth, out) -> dict:
 def run_filter(exp: Experiment, trial: int, run, model, y, diag: bool = True,
                **extra) -> tuple[dict, float]:
     """Run one filter of a trial on measurements ``y``; return (output traces, wall seconds).
-    ``extra``: keyword arguments the filter's run takes beyond the common ones (snapshots)."""
+    ``extra``: keyword arguments the filter's run takes beyond the common ones (snapshots).
+
+    The run gets its own copy of the model, the measurements, its parameters and ``extra``
+    (fresh): what it writes into them no other run sees. An error it raises (SystemExit
+    included) is a UserError that names it."""
     state = state_from_seed(filter_seed(exp.seed, trial, run.key))
+    model, y, params, extra = fresh(model), fresh(y), fresh(run.params), fresh(extra)
     t0 = time.perf_counter()
-    out = FILTERS[run.type].run(model, y, run.params, run.particles, state, diag, **extra)
+    try:
+        out = FILTERS[run.type].run(model, y, params, run.particles, state, diag, **extra)
+    except (Exception, SystemExit) as exc:
+        raise FilterError(f"{_who(run, trial)} raised {_exception_text(exc)}", exc) from None
     return out, time.perf_counter() - t0
+
+
+def checked_output(exp: Experiment, trial: int, run, model, truth, data, out,
+                   snapshots=None) -> dict:
+    """``out``, filter run ``run``'s outputs on trial ``trial``, checked against its kind's
+    (pfbench.kinds.check_outputs; with ``snapshots``, the steps it was asked for, its snapshots
+    too); a UserError names the run, what was expected and what came."""
+    try:
+        out = check_outputs(kind_of(exp.scenario), out, model, truth, data)
+        if snapshots is not None:
+            out["snapshots"] = _checked_snapshots(out.get("snapshots"), snapshots)
+    except ValueError as exc:
+        raise FilterError(f"{_who(run, trial)}: {exc}") from None
+    return out
+
+
+def _checked_snapshots(snap, steps) -> tuple:
+    """(steps (S,), particles (S, N, 3), counts (S,)) as arrays, of the S steps asked for."""
+    S = len(steps)
+    want = f"snapshots (steps ({S},), particles ({S}, N, 3), counts ({S},))"
+    try:
+        got, parts, counts = (np.asarray(a) for a in snap)
+    except (TypeError, ValueError):
+        raise ValueError(f"'snapshots' is {type(snap).__name__}, expected {want}") from None
+    if (got.shape != (S,) or parts.ndim != 3 or parts.shape[0] != S or parts.shape[2] != 3
+            or counts.shape != (S,) or any(a.dtype.kind not in "biuf"
+                                           for a in (got, parts, counts))):
+        raise ValueError(f"'snapshots' has shapes {got.shape}, {parts.shape}, {counts.shape}, "
+                         f"expected {want}")
+    if list(got) != list(steps):
+        raise ValueError(f"snapshots at steps {list(got)}, asked for {list(steps)}")
+    if ((counts < 0) | (counts > parts.shape[1])).any():
+        raise ValueError(f"snapshot counts {list(counts)} outside 0..{parts.shape[1]}")
+    return got, parts, counts
 
 
 class Trial(NamedTuple):
@@ -104,33 +237,147 @@ def run_trial(exp: Experiment, trial: int) -> list[dict]:
 def trial_result(exp: Experiment, trial: int, traces: bool = False) -> Trial:
     """One trial's rows (run_trial) and, with ``traces``, the trace its kind keeps of it for the
     figures."""
+    _mark(trial, -1)
     model, truth, data = trial_data(exp, trial)
     tracer = kind_of(exp.scenario).tracer if traces else None
     keep = tracer is not None and tracer.keeps(exp, trial)
     extras = tracer.extras(exp, model, data, trial) if keep else {}
     rows, outs = [], {}
-    for run in exp.filters:
-        out, wall = run_filter(exp, trial, run, model, data, **extras.get(run.key, {}))
+    for i, run in enumerate(exp.filters):
+        _mark(trial, i)
+        extra = extras.get(run.key, {})
+        out, wall = run_filter(exp, trial, run, model, data, **extra)
+        out = checked_output(exp, trial, run, model, truth, data, out, extra.get("snapshots"))
         row = {"trial": trial, "filter": run.key, "label": run.label, "particles": run.particles}
         row.update(metrics_of(exp, model, truth, out))
         row["wall_s"] = wall
         rows.append(row)
         if keep:
             outs[run.key] = out
-    return Trial(rows, tracer.keep(exp, trial, model, truth, data, outs) if keep else None)
+    trace = tracer.keep(exp, trial, model, truth, data, outs) if keep else None
+    _mark(-1, -1)
+    return Trial(rows, trace)
 
 
 def _run_chunk(exp: Experiment, trials: list[int], traces: bool = False) -> list[Trial]:
     return [trial_result(exp, k, traces) for k in trials]
 
 
+def _run_chunk_in_worker(exp: Experiment, trials: list[int], traces: bool = False
+                         ) -> tuple[list[Trial], frozenset | None]:
+    """_run_chunk in a pool worker, with the kernels the worker has built when they are more
+    than it last said (else None; see _preload). SIGINT is ignored there: a KeyboardInterrupt or
+    SystemExit is a filter's own, and would end the worker and leave its trials to wait for
+    ever; it comes back as a UserError naming what ran."""
+    global _SAID
+    try:
+        done = _run_chunk(exp, trials, traces)
+    except (KeyboardInterrupt, SystemExit) as exc:
+        what = _running_text(exp, [_now()]) or f"a trial of {exp.name}"
+        raise UserError(f"{what} raised {_exception_text(exc)}") from None
+    built = frozenset(key for key, k in _kernels() if k.built)
+    news = built if built != _SAID else None
+    _SAID = built
+    return done, news
+
+
+# ---------------------------------------------------------------- kernels the children built
+
+# The kernels (module, name) a pool worker of this process built (compiled or loaded from the
+# disk cache): this process builds them before it forks the next pool, whose workers then start
+# with them. A run's workers never hand their kernels back to the process that forked them, so
+# without this every run of a sweep, of `tables` or of the API in one process would load its
+# kernels again.
+_CHILD_KERNELS: set[tuple[str, str]] = set()
+_SAID: frozenset = frozenset()
+_KERNELS: list | None = None
+
+
+def _kernels() -> list:
+    """[((module, name), kernel)] of the numba kernels (pfbench._lazy) of pfbench's modules
+    imported in this process (found once)."""
+    global _KERNELS
+    if _KERNELS is None:
+        from ._lazy import LazyKernel
+        _KERNELS = [((name, attr), v) for name, mod in list(sys.modules.items())
+                    if mod is not None and (name == "pfbench" or name.startswith("pfbench."))
+                    for attr, v in list(vars(mod).items()) if isinstance(v, LazyKernel)]
+    return _KERNELS
+
+
+def _preload() -> None:
+    """Build here the kernels the workers of earlier runs built (_CHILD_KERNELS): loaded from
+    the disk cache they were saved to."""
+    for module, name in sorted(_CHILD_KERNELS):
+        kernel = getattr(sys.modules.get(module), name, None)
+        if kernel is not None and not kernel.built:
+            try:
+                kernel.dispatcher
+            except Exception:       # a worker's failure stays the worker's
+                pass
+
+
+# ---------------------------------------------------------------- what runs now
+
+# This process's [trial, index of the filter run (-1: simulating its data)] while it runs a trial
+# (trial -1: none): a list, or in a pool worker its two slots of an array the parent shares, so
+# that an interrupted run can say which filter runs of which trials were running.
+_NOW: tuple = ([-1, -1], 0)
+
+
+def _mark(trial: int, index: int) -> None:
+    now, at = _NOW
+    now[at], now[at + 1] = trial, index
+
+
+def _now() -> tuple[int, int]:
+    """What this process runs now: (trial, filter run index), see _NOW."""
+    now, at = _NOW
+    return now[at], now[at + 1]
+
+
+def _running_text(exp: Experiment, marks) -> str:
+    """'filter run KEY (type ...), trial K' (or 'the simulation of trial K') for each [trial, index]
+    of ``marks`` that runs something, '; '-joined."""
+    out = []
+    for trial, index in marks:
+        if trial < 0:
+            continue
+        if 0 <= index < len(exp.filters):
+            out.append(_who(exp.filters[index], int(trial)))
+        else:
+            out.append(f"the simulation of trial {int(trial)} (scenario '{exp.scenario}'"
+                       f"{_package(SCENARIO_GROUP, exp.scenario)})")
+    return "; ".join(out)
+
+
 # ---------------------------------------------------------------- executors
 
-def _worker_init():
+def _worker_init(now=None, pids=None, taken=None):
     """A pool worker leaves Ctrl-C to the parent, which stops it, and closes the parent's folder
-    locks (the parent keeps them)."""
+    locks (the parent keeps them). ``now``: two entries per slot, what the worker of that slot
+    runs (_NOW), which the parent reads to say what was running; ``pids``: the worker's process
+    id per slot; ``taken`` counts the slots given out (there are two per worker: one that
+    replaces a worker that died takes a spare one, leaving the dead one's as it was)."""
+    global _NOW
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     close_inherited_locks()
+    if now is not None:
+        with taken.get_lock():
+            slot = taken.value % len(pids)
+            taken.value += 1
+        pids[slot] = os.getpid()
+        _NOW = (now, 2 * slot)
+        _mark(-1, -1)
+
+
+def _signal_name(code: int | None) -> str:
+    if code is not None and code < 0:
+        try:
+            return f"killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"killed by signal {-code}"
+    return f"exit status {code}"
 
 
 def _chunks(trials: Iterable[int], size: int) -> Iterable[list[int]]:
@@ -148,39 +395,88 @@ def _count(trials) -> int:
     return len(trials) if hasattr(trials, "__len__") else -1
 
 
-def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | None = None,
-            traces: bool = False) -> Iterable[list[Trial]]:
-    """Yield chunks of ``trials`` as they finish (in-process or a process pool), each a list of
-    Trial (with its trace where ``traces`` and the kind keeps one).
+def _in_process() -> bool:
+    """Whether trials must run in this process: a daemonic process (a pool worker) may start
+    none."""
+    import multiprocessing as mp
+    return mp.current_process().daemon
 
-    ``count``: how many trials there are (when ``trials`` is an iterator). Never more workers
-    than trials. Workers ignore SIGINT; on Ctrl-C the parent terminates them, keeping what
-    already arrived.
+
+def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | None = None,
+            traces: bool = False, running: list | None = None) -> Iterable[list[Trial]]:
+    """Yield chunks of ``trials`` as they finish, each a list of Trial (with its trace where
+    ``traces`` and the kind keeps one).
+
+    The trials run in a pool of ``workers`` child processes, one worker included, so that this
+    process sees Ctrl-C at once even while a kernel holds a child's interpreter (in this process
+    only where it may start none: a pool worker itself). ``count``: how many trials there are
+    (when ``trials`` is an iterator). Never more workers than trials. Workers ignore SIGINT; on
+    Ctrl-C the parent terminates them, keeping what already arrived. ``running``: a list this
+    function fills with a callable that returns, at any moment, what the workers run (for the
+    message of an interrupted run: _running_text).
     """
     count = _count(trials) if count is None else count
-    workers = min(workers, count) if count >= 0 else workers
-    if workers <= 1:
+    if count == 0:
+        return
+    workers = max(1, min(workers, count) if count >= 0 else workers)
+    if _in_process():
+        if running is not None:
+            running.append(lambda: [_now()])
         for chunk in _chunks(trials, 1):
             yield _run_chunk(exp, chunk, traces)
         return
     import multiprocessing as mp
     ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
-    size = max(1, min(25, math.ceil(count / (workers * 6))))
-    pool = ctx.Pool(workers, initializer=_worker_init)
+    size = 1 if workers == 1 else max(1, min(25, math.ceil(count / (workers * 6))))
+    _preload()
+    slots = 2 * workers
+    now, pids = ctx.RawArray("q", [-1] * (2 * slots)), ctx.RawArray("q", [0] * slots)
+    taken = ctx.Value("q", 0)
+    if running is not None:
+        running.append(lambda: [tuple(now[i:i + 2]) for i in range(0, len(now), 2)])
+    pool = ctx.Pool(workers, initializer=_worker_init, initargs=(now, pids, taken))
+    procs = list(pool._pool)        # a worker ends only when it dies: seen by its exit code
     try:
-        yield from pool.imap_unordered(partial(_run_chunk, exp, traces=traces),
-                                       _chunks(trials, size))
+        results = pool.imap_unordered(partial(_run_chunk_in_worker, exp, traces=traces),
+                                      _chunks(trials, size))
+        while True:
+            try:
+                chunk, built = results.next(timeout=0.25)
+            except StopIteration:
+                break
+            except mp.TimeoutError:
+                dead = [p for p in procs if p.exitcode is not None]
+                if dead:
+                    raise _died(exp, dead[0], now, pids) from None
+                continue
+            if built:
+                _CHILD_KERNELS.update(built)
+            yield chunk
         pool.close()
     finally:
         pool.terminate()
         pool.join()
 
 
+def _died(exp: Experiment, proc, now, pids) -> UserError:
+    """The error of a worker process that died (a crash in a kernel, a filter that ended its
+    process), naming what it was running."""
+    what = ""
+    for slot, pid in enumerate(pids):
+        if pid == proc.pid:
+            what = _running_text(exp, [tuple(now[2 * slot:2 * slot + 2])])
+    return UserError(f"a worker process ended ({_signal_name(proc.exitcode)}) while running "
+                     f"{what or 'a trial'}; the trials finished before it are kept (--resume "
+                     "continues)")
+
+
 class LocalExecutor:
-    """Trials in this process (workers = 1) or a local process pool."""
+    """Trials in a local process pool (of one worker by default; see execute)."""
 
     def __init__(self, workers: int = 1):
         self.workers = workers
+        self._running: list = []
+        self._exp = None
 
     def describe(self) -> str:
         return f"{self.workers} worker(s)"
@@ -188,7 +484,18 @@ class LocalExecutor:
     def run(self, exp: Experiment, trials: Iterable[int], count: int | None = None,
             traces: bool = False) -> Iterable[list[Trial]]:
         """Yield the finished trials in chunks, as they arrive (see execute)."""
-        yield from execute(exp, trials, self.workers, count, traces)
+        self._running, self._exp = [], exp
+        yield from execute(exp, trials, self.workers, count, traces, self._running)
+
+    def running(self) -> str:
+        """What the trials of the latest ``run`` run now ('' when nothing, or unknown): which
+        filter runs of which trials."""
+        if not getattr(self, "_running", None) or getattr(self, "_exp", None) is None:
+            return ""
+        try:
+            return _running_text(self._exp, self._running[-1]())
+        except Exception:       # a pool torn down meanwhile
+            return ""
 
     def close(self) -> None:
         pass
@@ -335,12 +642,14 @@ def versions() -> dict:
 
 
 class Interrupted(Exception):
-    """Ctrl-C during a run; the finished trials are saved."""
+    """Ctrl-C during a run; the finished trials are saved. ``running``: what was running then
+    (which filter runs of which trials), '' when nothing or unknown."""
 
-    def __init__(self, done: int, total: int, path: Path):
-        self.done, self.total, self.path = done, total, path
+    def __init__(self, done: int, total: int, path: Path, running: str = ""):
+        self.done, self.total, self.path, self.running = done, total, path, running
+        what = f" (it was running: {running})" if running else ""
         super().__init__(f"interrupted: {done} of {total} trials saved in {path}; "
-                         "run again with --resume to continue")
+                         f"run again with --resume to continue{what}")
 
 
 @dataclass
@@ -357,9 +666,10 @@ class RunResult:
 def uncompiled(exp: Experiment) -> list[str]:
     """The names of the experiment's filter types (and its scenario) whose kernels the numba
     cache does not hold yet: they compile when the first trial uses them (pfbench._lazy)."""
-    from . import CACHE_DIR
+    from . import CACHE_DIR, _cache
     index = Path(CACHE_DIR) / "pfbench"
-    have = {p.name.split(".")[0] for p in index.rglob("*.nbi")} if index.is_dir() else set()
+    have = ({p.name.split(".")[0] for p in index.rglob("*.nbi")}
+            if _cache.ENABLED and index.is_dir() else set())
     out = []
     for what, obj in ([(f.type, FILTERS[f.type].run) for f in exp.filters]
                       + [(exp.scenario, getattr(SCENARIOS[exp.scenario], "simulate", None))]):
@@ -386,6 +696,9 @@ def difference(old: dict, exp: Experiment) -> str:
 def _identity_difference(ident: dict, old: dict, exp: Experiment) -> str:
     new = exp.identity
     out = []
+    if ident.get("streams") != new["streams"]:
+        out.append("random streams drawn by another pfbench (its trials cannot be this "
+                   "one's)")
     for key in ("seed", "scenario"):
         if ident.get(key) != new[key]:
             out.append(f"{key} {ident.get(key)} -> {new[key]}")
@@ -645,8 +958,9 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn, traces)
     t0 = time.perf_counter()
     with open(partial, "a", encoding="utf-8", newline="") as fh, \
             open(out_dir / TIMINGS_PARTIAL, "a", encoding="utf-8", newline="") as th:
+        chunks = executor.run(exp, todo, n_todo, traces)
         try:
-            for chunk in executor.run(exp, todo, n_todo, traces):
+            for chunk in chunks:
                 chunk = [t for t in chunk if t.index not in done]
                 for t in chunk:       # the trace first: a trial with rows but no trace reruns
                     if t.trace is not None:
@@ -661,7 +975,9 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn, traces)
                 if progress:
                     progress(len(done), total)
         except KeyboardInterrupt:
-            raise Interrupted(len(done), total, partial) from None
+            running = executor.running() if hasattr(executor, "running") else ""
+            chunks.close()          # the workers stop now
+            raise Interrupted(len(done), total, partial, running) from None
     wall = time.perf_counter() - t0
     rows = [r for k in sorted(done) for r in done[k]]
     text = csv_text(rows, True, columns)

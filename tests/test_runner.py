@@ -198,9 +198,10 @@ def test_importing_the_package_builds_no_kernel_and_a_run_builds_only_its_own():
         "from pfbench._lazy import LazyKernel\n"
         "ks = [o for o in gc.get_objects() if isinstance(o, LazyKernel)]\n"
         "print(len(ks), sum(k.built for k in ks))\n"
-        "import pfbench\n"
-        "pfbench.run_experiment({'seed': 1, 'trials': 2, 'scenario': {'name': 'ungm', "
-        "'steps': 10}, 'filters': {'pf': {'particles': 20}}})\n"
+        "from pfbench.config import validate\n"
+        "from pfbench.runner import run_trial\n"       # in this process (a run's go to a child)
+        "run_trial(validate({'seed': 1, 'trials': 2, 'scenario': {'name': 'ungm', "
+        "'steps': 10}, 'filters': {'pf': {'particles': 20}}}, 'x.yaml'), 0)\n"
         "built = {k.__module__ for k in ks if k.built}\n"
         "print(sorted(built))\n")
     first, second = out.strip().splitlines()
