@@ -350,7 +350,12 @@ def run(
         from .fsutil import FolderLock
         exp = _load(config, trials, seed, set_)
         from .api import run_experiment, run_until_decided, until_decided_budget
+        if out_dir is None:
+            from .regen import reserved_name
+            reserved_name(exp.name, config)
         folder = out_dir or Path("results") / exp.name
+        from .fsutil import recover_aside
+        recover_aside(folder, folder.parent, _warn, clean=False)   # a replace killed half-way
         most = until_decided_budget(exp, max_trials) if until_decided else exp.trials
         workers = _workers_that_fit([(replace(exp, trials=most), str(config))], workers,
                                     executor)
@@ -432,6 +437,9 @@ def sweep(
         from .fsutil import FolderLock
         name, cells = sw.expand(config, sw.parse_sets(set_), {"trials": trials, "seed": seed},
                                 confirm_above=None if yes else sw.CONFIRM_ABOVE)
+        if out_dir is None:
+            from .regen import reserved_name
+            reserved_name(name, config)
         folder = out_dir or Path("results") / name
         from .fsutil import recover_aside
         recover_aside(folder, folder.parent, _warn, clean=False)   # a replace killed half-way
@@ -765,6 +773,10 @@ def bench(
 ):
     """Kernel speed beside numpy (and a C reference): UNGM PF, every filter, FastSLAM, MCL."""
     with _guard():
+        if json_path is not None:       # a file it can write, known before minutes of timing
+            json_path = _path(str(json_path), "--json")
+            if json_path.is_dir() or not json_path.parent.is_dir():
+                raise UserError(f"--json {json_path}: expected a file in an existing folder")
         _load_kernels()
         from .bench import run_bench
         run_bench(json_path=json_path, quick=quick, c_ref=c_ref, threads=threads, console=out,

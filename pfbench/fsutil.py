@@ -222,6 +222,8 @@ def make_folders(folder: Path, what: str = "--out") -> list[Path]:
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
         raise UserError(f"{what} {folder}: exists and is not a folder")
+    if folder.is_symlink() and not folder.exists():
+        raise UserError(f"{what} {folder}: a link to a folder that does not exist")
     missing = []
     cur = folder
     while not cur.exists() and not cur.is_symlink() and cur != cur.parent:

@@ -133,6 +133,17 @@ def holder_of(folder: Path) -> Path | None:
     return None
 
 
+# what 'pfbench report' writes into a results folder: no experiment's folder can be one
+REPORT_NAMES = ("report", "REPORT.md")
+
+
+def reserved_name(name: str, config) -> None:
+    """Refuse an experiment name whose folder in a results folder would be the report's."""
+    if name in REPORT_NAMES:
+        raise UserError(f"{config}: name '{name}': results/{name} holds the reproduction report; "
+                        "give the experiment another name (or choose its folder with --out)")
+
+
 def check_outputs(files: list[Path], results: Path, names: list[str] | None = None) -> list[str]:
     """Refuse, before anything runs, a regeneration whose results folders would collide: two
     configs of one experiment name (one's results would replace the other's), a results folder
@@ -142,6 +153,7 @@ def check_outputs(files: list[Path], results: Path, names: list[str] | None = No
     seen: dict[str, Path] = {}
     for p, name in zip(files, names):
         child(Path(results), name, f"{p}: name")
+        reserved_name(name, p)
         if name in seen:
             raise UserError(f"{seen[name]} and {p} both name the experiment '{name}': their "
                             f"results would share {Path(results) / name}; give one another "

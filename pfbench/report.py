@@ -85,6 +85,21 @@ def collect(configs: Path, results: Path, restore: bool = False,
 
 
 def _read(e: Entry) -> None:
+    """Read an entry's results; a file that cannot be read is a UserError naming it (the report
+    is not written)."""
+    try:
+        _read_files(e)
+    except UserError:
+        raise
+    except (OSError, UnicodeDecodeError, ValueError, pd.errors.ParserError) as exc:
+        what = getattr(exc, "filename", None) or e.folder
+        why = getattr(exc, "strerror", None) or (str(exc).splitlines() or [""])[0] \
+            or type(exc).__name__
+        raise UserError(f"{what}: cannot be read ({why}); 'pfbench tables --only "
+                        f"{e.path.stem}' regenerates it") from None
+
+
+def _read_files(e: Entry) -> None:
     if e.cells is not None:
         summary = e.folder / "summary.csv"
         if not summary.exists():
@@ -114,7 +129,15 @@ def _read(e: Entry) -> None:
 
 def _meta(folder: Path) -> dict | None:
     path = folder / "meta.json"
-    return json.loads(path.read_text()) if path.exists() else None
+    if not path.exists():
+        return None
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise UserError(f"{path}: cannot be read ({str(exc).splitlines()[0]})") from None
+    if not isinstance(meta, dict):
+        raise UserError(f"{path}: expected a mapping, got {type(meta).__name__}")
+    return meta
 
 
 def _stale(exp: Experiment, meta: dict | None) -> str:
@@ -593,6 +616,8 @@ def where(results: Path, out: Path | None = None) -> Where:
         same = folder.resolve() == results.resolve()
     except (OSError, RuntimeError):
         same = False
+    from .fsutil import own_folder
+    own_folder(folder / "report", folder, "--out")      # no link: refused before the build
     return Where(folder, md, folder / "report", same)
 
 
@@ -623,7 +648,10 @@ def write_report(configs: Path, results: Path, out: Path | None = None, check: b
 
     def build_all(restore: bool):
         entries = collect(configs, results, restore=restore, warn=warn)
-        not_run = [e.path.stem for e in entries if e.status == "not run"]
+        not_run = [e.path.stem + (f" (an unfinished regeneration in .{e.name}.partial: "
+                                  "'pfbench tables --resume' continues it)"
+                                  if (results / f".{e.name}.partial").is_dir() else "")
+                   for e in entries if e.status == "not run"]
         if not_run and warn:
             warn(f"not run (no results in {results}): {', '.join(not_run)}")
         text = build(configs, results, w.markdown, entries=entries)

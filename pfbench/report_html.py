@@ -85,8 +85,8 @@ reports, with 95% intervals and a verdict for every value.</p>
     "paper.html": """{% extends "base.html" %}{% block body %}
 <h1>{{ paper.key }}</h1>
 <p>{{ paper.citation }}</p>
-{% if paper.about %}<p>{{ paper.about }}</p>{% endif %}
-{% if elsewhere %}<p>Not among these configs: {{ elsewhere|join(", ") }} of this paper.</p>{% endif %}
+{% if paper.about %}<p>{{ paper.about }}</p>{% endif %}{% if elsewhere %}
+<p>Not among these configs: {{ elsewhere|join(", ") }} of this paper.</p>{% endif %}
 {% if findings %}<h2>What reproduced and what did not</h2>
 <ul class="notes">{% for f in findings %}<li>{{ f }}</li>{% endfor %}</ul>{% endif %}
 {% for s in sections %}

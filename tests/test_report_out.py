@@ -8,6 +8,7 @@ import shutil
 import pytest
 from typer.testing import CliRunner
 
+import pfbench
 from pfbench import report
 from pfbench.cli import app
 from pfbench.errors import UserError
@@ -43,11 +44,8 @@ def mine(tmp_path_factory):
     configs.mkdir()
     (configs / "sspf_ungm.yaml").write_text(_small("sspf_ungm", 3))
     (configs / "plain.yaml").write_text(TINY)
-    r = runner.invoke(app, ["tables", "--configs", str(configs), "--results", str(results),
-                            "--no-figures"])
-    assert r.exit_code == 0, r.output
-    (results / "REPORT.md").unlink()
-    shutil.rmtree(results / "report")
+    for name in ("sspf_ungm", "plain"):
+        pfbench.run_experiment(configs / f"{name}.yaml", out=results / name, figures=False)
     return configs, results
 
 
@@ -208,3 +206,17 @@ def test_findings_about_configs_elsewhere_are_left_out_typos_are_errors(mine):
     with pytest.raises(UserError, match="sspf2008.yaml:3: .*no experiment 'sspf_globl'.*"
                                         "did you mean 'sspf_global'"):
         report.findings(bad, entries)
+
+
+@pytest.mark.parametrize("damage", ["meta", "trials"])
+def test_results_that_cannot_be_read_fail_the_report_and_write_nothing(mine, tmp_path, damage):
+    configs, results = mine
+    results = _copy(results, tmp_path)
+    if damage == "meta":
+        (results / "plain" / "meta.json").write_text("[1, 2")
+    else:
+        (results / "plain" / "trials.csv").write_bytes(b"\xff\xfe\x00garbage\x00\n\x01")
+    before = tree(results)
+    r = runner.invoke(app, ["report", "--configs", str(configs), "--results", str(results)])
+    assert "plain" in one_line_exit_2(r)
+    assert tree(results) == before

@@ -159,6 +159,13 @@ def test_a_folder_left_aside_by_a_killed_replace_is_restored(tmp_path):
     res = pfbench.run_experiment(MAPPING, out=out, figures=False, warn=warned.append)
     assert res.up_to_date and tree(out) == before and not aside.exists()
     assert warned and "restored" in warned[0]
+    # the CLI's run and sweep too (a sweep's folder is replaced by tables as a run's)
+    cfg = tmp_path / "config.yaml"         # the name a mapping gets: the same experiment
+    cfg.write_text(TINY)
+    out.rename(aside)
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(out), "--no-figures"])
+    assert r.exit_code == 0 and "restored" in r.output and "up to date" in r.output, r.output
+    assert tree(out) == before and not aside.exists()
 
 
 def test_tables_restores_a_folder_left_aside_and_removes_superseded_copies(tmp_path):
@@ -294,6 +301,9 @@ def test_every_writing_command_writes_only_where_it_was_told(tmp_path, monkeypat
         "list": (["list", "--configs", str(configs)], None),
     }
     for what, (args, folder) in named.items():
+        if what == "report":        # the report 'tables' wrote into the results is gone
+            shutil.rmtree(work / "results" / "report")
+            (work / "results" / "REPORT.md").unlink()
         before = everything(work)
         r = runner.invoke(app, args)
         assert r.exit_code == 0, (what, r.output)
@@ -304,3 +314,24 @@ def test_every_writing_command_writes_only_where_it_was_told(tmp_path, monkeypat
             (what, sorted(changed))
         assert list(cwd.iterdir()) == [], what
     assert stat_tree(ROOT / "results") == repo
+
+
+def test_an_experiment_named_like_the_report_is_refused_where_it_would_share_its_folder(
+        tmp_path, monkeypatch):
+    configs = tmp_path / "configs"
+    configs.mkdir()
+    (configs / "exp.yaml").write_text(TINY.replace("seed: 0", "name: report\nseed: 0"))
+    r = runner.invoke(app, ["tables", "--configs", str(configs), "--results",
+                            str(tmp_path / "results")])
+    assert "holds the reproduction report" in one_line_exit_2(r)
+    monkeypatch.chdir(tmp_path)
+    r = runner.invoke(app, ["run", str(configs / "exp.yaml")])
+    assert "holds the reproduction report" in one_line_exit_2(r)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["configs"]
+
+
+def test_bench_json_that_cannot_be_written_is_refused_before_the_timing(tmp_path):
+    for path in (tmp_path / "no" / "such.json", tmp_path):
+        r = runner.invoke(app, ["bench", "--quick", "--json", str(path)])
+        assert "--json" in one_line_exit_2(r)
+    assert list(tmp_path.iterdir()) == []
