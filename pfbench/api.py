@@ -13,6 +13,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import json
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -82,6 +83,48 @@ def _experiment(config, trials, seed, overrides):
                           line=None) from None
 
 
+def out_folder(out, what: str = "out") -> Path | None:
+    """``out`` as a results folder's path (None: none), or the one-line UserError the CLI gives
+    for its --out: an empty or blank path (it would be the current folder, which nobody named),
+    a NUL, a file where the folder should be."""
+    if out is None:
+        return None
+    if isinstance(out, bytes) or not isinstance(out, (str, os.PathLike)):
+        raise UserError(f"{what}: expected a path (a str or a pathlib.Path), got "
+                        f"{type(out).__name__}")
+    text = os.fspath(out)
+    if not isinstance(text, str):
+        raise UserError(f"{what}: expected a path (a str or a pathlib.Path), got bytes")
+    if not text.strip():
+        raise UserError(f"{what}: expected a path, got an empty one")
+    if "\x00" in text:
+        raise UserError(f"{what}: a path cannot contain a NUL character")
+    folder = Path(text)
+    if folder.exists() and not folder.is_dir():
+        raise UserError(f"{what} {folder}: exists and is not a folder")
+    return folder
+
+
+def check_figure_format(fmt, what: str = "figure_format") -> str:
+    """``fmt`` when it is a figure format pfbench draws (png, svg, pdf), else a UserError."""
+    from .figstyle import FORMATS
+    if not isinstance(fmt, str) or fmt not in FORMATS:
+        raise UserError(f"{what} {fmt}: one of {', '.join(FORMATS)}")
+    return fmt
+
+
+def _missing_figures(exp, res, folder: Path, fmt: str) -> bool:
+    """Whether an up-to-date folder lacks a figure a run draws (a run killed while it drew them);
+    the temporary files such a kill left are removed."""
+    from .plots import expected_figures
+    figs = folder / "figures"
+    if figs.is_dir() and not figs.is_symlink():
+        for p in figs.iterdir():
+            if p.name.startswith(".") and ".tmp" in p.name and p.is_file():
+                p.unlink()
+    return any(not (figs / name).is_file() for name in expected_figures(exp, res.rows, fmt))
+
+
 def _frame(rows: list[dict], columns: Iterable[str]) -> pd.DataFrame:
     cols = [c for c in columns if c not in ("crc", "wall_s")] + ["wall_s"]
     df = pd.DataFrame([{c: r.get(c) for c in cols} for r in rows], columns=cols)
@@ -115,17 +158,24 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
     from .compare import compare
     from .runner import LocalExecutor, run_experiment as run_into, versions
     from .store import trial_columns
+    out = out_folder(out)
+    check_figure_format(figure_format)
     exp = _experiment(config, trials, seed, overrides)
     if out is not None:
+        from .fsutil import FolderLock, recover_aside
         from .regen import write_experiment
-        res = run_into(exp, Path(out), workers=workers, resume=resume, progress=progress,
-                       executor=executor, warn=warn, force=force)
-        # up to date: the table again (the same bytes when nothing changed), and the figures
-        # only when asked to resume (which redraws them from the trials and traces kept)
-        cmp, paths = write_experiment(exp, res, Path(out),
-                                      figures and (resume or not res.up_to_date), figure_format)
+        recover_aside(out, out.parent, warn, clean=False)   # a replace killed half-way
+        with FolderLock(out, "out"):
+            res = run_into(exp, out, workers=workers, resume=resume, progress=progress,
+                           executor=executor, warn=warn, force=force)
+            # up to date: the table again (the same bytes when nothing changed), and the
+            # figures when asked to resume (which redraws them from the trials and traces
+            # kept) or when one is missing (a run killed while it drew them)
+            draw = figures and (resume or not res.up_to_date
+                                or _missing_figures(exp, res, out, figure_format))
+            cmp, paths = write_experiment(exp, res, out, draw, figure_format)
         return Result(_frame(res.rows, trial_columns(exp)), cmp.table, res.meta, exp,
-                      Path(out), cmp, paths, up_to_date=res.up_to_date, run=res.run)
+                      out, cmp, paths, up_to_date=res.up_to_date, run=res.run)
     if resume:
         raise UserError("resume needs a results folder (out)")
     executor = executor or LocalExecutor(workers)
@@ -202,13 +252,25 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
     the table is recomputed with the same intervals by ``pfbench tables`` / ``report``.
     ``on_look(look)`` is called after each batch with {'trials', 'undecided'}.
     """
+    from .fsutil import FolderLock, recover_aside
+    folder = out_folder(out)
+    if folder is None:
+        raise UserError("out: a run until decided needs a results folder, got None")
+    check_figure_format(figure_format)
+    first = _experiment(config, trials, seed, overrides)
+    batch, most = first.trials, until_decided_budget(first, max_trials)
+    recover_aside(folder, folder.parent, warn, clean=False)
+    with FolderLock(folder, "out"):
+        return _until_decided(first, folder, batch, most, workers, resume, figures, executor,
+                              progress, warn, on_look, force, figure_format)
+
+
+def _until_decided(first, folder, batch, most, workers, resume, figures, executor, progress,
+                   warn, on_look, force, figure_format) -> Result:
     from .compare import compare
     from .regen import write_experiment
     from .runner import RUN_TIMINGS, run_experiment as run_into
     from .store import trial_columns, write_json
-    first = _experiment(config, trials, seed, overrides)
-    batch, most = first.trials, until_decided_budget(first, max_trials)
-    folder = Path(out)
     n, looks, ran, wall = batch, [], 0, 0.0
     while True:
         exp = dataclasses.replace(first, trials=n)

@@ -350,7 +350,12 @@ def run(
         from .fsutil import FolderLock
         exp = _load(config, trials, seed, set_)
         from .api import run_experiment, run_until_decided, until_decided_budget
+        if out_dir is None:
+            from .regen import reserved_name
+            reserved_name(exp.name, config)
         folder = out_dir or Path("results") / exp.name
+        from .fsutil import recover_aside
+        recover_aside(folder, folder.parent, _warn, clean=False)   # a replace killed half-way
         most = until_decided_budget(exp, max_trials) if until_decided else exp.trials
         workers = _workers_that_fit([(replace(exp, trials=most), str(config))], workers,
                                     executor)
@@ -432,7 +437,12 @@ def sweep(
         from .fsutil import FolderLock
         name, cells = sw.expand(config, sw.parse_sets(set_), {"trials": trials, "seed": seed},
                                 confirm_above=None if yes else sw.CONFIRM_ABOVE)
+        if out_dir is None:
+            from .regen import reserved_name
+            reserved_name(name, config)
         folder = out_dir or Path("results") / name
+        from .fsutil import recover_aside
+        recover_aside(folder, folder.parent, _warn, clean=False)   # a replace killed half-way
         keys = list(cells[0].values)
         total = sum(c.exp.trials for c in cells)
         workers = _workers_that_fit([(c.exp, f"{config} (sweep cell {c.name})") for c in cells],
@@ -450,7 +460,8 @@ def sweep(
                                              force=force)
             from .regen import write_sweep
             summ, figs = write_sweep(trials_df, keys, folder, name, True, figure_format,
-                                     cells[0].exp)
+                                     cells[0].exp,
+                                     missing_only=trials_df.attrs.get("up_to_date", False))
         from .figstyle import label
         from .plots import sweep_metrics
         extra = [m for m in sweep_metrics(cells[0].exp)[1:] if f"{m}_mean" in summ][:2]
@@ -532,8 +543,11 @@ def tables_(
             raise UserError("--until-decided regenerates; --check re-runs the committed trials")
         if max_trials is not None and not until_decided:
             raise UserError("--max-trials goes with --until-decided")
-        # every config is valid (and its trial count known) before anything runs
+        # every config is valid (and its trial count known) before anything runs, and no two
+        # write into one folder, or into another's
         totals = [regen.check_trials(p) if check else regen.total_trials(p) for p in files]
+        if not check:
+            regen.check_outputs(files, results)
         rows = []
         with _executor(executor, workers, scheduler) as ex, FolderLock(results, "--results"), \
                 _bar() as bar:
@@ -560,16 +574,14 @@ def tables_(
                                                   resume=resume, progress=step,
                                                   until_decided=until_decided,
                                                   max_trials=max_trials,
-                                                  figure_format=figure_format)
+                                                  figure_format=figure_format, warn=_warn)
                         bar.console.print(f"{p.name} -> {folder} in "
                                           f"{time.perf_counter() - t0:.1f} s", markup=False)
                 before += seen[0]
         if not check:
             from . import report as rp
-            from . import report_html
-            path, _ = rp.write(configs, results, warn=_warn)
-            index, _ = report_html.write(configs, results)
-            err.print(f"wrote {path} and {index}", markup=False)
+            w = rp.write_report(configs, results, warn=_warn)
+            err.print(f"wrote {w.markdown} and {w.index}", markup=False)
             return
         t = RichTable(title=f"pfbench tables --check: {len(files)} configs against {results}",
                       title_justify="left")
@@ -595,38 +607,39 @@ def tables_(
 def report(
     configs: str = typer.Option("configs", "--configs", help="Folder of configs."),
     results: str = typer.Option("results", "--results", help="Folder of results."),
-    out_file: Optional[str] = typer.Option(None, "--out", help="Report file (default: "
-                                            "RESULTS/REPORT.md)."),
-    check: bool = typer.Option(False, "--check", help="Write nothing; exit 1 when the file is "
-                               "not what the results give."),
+    out_file: Optional[str] = typer.Option(None, "--out", help="Folder to write the report "
+                                            "into, created: REPORT.md and the HTML report in "
+                                            "report/ (default: RESULTS; a path ending in .md: "
+                                            "the Markdown file, report/ beside it)."),
+    check: bool = typer.Option(False, "--check", help="Write nothing; exit 1 when the files "
+                               "where --out says are not what the results give."),
     papers: List[str] = _papers_option(),
 ):
     """Write the reproduction report: every paper's tables beside ours, from the results
-    (RESULTS/REPORT.md, and the HTML report in RESULTS/report/)."""
+    (RESULTS/REPORT.md and the HTML report in RESULTS/report/, or where --out says)."""
     with _guard():
         _load_kernels()
         _use_papers(papers)
         configs, results = _path(configs, "--configs"), _path(results, "--results")
         out_file = _path(out_file, "--out")
         from . import report as rp
-        from . import report_html
-        path, same = rp.write(configs, results, out_file, check=check, warn=_warn)
-        index, differ = report_html.write(configs, results, check=check)
+        w = rp.write_report(configs, results, out_file, check=check, warn=_warn)
+        path, same, index, differ = w.markdown, w.same, w.index, w.differ
         if not check:
             err.print(f"wrote {path} and {index} ({len(differ)} of its files changed)",
                       markup=False)
             return
+        again = "'pfbench report" + (f" --out {out_file}'" if out_file else "'")
         if same:
             err.print(f"{path} is up to date", markup=False)
         else:
-            err.print(f"{path} is not what the results give: run 'pfbench report'",
-                      markup=False)
+            err.print(f"{path} is not what the results give: run {again}", markup=False)
         if not differ:
             err.print(f"{index.parent} is up to date", markup=False)
         else:
             err.print(f"{index.parent}: {len(differ)} file(s) not what the results give "
                       f"({', '.join(differ[:3])}{'...' if len(differ) > 3 else ''}): run "
-                      "'pfbench report'", markup=False)
+                      f"{again}", markup=False)
         if not same or differ:
             raise typer.Exit(1)
 
@@ -774,6 +787,10 @@ def bench(
 ):
     """Kernel speed beside numpy (and a C reference): UNGM PF, every filter, FastSLAM, MCL."""
     with _guard():
+        if json_path is not None:       # a file it can write, known before minutes of timing
+            json_path = _path(str(json_path), "--json")
+            if json_path.is_dir() or not json_path.parent.is_dir():
+                raise UserError(f"--json {json_path}: expected a file in an existing folder")
         _load_kernels()
         from .bench import run_bench
         run_bench(json_path=json_path, quick=quick, c_ref=c_ref, threads=threads, console=out,

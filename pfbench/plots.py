@@ -429,6 +429,25 @@ def write_figures(exp: Experiment, rows: list[dict] | pd.DataFrame, out_dir: Pat
     return paths
 
 
+def expected_figures(exp: Experiment, rows: list[dict] | pd.DataFrame, fmt: str = "png"
+                     ) -> list[str]:
+    """The names of the figures :func:`write_figures` surely draws of these rows (those that
+    depend on what the traces show are left out): what an up-to-date run checks are there."""
+    df = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(rows)
+    names = []
+    for metric, *_ in _distribution_quantities(exp):
+        values = df[metric].dropna() if metric in df else pd.Series(dtype=float)
+        if values.empty or (metric != "rmse" and values.isin((0.0, 1.0)).all()):
+            continue
+        names.append(f"{metric}.{fmt}")
+    kind = kind_of(exp.scenario)
+    if kind.figures == "slam_figures":
+        names += [f"course.{fmt}", f"errors.{fmt}", f"ess.{fmt}"]
+    elif kind.figures == "localization_figures":
+        names.append(f"errors.{fmt}")
+    return names
+
+
 def slam_figures(exp: Experiment, rows: pd.DataFrame, traces: Traces, folder: Path,
                  fmt: str = "png") -> list[Path]:
     """A SLAM experiment's figures of its first trial (see slam_trial_figures)."""

@@ -31,7 +31,7 @@ import pandas as pd
 from .config import load, read_yaml
 from .errors import UserError
 from .metrics import METRICS
-from .fsutil import FolderLock, child, remove_tree, replace_tree
+from .fsutil import FolderLock, child, own_folder, recover_aside, remove_tree, replace_tree
 from .runner import LocalExecutor, keep_provenance, run_experiment
 from .store import TIMING_COLUMNS, write_csv
 
@@ -60,8 +60,11 @@ def write_experiment(exp, res, folder: Path, figures: bool = True,
     """The comparison (table.csv / table.md) and figures of a finished run; returns (comparison,
     figure paths)."""
     from . import tables
-    from .api import anytime_of
+    from .api import anytime_of, check_figure_format
     from .compare import compare
+    if figures:
+        check_figure_format(figure_format)
+        own_folder(Path(folder) / "figures", folder, "figures folder")
     cmp = compare(exp, res.rows, anytime=anytime_of(res.meta))
     tables.write(cmp, folder, res.meta)
     paths = []
@@ -72,10 +75,16 @@ def write_experiment(exp, res, folder: Path, figures: bool = True,
 
 
 def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: str,
-                figures: bool = True, figure_format: str = "png", exp=None) -> tuple:
+                figures: bool = True, figure_format: str = "png", exp=None,
+                missing_only: bool = False) -> tuple:
     """summary.csv and the figures of a finished sweep (``exp``: a cell's experiment, whose
-    metrics the figures draw); returns (summary, figure paths)."""
+    metrics the figures draw); returns (summary, figure paths). ``missing_only`` (an up-to-date
+    sweep): the figures are drawn only when one is missing, as an up-to-date run's."""
     from . import sweep as sw
+    from .api import check_figure_format
+    if figures:
+        check_figure_format(figure_format)
+        own_folder(Path(folder) / "figures", folder, "figures folder")
     summ = sw.summary(trials_df, keys)
     write_csv(folder / "summary.csv", summ)
     if not figures:
@@ -83,6 +92,12 @@ def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: st
     from .figstyle import prune
     from .kinds import kind_of
     from .plots import sweep_figures, sweep_metrics
+    if missing_only:
+        which = sweep_metrics(exp) if exp else ["rmse"]
+        want = [folder / "figures" / f"{m}.{figure_format}" for m in which
+                if f"{m}_mean" in summ and not summ[f"{m}_mean"].isna().all()]
+        if want and all(p.is_file() for p in want):
+            return summ, want
     paths = sweep_figures(summ, keys, folder, name, sweep_metrics(exp) if exp else None,
                           fmt=figure_format, unit=kind_of(exp.scenario).unit if exp else "")
     prune(folder / "figures", paths)
@@ -93,11 +108,72 @@ def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: st
     return summ, paths
 
 
+def experiment_name(path: Path, trials: int | None = None) -> str:
+    """The name of a config's experiment (a sweep's too): its folder under the results."""
+    from . import sweep as sw
+    if is_sweep(path):
+        return sw.expand(path, {}, {"trials": trials})[0]
+    return load(path, {"trials": trials}).name
+
+
+# the files that mark a folder as holding a run's (or a sweep's) results
+RESULT_MARKS = ("meta.json", "trials.csv", "run.json", "trials.partial.csv", "summary.csv")
+
+
+def holder_of(folder: Path) -> Path | None:
+    """``folder`` or the nearest folder above it that holds a run's or a sweep's results, or
+    None."""
+    try:
+        cur = Path(folder).resolve()
+    except (OSError, RuntimeError):
+        return None
+    for p in (cur, *cur.parents):
+        if any((p / m).is_file() for m in RESULT_MARKS):
+            return p
+    return None
+
+
+# what 'pfbench report' writes into a results folder: no experiment's folder can be one
+REPORT_NAMES = ("report", "REPORT.md")
+
+
+def reserved_name(name: str, config) -> None:
+    """Refuse an experiment name whose folder in a results folder would be the report's."""
+    if name in REPORT_NAMES:
+        raise UserError(f"{config}: name '{name}': results/{name} holds the reproduction report; "
+                        "give the experiment another name (or choose its folder with --out)")
+
+
+def check_outputs(files: list[Path], results: Path, names: list[str] | None = None) -> list[str]:
+    """Refuse, before anything runs, a regeneration whose results folders would collide: two
+    configs of one experiment name (one's results would replace the other's), a results folder
+    that lies inside another experiment's results (replacing it would delete them), or a
+    folder of results that is a symbolic link. Returns the names."""
+    names = names if names is not None else [experiment_name(p) for p in files]
+    seen: dict[str, Path] = {}
+    for p, name in zip(files, names):
+        child(Path(results), name, f"{p}: name")
+        reserved_name(name, p)
+        if name in seen:
+            raise UserError(f"{seen[name]} and {p} both name the experiment '{name}': their "
+                            f"results would share {Path(results) / name}; give one another "
+                            "name")
+        seen[name] = p
+    holder = holder_of(results)
+    if holder is not None:
+        raise UserError(f"--results {results}: lies inside the results of a run ({holder}); "
+                        "choose a folder of its own")
+    for name in names:
+        for folder in (Path(results) / name, Path(results) / f".{name}.partial"):
+            own_folder(folder, results, "results folder")
+    return names
+
+
 def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int | None = None,
                figures: bool = True, resume: bool = False,
                progress: Callable[[int, int], None] | None = None,
                until_decided: bool = False, max_trials: int | None = None,
-               figure_format: str = "png") -> Path:
+               figure_format: str = "png", warn: Callable[[str], None] | None = None) -> Path:
     """Run one config (an experiment or a sweep) into results/<name>, replacing what the folder
     held; return the folder. With ``until_decided``, an experiment that compares with a paper's
     table runs in batches until its judged cells are decided (pfbench.api.run_until_decided;
@@ -113,13 +189,18 @@ def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int |
     else:
         exp = load(path, {"trials": trials})
         name = exp.name
+    from .api import check_figure_format
+    if figures:
+        check_figure_format(figure_format)
     results = Path(results)
     folder = child(results, name, f"{path}: name")
     stage = results / f".{name}.partial"
-    with FolderLock(results):
+    check_outputs([path], results, [name])
+    with FolderLock(results, "--results"):
+        recover_aside(folder, results, warn)
         if not resume:
             remove_tree(stage, results)
-        with FolderLock(stage):
+        with FolderLock(stage, "results folder", root=results):
             if sweep:
                 df = sw.run_sweep(cells, stage, resume=resume, progress=progress,
                                   executor=executor)
@@ -134,7 +215,7 @@ def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int |
                 res = run_experiment(exp, stage, resume=resume, progress=progress,
                                      executor=executor)
                 write_experiment(exp, res, stage, figures, figure_format)
-        with FolderLock(folder):
+        with FolderLock(folder, "results folder", root=results):
             keep_provenance(stage, folder)
             replace_tree(stage, folder, results)
     return folder

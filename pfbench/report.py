@@ -11,6 +11,7 @@ reported.
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
@@ -52,9 +53,16 @@ class Entry:
         return self.folder.name
 
 
-def collect(configs: Path, results: Path) -> list[Entry]:
-    """Every config with its results, tables recomputed from the trials."""
+def collect(configs: Path, results: Path, restore: bool = False,
+            warn: Callable[[str], None] | None = None) -> list[Entry]:
+    """Every config with its results, tables recomputed from the trials.
+
+    A results folder that is missing while ``.NAME.old<pid>`` beside it holds it (a
+    regeneration killed between its renames) is never reported as not run: with ``restore``
+    (the caller holds the results folder's lock) it is moved back, and ``warn`` told; without,
+    a UserError says so."""
     from . import sweep as sw
+    from .fsutil import aside_names, recover_aside
     entries = []
     for path in config_files(configs):
         if is_sweep(path):
@@ -63,12 +71,35 @@ def collect(configs: Path, results: Path) -> list[Entry]:
         else:
             exp = load(path)
             e = Entry(path, exp, Path(results) / exp.name)
-        _read(e)
         entries.append(e)
+    for e in entries:
+        if not e.folder.exists() and aside_names(e.folder):
+            if not restore:
+                raise UserError(f"{e.folder}: missing, and {aside_names(e.folder)[0].name} "
+                                "beside it holds it (a regeneration was killed while it "
+                                "replaced the folder): 'pfbench report' or 'pfbench tables' "
+                                "into that results folder restores it")
+            recover_aside(e.folder, Path(results), warn)
+        _read(e)
     return entries
 
 
 def _read(e: Entry) -> None:
+    """Read an entry's results; a file that cannot be read is a UserError naming it (the report
+    is not written)."""
+    try:
+        _read_files(e)
+    except UserError:
+        raise
+    except (OSError, UnicodeDecodeError, ValueError, pd.errors.ParserError) as exc:
+        what = getattr(exc, "filename", None) or e.folder
+        why = getattr(exc, "strerror", None) or (str(exc).splitlines() or [""])[0] \
+            or type(exc).__name__
+        raise UserError(f"{what}: cannot be read ({why}); 'pfbench tables --only "
+                        f"{e.path.stem}' regenerates it") from None
+
+
+def _read_files(e: Entry) -> None:
     if e.cells is not None:
         summary = e.folder / "summary.csv"
         if not summary.exists():
@@ -98,7 +129,15 @@ def _read(e: Entry) -> None:
 
 def _meta(folder: Path) -> dict | None:
     path = folder / "meta.json"
-    return json.loads(path.read_text()) if path.exists() else None
+    if not path.exists():
+        return None
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise UserError(f"{path}: cannot be read ({str(exc).splitlines()[0]})") from None
+    if not isinstance(meta, dict):
+        raise UserError(f"{path}: expected a mapping, got {type(meta).__name__}")
+    return meta
 
 
 def _stale(exp: Experiment, meta: dict | None) -> str:
@@ -208,22 +247,63 @@ def _value(m, entries: dict[str, Entry]) -> str:
     return text
 
 
+def home_names(paper: pp.Paper) -> set[str]:
+    """The experiment names of the configs the paper file sits with (``configs/`` of
+    ``configs/papers/KEY.yaml``): what its findings may name beyond the configs reported."""
+    src = Path(paper.source)
+    home = src.parent.parent if src.parent.name == "papers" else src.parent
+    names: set[str] = set()
+    if not paper.source or not home.is_dir():
+        return names
+    from .config import read_yaml
+    for p in home.iterdir():
+        if p.suffix not in (".yaml", ".yml") or not p.is_file():
+            continue
+        try:
+            raw, _ = read_yaml(p)
+        except UserError:
+            continue
+        if isinstance(raw, dict):
+            names.add(str(raw.get("name") or p.stem))
+    return names
+
+
+def here(finding: pp.Finding, entries) -> bool:
+    """Whether every experiment a finding names is among the configs reported."""
+    return all(r.config in entries for r in finding.refs)
+
+
 def findings(paper: pp.Paper, entries: dict[str, Entry],
              warn: Callable[[str], None] | None = None) -> list[str]:
-    """A paper's findings with their references filled in. A broken reference (an experiment,
-    run or column that does not exist) is shown as such and told to ``warn`` with the paper
-    file and the finding's line; without ``warn`` it is a UserError."""
+    """A paper's findings with their references filled in. A finding about an experiment that
+    is not among these configs but is a config beside the paper file (a report of some of a
+    paper's configs) is left out; a broken reference (an experiment found nowhere, a run or a
+    column that does not exist) is a UserError naming the paper file and the finding's line:
+    a report is never written with one. (``warn`` is not used; kept for callers.)"""
     out = []
+    home: set[str] | None = None
     for i, f in enumerate(paper.findings):
-        problems: list[str] = []
         where = f"{paper.source}:{f.line}" if f.line else paper.source
+        if not here(f, entries):
+            home = home_names(paper) if home is None else home
+            lost = [r for r in f.refs if r.config not in entries and r.config not in home]
+            if not lost:
+                continue            # about a table whose config is not among these
+            r = lost[0]
+            raise UserError(f"{where}: findings[{i}]: {r.text}: no experiment '{r.config}' "
+                            "among the configs or beside the paper file"
+                            + did_you_mean(r.config, sorted(set(entries) | home)))
         try:
-            out.append(fill(f.text, entries, problems if warn else None))
+            out.append(fill(f.text, entries))
         except UserError as exc:
             raise UserError(f"{where}: findings[{i}]: {exc}") from None
-        for p in problems:
-            warn(f"{where}: findings[{i}]: {p}")
     return out
+
+
+def tables_elsewhere(paper: pp.Paper, entries: list[Entry]) -> list[str]:
+    """The paper's tables that no config here fills (a report of some of its configs)."""
+    filled = {e.exp.table for e in entries if e.exp.paper == paper.key}
+    return [k for k in paper.tables if k not in filled]
 
 
 def _num(v: float) -> str:
@@ -446,19 +526,21 @@ def reported_papers(entries: list[Entry], configs: Path) -> dict[str, pp.Paper]:
     """The papers a report has a section for: those the configs name, and surveys (findings, no
     tables of their own) measured through other papers' configs."""
     papers = {e.exp.reference.key: e.exp.reference for e in entries if e.exp.reference}
+    names = {e.name for e in entries}
     for key, path in pp.available(pp.folders_for_configs(configs)).items():
         if key not in papers:
             p = pp.read(path)
-            if not p.tables and p.findings:
+            # a survey: reported where one of its findings is about these configs
+            if not p.tables and any(f.refs and here(f, names) for f in p.findings):
                 papers[key] = p
     return papers
 
 
 def build(configs: Path, results: Path, out: Path,
-          warn: Callable[[str], None] | None = None) -> str:
-    """The report's text (links relative to ``out``'s folder). ``warn`` hears of each broken
-    reference of a paper's findings (without it, one is a UserError)."""
-    entries = collect(configs, results)
+          warn: Callable[[str], None] | None = None, entries: list[Entry] | None = None) -> str:
+    """The report's text (links relative to ``out``'s folder). A broken reference of a paper's
+    finding is a UserError (see findings). ``entries``: collected already."""
+    entries = list(entries) if entries is not None else collect(configs, results)
     papers = reported_papers(entries, configs)
     order = {k: i for i, k in enumerate(sorted(papers))}
     entries.sort(key=lambda e: (order.get(e.exp.paper, len(order)), e.cells is not None,
@@ -487,9 +569,14 @@ def build(configs: Path, results: Path, out: Path,
         lines += [f"## `{key}`: {p.citation}", ""]
         if p.about:
             lines += [p.about, ""]
-        if p.findings:
+        elsewhere = tables_elsewhere(p, entries) if mine else []
+        if elsewhere:
+            lines += [f"Not among these configs: {', '.join(map(_table_name, elsewhere))} of "
+                      "this paper.", ""]
+        found = findings(p, by_name) if p.findings else []
+        if found:
             lines += ["What reproduced and what did not:", ""]
-            lines += [f"- {text}" for text in findings(p, by_name, warn)] + [""]
+            lines += [f"- {text}" for text in found] + [""]
         for e in mine:
             lines += _sweep_section(e, where) if e.cells else _experiment_section(e, where)
         lines += _choices(p, mine or entries)   # a survey's choices live in others' configs
@@ -501,20 +588,95 @@ def build(configs: Path, results: Path, out: Path,
     return "\n".join(lines).rstrip() + "\n"
 
 
+@dataclass
+class Where:
+    """Where a report goes: its folder (created), REPORT.md in it (or the .md file --out
+    named), the HTML report in ``html`` (the folder's report/)."""
+    folder: Path
+    markdown: Path
+    html: Path
+    into_results: bool          # the results folder itself (its lock is taken, leftovers restored)
+
+
+def where(results: Path, out: Path | None = None) -> Where:
+    """The report's places for ``--out`` (None: the results folder): a folder gets REPORT.md
+    and report/; a path ending in .md (not a folder) is the Markdown file, report/ beside it."""
+    results = Path(results)
+    if out is None:
+        folder, md = results, results / "REPORT.md"
+    elif Path(out).suffix.lower() == ".md" and not Path(out).is_dir():
+        folder, md = Path(out).parent, Path(out)
+    else:
+        folder, md = Path(out), Path(out) / "REPORT.md"
+    if md.exists() and not md.is_file():
+        raise UserError(f"--out {md}: exists and is not a file")
+    if folder.exists() and not folder.is_dir():
+        raise UserError(f"--out {folder}: exists and is not a folder")
+    try:
+        same = folder.resolve() == results.resolve()
+    except (OSError, RuntimeError):
+        same = False
+    from .fsutil import own_folder
+    own_folder(folder / "report", folder, "--out")      # no link: refused before the build
+    return Where(folder, md, folder / "report", same)
+
+
+@dataclass
+class Written:
+    """What write_report did: the Markdown file and whether it held this text; the HTML index
+    and the HTML files that differed."""
+    markdown: Path
+    same: bool
+    index: Path
+    differ: list
+
+
+def write_report(configs: Path, results: Path, out: Path | None = None, check: bool = False,
+                 warn: Callable[[str], None] | None = None, figures: bool = True) -> Written:
+    """Build REPORT.md and the HTML report, then write both where ``out`` says (see ``where``),
+    or with ``check`` only compare them with what is there. Everything is built before anything
+    is written: a report that cannot be built (a broken reference of a finding) writes nothing.
+    Writing into the results folder holds its lock (not while 'pfbench tables' rewrites the
+    results); writing elsewhere holds the lock of that folder and never writes into the results
+    folder."""
+    from . import report_html
+    from .fsutil import FolderLock, atomic_write, not_in_use, own_folder
+    configs, results = Path(configs), Path(results)
+    if not results.is_dir():
+        raise UserError(f"{results}: no such results folder; run 'pfbench tables' first")
+    w = where(results, out)
+
+    def build_all(restore: bool):
+        entries = collect(configs, results, restore=restore, warn=warn)
+        not_run = [e.path.stem + (f" (an unfinished regeneration in .{e.name}.partial: "
+                                  "'pfbench tables --resume' continues it)"
+                                  if (results / f".{e.name}.partial").is_dir() else "")
+                   for e in entries if e.status == "not run"]
+        if not_run and warn:
+            warn(f"not run (no results in {results}): {', '.join(not_run)}")
+        text = build(configs, results, w.markdown, entries=entries)
+        files = report_html.build(configs, results, w.html, figures, entries=entries)
+        return text, files
+
+    if check:
+        text, files = build_all(False)
+        same = w.markdown.is_file() and w.markdown.read_text(encoding="utf-8") == text
+        return Written(w.markdown, same, w.html / "index.html",
+                       report_html.differences(w.html, files, check=True))
+    lock = FolderLock(results, "--results") if w.into_results else FolderLock(w.folder, "--out")
+    with lock, (contextlib.nullcontext() if w.into_results else not_in_use(results, "--results")):
+        text, files = build_all(w.into_results)
+        own_folder(w.html, w.folder, "--out")
+        same = w.markdown.is_file() and w.markdown.read_text(encoding="utf-8") == text
+        differ = report_html.differences(w.html, files)
+        atomic_write(w.markdown, text)
+        report_html.replace(w.html, files)
+    return Written(w.markdown, same, w.html / "index.html", differ)
+
+
 def write(configs: Path, results: Path, out: Path | None = None, check: bool = False,
           warn: Callable[[str], None] | None = None) -> tuple[Path, bool]:
-    """Write the report (default results/REPORT.md), or with ``check`` only compare it with the
-    file; return (its path, whether the file held this text before). Writing holds the results
-    folder's lock (not while 'pfbench tables' rewrites the results). ``warn``: see build."""
-    from .fsutil import FolderLock, atomic_write
-    out = Path(out) if out else Path(results) / "REPORT.md"
-    if not Path(results).is_dir():
-        raise UserError(f"{results}: no such results folder; run 'pfbench tables' first")
-    if check:
-        text = build(Path(configs), Path(results), out, warn)
-        return out, out.exists() and out.read_text(encoding="utf-8") == text
-    with FolderLock(results, "--results"):      # not while 'tables' rewrites them
-        text = build(Path(configs), Path(results), out, warn)
-        same = out.exists() and out.read_text(encoding="utf-8") == text
-        atomic_write(out, text)
-    return out, same
+    """REPORT.md and the HTML report (see write_report); return (the Markdown file, whether it
+    held this text before)."""
+    w = write_report(configs, results, out, check, warn)
+    return w.markdown, w.same

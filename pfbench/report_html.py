@@ -85,7 +85,8 @@ reports, with 95% intervals and a verdict for every value.</p>
     "paper.html": """{% extends "base.html" %}{% block body %}
 <h1>{{ paper.key }}</h1>
 <p>{{ paper.citation }}</p>
-{% if paper.about %}<p>{{ paper.about }}</p>{% endif %}
+{% if paper.about %}<p>{{ paper.about }}</p>{% endif %}{% if elsewhere %}
+<p>Not among these configs: {{ elsewhere|join(", ") }} of this paper.</p>{% endif %}
 {% if findings %}<h2>What reproduced and what did not</h2>
 <ul class="notes">{% for f in findings %}<li>{{ f }}</li>{% endfor %}</ul>{% endif %}
 {% for s in sections %}
@@ -240,11 +241,13 @@ def _section(e: rp.Entry, out_dir: Path, figures: bool) -> dict:
     return s
 
 
-def build(configs: Path, results: Path, out_dir: Path, figures: bool = True) -> dict[str, bytes]:
+def build(configs: Path, results: Path, out_dir: Path, figures: bool = True,
+          entries: list | None = None) -> dict[str, bytes]:
     """Every file of the HTML report, by its path under ``out_dir``: index.html, a page per
-    paper (other.html: the experiments that name none), and (``figures``) the SVG figures."""
+    paper (other.html: the experiments that name none), and (``figures``) the SVG figures.
+    ``entries``: collected already (pfbench.report.collect)."""
     env = _env()
-    entries = rp.collect(configs, results)
+    entries = list(entries) if entries is not None else rp.collect(configs, results)
     papers = rp.reported_papers(entries, configs)
     by_name = {e.name: e for e in entries}
     # the experiments that name no paper get a page of their own, as REPORT.md's last section
@@ -278,8 +281,9 @@ def build(configs: Path, results: Path, out_dir: Path, figures: bool = True) -> 
             files[f"{key}.html"] = env.get_template("paper.html").render(
                 title=f"{key}: pfbench reproduction", css=CSS, papers=nav, version=__version__,
                 paper=p, sections=sections, choices=rp.choice_rows(p, mine or entries),
-                # a broken reference: REPORT.md's build has said so; here it is left out
-                findings=rp.findings(p, by_name, lambda _: None) if p.findings else [],
+                findings=rp.findings(p, by_name) if p.findings else [],
+                elsewhere=[rp._table_name(k) for k in rp.tables_elsewhere(p, entries)]
+                if mine else [],
                 ).encode()
         if others:
             files["other.html"] = env.get_template("paper.html").render(
@@ -291,38 +295,69 @@ def build(configs: Path, results: Path, out_dir: Path, figures: bool = True) -> 
     return files
 
 
-def write(configs: Path, results: Path, check: bool = False, figures: bool = True
-          ) -> tuple[Path, list[str]]:
-    """Write the HTML report into ``results/report/`` (replacing what it held), or with ``check``
-    compare (the pages byte for byte, the figures by their presence); return (its index, the
-    files that differ from what the folder held)."""
-    from .fsutil import FolderLock
-    out_dir = Path(results) / "report"
-    files = build(Path(configs), Path(results), out_dir, figures)
-    held = {p.relative_to(out_dir).as_posix(): p.read_bytes()
-            for p in out_dir.rglob("*") if p.is_file()} if out_dir.is_dir() else {}
+def _managed(name: str) -> bool:
+    """Whether a file of the report's folder (by its path there) is one the report writes: the
+    pages (``*.html``) and the figures (``figures/**.svg``); any other file is left alone."""
+    parts = name.split("/")
+    return (len(parts) == 1 and name.endswith(".html")) or \
+        (parts[0] == "figures" and name.endswith(".svg"))
+
+
+def _held(out_dir: Path) -> dict[str, bytes]:
+    if not out_dir.is_dir() or out_dir.is_symlink():
+        return {}
+    return {k: p.read_bytes() for p in out_dir.rglob("*")
+            if p.is_file() and not p.is_symlink()
+            and _managed(k := p.relative_to(out_dir).as_posix())}
+
+
+def differences(out_dir: Path, files: dict[str, bytes], check: bool = False) -> list[str]:
+    """The report's files that differ from what ``out_dir`` holds (files it would add, change
+    or remove); with ``check``, the pages byte for byte and a figure only by its presence: its
+    bytes depend on the plotting library's version, its content on the trials the tables are
+    checked on."""
+    held = _held(Path(out_dir))
     differ = sorted(k for k in set(files) | set(held) if files.get(k) != held.get(k))
     if check:
-        # the pages byte for byte; a figure only by its presence: its bytes depend on the
-        # plotting library's version, its content on the trials the tables are checked on
-        return out_dir / "index.html", [k for k in differ if not k.endswith(".svg")
-                                        or (k in files) != (k in held)]
-    with FolderLock(results, "--results"):      # not while 'tables' rewrites the results
-        _replace(out_dir, files, held)
+        return [k for k in differ if not k.endswith(".svg") or (k in files) != (k in held)]
+    return differ
+
+
+def write(configs: Path, results: Path, check: bool = False, figures: bool = True,
+          out_dir: Path | None = None) -> tuple[Path, list[str]]:
+    """Write the HTML report into ``out_dir`` (default ``results/report/``; replacing the pages
+    and figures it held, no other file), or with ``check`` compare (see differences); return
+    (its index, the files that differ from what the folder held). Writing into the results
+    folder holds its lock (not while 'pfbench tables' rewrites the results)."""
+    from .fsutil import FolderLock, own_folder
+    out_dir = Path(out_dir) if out_dir is not None else Path(results) / "report"
+    files = build(Path(configs), Path(results), out_dir, figures)
+    differ = differences(out_dir, files, check)
+    if check:
+        return out_dir / "index.html", differ
+    with FolderLock(out_dir.parent, "--out"):
+        own_folder(out_dir, out_dir.parent, "--out")
+        replace(out_dir, files)
     return out_dir / "index.html", differ
 
 
-def _replace(out_dir: Path, files: dict[str, bytes], held: dict[str, bytes]) -> None:
-    """Make ``out_dir`` hold ``files`` and nothing else (only what changed is rewritten)."""
-    from .fsutil import atomic_write
+def replace(out_dir: Path, files: dict[str, bytes]) -> None:
+    """Make ``out_dir`` hold ``files`` and none of the report's other pages and figures (only
+    what changed is rewritten; files the report does not write are left alone; no link is
+    followed)."""
+    from .fsutil import atomic_write, make_folders, own_folder
+    out_dir = Path(out_dir)
+    held = _held(out_dir)
     for name in set(held) - set(files):
         (out_dir / name).unlink()
     for name, data in files.items():
         path = out_dir / name
-        path.parent.mkdir(parents=True, exist_ok=True)
+        own_folder(path.parent, out_dir.parent, "--out")
+        make_folders(path.parent, "--out")
         if held.get(name) != data:
             atomic_write(path, data)
-    for d in sorted((p for p in out_dir.rglob("*") if p.is_dir()), reverse=True):
-        if not any(d.iterdir()):
-            d.rmdir()
-
+    if out_dir.is_dir():
+        for d in sorted((p for p in out_dir.rglob("*") if p.is_dir() and not p.is_symlink()),
+                        reverse=True):
+            if not any(d.iterdir()):
+                d.rmdir()

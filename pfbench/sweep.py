@@ -22,7 +22,7 @@ import pandas as pd
 
 from .config import Experiment, apply_override, read_yaml, validate
 from .errors import UserError
-from .fsutil import FolderLock
+from .fsutil import FolderLock, own_folder
 from .metrics import METRICS, summarize
 from .runner import run_experiment
 from .store import TIMINGS, write_csv
@@ -152,16 +152,21 @@ def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: boo
               force: bool = False) -> pd.DataFrame:
     """Run every cell (resumable) on one executor, then write the combined trials. A cell's
     folder that holds its trials keeps them; one that holds another experiment's is refused
-    without ``force`` (pfbench.runner.run_experiment)."""
+    without ``force`` (pfbench.runner.run_experiment). The trials' ``attrs["up_to_date"]``:
+    every cell was up to date (nothing ran). Every cell's folder lies inside ``out_dir``, no
+    link on the way (refused before any cell runs)."""
     total = sum(c.exp.trials for c in cells)
     if not force and (Path(out_dir) / "meta.json").exists():
         raise UserError(f"{out_dir} holds the results of a run, not of a sweep: --force "
                         "replaces them, or --out names another folder")
-    for cell in cells:          # every cell's folder is free before any cell runs
-        with FolderLock(out_dir / "cells" / cell.name, "sweep cell"):
+    out_dir = Path(out_dir)
+    own_folder(out_dir / "cells", out_dir, "sweep cells folder")
+    for cell in cells:          # every cell's folder is its own and free before any cell runs
+        with FolderLock(out_dir / "cells" / cell.name, "sweep cell", root=out_dir):
             pass
     done = 0
     frames = []
+    fresh = True
     for cell in cells:
         folder = out_dir / "cells" / cell.name
 
@@ -169,10 +174,12 @@ def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: boo
             if progress:
                 progress(base + d, total)
 
-        res = run_experiment(cell.exp, folder, workers=workers, resume=resume,
-                             progress=cell_progress, executor=executor, warn=warn,
-                             traces=False, force=force)
+        with FolderLock(folder, "sweep cell", root=out_dir):
+            res = run_experiment(cell.exp, folder, workers=workers, resume=resume,
+                                 progress=cell_progress, executor=executor, warn=warn,
+                                 traces=False, force=force)
         done += cell.exp.trials
+        fresh &= res.up_to_date
         if progress and res.up_to_date:
             progress(done, total)
         df = pd.DataFrame(res.rows)
@@ -185,6 +192,7 @@ def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: boo
     write_csv(out_dir / "trials.csv", trials.drop(columns=["wall_s"], errors="ignore"))
     if "wall_s" in trials:
         write_csv(out_dir / TIMINGS, trials[keys + ["trial", "filter", "wall_s"]])
+    trials.attrs["up_to_date"] = fresh      # every cell held its trials: nothing ran
     return trials
 
 
