@@ -161,7 +161,8 @@ def summarize(values) -> dict:
     var = float(v.var(ddof=1))
     se = math.sqrt(var / n)
     half = t975(n - 1) * se
-    m4 = float(np.mean((v - mean) ** 4))
+    sq = (v - mean) * (v - mean)    # products, not a power: the same bits on every CPU (numpy's
+    m4 = float(np.mean(sq * sq))    # vectorised pow differs in the last bit between CPUs)
     var_se = math.sqrt(max(m4 - var * var * (n - 3) / (n - 1), 0.0) / n)
     out.update(var=var, se=se, ci_lo=mean - half, ci_hi=mean + half, var_se=var_se,
                var_ci_lo=max(var - Z975 * var_se, 0.0), var_ci_hi=var + Z975 * var_se)
