@@ -13,6 +13,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import json
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -55,6 +56,61 @@ class Result:
     figures: list = field(default_factory=list)
     up_to_date: bool = False
     run: dict | None = None
+
+
+# ---- the arguments of the API's functions, checked before anything runs or is written
+
+def _is_int(v) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _describe(v) -> str:
+    from .schema import describe
+    return describe(v)
+
+
+# (test, what it expects): each kind of argument the API's functions take
+_PATH = (lambda v: isinstance(v, (str, os.PathLike)), "a path (a string or a pathlib.Path)")
+_OPT_PATH = (lambda v: v is None or _PATH[0](v), "a path (a string or a pathlib.Path) or None")
+_CONFIG = (lambda v: isinstance(v, (str, os.PathLike, Mapping)) or _is_experiment(v),
+           "a path or a mapping (a YAML file, a mapping of config keys, or a "
+           "pfbench.config.Experiment)")
+_COUNT = (lambda v: _is_int(v) and v >= 1, "an integer >= 1")
+_OPT_COUNT = (lambda v: v is None or _COUNT[0](v), "an integer >= 1 or None")
+_OPT_SEED = (lambda v: v is None or (_is_int(v) and v >= 0), "an integer >= 0 or None")
+_FLAG = (lambda v: isinstance(v, bool), "True or False")
+_OPT_CALL = (lambda v: v is None or callable(v), "a function or None")
+_OVERRIDES = (lambda v: (not isinstance(v, (str, bytes, Mapping)) and hasattr(v, "__iter__")),
+              "a list of 'KEY.PATH=VALUE' strings")
+_EXECUTOR = (lambda v: v is None or (callable(getattr(v, "run", None))
+                                     and callable(getattr(v, "describe", None))),
+             "a pfbench.runner executor (with run and describe) or None")
+_FORMAT = (lambda v: v in ("png", "svg", "pdf") if isinstance(v, str) else False,
+           "one of 'png', 'svg', 'pdf'")
+
+
+def _is_experiment(v) -> bool:
+    from .config import Experiment
+    return isinstance(v, Experiment)
+
+
+def _check_args(fn: str, **args) -> None:
+    """A one-line UserError naming the function and the argument when one is not what it takes
+    (``args``: name -> (value, (test, what it expects)))."""
+    for name, (value, (test, what)) in args.items():
+        if not test(value):
+            raise UserError(f"{fn}: {name}: expected {what}, got {_describe(value)}")
+
+
+def _overrides(fn: str, overrides) -> tuple[str, ...]:
+    """The overrides as a tuple of strings (an iterator is read once)."""
+    _check_args(fn, overrides=(overrides, _OVERRIDES))
+    out = tuple(overrides)
+    for o in out:
+        if not isinstance(o, str):
+            raise UserError(f"{fn}: overrides: expected 'KEY.PATH=VALUE' strings, got "
+                            f"{_describe(o)} among them")
+    return out
 
 
 def _experiment(config, trials, seed, overrides):
@@ -112,6 +168,13 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
     executor : where the trials run (a pfbench.runner executor; default: ``workers`` local
         processes); progress(done, total) is called as trials finish
     """
+    fn = "run_experiment"
+    _check_args(fn, config=(config, _CONFIG), trials=(trials, _OPT_COUNT),
+                seed=(seed, _OPT_SEED), workers=(workers, _COUNT), out=(out, _OPT_PATH),
+                resume=(resume, _FLAG), figures=(figures, _FLAG), executor=(executor, _EXECUTOR),
+                progress=(progress, _OPT_CALL), warn=(warn, _OPT_CALL), force=(force, _FLAG),
+                figure_format=(figure_format, _FORMAT))
+    overrides = _overrides(fn, overrides)
     from .compare import compare
     from .runner import LocalExecutor, run_experiment as run_into, versions
     from .store import trial_columns
@@ -202,6 +265,15 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
     the table is recomputed with the same intervals by ``pfbench tables`` / ``report``.
     ``on_look(look)`` is called after each batch with {'trials', 'undecided'}.
     """
+    fn = "run_until_decided"
+    _check_args(fn, config=(config, _CONFIG), out=(out, _PATH),
+                max_trials=(max_trials, _OPT_COUNT), trials=(trials, _OPT_COUNT),
+                seed=(seed, _OPT_SEED), workers=(workers, _COUNT), resume=(resume, _FLAG),
+                figures=(figures, _FLAG), executor=(executor, _EXECUTOR),
+                progress=(progress, _OPT_CALL), warn=(warn, _OPT_CALL),
+                on_look=(on_look, _OPT_CALL), force=(force, _FLAG),
+                figure_format=(figure_format, _FORMAT))
+    overrides = _overrides(fn, overrides)
     from .compare import compare
     from .regen import write_experiment
     from .runner import RUN_TIMINGS, run_experiment as run_into
@@ -247,11 +319,15 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
 def load_results(folder: str | Path) -> Result:
     """The results of ``pfbench run`` (or ``pfbench sweep``) in ``folder``: its trials, its table
     (a sweep's summary), its meta; ``experiment`` when the config that made them is still there
-    unchanged."""
+    unchanged. The trials file and meta.json are checked against each other (every row's
+    checksum, the trials and filter runs meta.json records, the file's checksum where it records
+    one; a sweep's summary against its trials): a folder whose files disagree, whose meta.json
+    is malformed, or that a newer pfbench wrote is refused with a one-line UserError."""
+    _check_args("load_results", folder=(folder, _PATH))
     from .runner import RUN_TIMINGS
-    from .store import read_timings, read_trials, with_timings
+    from .store import read_results, read_sweep, read_timings, with_timings
     folder = Path(folder)
-    meta_path, trials_path = folder / "meta.json", folder / "trials.csv"
+    trials_path = folder / "trials.csv"
     table_path = folder / "table.csv"
     if not folder.is_dir():
         raise UserError(f"{folder}: no such results folder")
@@ -259,18 +335,10 @@ def load_results(folder: str | Path) -> Result:
         raise UserError(f"{folder}: no trials.csv: not a finished pfbench run (an unfinished "
                         "one continues with 'pfbench run CONFIG --out FOLDER --resume')")
     if not table_path.is_file() and (folder / "summary.csv").is_file():      # a sweep
-        return Result(pd.read_csv(trials_path), pd.read_csv(folder / "summary.csv"), {},
-                      None, folder)
-    try:
-        meta = json.loads(meta_path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        raise UserError(f"{meta_path}: missing or unreadable") from None
-    got = read_trials(trials_path)
+        trials, summary = read_sweep(folder)
+        return Result(trials, summary, {}, None, folder)
+    meta, got = read_results(folder)
     with_timings(got.rows, read_timings(folder))
-    if got.rejected:
-        k, why = next(iter(sorted(got.rejected.items())))
-        raise UserError(f"{trials_path}: {len(got.rejected)} trial(s) fail their checksum or "
-                        f"are malformed (trial {k}: {why})")
     columns = list(got.rows[0]) if got.rows else []
     trials = _frame(sorted(got.rows, key=lambda r: (r["trial"])), columns)
     exp = None

@@ -11,7 +11,6 @@ reported.
 """
 from __future__ import annotations
 
-import json
 import os
 import re
 from typing import Callable
@@ -81,7 +80,8 @@ def _read(e: Entry) -> None:
                 e.status = f"{why} (cell {cell.name})"
                 return
             e.meta = e.meta or meta
-        e.table = pd.read_csv(summary)
+        from .store import read_sweep
+        e.table = read_sweep(e.folder)[1]     # checked: its trials, summary and cells agree
         return
     trials = e.folder / "trials.csv"
     if not trials.exists():
@@ -92,13 +92,16 @@ def _read(e: Entry) -> None:
     if why:
         e.status = why
         return
-    e.comparison = compare(e.exp, pd.read_csv(trials), anytime=anytime_of(e.meta))
+    from .store import read_results, TIMING_COLUMNS
+    got = read_results(e.folder)[1]      # checked: the trials are those meta.json records
+    rows = pd.DataFrame(got.rows).drop(columns=list(TIMING_COLUMNS), errors="ignore")
+    e.comparison = compare(e.exp, rows, anytime=anytime_of(e.meta))
     e.table = e.comparison.table
 
 
 def _meta(folder: Path) -> dict | None:
-    path = folder / "meta.json"
-    return json.loads(path.read_text()) if path.exists() else None
+    from .store import read_meta
+    return read_meta(folder) if (folder / "meta.json").exists() else None
 
 
 def _stale(exp: Experiment, meta: dict | None) -> str:
