@@ -61,7 +61,14 @@ class Result:
 # ---- the arguments of the API's functions, checked before anything runs or is written
 
 def _is_int(v) -> bool:
-    return isinstance(v, int) and not isinstance(v, bool)
+    """An integer (a numpy one too), never a boolean."""
+    import numbers
+    return (isinstance(v, numbers.Integral) and not isinstance(v, bool)
+            and type(v).__name__ != "bool_")
+
+
+def _int(v):
+    return None if v is None else int(v)
 
 
 def _describe(v) -> str:
@@ -82,7 +89,8 @@ _FLAG = (lambda v: isinstance(v, bool), "True or False")
 _OPT_CALL = (lambda v: v is None or callable(v), "a function or None")
 _OVERRIDES = (lambda v: (not isinstance(v, (str, bytes, Mapping)) and hasattr(v, "__iter__")),
               "a list of 'KEY.PATH=VALUE' strings")
-_EXECUTOR = (lambda v: v is None or (callable(getattr(v, "run", None))
+_EXECUTOR = (lambda v: v is None or (not isinstance(v, type)
+                                     and callable(getattr(v, "run", None))
                                      and callable(getattr(v, "describe", None))),
              "a pfbench.runner executor (with run and describe) or None")
 _FORMAT = (lambda v: v in ("png", "svg", "pdf") if isinstance(v, str) else False,
@@ -175,6 +183,7 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
                 progress=(progress, _OPT_CALL), warn=(warn, _OPT_CALL), force=(force, _FLAG),
                 figure_format=(figure_format, _FORMAT))
     overrides = _overrides(fn, overrides)
+    trials, seed, workers = _int(trials), _int(seed), int(workers)
     from .compare import compare
     from .runner import LocalExecutor, run_experiment as run_into, versions
     from .store import trial_columns
@@ -274,6 +283,8 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
                 on_look=(on_look, _OPT_CALL), force=(force, _FLAG),
                 figure_format=(figure_format, _FORMAT))
     overrides = _overrides(fn, overrides)
+    trials, seed, workers = _int(trials), _int(seed), int(workers)
+    max_trials = _int(max_trials)
     from .compare import compare
     from .regen import write_experiment
     from .runner import RUN_TIMINGS, run_experiment as run_into

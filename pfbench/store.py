@@ -347,9 +347,10 @@ _UNTIL_KEYS = {"max_trials": int, "batch": int, "looks": list, "stopped": str}
 
 
 def trials_digest(text: str | bytes) -> str:
-    """The checksum meta.json records of the trials file it describes (sha256 of its bytes)."""
+    """The checksum meta.json records of the trials file it describes: sha256 of its bytes,
+    line ends read as \n (a checkout that writes \r\n holds the same file)."""
     data = text.encode("utf-8") if isinstance(text, str) else text
-    return hashlib.sha256(data).hexdigest()
+    return hashlib.sha256(data.replace(b"\r\n", b"\n")).hexdigest()
 
 
 def _type_ok(v, types: tuple) -> bool:
@@ -430,7 +431,7 @@ def read_meta(folder: Path) -> dict:
             from None
     try:
         meta = json.loads(text)
-    except ValueError as exc:
+    except (ValueError, RecursionError) as exc:
         raise UserError(f"{path}: not JSON ({exc})") from None
     return check_meta(meta, path)
 

@@ -86,3 +86,18 @@ def test_every_public_name_is_covered():
     functions = {n for n in pfbench.__all__ if callable(getattr(pfbench, n))
                  and n not in ("Result",)}
     assert functions == {"load_results", "run_experiment", "run_until_decided"}
+
+
+def test_numpy_integers_are_integers(tmp_path, write_config, monkeypatch):
+    np = pytest.importorskip("numpy")
+    cfg = write_config(TINY)
+    monkeypatch.chdir(tmp_path)
+    res = pfbench.run_experiment(cfg, trials=np.int64(2), seed=np.int32(3), workers=np.int64(1))
+    assert res.meta["trials"] == 2 and res.meta["seed"] == 3
+
+
+def test_an_executor_class_is_not_an_executor(tmp_path, write_config, monkeypatch):
+    from pfbench.runner import LocalExecutor
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(UserError, match="run_experiment: executor: expected"):
+        pfbench.run_experiment(write_config(TINY), executor=LocalExecutor)

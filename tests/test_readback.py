@@ -321,3 +321,16 @@ def test_every_committed_config_leaves_a_fresh_clone_clean(tmp_path):
         status = subprocess.run(["git", "status", "--porcelain"], cwd=clone,
                                 capture_output=True, text=True).stdout
         assert status == "", f"{cmd} {cfg.name}: {status}"
+
+
+def test_a_checkout_with_crlf_line_ends_reads_back(folder):
+    path = folder / "trials.csv"
+    path.write_bytes(path.read_bytes().replace(b"\n", b"\r\n"))
+    assert pfbench.load_results(folder).meta["trials"] == 100
+
+
+def test_a_meta_nested_too_deep_is_one_line(folder):
+    (folder / "meta.json").write_text("[" * 100000 + "]" * 100000)
+    with pytest.raises(UserError) as err:
+        pfbench.load_results(folder)
+    assert "meta.json: not JSON" in _one_line(err)
