@@ -528,7 +528,8 @@ def _resumed(exp: Experiment, out_dir: Path, warn) -> dict[int, list[dict]]:
         return {}
     stamp = out_dir / "run.json" if source == partial else out_dir / "meta.json"
     try:
-        old_hash = json.loads(stamp.read_text(encoding="utf-8"))["experiment_hash"]
+        old = json.loads(stamp.read_text(encoding="utf-8"))
+        old_hash = old["experiment_hash"]
     except (OSError, ValueError, KeyError, TypeError):
         raise UserError(f"{out_dir}: cannot resume: {stamp.name} is missing or unreadable") \
             from None
@@ -536,6 +537,13 @@ def _resumed(exp: Experiment, out_dir: Path, warn) -> dict[int, list[dict]]:
         raise UserError(f"{out_dir}: cannot resume: those trials come from a different "
                         f"experiment (hash {old_hash}, this config {exp.hash}); run without "
                         "--resume or choose another --out")
+    digest = old.get("trials_sha256") if source == final else None
+    if isinstance(digest, str) and trials_digest(source.read_bytes()) != digest:
+        # not the trials file its meta.json describes: none of its rows can be vouched for
+        if warn:
+            warn(f"{source}: not the trials file {stamp.name} describes (its checksum differs); "
+                 "every trial runs again")
+        return {}
     got = read_trials(source, trial_columns(exp))
     bad = {k: why for k, why in got.rejected.items() if 0 <= k < exp.trials}
     if bad and warn:

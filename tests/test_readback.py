@@ -334,3 +334,19 @@ def test_a_meta_nested_too_deep_is_one_line(folder):
     with pytest.raises(UserError) as err:
         pfbench.load_results(folder)
     assert "meta.json: not JSON" in _one_line(err)
+
+
+def test_a_run_into_a_folder_whose_trials_do_not_match_its_meta_runs_them_again(
+        tmp_path, write_config):
+    """Rows that check one by one but are not the file meta.json describes are not kept as
+    this experiment's trials (neither as up to date nor by --resume)."""
+    cfg = write_config(TINY)
+    out = tmp_path / "out"
+    pfbench.run_experiment(cfg, out=out, figures=False)
+    original = (out / "trials.csv").read_bytes()
+    _rewrite_row(out / "trials.csv", 0, "rmse", "0.125")
+    told = []
+    res = pfbench.run_experiment(cfg, out=out, figures=False, warn=told.append)
+    assert not res.up_to_date and res.run["trials_run_now"] == 4
+    assert (out / "trials.csv").read_bytes() == original
+    assert any("checksum differs" in t for t in told)
