@@ -86,7 +86,24 @@ _COUNT = (lambda v: _is_int(v) and v >= 1, "an integer >= 1")
 _OPT_COUNT = (lambda v: v is None or _COUNT[0](v), "an integer >= 1 or None")
 _OPT_SEED = (lambda v: v is None or (_is_int(v) and v >= 0), "an integer >= 0 or None")
 _FLAG = (lambda v: isinstance(v, bool), "True or False")
-_OPT_CALL = (lambda v: v is None or callable(v), "a function or None")
+def _takes(v, n: int) -> bool:
+    """Whether ``v`` can be called with ``n`` positional arguments (a callable whose signature
+    cannot be read is given the benefit of the doubt)."""
+    import inspect
+    if not callable(v):
+        return False
+    try:
+        inspect.signature(v).bind(*range(n))
+    except TypeError:
+        return False
+    except ValueError:
+        return True
+    return True
+
+
+_PROGRESS = (lambda v: v is None or _takes(v, 2), "a function of (done, total) or None")
+_WARN = (lambda v: v is None or _takes(v, 1), "a function of one message or None")
+_ON_LOOK = (lambda v: v is None or _takes(v, 1), "a function of one look or None")
 _OVERRIDES = (lambda v: (not isinstance(v, (str, bytes, Mapping)) and hasattr(v, "__iter__")),
               "a list of 'KEY.PATH=VALUE' strings")
 _EXECUTOR = (lambda v: v is None or (not isinstance(v, type)
@@ -180,7 +197,7 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
     _check_args(fn, config=(config, _CONFIG), trials=(trials, _OPT_COUNT),
                 seed=(seed, _OPT_SEED), workers=(workers, _COUNT), out=(out, _OPT_PATH),
                 resume=(resume, _FLAG), figures=(figures, _FLAG), executor=(executor, _EXECUTOR),
-                progress=(progress, _OPT_CALL), warn=(warn, _OPT_CALL), force=(force, _FLAG),
+                progress=(progress, _PROGRESS), warn=(warn, _WARN), force=(force, _FLAG),
                 figure_format=(figure_format, _FORMAT))
     overrides = _overrides(fn, overrides)
     trials, seed, workers = _int(trials), _int(seed), int(workers)
@@ -279,8 +296,8 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
                 max_trials=(max_trials, _OPT_COUNT), trials=(trials, _OPT_COUNT),
                 seed=(seed, _OPT_SEED), workers=(workers, _COUNT), resume=(resume, _FLAG),
                 figures=(figures, _FLAG), executor=(executor, _EXECUTOR),
-                progress=(progress, _OPT_CALL), warn=(warn, _OPT_CALL),
-                on_look=(on_look, _OPT_CALL), force=(force, _FLAG),
+                progress=(progress, _PROGRESS), warn=(warn, _WARN),
+                on_look=(on_look, _ON_LOOK), force=(force, _FLAG),
                 figure_format=(figure_format, _FORMAT))
     overrides = _overrides(fn, overrides)
     trials, seed, workers = _int(trials), _int(seed), int(workers)
