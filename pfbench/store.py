@@ -41,7 +41,8 @@ from .kinds import END_COLUMNS, ID_COLUMNS, kind_of
 from .metrics import METRICS
 
 __all__ = ["META", "check_meta", "check_trials", "read_meta", "read_results", "read_sweep",
-           "trials_digest", "TIMING_COLUMNS", "TIMINGS", "TIMINGS_PARTIAL", "Traces", "read_timings", "timings_text",
+           "trials_digest",
+           "TIMING_COLUMNS", "TIMINGS", "TIMINGS_PARTIAL", "Traces", "read_timings", "timings_text",
            "with_timings", "TrialsFile", "atomic_write", "clear_staged_traces",
            "complete_trials", "csv_text", "finish_traces", "read_staged_traces", "read_traces", "read_trials",
            "row_crc", "stage_trace", "trial_columns", "write_csv", "write_json"]

@@ -29,7 +29,10 @@ BAD = [
 ]
 
 
-@pytest.mark.parametrize("name,value", BAD, ids=[f"{n}={v!r}" if not callable(v) else f"{n}=<function>" for n, v in BAD])
+IDS = [f"{n}={v!r}" if not callable(v) else f"{n}=<function>" for n, v in BAD]
+
+
+@pytest.mark.parametrize("name,value", BAD, ids=IDS)
 @pytest.mark.parametrize("fn", ["run_experiment", "run_until_decided"])
 def test_a_wrong_argument_is_one_line_before_anything_is_written(tmp_path, write_config,
                                                                   monkeypatch, fn, name, value):
@@ -46,7 +49,8 @@ def test_a_wrong_argument_is_one_line_before_anything_is_written(tmp_path, write
     assert tree(tmp_path) == before and not (tmp_path / "out").exists()
 
 
-@pytest.mark.parametrize("name,value", [("on_look", 3), ("on_look", lambda: None), ("max_trials", 0), ("max_trials", "9"),
+@pytest.mark.parametrize("name,value", [("on_look", 3), ("on_look", lambda: None),
+                                        ("max_trials", 0), ("max_trials", "9"),
                                         ("max_trials", 2.5), ("out", None), ("out", 1)])
 def test_run_until_decided_checks_its_own_arguments(tmp_path, write_config, monkeypatch, name,
                                                     value):
