@@ -58,6 +58,86 @@ class Result:
     run: dict | None = None
 
 
+# ---- the arguments of the API's functions, checked before anything runs or is written
+
+def _is_int(v) -> bool:
+    """An integer (a numpy one too), never a boolean."""
+    import numbers
+    return (isinstance(v, numbers.Integral) and not isinstance(v, bool)
+            and type(v).__name__ != "bool_")
+
+
+def _int(v):
+    return None if v is None else int(v)
+
+
+def _describe(v) -> str:
+    from .schema import describe
+    return describe(v)
+
+
+# (test, what it expects): each kind of argument the API's functions take
+_PATH = (lambda v: isinstance(v, (str, os.PathLike)), "a path (a string or a pathlib.Path)")
+_OPT_PATH = (lambda v: v is None or _PATH[0](v), "a path (a string or a pathlib.Path) or None")
+_CONFIG = (lambda v: isinstance(v, (str, os.PathLike, Mapping)) or _is_experiment(v),
+           "a path or a mapping (a YAML file, a mapping of config keys, or a "
+           "pfbench.config.Experiment)")
+_COUNT = (lambda v: _is_int(v) and v >= 1, "an integer >= 1")
+_OPT_COUNT = (lambda v: v is None or _COUNT[0](v), "an integer >= 1 or None")
+_OPT_SEED = (lambda v: v is None or (_is_int(v) and v >= 0), "an integer >= 0 or None")
+_FLAG = (lambda v: isinstance(v, bool), "True or False")
+def _takes(v, n: int) -> bool:
+    """Whether ``v`` can be called with ``n`` positional arguments (a callable whose signature
+    cannot be read is given the benefit of the doubt)."""
+    import inspect
+    if not callable(v):
+        return False
+    try:
+        inspect.signature(v).bind(*range(n))
+    except TypeError:
+        return False
+    except ValueError:
+        return True
+    return True
+
+
+_PROGRESS = (lambda v: v is None or _takes(v, 2), "a function of (done, total) or None")
+_WARN = (lambda v: v is None or _takes(v, 1), "a function of one message or None")
+_ON_LOOK = (lambda v: v is None or _takes(v, 1), "a function of one look or None")
+_OVERRIDES = (lambda v: (not isinstance(v, (str, bytes, Mapping)) and hasattr(v, "__iter__")),
+              "a list of 'KEY.PATH=VALUE' strings")
+_EXECUTOR = (lambda v: v is None or (not isinstance(v, type)
+                                     and callable(getattr(v, "run", None))
+                                     and callable(getattr(v, "describe", None))),
+             "a pfbench.runner executor (with run and describe) or None")
+_FORMAT = (lambda v: v in ("png", "svg", "pdf") if isinstance(v, str) else False,
+           "one of 'png', 'svg', 'pdf'")
+
+
+def _is_experiment(v) -> bool:
+    from .config import Experiment
+    return isinstance(v, Experiment)
+
+
+def _check_args(fn: str, **args) -> None:
+    """A one-line UserError naming the function and the argument when one is not what it takes
+    (``args``: name -> (value, (test, what it expects)))."""
+    for name, (value, (test, what)) in args.items():
+        if not test(value):
+            raise UserError(f"{fn}: {name}: expected {what}, got {_describe(value)}")
+
+
+def _overrides(fn: str, overrides) -> tuple[str, ...]:
+    """The overrides as a tuple of strings (an iterator is read once)."""
+    _check_args(fn, overrides=(overrides, _OVERRIDES))
+    out = tuple(overrides)
+    for o in out:
+        if not isinstance(o, str):
+            raise UserError(f"{fn}: overrides: expected 'KEY.PATH=VALUE' strings, got "
+                            f"{_describe(o)} among them")
+    return out
+
+
 def _experiment(config, trials, seed, overrides):
     from .config import Experiment, apply_override, load, validate
     from .schema import ConfigError, describe
@@ -155,6 +235,14 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
     executor : where the trials run (a pfbench.runner executor; default: ``workers`` local
         processes); progress(done, total) is called as trials finish
     """
+    fn = "run_experiment"
+    _check_args(fn, config=(config, _CONFIG), trials=(trials, _OPT_COUNT),
+                seed=(seed, _OPT_SEED), workers=(workers, _COUNT), out=(out, _OPT_PATH),
+                resume=(resume, _FLAG), figures=(figures, _FLAG), executor=(executor, _EXECUTOR),
+                progress=(progress, _PROGRESS), warn=(warn, _WARN), force=(force, _FLAG),
+                figure_format=(figure_format, _FORMAT))
+    overrides = _overrides(fn, overrides)
+    trials, seed, workers = _int(trials), _int(seed), int(workers)
     from .compare import compare
     from .runner import LocalExecutor, run_experiment as run_into, versions
     from .store import trial_columns
@@ -252,6 +340,17 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
     the table is recomputed with the same intervals by ``pfbench tables`` / ``report``.
     ``on_look(look)`` is called after each batch with {'trials', 'undecided'}.
     """
+    fn = "run_until_decided"
+    _check_args(fn, config=(config, _CONFIG), out=(out, _PATH),
+                max_trials=(max_trials, _OPT_COUNT), trials=(trials, _OPT_COUNT),
+                seed=(seed, _OPT_SEED), workers=(workers, _COUNT), resume=(resume, _FLAG),
+                figures=(figures, _FLAG), executor=(executor, _EXECUTOR),
+                progress=(progress, _PROGRESS), warn=(warn, _WARN),
+                on_look=(on_look, _ON_LOOK), force=(force, _FLAG),
+                figure_format=(figure_format, _FORMAT))
+    overrides = _overrides(fn, overrides)
+    trials, seed, workers = _int(trials), _int(seed), int(workers)
+    max_trials = _int(max_trials)
     from .fsutil import FolderLock, recover_aside
     folder = out_folder(out)
     if folder is None:
@@ -309,11 +408,15 @@ def _until_decided(first, folder, batch, most, workers, resume, figures, executo
 def load_results(folder: str | Path) -> Result:
     """The results of ``pfbench run`` (or ``pfbench sweep``) in ``folder``: its trials, its table
     (a sweep's summary), its meta; ``experiment`` when the config that made them is still there
-    unchanged."""
+    unchanged. The trials file and meta.json are checked against each other (every row's
+    checksum, the trials and filter runs meta.json records, the file's checksum where it records
+    one; a sweep's summary against its trials): a folder whose files disagree, whose meta.json
+    is malformed, or that a newer pfbench wrote is refused with a one-line UserError."""
+    _check_args("load_results", folder=(folder, _PATH))
     from .runner import RUN_TIMINGS
-    from .store import read_timings, read_trials, with_timings
+    from .store import read_results, read_sweep, read_timings, with_timings
     folder = Path(folder)
-    meta_path, trials_path = folder / "meta.json", folder / "trials.csv"
+    trials_path = folder / "trials.csv"
     table_path = folder / "table.csv"
     if not folder.is_dir():
         raise UserError(f"{folder}: no such results folder")
@@ -321,18 +424,10 @@ def load_results(folder: str | Path) -> Result:
         raise UserError(f"{folder}: no trials.csv: not a finished pfbench run (an unfinished "
                         "one continues with 'pfbench run CONFIG --out FOLDER --resume')")
     if not table_path.is_file() and (folder / "summary.csv").is_file():      # a sweep
-        return Result(pd.read_csv(trials_path), pd.read_csv(folder / "summary.csv"), {},
-                      None, folder)
-    try:
-        meta = json.loads(meta_path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        raise UserError(f"{meta_path}: missing or unreadable") from None
-    got = read_trials(trials_path)
+        trials, summary = read_sweep(folder)
+        return Result(trials, summary, {}, None, folder)
+    meta, got = read_results(folder)
     with_timings(got.rows, read_timings(folder))
-    if got.rejected:
-        k, why = next(iter(sorted(got.rejected.items())))
-        raise UserError(f"{trials_path}: {len(got.rejected)} trial(s) fail their checksum or "
-                        f"are malformed (trial {k}: {why})")
     columns = list(got.rows[0]) if got.rows else []
     trials = _frame(sorted(got.rows, key=lambda r: (r["trial"])), columns)
     exp = None

@@ -101,6 +101,9 @@ class Comparison:
     per_trial: PerTrial | None = None
     rankings: list[Ranking] = field(default_factory=list)
     anytime: int | None = None      # verdicts on confidence sequences tuned for that many trials
+    # per column n_Q of a quantity measured in run time: each row's trials it is taken over (the
+    # trials paired with a baseline run), which the trials file alone determines
+    untimed_n: dict = field(default_factory=dict)
 
     @property
     def reported(self) -> Table | None:
@@ -125,7 +128,9 @@ class Comparison:
         """The comparison with what the machine determines left out (the run times, and our
         value of a quantity measured in run time, such as time over the PF): what a results
         folder commits, the same on any machine. A verdict on run time is judged on a
-        deterministic measure (``judged_by``) or not judged at all, so no verdict changes."""
+        deterministic measure (``judged_by``) or not judged at all, so no verdict changes. The
+        count n_Q of such a quantity is the trials it is taken over (those paired with the
+        baseline run), the same with or without the timings file."""
         tab = self.table.copy()
         tab["wall_ms_per_trial"] = math.nan
         for q in (self.reported.quantities if self.reported is not None else ()):
@@ -133,6 +138,8 @@ class Comparison:
                 for c in ("ours", "ours_lo", "ours_hi", "ratio"):
                     if f"{c}_{q.key}" in tab:
                         tab[f"{c}_{q.key}"] = math.nan
+                if f"n_{q.key}" in self.untimed_n and f"n_{q.key}" in tab:
+                    tab[f"n_{q.key}"] = self.untimed_n[f"n_{q.key}"]
         return replace(self, table=tab)
 
 
@@ -372,6 +379,7 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame,
         floor = summarize(by_key[exp.compare["floor"]]["rmse"])["ci_lo"]
     pairs = baseline_runs(exp)
     out, cells = [], []         # cells: (row, quantity, claim, the estimate judged)
+    untimed: dict[str, list[int]] = {}      # Comparison.untimed_n
     for run in exp.filters:
         g = by_key[run.key]
         r = {"filter": run.key, "label": run.label, "particles": run.particles, "trials": len(g)}
@@ -407,6 +415,9 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame,
                 r[f"ours_lo_{q.key}"], r[f"ours_hi_{q.key}"] = est.interval(1 - ALPHA)
                 r[f"n_{q.key}"] = est.n         # the trials it averages (a conditional metric:
                                                 # those where it is defined)
+                if q.metric in MACHINE_METRICS:
+                    paired_n = 0 if base is None else int(g["trial"].isin(base["trial"]).sum())
+                    untimed.setdefault(f"n_{q.key}", []).append(paired_n)
                 r[f"method_{q.key}"] = est.method
                 if isinstance(paper, tuple):      # a range: shown as such, ratio to its middle
                     r[f"paper_{q.key}"] = f"{paper[0]:g}-{paper[1]:g}"
@@ -445,7 +456,7 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame,
     if table is None:
         return Comparison(exp, tab, anytime=anytime)
     return Comparison(exp, tab, facts, per_trial(exp, table, by_key),
-                      rankings(exp, tab, by_key, anytime), anytime)
+                      rankings(exp, tab, by_key, anytime), anytime, untimed)
 
 
 def _run_by_label(exp: Experiment, label: str):

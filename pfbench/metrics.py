@@ -176,7 +176,8 @@ def summarize(values) -> dict:
         return out
     with np.errstate(invalid="ignore", over="ignore"):  # an infinite value (a diverged trial)
         var = float(v.var(ddof=1))                      # gives an infinite or NaN spread
-        m4 = float(np.mean((v - mean) ** 4))
+        sq = (v - mean) * (v - mean)    # products, not a power: the same bits on every CPU
+        m4 = float(np.mean(sq * sq))    # (numpy's vectorised pow differs in the last bit)
     se = math.sqrt(var / n)
     half = t975(n - 1) * se
     var_se = math.sqrt(max(m4 - var * var * (n - 3) / (n - 1), 0.0) / n)

@@ -308,12 +308,9 @@ def _committed(folder: Path, exp) -> pd.DataFrame:
     if not path.exists():
         raise UserError(f"{path}: no committed trials to check against; run 'pfbench tables' "
                         "first")
-    try:
-        df = pd.read_csv(path)
-    except (UnicodeDecodeError, ValueError, pd.errors.ParserError) as exc:
-        raise UserError(f"{path}: not a pfbench trials file ({str(exc).splitlines()[0]})") \
-            from None
-    from .store import trial_columns
+    from .store import read_results, trial_columns
+    # checked: every row's checksum, and the trials and filter runs its meta.json records
+    df = pd.DataFrame(read_results(folder)[1].rows)
     missing = [m for m in trial_columns(exp) if m not in df.columns]
     if missing:
         raise UserError(f"{path}: written by another version (no column {missing[0]}); "

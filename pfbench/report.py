@@ -12,7 +12,6 @@ reported.
 from __future__ import annotations
 
 import contextlib
-import json
 import os
 import re
 from typing import Callable
@@ -112,7 +111,8 @@ def _read_files(e: Entry) -> None:
                 e.status = f"{why} (cell {cell.name})"
                 return
             e.meta = e.meta or meta
-        e.table = pd.read_csv(summary)
+        from .store import read_sweep
+        e.table = read_sweep(e.folder)[1]     # checked: its trials, summary and cells agree
         return
     trials = e.folder / "trials.csv"
     if not trials.exists():
@@ -123,21 +123,16 @@ def _read_files(e: Entry) -> None:
     if why:
         e.status = why
         return
-    e.comparison = compare(e.exp, pd.read_csv(trials), anytime=anytime_of(e.meta))
+    from .store import read_results, TIMING_COLUMNS
+    got = read_results(e.folder)[1]      # checked: the trials are those meta.json records
+    rows = pd.DataFrame(got.rows).drop(columns=list(TIMING_COLUMNS), errors="ignore")
+    e.comparison = compare(e.exp, rows, anytime=anytime_of(e.meta))
     e.table = e.comparison.table
 
 
 def _meta(folder: Path) -> dict | None:
-    path = folder / "meta.json"
-    if not path.exists():
-        return None
-    try:
-        meta = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        raise UserError(f"{path}: cannot be read ({str(exc).splitlines()[0]})") from None
-    if not isinstance(meta, dict):
-        raise UserError(f"{path}: expected a mapping, got {type(meta).__name__}")
-    return meta
+    from .store import read_meta
+    return read_meta(folder) if (folder / "meta.json").exists() else None
 
 
 def _stale(exp: Experiment, meta: dict | None) -> str:

@@ -43,7 +43,7 @@ from .seeding import run_seed
 from .store import (TIMINGS, TIMINGS_PARTIAL, atomic_write, clear_staged_traces,
                     complete_trials, csv_text, finish_traces, read_staged_traces, read_timings,
                     read_traces, read_trials, stage_trace, timings_text, trial_columns,
-                    with_timings, write_json)
+                    trials_digest, with_timings, write_json)
 
 # What the last run into a folder took on its machine (never committed, like the timings file).
 RUN_TIMINGS = "timings.json"
@@ -750,6 +750,9 @@ def _stamp(out_dir: Path) -> tuple[str, dict] | None:
             except (OSError, ValueError):
                 raise UserError(f"{path}: unreadable, so {out_dir} may hold another "
                                 "experiment's trials; --force replaces them") from None
+            if what == "finished":
+                from .store import check_meta
+                check_meta(data, path)
             return what, data
     if (out_dir / "trials.csv").exists() or (out_dir / "trials.partial.csv").exists():
         raise UserError(f"{out_dir} holds trials that no meta.json or run.json describes: "
@@ -838,7 +841,8 @@ def _resumed(exp: Experiment, out_dir: Path, warn) -> dict[int, list[dict]]:
         return {}
     stamp = out_dir / "run.json" if source == partial else out_dir / "meta.json"
     try:
-        old_hash = json.loads(stamp.read_text(encoding="utf-8"))["experiment_hash"]
+        old = json.loads(stamp.read_text(encoding="utf-8"))
+        old_hash = old["experiment_hash"]
     except (OSError, ValueError, KeyError, TypeError):
         raise UserError(f"{out_dir}: cannot resume: {stamp.name} is missing or unreadable") \
             from None
@@ -846,6 +850,13 @@ def _resumed(exp: Experiment, out_dir: Path, warn) -> dict[int, list[dict]]:
         raise UserError(f"{out_dir}: cannot resume: those trials come from a different "
                         f"experiment (hash {old_hash}, this config {exp.hash}); run without "
                         "--resume or choose another --out")
+    digest = old.get("trials_sha256") if source == final else None
+    if isinstance(digest, str) and trials_digest(source.read_bytes()) != digest:
+        # not the trials file its meta.json describes: none of its rows can be vouched for
+        if warn:
+            warn(f"{source}: not the trials file {stamp.name} describes (its checksum differs); "
+                 "every trial runs again")
+        return {}
     got = read_trials(source, trial_columns(exp))
     bad = {k: why for k, why in got.rejected.items() if 0 <= k < exp.trials}
     if bad and warn:
@@ -887,6 +898,9 @@ def stamp_meta(exp: Experiment, out_dir: Path, trials_text: str | None = None) -
     }
     if trials_text is not None:
         meta.update(_earlier_provenance(out_dir, trials_text.encode("utf-8"), exp.hash))
+        # ties meta.json to the trials file it describes (pfbench.store.check_trials)
+        meta["trials_sha256"] = trials_digest(trials_text)
+        meta["trials_rows"] = trials_text.count("\n") - 1
     return meta
 
 
@@ -982,6 +996,10 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn, traces)
     rows = [r for k in sorted(done) for r in done[k]]
     text = csv_text(rows, True, columns)
     meta = stamp_meta(exp, out_dir, text)
+    # the folder never pairs these trials with another run's meta.json: the old one goes first
+    # (a kill before the new one leaves trials.csv that no meta.json describes, which readers
+    # refuse), and the new one records the trials file's checksum
+    (out_dir / "meta.json").unlink(missing_ok=True)
     atomic_write(final, text)
     atomic_write(out_dir / TIMINGS, timings_text(rows, True))
     if traces:

@@ -23,6 +23,7 @@ timestamps so that the same run gives the same bytes. While a run is under way e
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import json
 import zipfile
@@ -39,7 +40,9 @@ from .fsutil import atomic_write, remove_tree
 from .kinds import END_COLUMNS, ID_COLUMNS, kind_of
 from .metrics import METRICS
 
-__all__ = ["TIMING_COLUMNS", "TIMINGS", "TIMINGS_PARTIAL", "Traces", "read_timings", "timings_text",
+__all__ = ["META", "check_meta", "check_trials", "read_meta", "read_results", "read_sweep",
+           "trials_digest",
+           "TIMING_COLUMNS", "TIMINGS", "TIMINGS_PARTIAL", "Traces", "read_timings", "timings_text",
            "with_timings", "TrialsFile", "atomic_write", "clear_staged_traces",
            "complete_trials", "csv_text", "finish_traces", "read_staged_traces", "read_traces", "read_trials",
            "row_crc", "stage_trace", "trial_columns", "write_csv", "write_json"]
@@ -325,3 +328,254 @@ def read_traces(out_dir: Path) -> Traces | None:
         elif head.isdigit():
             trials.setdefault(int(head), {})[rest] = a
     return Traces(world, trials)
+
+
+# ---------------------------------------------------------------- reading a results folder back
+
+META = "meta.json"
+
+_NONE = type(None)
+# meta.json's keys a reader relies on: (the types it may have, whether every meta.json has it)
+META_KEYS = {
+    "experiment": ((str,), True), "experiment_hash": ((str,), True), "seed": ((int,), True),
+    "trials": ((int,), True), "format": ((int,), False), "config": ((str, _NONE), False),
+    "paper": ((str, _NONE), False), "table": ((str, _NONE), False),
+    "versions": ((dict,), False), "identity": ((dict,), False),
+    "until_decided": ((dict, _NONE), False), "git_commit": ((str, _NONE), False),
+    "trials_sha256": ((str,), False), "trials_rows": ((int,), False),
+}
+_UNTIL_KEYS = {"max_trials": int, "batch": int, "looks": list, "stopped": str}
+
+
+def trials_digest(text: str | bytes) -> str:
+    """The checksum meta.json records of the trials file it describes: sha256 of its bytes,
+    line ends read as \n (a checkout that writes \r\n holds the same file)."""
+    data = text.encode("utf-8") if isinstance(text, str) else text
+    return hashlib.sha256(data.replace(b"\r\n", b"\n")).hexdigest()
+
+
+def _type_ok(v, types: tuple) -> bool:
+    if isinstance(v, bool):
+        return bool in types
+    return isinstance(v, types)
+
+
+def _names(types: tuple) -> str:
+    words = {str: "a string", int: "an integer", dict: "a mapping", list: "a list",
+             _NONE: "null"}
+    return " or ".join(words[t] for t in types)
+
+
+def check_meta(meta, path: Path) -> dict:
+    """``meta`` (meta.json of a results folder, read from ``path``) when its shape is one this
+    pfbench reads; a one-line UserError naming the file and the key otherwise. A folder of a
+    newer results format than this pfbench's is refused, with the version that wrote it."""
+    from .config import FORMAT_VERSION
+    from .schema import describe
+    if not isinstance(meta, dict):
+        raise UserError(f"{path}: expected a mapping of keys, got {describe(meta)}")
+    fmt = meta.get("format")
+    if _type_ok(fmt, (int,)) and fmt > FORMAT_VERSION:
+        v = meta.get("versions")
+        who = v.get("pfbench") if isinstance(v, dict) else None
+        by = f"pfbench {who}" if isinstance(who, str) else "a newer pfbench"
+        from . import __version__
+        raise UserError(f"{path}: written by {by} in results format {fmt}; this pfbench "
+                        f"({__version__}) reads formats up to {FORMAT_VERSION}: upgrade pfbench "
+                        "to read it")
+    for key, (types, required) in META_KEYS.items():
+        if key not in meta:
+            if required:
+                raise UserError(f"{path}: no key '{key}' (expected {_names(types)})")
+            continue
+        if not _type_ok(meta[key], types):
+            raise UserError(f"{path}: key '{key}': expected {_names(types)}, got "
+                            f"{describe(meta[key])}")
+    for key, least in (("trials", 1), ("trials_rows", 0), ("format", 1), ("seed", 0)):
+        if key in meta and meta[key] < least:
+            raise UserError(f"{path}: key '{key}': expected an integer >= {least}, got "
+                            f"{meta[key]}")
+    versions = meta.get("versions")
+    if versions is not None and not all(isinstance(x, str) for x in versions.values()):
+        raise UserError(f"{path}: key 'versions': expected a mapping of strings")
+    if versions is not None and "pfbench" not in versions:
+        raise UserError(f"{path}: key 'versions.pfbench': missing")
+    until = meta.get("until_decided")
+    if until is not None:
+        for key, t in _UNTIL_KEYS.items():
+            if not _type_ok(until.get(key), (t,)):
+                raise UserError(f"{path}: key 'until_decided.{key}': expected {_names((t,))}, "
+                                f"got {describe(until.get(key))}")
+        for look in until["looks"]:
+            if not (isinstance(look, dict) and _type_ok(look.get("trials"), (int,))
+                    and _type_ok(look.get("undecided"), (int,))):
+                raise UserError(f"{path}: key 'until_decided.looks': expected mappings of "
+                                "'trials' and 'undecided' (integers)")
+    filters = (meta.get("identity") or {}).get("filters")
+    if filters is not None and not (isinstance(filters, list) and all(
+            isinstance(f, list) and f and isinstance(f[0], str) for f in filters)):
+        raise UserError(f"{path}: key 'identity.filters': expected a list of filter runs, each "
+                        "a list that starts with its key")
+    return meta
+
+
+def read_meta(folder: Path) -> dict:
+    """A results folder's meta.json, its shape checked (check_meta): a one-line UserError when it
+    is missing, not JSON, or not a meta.json this pfbench reads."""
+    path = Path(folder) / META
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise UserError(f"{path}: missing (not a finished pfbench run)") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UserError(f"{path}: unreadable ({getattr(exc, 'strerror', None) or exc})") \
+            from None
+    try:
+        meta = json.loads(text)
+    except (ValueError, RecursionError) as exc:
+        raise UserError(f"{path}: not JSON ({exc})") from None
+    return check_meta(meta, path)
+
+
+def _run_keys(meta: dict) -> list[str] | None:
+    filters = (meta.get("identity") or {}).get("filters")
+    return [f[0] for f in filters] if filters else None
+
+
+def check_trials(got: TrialsFile, meta: dict, path: Path, meta_path: Path,
+                 data: bytes | None = None) -> None:
+    """A one-line UserError unless the trials file at ``path`` (read: ``got``; its bytes:
+    ``data``) holds exactly what its meta.json (``meta``, at ``meta_path``) records: every row's
+    checksum, the file's checksum where meta.json records one, every trial 0 .. trials - 1 with
+    one row for each filter run, and nothing else."""
+    if got.rejected:
+        k, why = next(iter(sorted(got.rejected.items())))
+        raise UserError(f"{path}: {len(got.rejected)} trial(s) fail their checksum or are "
+                        f"malformed (trial {k}: {why})")
+    want = meta["trials"]
+    by_trial: dict[int, list[str]] = {}
+    for r in got.rows:
+        by_trial.setdefault(r["trial"], []).append(r["filter"])
+    missing = [k for k in range(want) if k not in by_trial]
+    extra = sorted(k for k in by_trial if not 0 <= k < want)
+    hint = "the file was cut short or edited: run the experiment into this folder again"
+    if missing:
+        raise UserError(f"{path}: holds {want - len(missing)} of the {want} trials "
+                        f"{meta_path.name} records (trial {missing[0]} missing"
+                        f"{f' and {len(missing) - 1} more' if len(missing) > 1 else ''}); {hint}")
+    if extra:
+        raise UserError(f"{path}: trial {extra[0]} is beyond the {want} trials "
+                        f"{meta_path.name} records; {hint}")
+    keys = _run_keys(meta)
+    if keys is None:
+        counts = {len(v) for v in by_trial.values()}
+        keys_ok = len(counts) <= 1
+    else:
+        keys_ok = all(sorted(v) == sorted(keys) for v in by_trial.values())
+    if not keys_ok:
+        k = next(k for k, v in sorted(by_trial.items())
+                 if (keys is not None and sorted(v) != sorted(keys))
+                 or (keys is None and len(v) != len(by_trial[0])))
+        raise UserError(f"{path}: trial {k} has rows for {', '.join(sorted(by_trial[k]))}, not "
+                        f"the filter runs {meta_path.name} records; {hint}")
+    rows = meta.get("trials_rows")
+    if rows is not None and rows != len(got.rows):
+        raise UserError(f"{path}: holds {len(got.rows)} rows, {meta_path.name} records {rows}; "
+                        f"{hint}")
+    digest = meta.get("trials_sha256")
+    if digest is not None and data is not None and trials_digest(data) != digest:
+        raise UserError(f"{path}: not the trials file {meta_path.name} describes (its checksum "
+                        "differs: another run's trials, an interrupted write or an edit); run "
+                        "the experiment into this folder again")
+
+
+def read_results(folder: Path) -> tuple[dict, TrialsFile]:
+    """(meta.json, trials file) of a finished run's folder, each checked against the other
+    (read_meta, check_trials): a one-line UserError when they do not agree."""
+    folder = Path(folder)
+    path = folder / "trials.csv"
+    meta = read_meta(folder)
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise UserError(f"{path}: missing (not a finished pfbench run)") from None
+    except OSError as exc:
+        raise UserError(f"{path}: unreadable ({exc.strerror or exc})") from None
+    got = read_trials(path)
+    check_trials(got, meta, path, folder / META, data)
+    return meta, got
+
+
+def _sweep_fields(fields: list[str]) -> list[str]:
+    """A row of a sweep's trials.csv (past its swept values), as the cell's trials file wrote
+    it: the combined file is written by pandas (an empty field for NaN, 100.0 for 100)."""
+    trial, key, label, n = fields[:4]
+    n = "" if n == "" else str(int(float(n)))
+    return [str(int(trial)), key, label, n] + [
+        "nan" if v == "" else repr(float(v)) for v in fields[4:-1]]
+
+
+def read_sweep(folder: Path):
+    """(trials, summary) of a finished sweep's folder as DataFrames, checked: every row of
+    ``trials.csv`` against its checksum, ``summary.csv`` against the summary of those trials,
+    and each cell's folder (read_results). A one-line UserError when anything disagrees."""
+    import pandas as pd
+    folder = Path(folder)
+    path, spath = folder / "trials.csv", folder / "summary.csv"
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise UserError(f"{path}: missing (not a finished pfbench sweep)") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UserError(f"{path}: unreadable ({exc})") from None
+    lines = list(csv.reader(io.StringIO(text.replace("\x00", ""))))
+    header = tuple(lines[0]) if lines else ()
+    k = header.index("trial") if "trial" in header else -1
+    if k < 1 or not _header_ok(header[k:]):
+        raise UserError(f"{path}: not a pfbench sweep's trials file (columns differ)")
+    if len(lines) < 2:
+        raise UserError(f"{path}: holds no trials")
+    for n, fields in enumerate(lines[1:], start=2):
+        try:
+            ok = (len(fields) == len(header)
+                  and row_crc(_sweep_fields(fields[k:])) == int(fields[-1]))
+        except ValueError:
+            ok = False
+        if not ok:
+            raise UserError(f"{path}: line {n}: its checksum does not match its values (an "
+                            "edited or damaged row); run the sweep again")
+    try:
+        trials = pd.read_csv(path)
+        summary = pd.read_csv(spath)
+    except FileNotFoundError:
+        raise UserError(f"{spath}: missing (not a finished pfbench sweep)") from None
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise UserError(f"{spath}: unreadable ({str(exc).splitlines()[0]})") from None
+    from .sweep import summary as summarise
+    keys = list(header[:k])
+    again = summarise(trials.drop(columns=["crc"]), keys)
+    if not _same_frame(summary, again):
+        raise UserError(f"{spath}: does not match the summary of {path.name} (an edited or "
+                        "stale file); run the sweep again")
+    cells = folder / "cells"
+    for cell in sorted(cells.iterdir()) if cells.is_dir() else ():
+        if cell.is_dir() and not cell.name.startswith("."):
+            read_results(cell)
+    return trials, summary
+
+
+def _same_frame(a, b) -> bool:
+    """Whether two summaries agree: the same columns and rows, numbers to 1e-12 relative."""
+    import pandas as pd
+    if list(a.columns) != list(b.columns) or len(a) != len(b):
+        return False
+    for c in a.columns:
+        x, y = a[c], b[c]
+        xn, yn = pd.to_numeric(x, errors="coerce"), pd.to_numeric(y, errors="coerce")
+        if xn.notna().sum() == x.notna().sum() and yn.notna().sum() == y.notna().sum():
+            if not np.allclose(xn.to_numpy(float), yn.to_numpy(float), rtol=1e-12, atol=0,
+                               equal_nan=True):
+                return False
+        elif list(x.astype(str)) != list(y.astype(str)):
+            return False
+    return True
