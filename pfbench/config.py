@@ -9,6 +9,7 @@ from __future__ import annotations
 import copy
 import hashlib
 import json
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterator, Mapping
@@ -22,7 +23,7 @@ from .papers import find as find_paper
 from .plugins import FILTER_GROUP, SCENARIO_GROUP, problem_for
 from .scenarios import SCENARIOS
 from .schema import (ConfigError, Key, Problems, check_mapping, check_section, describe,
-                     did_you_mean, gather, in_order)
+                     did_you_mean, gather, in_order, not_utf8, printable)
 from .yamlio import parse_yaml, read_yaml  # noqa: F401  (read_yaml: part of this module's API)
 
 FORMAT_VERSION = 7   # 7: run times in timings.csv, not in trials.csv or meta.json
@@ -230,6 +231,9 @@ def _validate_filters(raw: Any, scenario: str | None, scen_params: dict | None,
             if not isinstance(name, str) or not name.strip():
                 raise ConfigError(path, f"a filter's key names its runs: expected text, got "
                                   f"{describe(name)} (quote it)")
+            if not_utf8(name):
+                raise ConfigError(path, "a filter's key names its runs: expected UTF-8 text, "
+                                  "got an undecodable byte")
             spec = check_mapping(path, spec if spec is not None else {})
             ftype_name = _filter_type(name, spec, path, scenario, kind)
         if not problems.ok:
@@ -357,7 +361,10 @@ def validate(raw: Any, source: str = "config") -> Experiment:
     with problems.attempt():
         check = check_section(raw.get("check") or {}, CHECK_SCHEMA, "check", problems=problems)
     name = top["name"] or _stem(source)
-    if top["name"] is None and (problem := name_problem(name)):
+    if top["name"] is None and not_utf8(name):
+        problems.add(ConfigError("name", f"the file name '{printable(name)}' is not UTF-8 text: "
+                                 "it gives the experiment no usable folder name; set 'name'"))
+    elif top["name"] is None and (problem := name_problem(name)):
         problems.add(ConfigError("name", f"the file name gives the experiment no usable folder "
                                  f"name: {problem}; set 'name'"))
     reference = None
@@ -373,7 +380,8 @@ def validate(raw: Any, source: str = "config") -> Experiment:
                                      f"'{top['table']}'" + did_you_mean(top["table"], tables)
                                      + f"; tables: {', '.join(tables)}"))
     problems.raise_if_any()
-    return Experiment(name=name, source=source, paper=top["paper"], table=top["table"],
+    return Experiment(name=name, source=printable(source), paper=top["paper"],
+                      table=top["table"],
                       description=top["description"] or "", seed=top["seed"],
                       trials=top["trials"], scenario=scen_name,
                       scenario_params=Params(scen_params), filters=filters,
@@ -396,7 +404,7 @@ def load(path: str | Path, overrides: dict[str, Any] | None = None,
     overrides : top-level values from command-line flags (``trials``, ``seed``); None is skipped.
     sets : ``KEY.PATH=VALUE`` assignments (``--set``), applied before validation.
     """
-    source = str(path)
+    source = os.fsdecode(path) if isinstance(path, bytes) else str(path)
     data, lines = read_yaml(path)
     if data is None:
         data = {}

@@ -15,6 +15,10 @@ from .errors import UserError
 
 REQUIRED = object()
 
+# Every integer key lies within int64 (a count, a step, a seed): 1e308, a whole number, would
+# otherwise be an integer of 309 digits.
+INT64_MAX = 2**63 - 1
+
 # Text that Python reads as a number but YAML does not (quoted, or a form such as 'infinity').
 _TEXT_HINT = "text, not a number: write it unquoted, like 1000, 2.5 or 1e3"
 
@@ -27,6 +31,7 @@ class ConfigError(UserError):
     (:func:`gather`)."""
 
     def __init__(self, path: str, message: str, *, source: str = "", line: int | None = None):
+        path, message, source = (printable(str(t)) for t in (path, message, source))
         self.path, self.message, self.source, self.line = path, message, source, line
         super().__init__(self._text())
 
@@ -83,7 +88,7 @@ def in_order(problems: list[ConfigError], source: str) -> list[ConfigError]:
     """``problems`` with those of the file ``source`` first, in the order of their lines, then
     the others (a --set's, a paper file's) in the order found."""
     order = sorted(range(len(problems)), key=lambda i: (
-        problems[i].source != source, problems[i].line is None, problems[i].line or 0, i))
+        problems[i].source != printable(source), problems[i].line is None, problems[i].line or 0, i))
     return [problems[i] for i in order]
 
 
@@ -132,6 +137,29 @@ class _Attempt:
             self.problems.ok = False
             return True
         return False
+
+
+def not_utf8(text: str) -> bool:
+    """Whether ``text`` holds what UTF-8 cannot write (a lone surrogate: an undecodable byte of a
+    file name or an argument, as Python keeps it)."""
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return True
+    return False
+
+
+def printable(text: str) -> str:
+    """``text`` with what UTF-8 cannot write shown as escapes (\\xff for an undecodable byte of a
+    name): safe to print, to store in a file and to compare."""
+    if not not_utf8(text):
+        return text
+    return text.encode("utf-8", "surrogateescape" if _only_escaped(text) else "surrogatepass") \
+        .decode("utf-8", "backslashreplace")
+
+
+def _only_escaped(text: str) -> bool:
+    return all(not 0xD800 <= ord(c) <= 0xDFFF or 0xDC80 <= ord(c) <= 0xDCFF for c in text)
 
 
 def did_you_mean(word: str, options) -> str:
@@ -219,6 +247,10 @@ class Key:
                 value = int(value)          # 1e3 or 2.0e2: a whole number written as a float
             if isinstance(value, bool) or not isinstance(value, int):
                 raise self._wrong(path, value)
+            if not -INT64_MAX <= value <= INT64_MAX:    # what the kernels and files hold
+                raise ConfigError(path, f"expected {self.expected()}, got {describe(value)[:40]}"
+                                  f"{'...' if len(describe(value)) > 40 else ''}: larger than "
+                                  "2^63 - 1, the largest integer pfbench computes with")
         elif kind == "float":
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise self._wrong(path, value)
@@ -244,6 +276,9 @@ class Key:
         elif k == "str":
             if not isinstance(value, str) or not value.strip():
                 raise ConfigError(path, f"expected a non-empty string, got {describe(value)}")
+            if not_utf8(value):
+                raise ConfigError(path, f"expected UTF-8 text, got '{printable(value)}' (an "
+                                  "undecodable byte)")
         elif k == "choice":
             if not isinstance(value, str) or value not in self.choices:
                 raise ConfigError(path, f"expected {self.expected()}, got {describe(value)}"
