@@ -258,7 +258,10 @@ def _validate_filters(raw: Any, scenario: str | None, scen_params: dict | None,
             if broken:
                 problems.add(ConfigError(f"{path}.{broken[0]}", broken[1]))
         counts = common["particles"]
-        if not any(p.path.startswith(f"{path}.particles") for p in problems.found[before:]):
+        misspelt = any(did_you_mean(k, ["particles"]) for k in spec
+                       if k not in FILTER_COMMON and k not in ftype.schema)
+        if not misspelt and not any(p.path.startswith(f"{path}.particles")
+                                    for p in problems.found[before:]):
             if ftype.particles and counts is None:
                 problems.add(ConfigError(f"{path}.particles", "missing required key (an integer "
                                          ">= 2 or a list of them)"))

@@ -65,7 +65,7 @@ class ConfigErrors(ConfigError):
     def __init__(self, problems: list[ConfigError], source: str = ""):
         self._problems = tuple(problems)
         first = self._problems[0]
-        self.path, self.source, self.line = first.path, source, first.line
+        self.path, self.source, self.line = "", source, first.line
         self.message = f"{len(problems)} problems: " + "; ".join(
             f"[{i}] {p}" for i, p in enumerate(self._problems, 1))
         UserError.__init__(self, self._text())
