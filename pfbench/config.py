@@ -9,18 +9,21 @@ from __future__ import annotations
 import copy
 import hashlib
 import json
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterator, Mapping
 
 from .filters import FILTERS, KIND_TYPES
+from .filters.types import FILTER_COMMON  # noqa: F401  (part of this module's API)
 from .fsutil import name_problem
 from .kinds import kind_of
 from .papers import Paper, Table
 from .papers import find as find_paper
 from .plugins import FILTER_GROUP, SCENARIO_GROUP, problem_for
 from .scenarios import SCENARIOS
-from .schema import ConfigError, Key, check_mapping, check_section, describe, did_you_mean
+from .schema import (ConfigError, Key, Problems, check_mapping, check_section, describe,
+                     did_you_mean, gather, in_order, not_utf8, printable)
 from .yamlio import parse_yaml, read_yaml  # noqa: F401  (read_yaml: part of this module's API)
 
 FORMAT_VERSION = 7   # 7: run times in timings.csv, not in trials.csv or meta.json
@@ -121,8 +124,9 @@ class Experiment:
 
 # ---------------------------------------------------------------- overrides
 
-def apply_override(raw: dict, assignment: str) -> None:
-    """Apply ``KEY.PATH=VALUE`` (VALUE read as YAML; ``*`` in the path matches every key) to raw."""
+def apply_override(raw: dict, assignment: str) -> list[str]:
+    """Apply ``KEY.PATH=VALUE`` (VALUE read as YAML; ``*`` in the path matches every key) to raw;
+    return the key paths it set."""
     key, sep, text = assignment.partition("=")
     key = key.strip()
     if not sep or not key:
@@ -143,6 +147,7 @@ def apply_override(raw: dict, assignment: str) -> None:
             targets = list(node) if name == "*" else [name]
             for t in targets:
                 node[t] = copy.deepcopy(value)
+                done.append(".".join(trail + [str(t)]))
             return
         if name == "*":
             for k in node:
@@ -156,7 +161,9 @@ def apply_override(raw: dict, assignment: str) -> None:
                                   + did_you_mean(name, list(node)))
         walk(node[name], i + 1, trail + [name])
 
+    done: list[str] = []
     walk(raw, 0, [])
+    return done
 
 
 # ---------------------------------------------------------------- validation
@@ -187,133 +194,213 @@ COMPARE_SCHEMA = {
                     "trial: mean RMSE difference with its 95% interval and win rate", nullable=True),
 }
 
-FILTER_COMMON = {
-    "type": Key("str", None, "filter type (default: the filter's key)", nullable=True),
-    "label": Key("str", None, "row name in the tables, the paper's name (default: the key)",
-                 nullable=True),
-    "particles": Key("ints", None, "particle count, or a list: one run per count", min=2,
-                     nullable=True),
-}
 
 
-def _validate_filters(raw: Any, scenario: str) -> tuple[FilterRun, ...]:
-    kind = kind_of(scenario).name
+SECTIONS = ("scenario", "filters", "compare", "check")
+
+
+def _filter_type(name: Any, spec: dict, path: str, scenario: str | None, kind: str | None):
+    """The filter type of ``filters.NAME`` (the name under FILTERS), or raise ConfigError."""
+    shown = spec.get("type", name)
+    ftype_name = KIND_TYPES.get((shown, kind), shown) if kind else shown
+    if isinstance(ftype_name, str) and ftype_name in FILTERS:
+        return ftype_name
+    where = f"{path}.type" if "type" in spec else path
+    if "type" in spec and not isinstance(shown, str):
+        raise ConfigError(where, f"expected a filter type (text), got {describe(shown)}")
+    broken = problem_for(FILTER_GROUP, str(shown))
+    if broken:
+        raise ConfigError(where, f"filter type '{shown}': {broken}")
+    raise ConfigError(where, f"unknown filter type '{shown}'" + did_you_mean(shown, FILTERS)
+                      + f"; valid types: {', '.join(FILTERS)}"
+                      + ("" if "type" in spec else " (set 'type' when the key is not one)"))
+
+
+def _validate_filters(raw: Any, scenario: str | None, scen_params: dict | None,
+                      problems: Problems) -> tuple[FilterRun, ...]:
+    """The filter runs of ``filters:`` on ``scenario`` (None: no valid scenario name; each
+    filter's own keys are still checked) with its validated keys ``scen_params`` (None: they are
+    broken); every problem goes to ``problems``."""
+    mod = SCENARIOS.get(scenario) if scenario else None
+    kind = mod.KIND if mod is not None else None
     raw = check_mapping("filters", raw)
     if not raw:
         raise ConfigError("filters", "expected at least one filter")
     runs: list[FilterRun] = []
     for name, spec in raw.items():
         path = f"filters.{name}"
-        spec = check_mapping(path, spec if spec is not None else {})
-        ftype_name = spec.get("type", name)
-        ftype_name = KIND_TYPES.get((ftype_name, kind), ftype_name)
-        if ftype_name is None or ftype_name not in FILTERS:
-            shown = ftype_name if "type" in spec else name
-            where = f"{path}.type" if "type" in spec else path
-            broken = problem_for(FILTER_GROUP, str(shown))
-            if broken:
-                raise ConfigError(where, f"filter type '{shown}': {broken}")
-            raise ConfigError(where, f"unknown filter type '{shown}'" + did_you_mean(shown, FILTERS)
-                              + f"; valid types: {', '.join(FILTERS)}"
-                              + ("" if "type" in spec else " (set 'type' when the key is not one)"))
+        before = len(problems.found)
+        with problems.attempt():
+            if not isinstance(name, str) or not name.strip():
+                raise ConfigError(path, f"a filter's key names its runs: expected text, got "
+                                  f"{describe(name)} (quote it)")
+            if not_utf8(name):
+                raise ConfigError(path, "a filter's key names its runs: expected UTF-8 text, "
+                                  "got an undecodable byte")
+            spec = check_mapping(path, spec if spec is not None else {})
+            ftype_name = _filter_type(name, spec, path, scenario, kind)
+        if not problems.ok:
+            continue
         ftype = FILTERS[ftype_name]
-        if ftype.kind != kind:
-            fits = [n for n, f in FILTERS.items() if f.kind == kind and f.scenarios is None]
-            raise ConfigError(path, f"filter type '{ftype_name}' runs on {ftype.kind} scenarios, "
-                              f"and '{scenario}' is a {kind} scenario; its filters: "
-                              + ", ".join(fits))
-        if ftype.scenarios is not None and scenario not in ftype.scenarios:
-            raise ConfigError(path, f"filter type '{ftype_name}' runs only on scenario "
-                              + ", ".join(ftype.scenarios))
-        common = check_section({k: v for k, v in spec.items() if k in FILTER_COMMON},
-                               FILTER_COMMON, path)
-        params = check_section({k: v for k, v in spec.items() if k not in FILTER_COMMON},
-                               ftype.schema, path)
-        broken = ftype.check(params) if ftype.check else None
-        if broken:
-            raise ConfigError(f"{path}.{broken[0]}", broken[1])
-        label = common["label"] or name
+        if kind is not None:
+            why = ftype.cannot_run_on(scenario, kind, mod, scen_params)
+            if why:
+                fits = [n for n, f in FILTERS.items()
+                        if f.cannot_run_on(scenario, kind, mod, scen_params) is None]
+                problems.add(ConfigError(path, f"filter type '{ftype_name}' {why}; the filters "
+                                         f"that run on '{scenario}': {', '.join(fits) or 'none'}"))
+        checked = check_section(spec, {**FILTER_COMMON, **ftype.schema}, path, problems=problems)
+        common = {k: checked[k] for k in FILTER_COMMON}
+        params = {k: checked[k] for k in ftype.schema}
+        if len(problems.found) == before and ftype.check:
+            broken = ftype.check(params)
+            if broken:
+                problems.add(ConfigError(f"{path}.{broken[0]}", broken[1]))
+        if len(problems.found) == before and ftype.check_scenario and scen_params is not None:
+            broken = ftype.check_scenario(params, scen_params)
+            if broken:
+                problems.add(ConfigError(f"{path}.{broken[0]}", broken[1]))
         counts = common["particles"]
-        if ftype.particles and counts is None:
-            raise ConfigError(f"{path}.particles", "missing required key (an integer >= 2 or a "
-                              "list of them)")
-        if not ftype.particles and counts is not None:
-            raise ConfigError(f"{path}.particles", f"filter type '{ftype_name}' has no particles")
+        misspelt = any(did_you_mean(k, ["particles"]) for k in spec
+                       if k not in FILTER_COMMON and k not in ftype.schema)
+        if not misspelt and not any(p.path.startswith(f"{path}.particles")
+                                    for p in problems.found[before:]):
+            if ftype.particles and counts is None:
+                problems.add(ConfigError(f"{path}.particles", "missing required key (an integer "
+                                         ">= 2 or a list of them)"))
+            if not ftype.particles and counts is not None:
+                problems.add(ConfigError(f"{path}.particles",
+                                         f"filter type '{ftype_name}' has no particles"))
+        if len(problems.found) != before:
+            continue
+        label = common["label"] or name
         for n in counts or (None,):
             key = name if n is None else f"{name}@{n}"
             runs.append(FilterRun(key, name, ftype_name, label, n, Params(params)))
-    seen = {}
+    keys: dict[str, FilterRun] = {}
+    rows: dict[tuple, str] = {}
     for r in runs:
+        if r.key in keys:
+            o = keys[r.key]
+            problems.add(ConfigError(f"filters.{r.name}", f"its run '{r.key}' has the key of a "
+                                     f"run of filters.{o.name}"
+                                     + (f" ({o.particles} particles)" if o.particles else "")
+                                     + ": runs are named KEY@PARTICLES, so rename one filter"))
+            continue
+        keys[r.key] = r
         row = (r.label, r.particles)
-        if row in seen:
-            raise ConfigError(f"filters.{r.name}.label", f"label '{r.label}' with "
-                              f"{r.particles} particles is also used by filters.{seen[row]}")
-        seen[row] = r.name
+        if row in rows:
+            problems.add(ConfigError(f"filters.{r.name}.label", f"label '{r.label}' with "
+                                     f"{r.particles} particles is also used by "
+                                     f"filters.{rows[row]}"))
+        rows.setdefault(row, r.name)
     return tuple(runs)
 
 
 def validate(raw: Any, source: str = "config") -> Experiment:
-    """Validate the raw mapping of a config file into an :class:`Experiment`."""
+    """Validate the raw mapping of a config file into an :class:`Experiment`.
+
+    Every problem of the config is found before any is raised: one ConfigError for one, a
+    :class:`pfbench.schema.ConfigErrors` listing them for several."""
     raw = check_mapping("", raw if raw is not None else {})
     if "sweep" in raw:
         raise ConfigError("sweep", "this file describes a sweep: run it with 'pfbench sweep'")
-    top = check_section({k: v for k, v in raw.items()
-                         if k not in ("scenario", "filters", "compare", "check")},
-                        TOP_SCHEMA, "")
+    problems = Problems()
+    top = check_section(raw, TOP_SCHEMA, "", ignore=SECTIONS, problems=problems)
+    scen_name = scen_params = None
     if "scenario" not in raw:
-        raise ConfigError("scenario", "missing required section (a mapping with 'name' and the "
-                          "scenario's keys)")
-    scen_raw = check_mapping("scenario", raw["scenario"])
-    scen_name = scen_raw.get("name")
-    if isinstance(scen_name, str) and (broken := problem_for(SCENARIO_GROUP, scen_name)):
-        raise ConfigError("scenario.name", f"scenario '{scen_name}': {broken}")
-    if not isinstance(scen_name, str) or scen_name not in SCENARIOS:
-        msg = ("missing required key" if scen_name is None
-               else f"unknown scenario {describe(scen_name)}" + did_you_mean(scen_name, SCENARIOS))
-        raise ConfigError("scenario.name", f"{msg}; valid scenarios: {', '.join(SCENARIOS)}")
-    scen_params = check_section({k: v for k, v in scen_raw.items() if k != "name"},
-                                SCENARIOS[scen_name].SCHEMA, "scenario")
-    resolve = getattr(SCENARIOS[scen_name], "resolve", None)
-    if resolve is not None:  # files the scenario names, relative to the experiment file
-        scen_params = resolve(scen_params, Path(source).resolve().parent)
+        problems.add(ConfigError("scenario", "missing required section (a mapping with 'name' "
+                                 "and the scenario's keys)"))
+    else:
+        with problems.attempt():
+            scen_raw = check_mapping("scenario", raw["scenario"])
+            name = scen_raw.get("name")
+            if not isinstance(name, str) or name not in SCENARIOS:
+                if isinstance(name, str) and (broken := problem_for(SCENARIO_GROUP, name)):
+                    raise ConfigError("scenario.name", f"scenario '{name}': {broken}")
+                msg = ("missing required key" if name is None
+                       else f"unknown scenario {describe(name)}" + did_you_mean(name, SCENARIOS))
+                raise ConfigError("scenario.name", f"{msg}; valid scenarios: "
+                                  f"{', '.join(SCENARIOS)}")
+            scen_name = name
+        if scen_name is not None:
+            before = len(problems.found)
+            params = check_section(scen_raw, SCENARIOS[scen_name].SCHEMA, "scenario",
+                                   ignore=("name",), problems=problems)
+            params.pop("name", None)
+            resolve = getattr(SCENARIOS[scen_name], "resolve", None)
+            if len(problems.found) == before:
+                with problems.attempt():
+                    if resolve is not None:  # files the scenario names, relative to the file
+                        params = resolve(params, _folder_of(source))
+                    scen_params = params
+    filters: tuple[FilterRun, ...] = ()
     if "filters" not in raw:
-        raise ConfigError("filters", "missing required section (a mapping of filter name -> "
-                          "settings)")
-    filters = _validate_filters(raw["filters"], scen_name)
+        problems.add(ConfigError("filters", "missing required section (a mapping of filter "
+                                 "name -> settings)"))
+    else:
+        with problems.attempt():
+            filters = _validate_filters(raw["filters"], scen_name, scen_params, problems)
     moved = {"rel_tol": "a margin of the quantity in the paper file",
              "paper_runs": "the table's 'runs' in the paper file"}
-    for key, where in moved.items():
-        if isinstance(raw.get("compare"), dict) and key in raw["compare"]:
-            raise ConfigError(f"compare.{key}", f"no longer a config key: it is {where} (README: "
-                              "Adding a paper)")
-    compare = check_section(raw.get("compare") or {}, COMPARE_SCHEMA, "compare")
-    if compare["floor"] is not None and compare["floor"] not in {f.key for f in filters}:
+    compare = {"floor": None, "baseline": None}
+    with problems.attempt():
+        cmp_raw = check_mapping("compare", raw.get("compare") or {})
+        for key, where in moved.items():
+            if key in cmp_raw:
+                problems.add(ConfigError(f"compare.{key}", f"no longer a config key: it is "
+                                         f"{where} (README: Adding a paper)"))
+        compare = check_section({k: v for k, v in cmp_raw.items() if k not in moved},
+                                COMPARE_SCHEMA, "compare", problems=problems)
+    if filters:
         keys = [f.key for f in filters]
-        raise ConfigError("compare.floor", f"no filter run '{compare['floor']}'"
-                          + did_you_mean(compare["floor"], keys) + f"; runs: {', '.join(keys)}")
-    if compare["baseline"] is not None and compare["baseline"] not in {f.name for f in filters}:
+        if compare["floor"] is not None and compare["floor"] not in keys:
+            problems.add(ConfigError("compare.floor", f"no filter run '{compare['floor']}'"
+                                     + did_you_mean(compare["floor"], keys)
+                                     + f"; runs: {', '.join(keys)}"))
         names = sorted({f.name for f in filters})
-        raise ConfigError("compare.baseline", f"no filter '{compare['baseline']}'"
-                          + did_you_mean(compare["baseline"], names) + f"; filters: {', '.join(names)}")
-    check = check_section(raw.get("check") or {}, CHECK_SCHEMA, "check")
-    reference = find_paper(top["paper"], source) if top["paper"] is not None else None
+        if compare["baseline"] is not None and compare["baseline"] not in names:
+            problems.add(ConfigError("compare.baseline", f"no filter '{compare['baseline']}'"
+                                     + did_you_mean(compare["baseline"], names)
+                                     + f"; filters: {', '.join(names)}"))
+    check = {k: key.default for k, key in CHECK_SCHEMA.items()}
+    with problems.attempt():
+        check = check_section(raw.get("check") or {}, CHECK_SCHEMA, "check", problems=problems)
+    name = top["name"] or _stem(source)
+    if top["name"] is None and not_utf8(name):
+        problems.add(ConfigError("name", f"the file name '{printable(name)}' is not UTF-8 text: "
+                                 "it gives the experiment no usable folder name; set 'name'"))
+    elif top["name"] is None and (problem := name_problem(name)):
+        problems.add(ConfigError("name", f"the file name gives the experiment no usable folder "
+                                 f"name: {problem}; set 'name'"))
+    reference = None
+    if top["paper"] is not None:
+        with problems.attempt():
+            reference = find_paper(top["paper"], source)
     if top["table"] is not None:
-        if reference is None:
-            raise ConfigError("table", "needs 'paper' too")
-        tables = reference.tables
-        if top["table"] not in tables:
-            raise ConfigError("table", f"paper {top['paper']} has no table '{top['table']}'"
-                              + did_you_mean(top["table"], tables) + f"; tables: {', '.join(tables)}")
-    name = top["name"] or Path(source).stem
-    if problem := name_problem(name):
-        raise ConfigError("name", f"the file name gives the experiment no usable folder name: "
-                          f"{problem}; set 'name'")
-    return Experiment(name=name, source=source, paper=top["paper"], table=top["table"],
+        if top["paper"] is None and raw.get("paper") is None:
+            problems.add(ConfigError("table", "needs 'paper' too"))
+        elif reference is not None and top["table"] not in reference.tables:
+            tables = reference.tables
+            problems.add(ConfigError("table", f"paper {top['paper']} has no table "
+                                     f"'{top['table']}'" + did_you_mean(top["table"], tables)
+                                     + f"; tables: {', '.join(tables)}"))
+    problems.raise_if_any()
+    return Experiment(name=name, source=printable(source), paper=top["paper"],
+                      table=top["table"],
                       description=top["description"] or "", seed=top["seed"],
                       trials=top["trials"], scenario=scen_name,
                       scenario_params=Params(scen_params), filters=filters,
                       compare=Params(compare), check=Params(check), raw=copy.deepcopy(raw),
                       reference=reference)
+
+
+def _stem(source: str) -> str:
+    return Path(source).stem
+
+
+def _folder_of(source: str) -> Path:
+    return Path(source).resolve().parent
 
 
 def load(path: str | Path, overrides: dict[str, Any] | None = None,
@@ -323,19 +410,42 @@ def load(path: str | Path, overrides: dict[str, Any] | None = None,
     overrides : top-level values from command-line flags (``trials``, ``seed``); None is skipped.
     sets : ``KEY.PATH=VALUE`` assignments (``--set``), applied before validation.
     """
-    source = str(path)
+    source = os.fsdecode(path) if isinstance(path, bytes) else str(path)
     data, lines = read_yaml(path)
     if data is None:
         data = {}
     if not isinstance(data, dict):
         raise ConfigError("", f"expected a mapping of keys at the top, got {describe(data)}",
                           source=source)
+    origins: dict[str, str] = {}     # key path -> the flag that set it
     try:
         for assignment in sets:
-            apply_override(data, assignment)
+            flag = f"--set {assignment.strip()}"
+            try:
+                for p in apply_override(data, assignment):
+                    origins[p] = flag
+            except ConfigError as err:
+                raise ConfigError("", err.message, source=flag) from None
         for k, v in (overrides or {}).items():
             if v is not None:
                 data[k] = v
+                origins[k] = f"--{k} {v}"
         return validate(data, source)
     except ConfigError as err:
-        raise err.located(source, lines) from None
+        raise locate(err, source, lines, origins) from None
+
+
+def locate(err: ConfigError, source: str, lines: dict[str, int],
+           origins: dict[str, str] | None = None) -> ConfigError:
+    """``err`` with each problem located: a key a flag set (``origins``: key path -> '--set
+    KEY=VALUE') is blamed on that flag, any other on its line of the file ``source``."""
+    origins = origins or {}
+    found = []
+    for p in err.problems:
+        flag = next((origins[o] for o in sorted(origins, key=len, reverse=True)
+                     if p.path == o or p.path.startswith((o + ".", o + "["))), None)
+        if flag is not None and not p.source:
+            found.append(ConfigError(p.path, p.message, source=flag))
+        else:
+            found.append(p.located(source, lines))
+    return gather(in_order(found, source), source)

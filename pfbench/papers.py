@@ -23,7 +23,7 @@ from .errors import UserError
 from .metrics import METRICS
 from .schema import ConfigError, Key, check_mapping, check_section, describe, did_you_mean
 from .verdicts import Margin
-from .yamlio import MAX_YAML_BYTES, read_yaml
+from .yamlio import parse_yaml, read_regular, show_path
 
 # our per-trial metrics a quantity can stand for, beyond the trials file's columns: the wall time
 # over the baseline's on the same trial, and the gains over the baseline (pfbench.compare)
@@ -341,8 +341,17 @@ def parse(raw: Any, source: str, lines: dict[str, int] | None = None) -> Paper:
 
 def read(path: str | Path) -> Paper:
     """The paper of a paper file."""
-    raw, lines = read_yaml(path)
-    return parse(raw, str(path), lines)
+    return _parse_bytes(read_regular(path), path)
+
+
+def _parse_bytes(data: bytes, path: str | Path) -> Paper:
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ConfigError("", f"not UTF-8 text (byte {exc.start})", source=show_path(path)) \
+            from None
+    raw, lines = parse_yaml(text, show_path(path))
+    return parse(raw, show_path(path), lines)
 
 
 # ---------------------------------------------------------------- finding a paper
@@ -403,16 +412,11 @@ def find(key: str, config: str | Path | None = None) -> Paper:
                           + did_you_mean(key, list(files))
                           + "; give its folder with --papers")
     path = files[key]
-    try:
-        # a sweep validates its config once per cell: read the file each time, parse it once;
-        # a file too large to be a paper is refused by read(), never read whole here
-        if path.stat().st_size > MAX_YAML_BYTES:
-            return read(path)
-        stamp = (str(path.resolve()), path.read_bytes())
-        if stamp not in _cache:
-            _cache[stamp] = read(path)
-    except OSError as exc:
-        raise UserError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    except ConfigError as err:          # the paper file's line, not the config's
-        raise UserError(str(err)) from None
+    # a sweep validates its config once per cell: read the file each time (a regular file of
+    # bounded size: read_regular), parse it once. A problem of the paper file names its own file
+    # and line (a ConfigError whose source is set: the config's lines do not apply).
+    data = read_regular(path)
+    stamp = (str(path.resolve()), data)
+    if stamp not in _cache:
+        _cache[stamp] = _parse_bytes(data, path)
     return _cache[stamp]

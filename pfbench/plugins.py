@@ -10,9 +10,13 @@ pfbench's own filters and scenarios are entry points of its own distribution (se
     [project.entry-points."pfbench.scenarios"]
     my_world = "my_package.my_world"            # a module (or object) with NAME, KIND, ...
 
-An entry point that cannot be loaded, or whose object is not what its group needs, is left out
-and named in one line (``PROBLEMS``, printed by ``pfbench list`` and where a config names it);
-the others keep working. The name a config uses is the entry point's name.
+An entry point that cannot be loaded (its import raises anything, ``SystemExit`` and
+``KeyboardInterrupt`` included), whose object is not what its group needs, that takes a name
+already registered (pfbench's own come first, in either group), or a filter whose schema
+redeclares a key every filter has (``type``, ``label``, ``particles``: the config's value goes to
+the run, never to the filter's keys) is left out and named in one line (``PROBLEMS``, printed by
+``pfbench list`` and where a config names it); the others keep working. The name a config uses
+is the entry point's name.
 """
 from __future__ import annotations
 
@@ -57,11 +61,13 @@ def discover(group: str, check: Callable[[str, Any], str | None],
             continue
         try:
             obj = ep.load()
-        except Exception as exc:   # any error in a plug-in's import is its own, named here
-            _problem(group, ep, f"cannot be loaded: {type(exc).__name__}: "
-                     f"{' '.join(str(exc).split())}")
+        except BaseException as exc:   # anything a plug-in's import raises (sys.exit too) is
+            _problem(group, ep, f"cannot be loaded: {_why(exc)}")   # its own, named here
             continue
-        why = check(ep.name, obj)
+        try:
+            why = check(ep.name, obj)
+        except BaseException as exc:   # an object that cannot even be looked at
+            why = f"cannot be checked: {_why(exc)}"
         if why:
             _problem(group, ep, why)
             continue
@@ -73,6 +79,11 @@ def discover(group: str, check: Callable[[str, Any], str | None],
     return ordered
 
 
+def _why(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
 def problem_for(group: str, name: str) -> str | None:
     """The line that says why plug-in ``name`` of ``group`` was left out, if it was."""
     head = f"plug-in '{name}' ({group},"
@@ -81,7 +92,7 @@ def problem_for(group: str, name: str) -> str | None:
 
 def check_filter(name: str, obj: Any) -> str | None:
     """Why ``obj`` cannot be the filter type ``name``, or None."""
-    from .filters import FilterType
+    from .filters.types import FILTER_COMMON, NEEDS, FilterType
     from .kinds import KINDS
     from .schema import Key
     if not isinstance(obj, FilterType):
@@ -97,6 +108,17 @@ def check_filter(name: str, obj: Any) -> str | None:
     undocumented = [k for k, key in obj.schema.items() if not key.doc]
     if undocumented:
         return f"key '{undocumented[0]}' of its schema has no doc line"
+    common = [k for k in obj.schema if k in FILTER_COMMON]
+    if common:
+        return (f"its schema declares '{common[0]}', a key every filter has (type, label, "
+                "particles): the config's value goes to the run, not to the filter's keys; "
+                "drop it from the schema")
+    if not isinstance(obj.needs, tuple) or any(n not in NEEDS for n in obj.needs):
+        return f"its needs {obj.needs!r} are not a tuple of {', '.join(NEEDS)}"
+    if obj.check is not None and not callable(obj.check):
+        return "its check is not callable"
+    if obj.check_scenario is not None and not callable(obj.check_scenario):
+        return "its check_scenario is not callable"
     return None
 
 
@@ -118,4 +140,10 @@ def check_scenario(name: str, obj: Any) -> str | None:
         return "build and simulate must be callables"
     if not isinstance(obj.SCHEMA, dict) or not all(isinstance(k, Key) for k in obj.SCHEMA.values()):
         return "its SCHEMA is not a mapping of key name -> pfbench.schema.Key"
+    if "name" in obj.SCHEMA:
+        return "its SCHEMA declares 'name', the key that names the scenario"
+    provides = getattr(obj, "PROVIDES", ())
+    from .filters.types import NEEDS
+    if not isinstance(provides, tuple) or any(p not in NEEDS for p in provides):
+        return f"its PROVIDES {provides!r} is not a tuple of {', '.join(NEEDS)}"
     return None

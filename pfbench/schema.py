@@ -15,16 +15,29 @@ from .errors import UserError
 
 REQUIRED = object()
 
+# Every integer key lies within int64 (a count, a step, a seed): 1e308, a whole number, would
+# otherwise be an integer of 309 digits.
+INT64_MAX = 2**63 - 1
+
 # Text that Python reads as a number but YAML does not (quoted, or a form such as 'infinity').
 _TEXT_HINT = "text, not a number: write it unquoted, like 1000, 2.5 or 1e3"
 
 
 class ConfigError(UserError):
-    """A config that does not fit its schema; ``str()`` is the one-line message."""
+    """A config that does not fit its schema; ``str()`` is the one-line message.
+
+    ``problems`` holds every problem found (itself alone for one); a config with several is
+    reported as one line that counts and lists them, each with its file and line
+    (:func:`gather`)."""
 
     def __init__(self, path: str, message: str, *, source: str = "", line: int | None = None):
+        path, message, source = (printable(str(t)) for t in (path, message, source))
         self.path, self.message, self.source, self.line = path, message, source, line
         super().__init__(self._text())
+
+    @property
+    def problems(self) -> tuple["ConfigError", ...]:
+        return (self,)
 
     def _text(self) -> str:
         where = self.source or "config"
@@ -33,13 +46,120 @@ class ConfigError(UserError):
         return f"{where}: {self.path}: {self.message}" if self.path else f"{where}: {self.message}"
 
     def located(self, source: str, lines: dict[str, int]) -> "ConfigError":
-        """Return this error with the file name and the line of the key path filled in."""
+        """Return this error with the file name and the line of the key path filled in (an error
+        that names its own file, a paper's or a world file's, keeps it)."""
+        if self.source:
+            return self
         line = self.line
         p = self.path
         while line is None and p:
             line = lines.get(p)
             p = p.rpartition(".")[0]
         return ConfigError(self.path, self.message, source=source, line=line)
+
+
+class ConfigErrors(ConfigError):
+    """Several problems of one config, reported at once: ``FILE: N problems: [1] FILE:LINE: KEY:
+    WHAT; [2] ...`` (one line)."""
+
+    def __init__(self, problems: list[ConfigError], source: str = ""):
+        self._problems = tuple(problems)
+        first = self._problems[0]
+        self.path, self.source, self.line = "", source, first.line
+        self.message = f"{len(problems)} problems: " + "; ".join(
+            f"[{i}] {p}" for i, p in enumerate(self._problems, 1))
+        UserError.__init__(self, self._text())
+
+    @property
+    def problems(self) -> tuple[ConfigError, ...]:
+        return self._problems
+
+    def _text(self) -> str:
+        return f"{self.source or 'config'}: {self.message}"
+
+    def located(self, source: str, lines: dict[str, int]) -> "ConfigError":
+        """Each problem located in ``source``; those of ``source`` in the order of their lines,
+        then those of other files (a paper file's)."""
+        return ConfigErrors(in_order([p.located(source, lines) for p in self._problems],
+                                     source), source)
+
+
+def in_order(problems: list[ConfigError], source: str) -> list[ConfigError]:
+    """``problems`` with those of the file ``source`` first, in the order of their lines, then
+    the others (a --set's, a paper file's) in the order found."""
+    order = sorted(range(len(problems)), key=lambda i: (
+        problems[i].source != printable(source), problems[i].line is None, problems[i].line or 0, i))
+    return [problems[i] for i in order]
+
+
+def gather(problems: list[ConfigError], source: str = "") -> ConfigError:
+    """One error for every problem in ``problems`` (each may hold several): the problem itself
+    when there is one, else a :class:`ConfigErrors` listing them in order."""
+    flat = [q for p in problems for q in p.problems]
+    return flat[0] if len(flat) == 1 else ConfigErrors(flat, source)
+
+
+class Problems:
+    """Collects the problems of a config so that all are reported at once.
+
+    ``with problems.attempt():`` runs a check and records its ConfigError instead of raising it;
+    ``problems.ok`` says whether the block passed. ``raise_if_any()`` raises them together."""
+
+    def __init__(self):
+        self.found: list[ConfigError] = []
+        self.ok = True
+
+    def add(self, err: ConfigError) -> None:
+        self.found.append(err)
+
+    def attempt(self):
+        return _Attempt(self)
+
+    def __bool__(self) -> bool:
+        return bool(self.found)
+
+    def raise_if_any(self, source: str = "") -> None:
+        if self.found:
+            raise gather(self.found, source)
+
+
+class _Attempt:
+    def __init__(self, problems: Problems):
+        self.problems = problems
+
+    def __enter__(self):
+        self.problems.ok = True
+        return self.problems
+
+    def __exit__(self, kind, exc, tb):
+        if exc is not None and isinstance(exc, ConfigError):
+            self.problems.add(exc)
+            self.problems.ok = False
+            return True
+        return False
+
+
+def not_utf8(text: str) -> bool:
+    """Whether ``text`` holds what UTF-8 cannot write (a lone surrogate: an undecodable byte of a
+    file name or an argument, as Python keeps it)."""
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return True
+    return False
+
+
+def printable(text: str) -> str:
+    """``text`` with what UTF-8 cannot write shown as escapes (\\xff for an undecodable byte of a
+    name): safe to print, to store in a file and to compare."""
+    if not not_utf8(text):
+        return text
+    return text.encode("utf-8", "surrogateescape" if _only_escaped(text) else "surrogatepass") \
+        .decode("utf-8", "backslashreplace")
+
+
+def _only_escaped(text: str) -> bool:
+    return all(not 0xD800 <= ord(c) <= 0xDFFF or 0xDC80 <= ord(c) <= 0xDCFF for c in text)
 
 
 def did_you_mean(word: str, options) -> str:
@@ -77,7 +197,8 @@ class Key:
 
     kind : 'int', 'float', 'str', 'bool', 'choice', 'ints' (an int or a list of distinct ints)
     default : value used when the key is absent; ``REQUIRED`` if it must be given
-    doc : one line for the README and ``pfbench list --keys``
+    doc : one line for the README's key reference (scripts/update_readme.py) and for the error
+        that names the key
     min, max : bounds for numbers (``min_exclusive``: strictly greater than min)
     choices : allowed values for 'choice'
     nullable : null (None) is allowed
@@ -126,6 +247,10 @@ class Key:
                 value = int(value)          # 1e3 or 2.0e2: a whole number written as a float
             if isinstance(value, bool) or not isinstance(value, int):
                 raise self._wrong(path, value)
+            if not -INT64_MAX <= value <= INT64_MAX:    # what the kernels and files hold
+                raise ConfigError(path, f"expected {self.expected()}, got {describe(value)[:40]}"
+                                  f"{'...' if len(describe(value)) > 40 else ''}: larger than "
+                                  "2^63 - 1, the largest integer pfbench computes with")
         elif kind == "float":
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise self._wrong(path, value)
@@ -151,6 +276,9 @@ class Key:
         elif k == "str":
             if not isinstance(value, str) or not value.strip():
                 raise ConfigError(path, f"expected a non-empty string, got {describe(value)}")
+            if not_utf8(value):
+                raise ConfigError(path, f"expected UTF-8 text, got '{printable(value)}' (an "
+                                  "undecodable byte)")
         elif k == "choice":
             if not isinstance(value, str) or value not in self.choices:
                 raise ConfigError(path, f"expected {self.expected()}, got {describe(value)}"
@@ -181,21 +309,41 @@ def check_mapping(path: str, raw: Any) -> dict:
     return raw
 
 
-def check_section(raw: Any, schema: dict[str, Key], path: str, *, ignore: tuple = ()) -> dict:
-    """Validate mapping ``raw`` against ``schema``; return every schema key with defaults filled."""
+def unknown_key(path: str, name: str, valid) -> ConfigError:
+    """The error for a key ``name`` that is none of ``valid``: a did-you-mean and every valid key."""
+    valid = sorted(str(v) for v in valid)
+    return ConfigError(path, "unknown key" + did_you_mean(name, valid)
+                       + f"; valid keys: {', '.join(valid)}")
+
+
+def check_section(raw: Any, schema: dict[str, Key], path: str, *, ignore: tuple = (),
+                  problems: "Problems | None" = None) -> dict:
+    """Validate mapping ``raw`` against ``schema``; return every schema key with defaults filled.
+
+    ignore : further keys the section may hold, checked elsewhere (they are among the valid keys
+        an unknown key's error lists)
+    problems : collect every problem there instead of raising the first (a key that fails
+        gets its default, or None when it has none)"""
     raw = check_mapping(path, raw)
     prefix = f"{path}." if path else ""
+    found: list[ConfigError] = []
     for name in raw:
         if name not in schema and name not in ignore:
-            valid = sorted(schema)
-            raise ConfigError(f"{prefix}{name}", "unknown key" + did_you_mean(name, valid)
-                              + f"; valid keys: {', '.join(valid)}")
+            found.append(unknown_key(f"{prefix}{name}", name, [*schema, *ignore]))
     out = {}
     for name, key in schema.items():
-        if name in raw:
-            out[name] = key.validate(f"{prefix}{name}", raw[name])
-        elif key.default is REQUIRED:
-            raise ConfigError(f"{prefix}{name}", f"missing required key ({key.expected()})")
-        else:
-            out[name] = key.default
+        try:
+            if name in raw:
+                out[name] = key.validate(f"{prefix}{name}", raw[name])
+            elif key.default is REQUIRED:
+                raise ConfigError(f"{prefix}{name}", f"missing required key ({key.expected()})")
+            else:
+                out[name] = key.default
+        except ConfigError as err:
+            found.append(err)
+            out[name] = None if key.default is REQUIRED else key.default
+    if found and problems is None:
+        raise gather(found)
+    for err in found:
+        problems.add(err)
     return out

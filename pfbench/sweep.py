@@ -20,7 +20,7 @@ from typing import Any, Callable
 
 import pandas as pd
 
-from .config import Experiment, apply_override, read_yaml, validate
+from .config import Experiment, apply_override, locate, read_yaml, validate
 from .errors import UserError
 from .fsutil import FolderLock, own_folder
 from .metrics import METRICS, summarize
@@ -135,6 +135,9 @@ def expand(config: Path, sets: dict[str, list[Any]], overrides: dict[str, Any], 
             exp = validate(cell_raw, str(config))
         except ConfigError as err:
             where = ", ".join(f"{k}={v}" for k, v in values.items())
+            if len(err.problems) > 1:       # every problem, each on its line
+                raise UserError(f"{locate(err, str(config), lines)} (sweep cell {where})") \
+                    from None
             raise ConfigError(err.path, f"{err.message} (sweep cell {where})", source=str(config),
                               line=lines.get(err.path)) from None
         cells.append(Cell(values, exp, _cell_name(values)))

@@ -272,7 +272,8 @@ def _p_closed(est: Estimate, z: float, sides: int) -> float:
         return 0.0
     if est.method == "cs":
         v = est.n * (est.rho2 or cs_rho2(est.n)) + 1.0
-        return min(1.0, math.sqrt(v) * math.exp(-max(z, 0.0) ** 2 * (v - 1.0) / (2.0 * v)))
+        z = max(z, 0.0)         # z * z, not z ** 2: a square past 1e308 is inf, not an error
+        return min(1.0, math.sqrt(v) * math.exp(-z * z * (v - 1.0) / (2.0 * v)))
     return float(sides * _stats().t.sf(z, est.n - 1))
 
 
@@ -332,14 +333,15 @@ def _trials_to_decide(c: Claim, a_d: float, a_e: float) -> tuple[str, int | None
     z_d = float(_stats().norm.ppf(1 - a_d / 2))
     z_e = float(_stats().norm.ppf(0.5 + est.equivalence_level(a_e) / 2))
     if distance > 0:                                    # toward 'differs'
-        slack = (distance / z_d) ** 2 - se_b2
+        slack = _square(distance / z_d) - se_b2
         if slack > 0:
             need.append(sd * sd / slack if slack > sd * sd * 1e-12 else math.inf)
     if room is not None and room > distance:            # toward 'reproduced'
-        slack = ((room - distance) / z_e) ** 2 - se_b2
+        slack = _square((room - distance) / z_e) - se_b2
         if slack > 0:
             need.append(sd * sd / slack if slack > sd * sd * 1e-12 else math.inf)
-    if not need or sd == 0:
+    need = [n for n in need if not math.isnan(n)]
+    if not need or sd == 0 or not math.isfinite(sd):
         why = (f"; the paper's own {paper_runs} runs leave too wide an error" if paper_runs
                else "")
         return f"no number of trials decides it{why}", None
@@ -359,6 +361,21 @@ def _trials_to_decide(c: Claim, a_d: float, a_e: float) -> tuple[str, int | None
         else:
             lo = mid
     return f"about {_round_up(hi)} trials would likely decide it", _round_up(hi)
+
+
+def _ratio(a: float, b: float) -> float:
+    """a / b, inf for b = 0 and nan where it says nothing (inf / inf): never an error."""
+    if b == 0:
+        return math.inf if a > 0 else -math.inf if a < 0 else math.nan
+    try:
+        return a / b
+    except (OverflowError, ZeroDivisionError):
+        return math.inf if (a > 0) == (b > 0) else -math.inf
+
+
+def _square(x: float) -> float:
+    """x * x (inf past the largest float, where x ** 2 raises OverflowError)."""
+    return x * x
 
 
 def _round_up(n: float) -> int:
@@ -418,10 +435,13 @@ def _decide(c: Claim, a_d: float, a_e: float, holm_d: str = "", holm_e: str = ""
     interval = f"our {percent(level)} interval [{lo:.3g}, {hi:.3g}]{holm_d}"
     if _differs_at(c, a_d):
         if isinstance(paper, tuple):
-            mid = 0.5 * (paper[0] + paper[1])
-            return Verdict("differs", f"differs (x{est.value / mid:.2f} the range's middle; "
-                           f"{interval})", lo, hi, level)
-        ratio = est.value / paper if paper else math.inf
+            mid = 0.5 * paper[0] + 0.5 * paper[1]
+            ratio = _ratio(est.value, mid)
+            return Verdict("differs", (f"differs (x{ratio:.2f} the range's middle; {interval})"
+                                       if ratio > 0 else f"differs (ours {est.value:.3g} "
+                                       f"against the range's middle {mid:.3g}; {interval})"),
+                           lo, hi, level)
+        ratio = _ratio(est.value, paper)
         # a ratio of values of opposite signs (a gain against a loss) says nothing
         text = (f"differs (x{ratio:.2f}; {interval})" if ratio > 0 else
                 f"differs (ours {est.value:.3g} against {paper:.3g}; {interval})")

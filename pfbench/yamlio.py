@@ -3,13 +3,15 @@ and bounds on size, nesting and alias expansion checked before anything is built
 :class:`ConfigError` with the file and line."""
 from __future__ import annotations
 
+import os
 import re
+import stat
 from pathlib import Path
 from typing import Any
 
 import yaml
 
-from .schema import ConfigError
+from .schema import ConfigError, printable
 
 
 class _StrictLoader(yaml.SafeLoader):
@@ -43,8 +45,9 @@ _StrictLoader.add_implicit_resolver(
     list("-+0123456789"))
 
 # Bounds on what a YAML file may make us build (a few kilobytes of aliases can expand to
-# billions of nodes; thousands of brackets overflow the parser's recursion).
-MAX_YAML_BYTES = 16 * 2**20
+# billions of nodes; thousands of brackets overflow the parser's recursion). pfbench's largest
+# config, world or paper file is about 10 kB: 4 MiB is plenty.
+MAX_YAML_BYTES = 4 * 2**20
 MAX_YAML_DEPTH = 64
 MAX_ALIAS_NODES = 100_000
 
@@ -142,21 +145,66 @@ def parse_yaml(text: str, source: str) -> tuple[Any, dict[str, int]]:
     return data, (_lines(node) if node is not None else {})
 
 
+def read_regular(path: str | Path, limit: int = MAX_YAML_BYTES) -> bytes:
+    """The bytes of the regular file ``path``, at most ``limit`` of them; a folder, a FIFO, a
+    device (/dev/zero), a socket or a larger file is a ConfigError naming it. Nothing blocks: the
+    file is opened without waiting for a writer, and its type is checked on what was opened (not
+    on a name that could change in between) before a byte is read."""
+    shown = show_path(path)
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0)
+    try:
+        fd = os.open(path, flags)
+    except FileNotFoundError:
+        raise ConfigError("", "no such file", source=shown) from None
+    except IsADirectoryError:
+        raise ConfigError("", "is a folder, not a YAML file", source=shown) from None
+    except OSError as exc:
+        raise ConfigError("", f"cannot read: {exc.strerror or exc}", source=shown) from None
+    try:
+        st = os.fstat(fd)
+        if stat.S_ISDIR(st.st_mode):
+            raise ConfigError("", "is a folder, not a YAML file", source=shown)
+        if not stat.S_ISREG(st.st_mode):
+            kind = ("a FIFO (named pipe)" if stat.S_ISFIFO(st.st_mode) else
+                    "a device" if stat.S_ISCHR(st.st_mode) or stat.S_ISBLK(st.st_mode) else
+                    "a socket" if stat.S_ISSOCK(st.st_mode) else "not a plain file")
+            raise ConfigError("", f"is {kind}, not a regular file: pfbench reads only files",
+                              source=shown)
+        too_large = ConfigError("", f"larger than {limit // 2**20} MiB: not a config",
+                                source=shown)
+        if st.st_size > limit:
+            raise too_large
+        chunks, total = [], 0
+        while True:                 # a file that grows while read is cut at the limit
+            chunk = os.read(fd, min(2**20, limit + 1 - total))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            total += len(chunk)
+            if total > limit:
+                raise too_large
+        return b"".join(chunks)
+    except OSError as exc:
+        raise ConfigError("", f"cannot read: {exc.strerror or exc}", source=shown) from None
+    finally:
+        os.close(fd)
+
+
+def show_path(path: str | Path) -> str:
+    """``path`` as text that can always be printed and stored (UTF-8): a name with bytes that
+    are not UTF-8 shows them as \\xNN escapes."""
+    text = os.fspath(path)
+    return printable(os.fsdecode(text) if isinstance(text, bytes) else text)
+
+
 def read_yaml(path: str | Path) -> tuple[Any, dict[str, int]]:
     """Return (data, line numbers by key path) of a YAML file, rejecting duplicate keys and
-    files that are not UTF-8 text, too large, too deep, or whose aliases expand too far."""
-    path = Path(path)
+    files that are not regular files, not UTF-8 text, too large, too deep, or whose aliases
+    expand too far."""
+    data = read_regular(path)
     try:
-        if path.is_dir():
-            raise ConfigError("", "is a folder, not a YAML file", source=str(path))
-        if path.stat().st_size > MAX_YAML_BYTES:
-            raise ConfigError("", f"larger than {MAX_YAML_BYTES // 2**20} MiB: not a config",
-                              source=str(path))
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ConfigError("", "no such file", source=str(path)) from None
+        text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise ConfigError("", f"not UTF-8 text (byte {exc.start})", source=str(path)) from None
-    except OSError as exc:
-        raise ConfigError("", f"cannot read: {exc.strerror or exc}", source=str(path)) from None
-    return parse_yaml(text, str(path))
+        raise ConfigError("", f"not UTF-8 text (byte {exc.start})", source=show_path(path)) \
+            from None
+    return parse_yaml(text, show_path(path))

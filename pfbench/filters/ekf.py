@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 from numba import types
 from .._lazy import kernel
+from ..errors import UserError
 
 from ..models.scalar import ModelFn
 from .keys import gaussian_noise_keys
@@ -67,12 +68,17 @@ def run(model, y, params, particles, state, diag=True):
     """Run the EKF (deterministic: the particle count and generator state are unused)."""
     out = {"xhat": np.empty(y.size), "pvar": np.empty(y.size)}
     q_mean, Q, R = noise_moments(model, params)
+    fj, hj = model.jacobians()
+    if fj is None or hj is None:    # validation refuses the pairing; a model that lied is named
+        raise UserError("ekf: the scenario's model has no Jacobians (transition_jac, "
+                        "observe_jac), though its PROVIDES says it has")
     out["variance_floor_steps"] = ekf_kernel(
-        model.transition, model.observe, *model.jacobians(), model.theta, y,
+        model.transition, model.observe, fj, hj, model.theta, y,
         model.prior_mean, model.prior_var, q_mean, Q, R, out["xhat"], out["pvar"])
     out["lik_evals_per_step"] = 1.0
     return out
 
 
-EKF = FilterType("ekf", "extended Kalman filter", gaussian_noise_keys("the EKF"), run,
-                 particles=False, cost="1")
+EKF = FilterType("ekf", "extended Kalman filter (on scenarios that provide their model's "
+                 "Jacobians)", gaussian_noise_keys("the EKF"), run, particles=False, cost="1",
+                 needs=("jacobians",))

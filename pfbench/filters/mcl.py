@@ -901,6 +901,17 @@ def run(model, data, params, particles, state, diag=True, snapshots=()):
     return out
 
 
+# The limits of KLD-sampling's keys, where its arithmetic stops making sense: the histogram (one
+# byte a bin) must fit in memory and its index in int64; the bound n_chi (k - 1) / (2 epsilon)
+# (...)^3 must fit in int64 for every k up to the bins; 1 - delta must differ from 1 by delta to
+# a few digits in float64 (its normal quantile z is taken from it).
+KLD_MAX_BINS = 2**26            # 64 MiB of histogram per worker
+KLD_EPSILON_MIN = 1e-6
+KLD_DELTA_MIN = 1e-9            # z_(1 - delta) ~ 6.0
+KLD_BIN_M_MIN = 1e-3            # a millimetre
+KLD_BIN_DEG_MIN = 1e-2
+
+
 def mcl_keys() -> dict:
     pf = pf_keys()
     return {
@@ -929,14 +940,19 @@ def mcl_keys() -> dict:
         "sampling": Key("choice", "fixed", "'fixed': the particle count stays at 'particles'; "
                         "'kld': KLD-sampling (Fox 2003), the count adapts each step, at most "
                         "'particles' (with reset none or augmented)", choices=("fixed", "kld")),
-        "kld_epsilon": Key("float", 0.05, "kld: bound epsilon on the Kullback-Leibler error",
-                           min=0.0, min_exclusive=True),
-        "kld_delta": Key("float", 0.01, "kld: probability delta that the error exceeds it",
-                         min=0.0, max=0.5, min_exclusive=True),
-        "kld_bin_m": Key("float", 0.5, "kld: histogram bin size in x and y (Fox 2003: 0.5 m)",
-                         min=0.0, min_exclusive=True),
-        "kld_bin_deg": Key("float", 10.0, "kld: histogram bin size in heading (Fox 2003: 10 deg)",
-                           min=0.0, max=360.0, min_exclusive=True),
+        "kld_epsilon": Key("float", 0.05, "kld: bound epsilon on the Kullback-Leibler error "
+                           f"(at least {KLD_EPSILON_MIN:g}: the bound n ~ k / (2 epsilon) of k "
+                           "bins then stays below 2^63 for every histogram allowed)",
+                           min=KLD_EPSILON_MIN),
+        "kld_delta": Key("float", 0.01, "kld: probability delta that the error exceeds it (at "
+                         f"least {KLD_DELTA_MIN:g}: smaller, 1 - delta rounds in float64 before "
+                         "its normal quantile is taken)", min=KLD_DELTA_MIN, max=0.5),
+        "kld_bin_m": Key("float", 0.5, "kld: histogram bin size in x and y (Fox 2003: 0.5 m; at "
+                         f"least {KLD_BIN_M_MIN:g} m, and the bins over the field at most "
+                         f"2^{KLD_MAX_BINS.bit_length() - 1})", min=KLD_BIN_M_MIN),
+        "kld_bin_deg": Key("float", 10.0, "kld: histogram bin size in heading (Fox 2003: 10 deg; "
+                           f"at least {KLD_BIN_DEG_MIN:g} deg)", min=KLD_BIN_DEG_MIN,
+                           max=360.0),
         "kld_min": Key("int", 50, "kld: fewest particles a step draws", min=1),
     }
 
@@ -952,6 +968,24 @@ def mcl_check(params) -> tuple[str, str] | None:
     return None
 
 
+def mcl_scenario_check(params, scenario: dict) -> tuple[str, str] | None:
+    """Rules of mcl that need the scenario: KLD-sampling's histogram over the field (its
+    ``area``) has at most KLD_MAX_BINS bins."""
+    area = scenario.get("area")
+    if params["sampling"] != "kld" or area is None or len(area) != 2:
+        return None
+    cells = [math.ceil(float(a) / params["kld_bin_m"]) for a in area]
+    cells.append(math.ceil(360.0 / params["kld_bin_deg"]))
+    bins = math.prod(cells)
+    if bins > KLD_MAX_BINS:
+        return "kld_bin_m", (f"a histogram of {' x '.join(map(str, cells))} = {bins:,} bins over "
+                             f"the {float(area[0]):g} m x {float(area[1]):g} m field; at most "
+                             f"{KLD_MAX_BINS:,} (2^{KLD_MAX_BINS.bit_length() - 1}): larger "
+                             "kld_bin_m or kld_bin_deg")
+    return None
+
+
 MCL = FilterType("mcl", "Monte Carlo localization, optionally with sensor resetting (SRL, ASRL) "
                  "or augmented-MCL injection, or KLD-sampling", mcl_keys(), run,
-                 kind="localization", check=mcl_check, snapshots=True)
+                 kind="localization", check=mcl_check, snapshots=True,
+                 check_scenario=mcl_scenario_check)

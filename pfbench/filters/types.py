@@ -4,6 +4,17 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
+from ..schema import Key
+
+# The keys every filter has, whatever its type; a filter type's own schema may not declare them.
+FILTER_COMMON = {
+    "type": Key("str", None, "filter type (default: the filter's key)", nullable=True),
+    "label": Key("str", None, "row name in the tables, the paper's name (default: the key)",
+                 nullable=True),
+    "particles": Key("ints", None, "particle count, or a list: one run per count", min=2,
+                     nullable=True),
+}
+
 
 @dataclass(frozen=True)
 class FilterType:
@@ -20,6 +31,10 @@ class FilterType:
     snapshots : (localization) its run also takes ``snapshots``, steps, and returns
         out['snapshots'] = (steps (S,), particles (S, N, 3), counts (S,)): the particles at those
         steps, for the figures
+    check_scenario : (params, scenario params) -> (key, message) of a broken rule that needs the
+        scenario's keys too (a histogram over its field), or None
+    needs : what it needs of a scenario beyond its kind, names of ``NEEDS`` ('jacobians'); a
+        config that pairs it with a scenario that does not provide one is refused at validation
     """
 
     name: str
@@ -32,7 +47,63 @@ class FilterType:
     kind: str = "scalar"
     check: Callable | None = None
     snapshots: bool = False
+    needs: tuple = ()
+    check_scenario: Callable | None = None
 
     def runs_on(self, scenario: str, kind: str) -> bool:
-        """Whether it runs on the scenario ``scenario`` of kind ``kind``."""
-        return self.kind == kind and (self.scenarios is None or scenario in self.scenarios)
+        """Whether it runs on the scenario ``scenario`` of kind ``kind`` (a registered scenario:
+        what it provides as well)."""
+        from ..scenarios import SCENARIOS
+        mod = SCENARIOS.get(scenario)
+        return self.cannot_run_on(scenario, kind, mod) is None
+
+    def cannot_run_on(self, scenario: str, kind: str, module=None, params=None) -> str | None:
+        """Why it cannot run on the scenario ``scenario`` (kind ``kind``, its ``module`` when
+        known, its validated ``params`` when known), or None when it can."""
+        if self.kind != kind:
+            return f"runs on {self.kind} scenarios, and '{scenario}' is a {kind} scenario"
+        if self.scenarios is not None and scenario not in self.scenarios:
+            return f"runs only on scenario {', '.join(self.scenarios)}"
+        if module is not None:
+            have = provided(module, params, self.needs)
+            lacking = [n for n in self.needs if n not in have]
+            if lacking:
+                return (f"needs {NEEDS[lacking[0]]}, which scenario '{scenario}' does not "
+                        f"provide (its PROVIDES: {', '.join(declared(module)) or 'nothing'})")
+        return None
+
+
+# What a filter type may need of a scenario beyond its kind (``FilterType.needs``), which a
+# scenario declares it provides (``PROVIDES = ("jacobians",)`` in its module).
+NEEDS = {
+    "jacobians": "the Jacobians of its model (df/dx and dh/dx: ScalarModel's transition_jac and "
+                 "observe_jac)",
+}
+
+
+def declared(module) -> tuple:
+    """What a scenario module declares it provides (its ``PROVIDES``; nothing without one)."""
+    got = getattr(module, "PROVIDES", ())
+    return tuple(got) if isinstance(got, (tuple, list, set, frozenset)) else ()
+
+
+def _model_has(need: str, model) -> bool:
+    if need == "jacobians":
+        return (getattr(model, "transition_jac", None) is not None
+                and getattr(model, "observe_jac", None) is not None)
+    return False
+
+
+def provided(module, params, needs=()) -> set:
+    """What the scenario ``module`` provides of ``needs``: what its ``PROVIDES`` declares; a
+    module that declares nothing (a plug-in written before ``PROVIDES``) is asked by building its
+    model from ``params`` (its validated keys) and looking."""
+    if hasattr(module, "PROVIDES"):
+        return set(declared(module))
+    if not needs or params is None:
+        return set()
+    try:
+        model = module.build(params)
+    except Exception:       # a model that cannot be built provides nothing (the run says why)
+        return set()
+    return {n for n in needs if _model_has(n, model)}

@@ -14,6 +14,7 @@ from ..models.scalar import MODEL_SIG, simulate, NOISE_GAUSSIAN, ScalarModel
 
 NAME = "linear_gaussian"
 KIND = "scalar"
+PROVIDES = ("jacobians",)    # its model's df/dx and dh/dx, which the EKF needs
 DESCRIPTION = "scalar linear-Gaussian model; the exact Kalman filter ('kf') is the reference"
 
 SCHEMA = {

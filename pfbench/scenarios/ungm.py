@@ -19,6 +19,7 @@ from ..models.scalar import MODEL_SIG, simulate, NOISE_GAUSSIAN, ScalarModel
 
 NAME = "ungm"
 KIND = "scalar"
+PROVIDES = ("jacobians",)    # its model's df/dx and dh/dx, which the EKF needs
 DESCRIPTION = "univariate nonlinear growth model (ifa2021, sspf2008 Table 1)"
 
 SCHEMA = {

@@ -20,6 +20,7 @@ from ..models.scalar import MODEL_SIG, simulate, NOISE_GAMMA, ScalarModel
 
 NAME = "upf_gamma"
 KIND = "scalar"
+PROVIDES = ("jacobians",)    # its model's df/dx and dh/dx, which the EKF needs
 DESCRIPTION = "van der Merwe et al. (2000) Gamma-noise benchmark (sspf2008 Table 1's source)"
 
 SCHEMA = {
