@@ -171,9 +171,11 @@ def _bootstrap(samples: tuple, statistic, value: float, seed: int, key: str) -> 
     ok = np.logical_and.reduce([~np.isnan(x) for x in samples])
     samples = tuple(x[ok] for x in samples)
     n = int(ok.sum())
+    if n < 3:
+        return Estimate(value, 0.0 if n >= 2 else math.nan, n)
     with np.errstate(invalid="ignore", over="ignore"):     # inf - inf: a diverged trial
         flat = [np.ptp(x) == 0 for x in samples]
-    if n < 3 or all(flat):
+    if all(flat):
         return Estimate(value, 0.0 if n >= 2 else math.nan, n)
     from scipy import stats         # here, not at import: a run's first trial need not wait for it
     from .seeding import keyed_seed

@@ -72,3 +72,22 @@ def test_a_cost_claim_is_judged_on_evaluations_not_on_the_machines_time(write_co
     exp2 = dataclasses.replace(exp, reference=paper)
     tab = compare(exp2, pd.DataFrame(rows)).table.set_index("filter")
     assert tab.loc["ifa@100", "verdict_time_ratio"].startswith("shown, not judged")
+
+
+def test_bootstrap_of_a_metric_no_trial_defined_is_nan_not_an_error():
+    """A skewed metric that no trial defines (every convergence step NaN: no run converged) or
+    that one or two trials define keeps an undefined interval; regression: the spread was taken
+    of an empty sample ('zero-size array to reduction operation maximum')."""
+    import math
+
+    import numpy as np
+
+    from pfbench.compare import _bootstrap
+
+    def mean(x, axis=-1):
+        return np.mean(x, axis=axis)
+
+    for values in ([math.nan] * 5, [math.nan, 2.0, math.nan], [1.0, math.nan, 3.0]):
+        est = _bootstrap((np.array(values),), mean, math.nan, 0, "run:q")
+        assert est.n == sum(v == v for v in values)
+        assert math.isnan(est.se) or est.se == 0.0
