@@ -140,7 +140,9 @@ class Comparison:
                         tab[f"{c}_{q.key}"] = math.nan
                 if f"n_{q.key}" in self.untimed_n and f"n_{q.key}" in tab:
                     tab[f"n_{q.key}"] = self.untimed_n[f"n_{q.key}"]
-        return replace(self, table=tab)
+        # an order by run time is the machine's too (its pairs are never judged: no verdict goes)
+        ranked = [r for r in self.rankings if r.quantity.metric not in MACHINE_METRICS]
+        return replace(self, table=tab, rankings=ranked)
 
 
 # metrics that are rates (a fraction of trials): Wilson intervals, never outside [0, 1]
