@@ -22,6 +22,7 @@ from typing import Any, Callable, Iterable, Mapping
 import pandas as pd
 
 from .errors import UserError
+from .fsutil import require_regular
 
 __all__ = ["Result", "load_results", "run_experiment", "run_until_decided"]
 
@@ -420,6 +421,8 @@ def load_results(folder: str | Path) -> Result:
     table_path = folder / "table.csv"
     if not folder.is_dir():
         raise UserError(f"{folder}: no such results folder")
+    for path in (trials_path, folder / "meta.json", table_path, folder / "summary.csv"):
+        require_regular(path)
     if not trials_path.is_file():
         raise UserError(f"{folder}: no trials.csv: not a finished pfbench run (an unfinished "
                         "one continues with 'pfbench run CONFIG --out FOLDER --resume')")
@@ -445,12 +448,14 @@ def load_results(folder: str | Path) -> Result:
         cmp = compare(exp, trials, anytime=anytime_of(meta))
         table = cmp.table
     elif table_path.is_file():
+        require_regular(table_path)
         table = pd.read_csv(table_path)
     else:
         raise UserError(f"{folder}: no table.csv, and its config is gone or changed")
     try:
+        require_regular(folder / RUN_TIMINGS)
         run = json.loads((folder / RUN_TIMINGS).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    except (OSError, ValueError, UserError):
         run = None
     return Result(trials, table, meta, exp, folder, cmp,
                   run=run if isinstance(run, dict) else None)

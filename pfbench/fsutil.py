@@ -459,3 +459,30 @@ class not_in_use:
         if self.fd is not None:
             os.close(self.fd)
             self.fd = None
+
+
+def require_regular(path: Path) -> None:
+    """A one-line UserError when ``path`` exists and is not a regular file (a FIFO, whose reading
+    would wait for ever for a writer; a device such as /dev/zero, which never ends; a socket; a
+    folder). A missing path passes: its reader says what is missing."""
+    import stat as _stat
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return
+    if _stat.S_ISREG(mode):
+        return
+    kind = ("a FIFO (named pipe)" if _stat.S_ISFIFO(mode) else
+            "a device" if _stat.S_ISCHR(mode) or _stat.S_ISBLK(mode) else
+            "a socket" if _stat.S_ISSOCK(mode) else
+            "a folder" if _stat.S_ISDIR(mode) else "not a plain file")
+    raise UserError(f"{path}: is {kind}, not a regular file: pfbench reads only files")
+
+
+def is_regular(path: Path) -> bool:
+    """Whether ``path`` is a regular file (links followed); False when it is missing."""
+    try:
+        require_regular(path)
+    except UserError:
+        return False
+    return Path(path).is_file()

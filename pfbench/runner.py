@@ -33,7 +33,7 @@ import numpy as np
 from . import __version__
 from .config import FORMAT_VERSION, Experiment, Params
 from .errors import UserError
-from .fsutil import FolderLock, close_inherited_locks
+from .fsutil import FolderLock, close_inherited_locks, require_regular
 from .filters import FILTERS, LOAD_SECONDS
 from .kinds import check_outputs, kind_of
 from .plugins import FILTER_GROUP, SCENARIO_GROUP
@@ -735,6 +735,8 @@ def _holds_sweep(out_dir: Path) -> bool:
 def _stamp(out_dir: Path) -> tuple[str, dict] | None:
     """('finished', meta.json) or ('unfinished', run.json) of an earlier run in out_dir, or
     None; a stamp that cannot be read is refused (the folder is not left to be overwritten)."""
+    for name in ("run.json", "meta.json", "trials.partial.csv", "trials.csv"):
+        require_regular(out_dir / name)     # a FIFO or a device would hang or never end
     if _holds_sweep(out_dir):
         raise UserError(f"{out_dir} holds a sweep's results: --force replaces them, or --out "
                         "names another folder")

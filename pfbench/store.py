@@ -36,7 +36,7 @@ import numpy as np
 
 from .config import Experiment
 from .errors import UserError
-from .fsutil import atomic_write, remove_tree
+from .fsutil import atomic_write, is_regular, remove_tree, require_regular
 from .kinds import END_COLUMNS, ID_COLUMNS, kind_of
 from .metrics import METRICS
 
@@ -147,6 +147,7 @@ def read_trials(path: Path, columns: tuple[str, ...] | None = None) -> TrialsFil
     those, is a UserError.
     """
     path = Path(path)
+    require_regular(path)
     try:
         text = path.read_text(encoding="utf-8")
     except UnicodeDecodeError:
@@ -223,6 +224,8 @@ def read_timings(out_dir: Path, partial: bool = False) -> dict[tuple[int, str], 
     unfinished run's); rows it cannot read are left out, and a missing or damaged file gives
     what it can (timings are never worth refusing a run over)."""
     path = Path(out_dir) / (TIMINGS_PARTIAL if partial else TIMINGS)
+    if path.exists() and not is_regular(path):
+        return {}
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError):
@@ -264,6 +267,8 @@ def _npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
 
 def _read_npz(path: Path) -> dict[str, np.ndarray] | None:
     """The arrays of a .npz file; None when it is missing or damaged."""
+    if not is_regular(path):
+        return None
     try:
         with np.load(path, allow_pickle=False) as f:
             return {name: f[name] for name in f.files}
@@ -423,6 +428,7 @@ def read_meta(folder: Path) -> dict:
     """A results folder's meta.json, its shape checked (check_meta): a one-line UserError when it
     is missing, not JSON, or not a meta.json this pfbench reads."""
     path = Path(folder) / META
+    require_regular(path)
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
@@ -495,6 +501,7 @@ def read_results(folder: Path) -> tuple[dict, TrialsFile]:
     folder = Path(folder)
     path = folder / "trials.csv"
     meta = read_meta(folder)
+    require_regular(path)
     try:
         data = path.read_bytes()
     except FileNotFoundError:
@@ -522,6 +529,8 @@ def read_sweep(folder: Path):
     import pandas as pd
     folder = Path(folder)
     path, spath = folder / "trials.csv", folder / "summary.csv"
+    require_regular(path)
+    require_regular(spath)
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
