@@ -275,6 +275,16 @@ def _run_chunk_in_worker(exp: Experiment, trials: list[int], traces: bool = Fals
     except (KeyboardInterrupt, SystemExit) as exc:
         what = _running_text(exp, [_now()]) or f"a trial of {exp.name}"
         raise UserError(f"{what} raised {_exception_text(exc)}") from None
+    except Exception as exc:        # sent back pickled: one that cannot be goes as its text
+        import pickle
+        try:
+            pickle.loads(pickle.dumps(exc))
+        except Exception:
+            if isinstance(exc, UserError):
+                raise UserError(str(exc)) from None
+            what = _running_text(exp, [_now()]) or f"a trial of {exp.name}"
+            raise UserError(f"{what} raised {_exception_text(exc)}") from None
+        raise
     built = frozenset(key for key, k in _kernels() if k.built)
     news = built if built != _SAID else None
     _SAID = built
@@ -852,14 +862,17 @@ def _resumed(exp: Experiment, out_dir: Path, warn) -> dict[int, list[dict]]:
         raise UserError(f"{out_dir}: cannot resume: those trials come from a different "
                         f"experiment (hash {old_hash}, this config {exp.hash}); run without "
                         "--resume or choose another --out")
+    got = read_trials(source, trial_columns(exp))     # a file that is no trials file: refused
     digest = old.get("trials_sha256") if source == final else None
-    if isinstance(digest, str) and trials_digest(source.read_bytes()) != digest:
-        # not the trials file its meta.json describes: none of its rows can be vouched for
+    if (isinstance(digest, str) and not got.rejected
+            and trials_digest(source.read_bytes()) != digest):
+        # every row sound, but not the trials file its meta.json describes (another run's):
+        # none of its rows can be vouched for. (Rows edited or damaged are named one by one
+        # below, and only their trials run again.)
         if warn:
             warn(f"{source}: not the trials file {stamp.name} describes (its checksum differs); "
                  "every trial runs again")
         return {}
-    got = read_trials(source, trial_columns(exp))
     bad = {k: why for k, why in got.rejected.items() if 0 <= k < exp.trials}
     if bad and warn:
         shown = "; ".join(f"trial {k}: {why}" for k, why in sorted(bad.items())[:5])
