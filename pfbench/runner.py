@@ -263,6 +263,23 @@ def _run_chunk(exp: Experiment, trials: list[int], traces: bool = False) -> list
     return [trial_result(exp, k, traces) for k in trials]
 
 
+def _unpicklable_text(exp: Experiment, exc: BaseException) -> str | None:
+    """None when ``exc`` (with its chained exceptions, which tblib pickles too) can be sent back
+    from a worker; else its one line, naming what ran."""
+    import pickle
+    try:
+        pickle.loads(pickle.dumps(exc))
+        for chained in (exc.__cause__, exc.__context__):
+            if chained is not None:
+                pickle.loads(pickle.dumps(chained))
+    except Exception:
+        if isinstance(exc, UserError):
+            return str(exc)
+        what = _running_text(exp, [_now()]) or f"a trial of {exp.name}"
+        return f"{what} raised {_exception_text(exc)}"
+    return None
+
+
 def _run_chunk_in_worker(exp: Experiment, trials: list[int], traces: bool = False
                          ) -> tuple[list[Trial], frozenset | None]:
     """_run_chunk in a pool worker, with the kernels the worker has built when they are more
@@ -270,21 +287,18 @@ def _run_chunk_in_worker(exp: Experiment, trials: list[int], traces: bool = Fals
     SystemExit is a filter's own, and would end the worker and leave its trials to wait for
     ever; it comes back as a UserError naming what ran."""
     global _SAID
+    text = None
     try:
         done = _run_chunk(exp, trials, traces)
     except (KeyboardInterrupt, SystemExit) as exc:
         what = _running_text(exp, [_now()]) or f"a trial of {exp.name}"
         raise UserError(f"{what} raised {_exception_text(exc)}") from None
     except Exception as exc:        # sent back pickled: one that cannot be goes as its text
-        import pickle
-        try:
-            pickle.loads(pickle.dumps(exc))
-        except Exception:
-            if isinstance(exc, UserError):
-                raise UserError(str(exc)) from None
-            what = _running_text(exp, [_now()]) or f"a trial of {exp.name}"
-            raise UserError(f"{what} raised {_exception_text(exc)}") from None
-        raise
+        text = _unpicklable_text(exp, exc)
+        if text is None:
+            raise
+    if text is not None:            # raised outside the handler: no context to pickle (tblib,
+        raise UserError(text)       # which Dask installs, pickles an exception's context too)
     built = frozenset(key for key, k in _kernels() if k.built)
     news = built if built != _SAID else None
     _SAID = built
