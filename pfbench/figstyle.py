@@ -8,12 +8,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-
-from .fsutil import write_through_temp  # noqa: E402
+from .fsutil import write_through_temp
 
 FORMATS = ("png", "svg", "pdf")
 DPI = 150
@@ -92,9 +87,20 @@ def marker(i: int) -> str:
     return MARKERS[i % len(MARKERS)]
 
 
+def pyplot():
+    """matplotlib.pyplot on the Agg backend, imported on first use: a command that draws no
+    figure never imports matplotlib (most of a second)."""
+    import sys
+    if "matplotlib.pyplot" not in sys.modules:
+        import matplotlib
+        matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
 def style():
     """The context in which every figure is drawn (``with style(): ...``)."""
-    return plt.rc_context(RC)
+    return pyplot().rc_context(RC)
 
 
 def legend_outside(ax, **kw):
@@ -132,10 +138,10 @@ def save(fig, path: Path) -> Path:
     if fmt not in FORMATS:
         raise ValueError(f"{path}: a figure is one of {', '.join(FORMATS)}")
     try:
-        with plt.rc_context(RC):
+        with pyplot().rc_context(RC):
             write_through_temp(path, lambda tmp: fig.savefig(tmp, format=fmt, dpi=DPI,
                                                              metadata=_META[fmt]),
                                path.suffix)
     finally:
-        plt.close(fig)
+        pyplot().close(fig)
     return path

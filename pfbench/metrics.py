@@ -153,8 +153,8 @@ def t975(df: int) -> float:
     """0.975 quantile of Student's t with ``df`` degrees of freedom."""
     if df < 1:
         return math.nan
-    from scipy import stats
-    return float(stats.t.ppf(0.975, df))
+    from scipy.special import stdtrit     # scipy.stats.t.ppf, without importing scipy.stats
+    return float(stdtrit(df, 0.975))
 
 
 def summarize(values) -> dict:

@@ -27,8 +27,6 @@ from .kinds import kind_of
 from .store import Traces, read_traces
 from .traces import error_runs, runs_in, snapshot_runs
 
-plt = fs.plt
-
 
 def save_figure(fig, path: Path) -> None:
     """Save ``fig`` to ``path`` (its suffix names the format; see figstyle.save)."""
@@ -93,7 +91,7 @@ def distribution_figure(exp: Experiment, rows: pd.DataFrame, path: Path, metric:
     if not keep:
         return
     runs, data = [runs[i] for i in keep], [data[i] for i in keep]
-    fig, ax = plt.subplots(figsize=(max(6.4, 0.62 * len(runs) + 2.4), 4.4))
+    fig, ax = fs.pyplot().subplots(figsize=(max(6.4, 0.62 * len(runs) + 2.4), 4.4))
     pos = np.arange(1, len(runs) + 1)
     ax.boxplot(data, positions=pos - 0.12, widths=0.32, showfliers=True,
                flierprops={"markersize": 2, "alpha": 0.5}, medianprops={"color": "0.35"},
@@ -164,7 +162,7 @@ def slam_trial_figures(exp: Experiment, traces: Traces, folder: Path, trial: int
     shared, world = tr[""], traces.world
     truth = shared["truth_pose"]
     runs = [(r, tr[r.key]) for r in exp.filters]
-    fig, ax = plt.subplots(figsize=(8.6, 6.4))
+    fig, ax = fs.pyplot().subplots(figsize=(8.6, 6.4))
     if "waypoints" in world:
         wp = np.vstack([world["waypoints"], world["waypoints"][:1]])
         ax.plot(wp[:, 0], wp[:, 1], "o", color="0.6", ms=3, label="waypoints", zorder=1)
@@ -191,7 +189,7 @@ def slam_trial_figures(exp: Experiment, traces: Traces, folder: Path, trial: int
     t, t_obs = shared["time"], shared["obs_time"]
     T = len(t)
     win = max(1, T // 100)          # a moving RMS: a heading error per step is mostly noise
-    fig, axes = plt.subplots(3, 1, figsize=(8.6, 8.2), sharex=True)
+    fig, axes = fs.pyplot().subplots(3, 1, figsize=(8.6, 8.2), sharex=True)
     for i, (r, out) in enumerate(runs):
         c, ls = fs.colour(i), fs.linestyle(i)
         err = np.hypot(*(out["pose"][:, :2] - truth[:, :2]).T)
@@ -214,7 +212,7 @@ def slam_trial_figures(exp: Experiment, traces: Traces, folder: Path, trial: int
     errors = folder / f"errors.{fmt}"
     save_figure(fig, errors)
 
-    fig, ax = plt.subplots(figsize=(8.6, 3.8))
+    fig, ax = fs.pyplot().subplots(figsize=(8.6, 3.8))
     K = t_obs.shape[0]
     win = max(1, K // 50)           # a moving mean, or thousands of jumps hide each other
     for i, (r, out) in enumerate(runs):
@@ -244,7 +242,7 @@ def localization_error_figure(exp: Experiment, traces: Traces, path: Path,
     count = {r.key: np.asarray([tr[r.key]["n"] for tr in by_trial]) for r in runs
              if "n" in by_trial[0][r.key]}
     adaptive = [r for r in runs if r.key in count and np.ptp(count[r.key]) > 0]
-    fig, axes = plt.subplots(2 if adaptive else 1, 1, figsize=(8.6, 6.6 if adaptive else 4.4),
+    fig, axes = fs.pyplot().subplots(2 if adaptive else 1, 1, figsize=(8.6, 6.6 if adaptive else 4.4),
                              sharex=True, squeeze=False)
     ax = axes[0, 0]
     t = np.arange(err[runs[0].key].shape[1])
@@ -328,7 +326,7 @@ def particle_figure(exp: Experiment, traces: Traces, path: Path,
     if first is None:
         return
     steps = first["steps"]
-    fig, axes = plt.subplots(len(panels), len(steps), figsize=(1.9 * len(steps) + 1.6,
+    fig, axes = fs.pyplot().subplots(len(panels), len(steps), figsize=(1.9 * len(steps) + 1.6,
                                                                1.95 * len(panels) + 0.6),
                              squeeze=False)
     for i, (r, k, outcome) in enumerate(panels):
@@ -502,7 +500,7 @@ def sweep_figures(summ: pd.DataFrame, keys: list[str], out_dir: Path, title: str
             if f"{m}_mean" not in summ or summ[f"{m}_mean"].isna().all():
                 continue
             ylabel = fs.label(m, unit if m == "rmse" else "")
-            fig, ax = plt.subplots(figsize=(7.8, 4.4))
+            fig, ax = fs.pyplot().subplots(figsize=(7.8, 4.4))
             for i, (vals, g) in enumerate(summ.groupby(group, sort=False, dropna=False)):
                 vals = vals if isinstance(vals, tuple) else (vals,)
                 g = g.assign(_x=pd.to_numeric(g[x], errors="coerce")).sort_values("_x")

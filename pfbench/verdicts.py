@@ -15,14 +15,14 @@ sqrt(1 + n / r): se_w = sqrt(se^2 + se_b^2) with se_b = se sqrt(n / r)):
 
 One cell alone is judged at a = ALPHA. The cells of one table are judged together
 (``decide_family``): each kind of claim ('reproduced', 'differs') is a family of tests whose
-p-values Holm's step-down procedure adjusts (statsmodels), so that the chance of any false
+p-values Holm's step-down procedure adjusts (holm_levels), so that the chance of any false
 'reproduced', or of any false 'differs', in a table stays at most ALPHA however many cells it
 has. A cell's intervals are printed at the level Holm's procedure tested it at.
 
 A paper's range [a, b] is reproduced when our equivalence interval lies inside
 [a - delta, b + delta], differs when our interval misses the range, inconclusive otherwise.
 
-Intervals (``Estimate.method``): Student's t with n - 1 degrees of freedom (scipy); Wilson's for
+Intervals (``Estimate.method``): Student's t with n - 1 degrees of freedom (scipy.special); Wilson's for
 a rate; the bias-corrected and accelerated (BCa) bootstrap, paired by trial, for gains, variances,
 ratios and heavy-tailed counts (scipy.stats.bootstrap, seeded); and, for trials run until
 decided, an asymptotic confidence sequence (``cs``: valid at every look):
@@ -78,11 +78,12 @@ DEFINITIONS = (
 )
 
 
-def _stats():
-    """scipy.stats, imported when a verdict is first computed (it takes about a second, and a
-    run's first trial should not wait for it)."""
-    from scipy import stats
-    return stats
+def _special():
+    """scipy.special, imported when a verdict is first computed: the t and normal distribution
+    functions scipy.stats' t and norm call (stdtrit, stdtr, ndtri), without the second it takes
+    to import scipy.stats' whole module."""
+    from scipy import special
+    return special
 
 
 def cs_rho2(max_trials: int, alpha: float = ALPHA) -> float:
@@ -197,7 +198,7 @@ def quantile(level: float, n: int) -> float:
     """The two-sided ``level`` quantile of Student's t with n - 1 degrees of freedom."""
     if n < 2:
         return math.nan
-    return float(_stats().t.ppf(0.5 + level / 2, n - 1))
+    return float(_special().stdtrit(n - 1, 0.5 + level / 2))     # scipy.stats.t.ppf
 
 
 def widened_se(est: Estimate, paper_runs: int | None) -> float:
@@ -274,7 +275,7 @@ def _p_closed(est: Estimate, z: float, sides: int) -> float:
         v = est.n * (est.rho2 or cs_rho2(est.n)) + 1.0
         z = max(z, 0.0)         # z * z, not z ** 2: a square past 1e308 is inf, not an error
         return min(1.0, math.sqrt(v) * math.exp(-z * z * (v - 1.0) / (2.0 * v)))
-    return float(sides * _stats().t.sf(z, est.n - 1))
+    return float(sides * _special().stdtr(est.n - 1, -z))     # scipy.stats.t.sf
 
 
 def _closed_form(c: Claim) -> bool:
@@ -330,8 +331,8 @@ def _trials_to_decide(c: Claim, a_d: float, a_e: float) -> tuple[str, int | None
         return _differs_at(moved, a_d) or _equivalent_at(moved, a_e)
 
     need = []
-    z_d = float(_stats().norm.ppf(1 - a_d / 2))
-    z_e = float(_stats().norm.ppf(0.5 + est.equivalence_level(a_e) / 2))
+    z_d = float(_special().ndtri(1 - a_d / 2))       # scipy.stats.norm.ppf
+    z_e = float(_special().ndtri(0.5 + est.equivalence_level(a_e) / 2))
     if distance > 0:                                    # toward 'differs'
         slack = _square(distance / z_d) - se_b2
         if slack > 0:
@@ -454,20 +455,27 @@ def _decide(c: Claim, a_d: float, a_e: float, holm_d: str = "", holm_e: str = ""
 
 
 def holm_levels(pvalues: list[float], alpha: float = ALPHA) -> list[float]:
-    """The level Holm's step-down procedure tests each p-value at: its rejections come from
-    statsmodels (multipletests, method 'holm'); a rejected hypothesis of rank j (0 first) among
-    m was tested at alpha / (m - j), every other at the level where the procedure stopped."""
-    from statsmodels.stats.multitest import multipletests
+    """The level Holm's step-down procedure tests each p-value at (S. Holm, "A simple sequentially
+    rejective multiple test procedure", Scand. J. Statistics 6, 1979): the p-values in increasing
+    order, the one of rank j (0 first) among m is rejected at alpha / (m - j) while every smaller
+    one was; the procedure stops at the first that is not. A rejected hypothesis's level is
+    alpha / (m - j), every other's the level where the procedure stopped.
+
+    The rejections are those of statsmodels' ``multipletests(method='holm')`` (the tests check it
+    on random p-values); written here because that call runs the garbage collector every time,
+    a tenth of a second a table."""
     m = len(pvalues)
     if m == 0:
         return []
-    reject = multipletests(pvalues, alpha=alpha, method="holm")[0]
     order = sorted(range(m), key=lambda i: pvalues[i])
-    rejected = int(sum(reject))
-    levels = [alpha / (m - rejected) if rejected < m else alpha] * m
+    rejected = 0
     for j, i in enumerate(order):
-        if reject[i]:
-            levels[i] = alpha / (m - j)
+        if not pvalues[i] <= alpha / (m - j):
+            break
+        rejected += 1
+    levels = [alpha / (m - rejected) if rejected < m else alpha] * m
+    for j, i in enumerate(order[:rejected]):
+        levels[i] = alpha / (m - j)
     return levels
 
 

@@ -146,18 +146,52 @@ def test_holm_levels_follow_the_step_down():
     assert holm_levels([0.2]) == [0.05] and holm_levels([]) == []
 
 
-@pytest.fixture
-def frozen_heap():
-    """statsmodels' Holm calls gc.collect() each time; with the test session's objects frozen
-    out of the collector's reach a simulation of many tables stays fast."""
-    import gc
-    gc.freeze()
-    yield
-    gc.unfreeze()
+@settings(max_examples=300, deadline=None)
+@given(p=st.lists(st.one_of(st.floats(0, 1), st.sampled_from([0.0, 0.01, 0.0125, 0.05, 1.0])),
+                  min_size=1, max_size=40),
+       alpha=st.sampled_from([0.05, 0.01, 0.1]))
+def test_holm_rejects_what_statsmodels_rejects(p, alpha):
+    """The step-down written in verdicts rejects exactly what statsmodels' Holm rejects, ties and
+    p-values on a level's edge included."""
+    from statsmodels.stats.multitest import multipletests
+
+    from pfbench.verdicts import holm_levels
+    levels = holm_levels(p, alpha)
+    reject = multipletests(p, alpha=alpha, method="holm")[0]
+    assert [pi <= a for pi, a in zip(p, levels)] == list(reject)
+
+
+def test_the_distribution_functions_are_scipy_stats_bit_for_bit():
+    """verdicts and metrics call scipy.special's t and normal functions: the same numbers, to
+    the bit, as scipy.stats' t and norm."""
+    from pfbench.metrics import t975
+    from pfbench.verdicts import Claim, p_differs, quantile
+    quantile.cache_clear()
+    for n in (2, 3, 5, 10, 30, 101, 1000, 10**6):
+        assert t975(n - 1) == float(stats.t.ppf(0.975, n - 1))
+        for level in (0.9, 0.95, 0.99, 1 - 0.05 / 54):
+            assert quantile(level, n) == float(stats.t.ppf(0.5 + level / 2, n - 1))
+        for z in (0.0, 0.5, 2.0, 7.5):
+            est = Estimate(z, 1.0, n)
+            assert p_differs(Claim(0.0, est)) == float(2 * stats.t.sf(z, n - 1))
+
+
+def test_a_verdict_imports_neither_scipy_stats_nor_statsmodels():
+    """A table's verdicts (t intervals, Holm) import only scipy.special: scipy.stats takes about a
+    second to import and statsmodels' Holm runs the garbage collector every call."""
+    code = ("import sys; from pfbench.verdicts import Claim, Estimate, decide_family; "
+            "decide_family([Claim(1.0, Estimate(1.2, 0.1, 10)), Claim(2.0, Estimate(2.0, 0.1, 10),"
+            " margin=None)]); from pfbench.metrics import summarize; summarize([1.0, 2.0, 4.0]); "
+            "print(sorted(m for m in sys.modules if m.startswith(('scipy.stats', 'statsmodels', "
+            "'matplotlib'))))")
+    import subprocess
+    import sys
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
 
 
 @pytest.mark.slow
-def test_a_table_of_many_cells_makes_no_chance_verdicts(frozen_heap):
+def test_a_table_of_many_cells_makes_no_chance_verdicts():
     """54 cells whose truth equals the paper's value: judged one by one, about 93% of tables
     would show a false 'differs'; judged together (Holm) at most 5% (simulated, 400 tables,
     3 binomial standard errors); a cell far off is still found."""
@@ -182,7 +216,7 @@ def test_a_table_of_many_cells_makes_no_chance_verdicts(frozen_heap):
     assert far[-1].level == pytest.approx(1 - ALPHA / 54)
 
 
-def test_equivalence_across_a_table_is_holm_adjusted_too(frozen_heap):
+def test_equivalence_across_a_table_is_holm_adjusted_too():
     """20 cells whose truth sits on the margin: a false 'reproduced' anywhere in the table at
     most 5% of the time (simulated)."""
     from pfbench.verdicts import Claim, decide_family
