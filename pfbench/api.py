@@ -444,8 +444,8 @@ def load_results(folder: str | Path) -> Result:
             exp = None
     cmp = None
     if exp is not None:
-        from .compare import compare
-        cmp = compare(exp, trials, anytime=anytime_of(meta))
+        from .tablecache import cached_compare
+        cmp = cached_compare(exp, trials, anytime=anytime_of(meta))
         table = cmp.table
     elif table_path.is_file():
         require_regular(table_path)

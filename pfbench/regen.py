@@ -61,11 +61,11 @@ def write_experiment(exp, res, folder: Path, figures: bool = True,
     figure paths)."""
     from . import tables
     from .api import anytime_of, check_figure_format
-    from .compare import compare
+    from .tablecache import cached_compare
     if figures:
         check_figure_format(figure_format)
         own_folder(Path(folder) / "figures", folder, "figures folder")
-    cmp = compare(exp, res.rows, anytime=anytime_of(res.meta))
+    cmp = cached_compare(exp, res.rows, anytime=anytime_of(res.meta))
     tables.write(cmp, folder, res.meta)
     paths = []
     if figures:

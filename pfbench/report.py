@@ -22,7 +22,8 @@ import pandas as pd
 
 from . import __version__
 from . import tables as tb
-from .compare import Comparison, compare, pair_counts
+from .compare import Comparison, pair_counts
+from .tablecache import cached_compare
 from .config import Experiment, load
 from .errors import UserError
 from . import papers as pp
@@ -126,7 +127,7 @@ def _read_files(e: Entry) -> None:
     from .store import read_results, TIMING_COLUMNS
     got = read_results(e.folder)[1]      # checked: the trials are those meta.json records
     rows = pd.DataFrame(got.rows).drop(columns=list(TIMING_COLUMNS), errors="ignore")
-    e.comparison = compare(e.exp, rows, anytime=anytime_of(e.meta))
+    e.comparison = cached_compare(e.exp, rows, anytime=anytime_of(e.meta))
     e.table = e.comparison.table
 
 

@@ -1,0 +1,109 @@
+"""Comparisons computed once: an up-to-date results folder prints its table in a fraction of a
+second instead of computing its intervals again (the bootstrap intervals alone take seconds).
+
+``compare`` (pfbench.compare) is a pure function of the experiment, its trials' rows and the
+code that compares them. ``cached_compare`` keys its result on a SHA-256 of all of these: the
+experiment (its settings and its paper's table), every row (run times included), ``anytime``,
+the source of every module of pfbench, and the versions of Python, numpy, scipy and pandas. A
+change of any of them is a new key: the table is computed again, never served stale.
+
+The entries are pickles in ``pfbench-tables`` beside the kernel cache (pfbench._cache: by
+default ``~/.cache/pfbench/numba/pfbench-tables``), a folder of this user's that numba's own
+cache, pickles too, already trusts. An entry that cannot be read is computed again; a folder that
+cannot be written caches nothing; the newest ``KEEP`` entries are kept.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import pickle
+import sys
+import tempfile
+from dataclasses import replace
+from pathlib import Path
+
+KEEP = 256
+_CODE: str | None = None
+
+
+def _code_digest() -> str:
+    """SHA-256 of every source file of the package (once per process) and of the libraries'
+    versions the comparison's numbers depend on."""
+    global _CODE
+    if _CODE is None:
+        import numpy
+        import pandas
+        import scipy
+        root = Path(__file__).resolve().parent
+        h = hashlib.sha256()
+        for path in sorted(root.rglob("*.py")):
+            h.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes() + b"\0")
+        h.update(f"{sys.version}|{numpy.__version__}|{scipy.__version__}|"
+                 f"{pandas.__version__}".encode())
+        _CODE = h.hexdigest()
+    return _CODE
+
+
+def key(exp, rows, anytime) -> str:
+    """The cache key of ``compare(exp, rows, anytime)``."""
+    import pandas as pd
+    records = rows.to_dict("records") if isinstance(rows, pd.DataFrame) else list(rows)
+    h = hashlib.sha256(_code_digest().encode())
+    h.update(repr(exp).encode())
+    h.update(repr(exp.reported).encode())
+    h.update(repr(anytime).encode())
+    h.update(json.dumps(records, sort_keys=True, default=repr).encode())
+    return h.hexdigest()
+
+
+def folder() -> Path | None:
+    """The cache's folder (None: no kernel cache folder, so no cache)."""
+    from . import CACHE_DIR
+    if not str(CACHE_DIR):
+        return None
+    return Path(CACHE_DIR).parent / "pfbench-tables"
+
+
+def cached_compare(exp, rows, anytime: int | None = None):
+    """``pfbench.compare.compare(exp, rows, anytime)``, from the cache when it was computed
+    before from the same inputs by the same code."""
+    from .compare import Comparison, compare
+    where = folder()
+    try:
+        k = key(exp, rows, anytime)
+    except (TypeError, ValueError, RecursionError):     # rows that do not serialise: no cache
+        where = None
+    if where is not None:
+        path = where / f"{k}.pickle"
+        try:
+            with open(path, "rb") as fh:
+                cmp = pickle.load(fh)
+            if isinstance(cmp, Comparison):
+                return replace(cmp, exp=exp)
+        except Exception:       # absent, cut short, from another pickle protocol: compute it
+            pass
+    cmp = compare(exp, rows, anytime=anytime)
+    if where is not None:
+        _store(where, path, cmp)
+    return cmp
+
+
+def _store(where: Path, path: Path, cmp) -> None:
+    """Write ``cmp`` to ``path`` through a temporary file; keep the newest KEEP entries. Never an
+    error: a cache that cannot be written is no cache."""
+    try:
+        where.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=where, prefix=".", suffix=".tmp")
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                pickle.dump(cmp, fh, protocol=pickle.HIGHEST_PROTOCOL)
+            os.replace(tmp, path)
+        except BaseException:
+            os.unlink(tmp)
+            raise
+        entries = sorted(where.glob("*.pickle"), key=lambda p: p.stat().st_mtime)
+        for old in entries[:-KEEP]:
+            old.unlink(missing_ok=True)
+    except Exception:
+        pass

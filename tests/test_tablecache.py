@@ -1,0 +1,129 @@
+"""The cache of comparisons (pfbench.tablecache): an up-to-date folder's table without computing
+it again, and never a stale one."""
+import subprocess
+import sys
+
+import pandas as pd
+import pytest
+
+import pfbench
+import pfbench.compare as compare_module
+from pfbench import tablecache
+from pfbench.config import load
+
+from .conftest import ROOT, tree
+
+CONFIG = ROOT / "configs" / "ifa_pf_ungm.yaml"
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    where = tmp_path / "cache"
+    monkeypatch.setattr(tablecache, "folder", lambda: where)
+    return where
+
+
+@pytest.fixture
+def counted(monkeypatch):
+    """compare, counting its calls."""
+    calls = []
+    real = compare_module.compare
+
+    def compare(*a, **k):
+        calls.append(a[0].name)
+        return real(*a, **k)
+    monkeypatch.setattr(compare_module, "compare", compare)
+    return calls
+
+
+def test_an_up_to_date_folder_takes_its_table_from_the_cache(tmp_path, cache, counted):
+    out = tmp_path / "r"
+    first = pfbench.run_experiment(CONFIG, trials=3, out=out, figures=False)
+    assert counted == ["ifa_pf_ungm"] and len(list(cache.glob("*.pickle"))) == 1
+    files = {k: v for k, v in tree(out).items() if not k.startswith("timings")}
+    again = pfbench.run_experiment(CONFIG, trials=3, out=out, figures=False)
+    assert again.up_to_date and counted == ["ifa_pf_ungm"]     # not computed again
+    pd.testing.assert_frame_equal(again.table, first.table)
+    assert again.comparison.exp == again.experiment
+    assert {k: v for k, v in tree(out).items() if not k.startswith("timings")} == files
+
+
+def test_what_the_table_depends_on_is_in_the_key(monkeypatch):
+    exp = load(CONFIG, {"trials": 2})
+    rows = pfbench.runner.run_trial(exp, 0) + pfbench.runner.run_trial(exp, 1)
+    k = tablecache.key(exp, rows, None)
+    assert tablecache.key(exp, rows, None) == k
+    changed = [dict(r) for r in rows]
+    changed[3]["rmse"] = float(changed[3]["rmse"]) + 1e-12      # one trial's metric, one ulp-ish
+    assert tablecache.key(exp, changed, None) != k
+    timed = [dict(r, wall_s=0.5) for r in rows]                # the run times (speed tables)
+    assert tablecache.key(exp, timed, None) != k
+    assert tablecache.key(exp, rows, 1000) != k                 # confidence sequences
+    other = load(CONFIG, {"trials": 2}, ["filters.pf.label=P F"])
+    assert tablecache.key(other, rows, None) != k               # the experiment
+    monkeypatch.setattr(tablecache, "_CODE", "another version of pfbench's source")
+    assert tablecache.key(exp, rows, None) != k                 # the code
+
+
+def test_a_damaged_entry_is_computed_again(tmp_path, cache, counted):
+    exp = load(CONFIG, {"trials": 2})
+    rows = pfbench.runner.run_trial(exp, 0) + pfbench.runner.run_trial(exp, 1)
+    want = tablecache.cached_compare(exp, rows)
+    (entry,) = cache.glob("*.pickle")
+    for junk in (b"", b"not a pickle", entry.read_bytes()[:50]):
+        entry.write_bytes(junk)
+        got = tablecache.cached_compare(exp, rows)
+        pd.testing.assert_frame_equal(got.table, want.table)
+    assert len(counted) == 4
+    entry.write_bytes(__import__("pickle").dumps({"a": "dict, not a comparison"}))
+    tablecache.cached_compare(exp, rows)
+    assert len(counted) == 5
+
+
+def test_a_cache_folder_that_cannot_be_written_is_no_cache(tmp_path, monkeypatch, counted):
+    blocker = tmp_path / "file"
+    blocker.write_text("in the way")
+    monkeypatch.setattr(tablecache, "folder", lambda: blocker / "cache")
+    exp = load(CONFIG, {"trials": 2})
+    rows = pfbench.runner.run_trial(exp, 0) + pfbench.runner.run_trial(exp, 1)
+    a = tablecache.cached_compare(exp, rows)
+    b = tablecache.cached_compare(exp, rows)
+    pd.testing.assert_frame_equal(a.table, b.table)
+    assert len(counted) == 2
+
+
+def test_the_cache_keeps_its_newest_entries(tmp_path, cache, monkeypatch):
+    monkeypatch.setattr(tablecache, "KEEP", 3)
+    exp = load(CONFIG, {"trials": 2})
+    rows = pfbench.runner.run_trial(exp, 0) + pfbench.runner.run_trial(exp, 1)
+    for anytime in (100, 200, 300, 400, 500):
+        tablecache.cached_compare(exp, rows, anytime)
+    assert len(list(cache.glob("*.pickle"))) == 3
+    assert not list(cache.glob(".*"))           # no temporary file left
+
+
+_MODULES = """
+import sys
+from pfbench.cli import main
+sys.argv = ["pfbench"] + sys.argv[1:]
+try:
+    main()
+except SystemExit:
+    pass
+print(sorted({m for m in sys.modules if m.startswith(("scipy.stats", "matplotlib",
+                                                       "statsmodels"))}))
+"""
+
+
+@pytest.mark.parametrize("up_to_date", [False, True])
+def test_a_run_without_figures_imports_only_what_it_uses(tmp_path, up_to_date):
+    """A run that draws no figure imports no matplotlib; its verdicts (t intervals, Holm) need
+    no scipy.stats or statsmodels; an up-to-date folder computes nothing."""
+    out = tmp_path / "r"
+    cmd = [sys.executable, "-c", _MODULES, "run", str(CONFIG), "--trials", "2", "--out",
+           str(out), "--no-figures"]
+    if up_to_date:
+        subprocess.run(cmd, capture_output=True, text=True, check=True, cwd=tmp_path)
+    res = subprocess.run(cmd, capture_output=True, text=True, check=True, cwd=tmp_path)
+    assert res.stdout.strip().splitlines()[-1] == "[]", res.stdout + res.stderr
+    assert ("up to date" in res.stderr) == up_to_date
