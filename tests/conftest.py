@@ -59,3 +59,39 @@ def tree(folder: Path) -> dict:
     """Every file under folder with its bytes (to show nothing changed)."""
     return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*"))
             if p.is_file()}
+
+
+def _say(config):
+    """A function that writes a line to the terminal even while a test's output is captured."""
+    def say(text: str) -> None:
+        tr = config.pluginmanager.getplugin("terminalreporter")
+        cap = config.pluginmanager.getplugin("capturemanager")
+        if tr is None:
+            return
+        if cap is not None:
+            with cap.global_and_fixture_disabled():
+                tr.write_line(text)
+        else:
+            tr.write_line(text)
+    return say
+
+
+def pytest_configure(config):
+    from numba.core import event
+
+    from ._kernels import CompileReporter
+    event.register("numba:compile", CompileReporter(_say(config)).listener())
+
+
+def pytest_collection_finish(session):
+    """Before the first test of a run of the suite (tests from more than ten files): the kernels
+    of the committed configs the numba cache lacks compile on every core, visibly
+    (tests/_kernels.py). A run of a few files compiles only what its tests use."""
+    if (session.config.option.collectonly
+            or len({item.path for item in session.items}) <= 10):
+        return
+    from ._kernels import warm
+    tr = session.config.pluginmanager.getplugin("terminalreporter")
+    if tr is not None:
+        tr.write_line("")
+    warm(_say(session.config))
