@@ -279,6 +279,19 @@ _HELD: dict[str, list] = {}      # resolved lock path -> [fd, depth]
 LOCK_NAME = ".pfbench.lock"
 
 
+def _in_use(fd: int, what: str, folder, advice: str = "") -> UserError:
+    """The error for a folder whose lock another run holds, naming that run's pid (the lock
+    file's text); closes ``fd``, the lock file."""
+    try:
+        pid = os.pread(fd, 32, 0).decode("ascii", "replace").strip() or "unknown"
+    except OSError:
+        pid = "unknown"
+    finally:
+        os.close(fd)
+    return UserError(f"{what} {folder} is in use by another pfbench run (pid {pid}); wait for "
+                     f"it to end{advice}")
+
+
 class FolderLock:
     """An exclusive lock on a folder for as long as pfbench writes into it.
 
@@ -332,12 +345,7 @@ class FolderLock:
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
-                try:
-                    pid = os.pread(fd, 32, 0).decode("ascii", "replace").strip() or "unknown"
-                finally:
-                    os.close(fd)
-                raise UserError(f"{self.what} {self.folder} is in use by another pfbench run "
-                                f"(pid {pid}); wait for it to end, or choose another folder")
+                raise _in_use(fd, self.what, self.folder, ", or choose another folder") from None
             try:
                 same = os.stat(self.path).st_ino == os.fstat(fd).st_ino
             except FileNotFoundError:
@@ -446,12 +454,7 @@ class not_in_use:
         try:
             fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
         except OSError:
-            try:
-                pid = os.pread(fd, 32, 0).decode("ascii", "replace").strip() or "unknown"
-            finally:
-                os.close(fd)
-            raise UserError(f"{self.what} {self.folder} is in use by another pfbench run "
-                            f"(pid {pid}); wait for it to end") from None
+            raise _in_use(fd, self.what, self.folder) from None
         self.fd = fd
         return self
 

@@ -424,18 +424,24 @@ def check_meta(meta, path: Path) -> dict:
     return meta
 
 
+def _read_text(path: Path, what: str) -> str:
+    """The UTF-8 text of the regular file ``path`` of ``what`` (a finished run, a sweep); a
+    one-line UserError when it is missing, not a regular file or unreadable."""
+    require_regular(path)
+    try:
+        return path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise UserError(f"{path}: missing (not {what})") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UserError(f"{path}: unreadable ({getattr(exc, 'strerror', None) or exc})") \
+            from None
+
+
 def read_meta(folder: Path) -> dict:
     """A results folder's meta.json, its shape checked (check_meta): a one-line UserError when it
     is missing, not JSON, or not a meta.json this pfbench reads."""
     path = Path(folder) / META
-    require_regular(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise UserError(f"{path}: missing (not a finished pfbench run)") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UserError(f"{path}: unreadable ({getattr(exc, 'strerror', None) or exc})") \
-            from None
+    text = _read_text(path, "a finished pfbench run")
     try:
         meta = json.loads(text)
     except (ValueError, RecursionError) as exc:
@@ -531,12 +537,7 @@ def read_sweep(folder: Path):
     path, spath = folder / "trials.csv", folder / "summary.csv"
     require_regular(path)
     require_regular(spath)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise UserError(f"{path}: missing (not a finished pfbench sweep)") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UserError(f"{path}: unreadable ({exc})") from None
+    text = _read_text(path, "a finished pfbench sweep")
     lines = list(csv.reader(io.StringIO(text.replace("\x00", ""))))
     header = tuple(lines[0]) if lines else ()
     k = header.index("trial") if "trial" in header else -1
