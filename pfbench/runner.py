@@ -452,6 +452,8 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
     import multiprocessing as mp
     ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
     size = 1 if workers == 1 else max(1, min(25, math.ceil(count / (workers * 6))))
+    from .precompile import compile_ahead
+    compile_ahead(exp)
     _preload()
     slots = 2 * workers
     now, pids = ctx.RawArray("q", [-1] * (2 * slots)), ctx.RawArray("q", [0] * slots)

@@ -1,0 +1,84 @@
+"""Kernels compiled on every core before a run's first trial.
+
+numba compiles a kernel in the process that first calls it, one kernel after another: a run whose
+filters' kernels are not cached yet would compile them all in its first trial, on one core, and a
+run on several workers would compile them in every worker at once. ``compile_ahead`` instead
+splits the experiment's filter runs into groups that compile different kernels (one per module
+of filter types), and runs one trial of each group, on the experiment's own first trial's data,
+in a pool of one process per core (at most one per group): each kernel compiles once, into the
+numba cache, while the others compile beside it. The run then loads them all from the cache.
+
+Only pfbench's own kernels are compiled so (``runner.uncompiled``); a plug-in's compile in its
+first trial as before. Nothing of these trials is kept: what they compute is the first trial's,
+which the run computes again, bit for bit (numba's code does not depend on which process
+compiled it). A group that fails is left to the run, which reports the failure as usual; a
+worker that dies ends the compiling, not the run.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import replace
+
+
+def groups(exp) -> list[tuple[str, ...]]:
+    """The keys of the experiment's filter runs grouped by the module of their filter type: the
+    runs of one module share its kernels (pf and pfmh one kernel, the swarm filters another),
+    which would compile in every group that ran them."""
+    from .filters import FILTERS
+    by: dict[str, list[str]] = {}
+    for f in exp.filters:
+        by.setdefault(getattr(FILTERS[f.type].run, "__module__", f.type), []).append(f.key)
+    return [tuple(keys) for keys in by.values()]
+
+
+def _cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def _compile(exp, keys: tuple[str, ...]) -> None:
+    """One trial of the filter runs ``keys`` of ``exp`` (their kernels build); errors are the
+    run's to report."""
+    from .runner import trial_result
+    try:
+        trial_result(replace(exp, filters=tuple(f for f in exp.filters if f.key in keys)), 0)
+    except Exception:
+        pass
+
+
+def _group(exp, keys: tuple[str, ...]) -> None:
+    """What a pool worker runs: _compile, looked up in the worker (which the tests replace)."""
+    _compile(exp, keys)
+
+
+def compile_ahead(exp, processes: int | None = None) -> int:
+    """Compile the kernels the numba cache lacks for ``exp`` in ``processes`` processes (default:
+    the cores this process may use), one group of filter runs each (see the module); returns
+    the groups compiled (0: nothing to do, or too little to split)."""
+    from .runner import _in_process, _worker_init, uncompiled
+    if not uncompiled(exp) or _in_process():
+        return 0
+    todo = groups(exp)
+    processes = min(len(todo), processes or _cores())
+    if processes < 2:
+        return 0
+    import multiprocessing as mp
+
+    from .tablecache import settle
+    settle()                    # no fork while a thread of this process imports
+    ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+    pool = ctx.Pool(processes, initializer=_worker_init)
+    procs = list(pool._pool)
+    try:
+        results = pool.starmap_async(_group, [(exp, keys) for keys in todo], chunksize=1)
+        while not results.ready():
+            results.wait(0.25)
+            if any(p.exitcode is not None for p in procs):
+                return 0        # a worker died: the run meets (and names) what killed it
+        pool.close()
+    finally:
+        pool.terminate()
+        pool.join()
+    return len(todo)
