@@ -460,8 +460,11 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
     taken = ctx.Value("q", 0)
     if running is not None:
         running.append(lambda: [tuple(now[i:i + 2]) for i in range(0, len(now), 2)])
+    from .tablecache import import_ahead, settle
+    settle()                        # no fork while a thread of this process imports
     pool = ctx.Pool(workers, initializer=_worker_init, initargs=(now, pids, taken))
     procs = list(pool._pool)        # a worker ends only when it dies: seen by its exit code
+    import_ahead()                  # the table's modules, while the workers run the trials
     try:
         results = pool.imap_unordered(partial(_run_chunk_in_worker, exp, traces=traces),
                                       _chunks(trials, size))
