@@ -197,9 +197,10 @@ def distinct_count(x, xn, idx, mark):
     particle i drawn from xn[idx[i]] (xn: the particles before resampling, unchanged) and then
     perhaps moved (an MH move, a mutation). A particle whose value is no longer its ancestor's
     counts once (a NaN too, as a NaN equals nothing), and each ancestor of the others once.
-    O(N), no sort: one pass without a branch when the ancestors come in order (systematic,
-    stratified and multinomial resampling give them so), else a pass over marks (mark
-    (xn.size,) scratch).
+    O(N), no sort: two passes the compiler vectorises when the ancestors come in order
+    (systematic, stratified and multinomial resampling give them so) and no particle moved (a
+    plain PF), a third without a branch when some moved; ancestors out of order (residual
+    resampling) are counted by marks instead (mark (xn.size,) scratch).
 
     This is the number of distinct values of x whenever the particles xn are pairwise distinct
     and a moved particle's value is new: what continuous noise drawn for every particle gives,
@@ -208,18 +209,28 @@ def distinct_count(x, xn, idx, mark):
     one value (noise below the rounding of the particles' magnitude, two that ran off to the
     same infinity)."""
     N = x.size
+    if N == 0:
+        return 0
+    # the usual case, in two passes the compiler vectorises: ancestors in order and no particle
+    # moved, so the count is that of the changes of ancestor
+    changes = 0
+    down = 0
+    for i in range(1, N):
+        changes += idx[i] != idx[i - 1]
+        down += idx[i] < idx[i - 1]
+    moved = 0
+    for i in range(N):
+        moved += x[i] != xn[idx[i]]
+    if moved == 0 and down == 0:
+        return 1 + changes
     c = 0
     last = -1           # the ancestor of the last particle that kept its value
-    prev = -1
-    unsorted = False
-    for i in range(N):
-        j = idx[i]
-        unsorted |= j < prev
-        prev = j
-        moved = x[i] != xn[j]
-        c += moved | (j != last)
-        last = last if moved else j
-    if not unsorted:
+    if down == 0:
+        for i in range(N):
+            j = idx[i]
+            m = x[i] != xn[j]
+            c += m | (j != last)
+            last = last if m else j
         return c
     for j in range(mark.size):
         mark[j] = 0
