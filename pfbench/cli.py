@@ -663,6 +663,10 @@ def validate(config: Path = typer.Argument(..., help="Experiment YAML file."),
             out.print(f"{config}: ok: sweep {name}: {len(cells)} cells over "
                       f"{', '.join(cells[0].values)}, {cells[0].exp.trials} trials each, "
                       f"about {human(need)} of memory on one worker", markup=False)
+            from .diagnostics import plan
+            # one line, unless the swept keys change what the cells compute
+            for line in dict.fromkeys(plan(c.exp).describe() for c in cells):
+                out.print(f"{config}: {line}", markup=False, soft_wrap=True)
             return
         exp = _load(config, sets=set_)
         need = check_fits(exp, 1)

@@ -115,9 +115,20 @@ def test_the_key_adds_diagnostics_and_is_checked(tmp_path):
                       ("diagnostics: every", "'auto' or 'all' or a list"),
                       ("diagnostics: [diversity]", "did you mean"),
                       ("diagnostics: [distinct_frac, distinct_frac]", "distinct names"),
-                      ("diagnostics: 3", "got 3")):
+                      ("diagnostics: 3", "got 3"),
+                      ("diagnostics:", "got nothing"),
+                      ("diagnostics: {a: 1}", "got a mapping")):
         line = one_line_exit_2(cli.invoke(app, ["validate", str(_config(tmp_path, bad))]))
         assert "diagnostics" in line and says in line, (bad, line)
+
+
+def test_the_key_from_the_command_line(tmp_path):
+    res = cli.invoke(app, ["validate", str(_config(tmp_path)), "--set", "diagnostics=all"])
+    assert res.exit_code == 0, res.output
+    assert "diversity_l1 (the config's diagnostics key)" in res.output
+    line = one_line_exit_2(cli.invoke(app, ["validate", str(_config(tmp_path)), "--set",
+                                            "diagnostics=[bogus]"]))
+    assert "--set diagnostics=[bogus]" in line
 
 
 def test_slam_figures_get_the_map_trace_in_the_trials_they_draw(monkeypatch):
