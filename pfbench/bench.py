@@ -678,12 +678,12 @@ def run_path_bench(quick: bool, min_time: float, reps: int, say, console=None,
         T = _run_path_steps(trials[0][2])
         psteps = n_trials * T * sum(r.particles or 0 for r in exp.filters)
 
-        def kernel():
+        def kernel(trials=trials, exp=exp, state=state):
             for model, _, data in trials:
                 for r in exp.filters:
                     FILTERS[r.type].run(model, data, r.params, r.particles, state, False)
 
-        def run():
+        def run(exp=exp):
             for k in range(n_trials):
                 trial_result(exp, k, traces=True)
 
