@@ -6,6 +6,11 @@ x_0 = 0.1, particle prior N(0, 2), systematic resampling every step, weighted-me
 pfbench kernel is the one ``pfbench run`` uses, with the per-step diagnostics off. Implementations:
 ``pfbench`` (single trial, one thread; and a batch of trials over threads), ``numpy`` (vectorised
 over particles, one process), and ``c`` when ``--c-ref`` names a compiled ungm_ref.
+
+The run-path rows (part ``run``; ``run-ungm``, ``run-mcl``, ``run-fastslam`` one at a time) time
+the path of ``pfbench run`` itself, ``runner.trial_result`` with the diagnostics and traces a
+committed config computes, beside the same filters' bare kernels on the same trials, and hold
+their ratio against a target (RUN_PATH).
 """
 from __future__ import annotations
 
@@ -608,8 +613,134 @@ def limit_bench(quick: bool, min_time: float, reps: int, say, console=None) -> l
     return records
 
 
-PARTS = ("ungm", "costs", "fastslam", "afsa", "mcl", "limit")
-DEFAULT_PARTS = PARTS[:-1]       # the limit runs when asked for (--limit or --only limit)
+# ---------------------------------------------------------------- what `pfbench run` runs
+
+# The run-path rows: a filter through ``runner.trial_result`` (the path of ``pfbench run``: the
+# trial's simulation, each run's fresh copies of its inputs, its kernel with the diagnostics its
+# config computes, the output checks, the metrics, the trace its kind keeps for the figures)
+# beside the same filter's bare kernel (diagnostics off) on the same trials, in the same run.
+# (family, config, the one filter run kept (None: all of the config's), its particle count,
+# the scenario steps (None: the config's; quick, full), the target: run / kernel at most this)
+RUN_PATH = (
+    ("ungm", "configs/ifa_pf_ungm.yaml", "pf", 10_000, None, 1.3),
+    ("mcl", "configs/sspf_global.yaml", "mcl", 10_000, None, 1.3),
+    ("fastslam", "configs/afsa_fastslam.yaml", None, None, (100, 500), 1.5),
+)
+RUN_FAMILIES = tuple(f"run-{f[0]}" for f in RUN_PATH)
+
+
+def run_path_experiment(config: Path, keep: str | None, particles: int | None,
+                        steps: int | None):
+    """The experiment of ``config`` as the bench times it through the runner: only filter
+    ``keep`` (None: all), at ``particles`` (None: the config's), ``steps`` scenario steps (None:
+    the config's); its paper, table and diagnostics as the config has them."""
+    from .config import read_yaml, validate
+    raw, _ = read_yaml(config)
+    if keep is not None:
+        spec = dict(raw["filters"][keep] or {})
+        if particles is not None:
+            spec["particles"] = particles
+        raw["filters"] = {keep: spec}
+        raw.pop("compare", None)        # its baseline or floor may be a run left out
+    if steps is not None:
+        raw["scenario"]["steps"] = steps
+    return validate(raw, str(config))
+
+
+def _run_path_steps(data) -> int:
+    """Steps of a trial's data: the controls of a robot, the measurements of a scalar model."""
+    ctrl = getattr(data, "ctrl", None)
+    return int(ctrl.shape[0]) if ctrl is not None else int(np.asarray(data).size - 1)
+
+
+def run_path_bench(quick: bool, min_time: float, reps: int, say, console=None,
+                   families=None) -> list[dict]:
+    """For each RUN_PATH family (``families``: their names, None: all): nanoseconds per
+    particle-step of the same trials through ``runner.trial_result`` (traces as ``pfbench run``
+    keeps them) and through the bare kernels (``FilterType.run`` with the diagnostics off), timed
+    alternately, best of ``reps``; their ratio against the family's target."""
+    from rich.table import Table
+
+    from .filters import FILTERS
+    from .runner import trial_data, trial_result
+    recs = []
+    n_trials = 2 if quick else 4
+    for family, cfg, keep, N, steps, target in RUN_PATH:
+        if families is not None and family not in families:
+            continue
+        cfg = Path(cfg)
+        if not cfg.exists():
+            say(f"run path, {family}: skipped ({cfg} not found; run from the repository root)")
+            continue
+        exp = run_path_experiment(cfg, keep, N, None if steps is None else steps[not quick])
+        trials = [trial_data(exp, k) for k in range(n_trials)]
+        state = state_from_seed(np.random.SeedSequence(27))
+        T = _run_path_steps(trials[0][2])
+        psteps = n_trials * T * sum(r.particles or 0 for r in exp.filters)
+
+        def kernel(trials=trials, exp=exp, state=state):
+            for model, _, data in trials:
+                for r in exp.filters:
+                    FILTERS[r.type].run(model, data, r.params, r.particles, state, False)
+
+        def run(exp=exp):
+            for k in range(n_trials):
+                trial_result(exp, k, traces=True)
+
+        kernel()
+        run()               # both built and warm before either is timed
+        best = {"kernel": math.inf, "run": math.inf}
+        for _ in range(max(reps, 2)):       # alternately: a busy moment hits both
+            for impl, fn in (("kernel", kernel), ("run", run)):
+                best[impl] = min(best[impl], _best(fn, min_time, 1)[0])
+        labels = sorted({r.label for r in exp.filters})
+        what = ", ".join(labels) if len(labels) <= 2 else f"{len(exp.filters)} filters"
+        Ns = sorted({r.particles for r in exp.filters})
+        for impl, sec in best.items():
+            rec = {"workload": "run-path", "impl": impl, "filter": family, "particles": Ns[-1],
+                   "trials": n_trials, "steps": T, "seconds": sec,
+                   "particle_steps_per_s": psteps / sec,
+                   "ns_per_particle_step": 1e9 * sec / psteps, "config": str(cfg),
+                   "runs": what, "diagnostics": _diag_names(exp)}
+            recs.append(rec)
+        ratio = best["run"] / best["kernel"]
+        recs[-1].update(run_over_kernel=ratio, target=target, meets_target=bool(ratio <= target))
+    if not recs:
+        return recs
+    tab = Table(title="what `pfbench run` runs, beside the bare kernel: ns per particle-step on "
+                      "the same trials (one thread)", title_justify="left")
+    for h in ("workload", "N", "diagnostics", "kernel", "run", "run / kernel", "target"):
+        tab.add_column(h, justify="left" if h in ("workload", "diagnostics") else "right")
+    for k, r in zip(recs[0::2], recs[1::2]):
+        tab.add_row(f"{r['filter']}: {Path(r['config']).stem}, {r['runs']}", f"{r['particles']:,}",
+                    ", ".join(r["diagnostics"]) or "none",
+                    f"{k['ns_per_particle_step']:.1f}", f"{r['ns_per_particle_step']:.1f}",
+                    f"{r['run_over_kernel']:.2f}x",
+                    f"{r['target']:.1f}x " + ("met" if r["meets_target"] else "MISSED"))
+    if console:
+        console.print(tab)
+        say("kernel: each filter's run with the diagnostics off; run: runner.trial_result, the "
+            "path of 'pfbench run' (the trial's simulation, each run's fresh inputs, the "
+            "diagnostics its config computes, the output checks, the metrics, the traces kept "
+            f"for the figures); the same {n_trials} trials, timed alternately, best of "
+            f"{max(reps, 2)}", markup=False)
+    else:
+        for k, r in zip(recs[0::2], recs[1::2]):
+            say(f"run path, {r['filter']}: kernel {k['ns_per_particle_step']:.1f} ns, run "
+                f"{r['ns_per_particle_step']:.1f} ns a particle-step: "
+                f"{r['run_over_kernel']:.2f}x (target {r['target']:.1f}x)")
+    return recs
+
+
+def _diag_names(exp) -> list[str]:
+    """The per-step diagnostics ``exp`` computes (pfbench.diagnostics.plan)."""
+    from .diagnostics import plan
+    return list(plan(exp).names)
+
+
+PARTS = ("ungm", "costs", "fastslam", "afsa", "mcl", "run") + RUN_FAMILIES + ("limit",)
+# the limit runs when asked for (--limit or --only limit); 'run' is every run-path family
+DEFAULT_PARTS = ("ungm", "costs", "fastslam", "afsa", "mcl", "run")
 
 # What names a bench record (two runs' records with the same identity timed the same work), and
 # the throughput compared, in order of preference.
@@ -737,6 +868,10 @@ def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None, 
         records += mcl_bench(quick, min_time, reps, say)
     if peers:
         records += peers_bench(quick, min_time, reps, say, console)
+    families = ({f[0] for f in RUN_PATH} if "run" in parts
+                else {f[0] for f in RUN_PATH if f"run-{f[0]}" in parts})
+    if families:
+        records += run_path_bench(quick, min_time, reps, say, console, families)
     if "limit" in parts:
         records += limit_bench(quick, min_time, reps, say, console)
     records.append({"workload": "run", "impl": "pfbench", "command": command,

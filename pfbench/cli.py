@@ -663,6 +663,10 @@ def validate(config: Path = typer.Argument(..., help="Experiment YAML file."),
             out.print(f"{config}: ok: sweep {name}: {len(cells)} cells over "
                       f"{', '.join(cells[0].values)}, {cells[0].exp.trials} trials each, "
                       f"about {human(need)} of memory on one worker", markup=False)
+            from .diagnostics import plan
+            # one line, unless the swept keys change what the cells compute
+            for line in dict.fromkeys(plan(c.exp).describe() for c in cells):
+                out.print(f"{config}: {line}", markup=False, soft_wrap=True)
             return
         exp = _load(config, sets=set_)
         need = check_fits(exp, 1)
@@ -670,6 +674,8 @@ def validate(config: Path = typer.Argument(..., help="Experiment YAML file."),
         out.print(f"{config}: ok: {exp.name}: scenario {exp.scenario}, {exp.trials} trials, "
                   f"seed {exp.seed}, filter runs {runs}; about {human(need.bytes)} of memory on "
                   "one worker", markup=False)
+        from .diagnostics import plan
+        out.print(f"{config}: {plan(exp).describe()}", markup=False, soft_wrap=True)
 
 
 @app.command("list")
@@ -775,7 +781,8 @@ def bench(
     threads: int = typer.Option(0, "--threads", min=0, help="Threads for the batch "
                                 "(0: every core)."),
     only: List[str] = typer.Option([], "--only", help="Only this part, repeatable: ungm, costs, "
-                                   "fastslam, afsa, mcl, limit."),
+                                   "fastslam, afsa, mcl, run (what 'pfbench run' runs beside the "
+                                   "kernel: run-ungm, run-mcl, run-fastslam), limit."),
     limit: bool = typer.Option(False, "--limit", help="Also time each kernel's irreducible "
                                "passes alone: their sum, the practical limit, beside the "
                                "kernel (UNGM, MCL, FastSLAM)."),

@@ -14,6 +14,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterator, Mapping
 
+from .diagnostics import KEY_WORDS
+from .diagnostics import NAMES as DIAGNOSTIC_NAMES
 from .filters import FILTERS, KIND_TYPES
 from .filters.types import FILTER_COMMON  # noqa: F401  (part of this module's API)
 from .fsutil import name_problem
@@ -91,6 +93,9 @@ class Experiment:
     check: Params
     raw: dict = field(repr=False, compare=False, hash=False)
     reference: Paper | None = field(default=None, repr=False, compare=False, hash=False)
+    # the per-step diagnostics the config asks for beyond what it reads: 'auto', 'all' or names
+    # (pfbench.diagnostics decides what a run computes)
+    diagnostics: tuple | str = "auto"
 
     @property
     def reported(self) -> Table | None:
@@ -179,6 +184,10 @@ TOP_SCHEMA = {
     "description": Key("str", None, "one line on what the experiment shows", nullable=True),
     "seed": Key("int", 0, "base seed of numpy.random.SeedSequence (0 is a valid seed)", min=0),
     "trials": Key("int", 100, "Monte Carlo trials (independent truths and filter runs)", min=1),
+    "diagnostics": Key("names", "auto", "per-step diagnostics to compute beyond those the "
+                       "experiment's tables, figures and paper file read (which 'pfbench "
+                       "validate' lists): 'auto' none more, 'all' every one its kind has, or a "
+                       "list of them", choices=tuple(DIAGNOSTIC_NAMES), words=KEY_WORDS),
 }
 
 CHECK_SCHEMA = {
@@ -363,6 +372,13 @@ def validate(raw: Any, source: str = "config") -> Experiment:
             problems.add(ConfigError("compare.baseline", f"no filter '{compare['baseline']}'"
                                      + did_you_mean(compare["baseline"], names)
                                      + f"; filters: {', '.join(names)}"))
+    if (scen_name is not None and isinstance(top["diagnostics"], tuple)
+            and (bad := [n for n in top["diagnostics"]
+                         if n not in kind_of(scen_name).diagnostics])):
+        kind = kind_of(scen_name)
+        problems.add(ConfigError("diagnostics", f"a {kind.name} scenario has no diagnostic "
+                                 f"'{bad[0]}'; its diagnostics: "
+                                 f"{', '.join(kind.diagnostics) or 'none'}"))
     check = {k: key.default for k, key in CHECK_SCHEMA.items()}
     with problems.attempt():
         check = check_section(raw.get("check") or {}, CHECK_SCHEMA, "check", problems=problems)
@@ -392,7 +408,7 @@ def validate(raw: Any, source: str = "config") -> Experiment:
                       trials=top["trials"], scenario=scen_name,
                       scenario_params=Params(scen_params), filters=filters,
                       compare=Params(compare), check=Params(check), raw=copy.deepcopy(raw),
-                      reference=reference)
+                      reference=reference, diagnostics=top["diagnostics"])
 
 
 def _stem(source: str) -> str:

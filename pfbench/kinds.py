@@ -63,6 +63,9 @@ class Kind:
     tracer : what a trial keeps for those figures while it runs (pfbench.traces), or None
     outputs(model, truth, data) -> {name: (shape, required)}: what a filter run returns; shape
         a tuple of sizes (None: any size) for an array, COUNT for a number (check_outputs)
+    diagnostics : the per-step diagnostics its filter runs can compute, names of
+        pfbench.diagnostics.NAMES (which of them a run computes: pfbench.diagnostics.plan)
+    figure_diagnostics : those its figures read, from the trials whose trace ``tracer`` keeps
 
     A trials file of the kind has the columns ``columns``: the trial, the filter run, its
     ``metrics`` (in the order of pfbench.metrics.METRICS) and the row's checksum.
@@ -79,11 +82,18 @@ class Kind:
     figures: str | None = None
     tracer: object | None = None
     outputs: Callable | None = None
+    diagnostics: tuple[str, ...] = ()
+    figure_diagnostics: tuple[str, ...] = ()
 
     def __post_init__(self):
         unknown = [m for m in self.metrics if m not in METRICS]
         if unknown:
             raise ValueError(f"kind {self.name}: no metric {unknown[0]}")
+        from .diagnostics import NAMES
+        unknown = [d for d in self.diagnostics + self.figure_diagnostics
+                   if d not in NAMES or d not in self.diagnostics]
+        if unknown:
+            raise ValueError(f"kind {self.name}: no diagnostic {unknown[0]}")
         # the metrics in METRICS' order, so that every file of a kind has one column order
         object.__setattr__(self, "metrics", tuple(m for m in METRICS if m in self.metrics))
 
@@ -201,7 +211,7 @@ SCALAR = Kind(
     unit="",
     particle_floats=lambda params, scen: 24,
     step_floats=lambda scen: 8,
-    outputs=_scalar_outputs)
+    outputs=_scalar_outputs, diagnostics=("distinct_frac", "diversity_l1"))
 
 SLAM = Kind(
     "slam", "a robot's pose and a map of point landmarks, estimated together",
@@ -213,7 +223,8 @@ SLAM = Kind(
     unit="m",
     particle_floats=_slam_particle_floats,
     step_floats=lambda scen: 16 + 3 * len(scen.get("landmarks", ())),
-    figures="slam_figures", tracer=SlamTracer(), outputs=_slam_outputs)
+    figures="slam_figures", tracer=SlamTracer(), outputs=_slam_outputs,
+    diagnostics=("distinct_frac", "diversity_l1", "lm_trace"), figure_diagnostics=("lm_trace",))
 
 LOCALIZATION = Kind(
     "localization", "a robot's pose on a known map: global localization, tracking and kidnapping",

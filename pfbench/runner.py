@@ -26,12 +26,16 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from functools import lru_cache, partial
 from pathlib import Path
-from typing import Callable, Iterable, NamedTuple
+from typing import Callable, Iterable, Mapping, NamedTuple
 
 import numpy as np
 
 from . import __version__
 from .config import FORMAT_VERSION, Experiment, Params
+from .diagnostics import NAMES as DIAGNOSTIC_NAMES
+from .diagnostics import Diag
+from .diagnostics import flags as diag_flags
+from .diagnostics import plan as plan_diagnostics
 from .errors import UserError
 from .fsutil import FolderLock, close_inherited_locks, require_regular
 from .filters import FILTERS, LOAD_SECONDS
@@ -166,14 +170,17 @@ def metrics_of(exp: Experiment, model, truth, out) -> dict:
     return kind_of(exp.scenario).row(model, truth, out)
 
 
-def run_filter(exp: Experiment, trial: int, run, model, y, diag: bool = True,
+def run_filter(exp: Experiment, trial: int, run, model, y, diag: Diag | None = None,
                **extra) -> tuple[dict, float]:
     """Run one filter of a trial on measurements ``y``; return (output traces, wall seconds).
+    ``diag``: the per-step diagnostics it computes (None: those the experiment computes in every
+    trial, pfbench.diagnostics.plan); the diagnostic outputs it returns beyond them are dropped.
     ``extra``: keyword arguments the filter's run takes beyond the common ones (snapshots).
 
     The run gets its own copy of the model, the measurements, its parameters and ``extra``
     (fresh): what it writes into them no other run sees. An error it raises (SystemExit
     included) is a UserError that names it."""
+    diag = plan_diagnostics(exp).every if diag is None else diag_flags(diag)
     state = state_from_seed(filter_seed(exp.seed, trial, run.key))
     model, y, params, extra = fresh(model), fresh(y), fresh(run.params), fresh(extra)
     t0 = time.perf_counter()
@@ -181,7 +188,12 @@ def run_filter(exp: Experiment, trial: int, run, model, y, diag: bool = True,
         out = FILTERS[run.type].run(model, y, params, run.particles, state, diag, **extra)
     except (Exception, SystemExit) as exc:
         raise FilterError(f"{_who(run, trial)} raised {_exception_text(exc)}", exc) from None
-    return out, time.perf_counter() - t0
+    wall = time.perf_counter() - t0
+    if isinstance(out, Mapping):        # anything else is checked_output's to name
+        unasked = {o for f, o in DIAGNOSTIC_NAMES.values() if not f & diag}
+        if any(o in out for o in unasked):
+            out = {k: v for k, v in out.items() if k not in unasked}
+    return out, wall
 
 
 def checked_output(exp: Experiment, trial: int, run, model, truth, data, out,
@@ -242,11 +254,12 @@ def trial_result(exp: Experiment, trial: int, traces: bool = False) -> Trial:
     tracer = kind_of(exp.scenario).tracer if traces else None
     keep = tracer is not None and tracer.keeps(exp, trial)
     extras = tracer.extras(exp, model, data, trial) if keep else {}
+    diag = plan_diagnostics(exp).for_trial(keep)
     rows, outs = [], {}
     for i, run in enumerate(exp.filters):
         _mark(trial, i)
         extra = extras.get(run.key, {})
-        out, wall = run_filter(exp, trial, run, model, data, **extra)
+        out, wall = run_filter(exp, trial, run, model, data, diag, **extra)
         out = checked_output(exp, trial, run, model, truth, data, out, extra.get("snapshots"))
         row = {"trial": trial, "filter": run.key, "label": run.label, "particles": run.particles}
         row.update(metrics_of(exp, model, truth, out))

@@ -195,12 +195,14 @@ def _looks_numeric(text: str) -> bool:
 class Key:
     """One config key.
 
-    kind : 'int', 'float', 'str', 'bool', 'choice', 'ints' (an int or a list of distinct ints)
+    kind : 'int', 'float', 'str', 'bool', 'choice', 'ints' (an int or a list of distinct ints),
+        'names' (one of ``words``, or a list of distinct names of ``choices``, empty allowed)
     default : value used when the key is absent; ``REQUIRED`` if it must be given
     doc : one line for the README's key reference (scripts/update_readme.py) and for the error
         that names the key
     min, max : bounds for numbers (``min_exclusive``: strictly greater than min)
-    choices : allowed values for 'choice'
+    choices : allowed values for 'choice', the names a 'names' list may hold
+    words : 'names': the words it may be instead of a list
     nullable : null (None) is allowed
     check : extra validator returning an error message or None
     """
@@ -215,10 +217,14 @@ class Key:
     nullable: bool = False
     check: Callable[[Any], str | None] | None = None
     empty_ok: bool = False      # ints / floats: an empty list is allowed
+    words: tuple = ()
 
     def expected(self) -> str:
         if self.kind == "choice":
             return "one of " + ", ".join(f"'{c}'" for c in self.choices)
+        if self.kind == "names":
+            return (" or ".join(f"'{w}'" for w in self.words) + " or a list of "
+                    + ", ".join(f"'{c}'" for c in self.choices))
         noun = {"int": "an integer", "float": "a number", "str": "a string", "bool": "true or false",
                 "ints": "an integer or a list of integers",
                 "floats": "a number or a list of numbers"}[self.kind]
@@ -283,6 +289,23 @@ class Key:
             if not isinstance(value, str) or value not in self.choices:
                 raise ConfigError(path, f"expected {self.expected()}, got {describe(value)}"
                                   + did_you_mean(value, self.choices))
+        elif k == "names":
+            if isinstance(value, str) and value in self.words:
+                return value
+            if not isinstance(value, list):
+                raise ConfigError(path, f"expected {self.expected()}, got {describe(value)}"
+                                  + (did_you_mean(value, self.words + self.choices)
+                                     if isinstance(value, str) else ""))
+            for i, item in enumerate(value):
+                if not isinstance(item, str) or item not in self.choices:
+                    raise ConfigError(f"{path}[{i}]", "expected one of "
+                                      + ", ".join(f"'{c}'" for c in self.choices)
+                                      + f", got {describe(item)}"
+                                      + (did_you_mean(item, self.choices)
+                                         if isinstance(item, str) else ""))
+            if len(set(value)) != len(value):
+                raise ConfigError(path, f"expected distinct names, got {value}")
+            value = tuple(value)
         elif k in ("ints", "floats"):
             items = value if isinstance(value, list) else [value]
             if not items and not self.empty_ok:

@@ -179,7 +179,8 @@ def test_each_optional_output_is_optional_on_its_own(subset, monkeypatch, write_
         out.update({k: full[k] for k in subset})
         return out
     _register(monkeypatch, "partial", run)
-    exp = load(write_config(BASE + "  p: {type: partial}\n"))
+    # every diagnostic asked for: one not asked is dropped whatever the filter returns
+    exp = load(write_config("diagnostics: all\n" + BASE + "  p: {type: partial}\n"))
     (row,) = run_trial(exp, 0)
     want = {"mean_ess": 5.0, "resample_count": 25.0, "diversity_l1": 0.5, "distinct_frac": 0.25}
     for out, col in COLUMNS.items():

@@ -179,21 +179,97 @@ def diversity(x):
     return 2.0 * acc / (N * (N - 1.0)), distinct / N
 
 
-@kernel(types.float64(_F, types.int64, types.float64, types.int64, types.int64, _I, _F, _F),
-      cache=True)
-def resampled_step(x, t, est, estimate_after, diag, resampled, div_l1, distinct):
-    """Record that step t resampled into x (N,): its diversity when ``diag``; returns the estimate,
-    the plain mean of x when ``estimate_after``, else ``est`` unchanged."""
-    resampled[t] = 1
-    if diag:
-        div_l1[t], distinct[t] = diversity(x)
-    return x.sum() / x.size if estimate_after else est
-
-
 @kernel(types.float64(_F), cache=True)
 def mean_abs_pairwise(x):
     """Mean over pairs i < j of |x_i - x_j| (O(N log N) through the sorted values)."""
     return diversity(x)[0]
+
+
+# The diagnostics flags a kernel's ``diag`` holds (pfbench.diagnostics.Diag).
+DIAG_DISTINCT = 1       # the fraction of distinct particles after each resampling
+DIAG_DIVERSITY = 2      # their mean pairwise |x_i - x_j| (a sort at each resampling)
+DIAG_MAP_TRACE = 4      # SLAM: the map error after each observation
+
+
+@kernel(types.int64(_F, _F, _I, types.int8[::1]), cache=True)
+def distinct_count(x, xn, idx, mark):
+    """The distinct particles of a resampled set, counted from its ancestors: x (N,) the set,
+    particle i drawn from xn[idx[i]] (xn: the particles before resampling, unchanged) and then
+    perhaps moved (an MH move, a mutation). A particle whose value is no longer its ancestor's
+    counts once (a NaN too, as a NaN equals nothing), and each ancestor of the others once.
+    O(N), no sort: two passes the compiler vectorises when the ancestors come in order
+    (systematic, stratified and multinomial resampling give them so) and no particle moved (a
+    plain PF), a third without a branch when some moved; ancestors out of order (residual
+    resampling) are counted by marks instead (mark (xn.size,) scratch).
+
+    This is the number of distinct values of x whenever the particles xn are pairwise distinct
+    and a moved particle's value is new: what continuous noise drawn for every particle gives,
+    with probability one (every pfbench scalar filter draws its process noise, of a variance > 0,
+    for every particle). It counts more than the distinct values only when two ancestors hold
+    one value (noise below the rounding of the particles' magnitude, two that ran off to the
+    same infinity)."""
+    N = x.size
+    if N == 0:
+        return 0
+    # the usual case, in two passes the compiler vectorises: ancestors in order and no particle
+    # moved, so the count is that of the changes of ancestor
+    changes = 0
+    down = 0
+    for i in range(1, N):
+        changes += idx[i] != idx[i - 1]
+        down += idx[i] < idx[i - 1]
+    moved = 0
+    for i in range(N):
+        moved += x[i] != xn[idx[i]]
+    if moved == 0 and down == 0:
+        return 1 + changes
+    c = 0
+    last = -1           # the ancestor of the last particle that kept its value
+    if down == 0:
+        for i in range(N):
+            j = idx[i]
+            m = x[i] != xn[j]
+            c += m | (j != last)
+            last = last if m else j
+        return c
+    for j in range(mark.size):
+        mark[j] = 0
+    c = 0
+    for i in range(N):
+        j = idx[i]
+        if x[i] != xn[j]:
+            c += 1
+        elif mark[j] == 0:
+            mark[j] = 1
+            c += 1
+    return c
+
+
+@kernel(types.float64(_F, _F, _I, types.int8[::1], types.int64, types.float64, types.int64,
+                      types.int64, _I, _F, _F), cache=True)
+def resampled_step(x, xn, idx, mark, t, est, estimate_after, diag, resampled, div_l1, distinct):
+    """Record that step t resampled xn (N,) into x (N,) through the ancestors idx (then perhaps
+    moved): with ``diag`` & DIAG_DISTINCT its fraction of distinct particles (``distinct_count``;
+    mark (N,) its scratch, empty without it), with & DIAG_DIVERSITY its mean pairwise |x_i - x_j| (a sort); returns the
+    estimate, the plain mean of x when ``estimate_after``, else ``est`` unchanged."""
+    resampled[t] = 1
+    if diag & DIAG_DIVERSITY:
+        div_l1[t] = mean_abs_pairwise(x)
+    if diag & DIAG_DISTINCT:
+        distinct[t] = distinct_count(x, xn, idx, mark) / x.size
+    return x.sum() / x.size if estimate_after else est
+
+
+def drop_unasked(out: dict, diag: int) -> dict:
+    """``out`` without the diagnostic outputs ``diag`` does not ask for ('div_l1', 'distinct'):
+    a metric without its output is NaN."""
+    if not diag & DIAG_DIVERSITY:
+        out.pop("div_l1", None)
+    if not diag & DIAG_DISTINCT:
+        out.pop("distinct", None)
+    return out
+
+
 
 
 @kernel(types.int64(ModelFn, ModelFn, _F, _F, _F, _F, _F, types.float64, types.float64,

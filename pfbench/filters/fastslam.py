@@ -27,7 +27,9 @@ from ..models.pose import estimate_pose
 from ..resampling import SCHEME_CODES, SCHEMES, resample, stepwise_ewa_plan
 from ..rng import STATE, normal
 from ..schema import Key
-from ._common import normalise
+from ._common import (DIAG_DISTINCT, DIAG_DIVERSITY, DIAG_MAP_TRACE, drop_unasked,
+                      normalise)
+from ..diagnostics import flags
 from .keys import ewa_keys, pf_keys
 from .swarm import (AFSA, ALGORITHMS, BA, FA, IFA, NO_SWARM, afsa_centres, afsa_propose,
                     afsa_select, argmax, ba_accept, ba_propose, fa_move, ifa_move, keys, pack,
@@ -396,21 +398,13 @@ def _pairwise_abs_sum(v):
     return acc
 
 
-@kernel(types.UniTuple(types.float64, 2)(_F2,), cache=True)
-def pose_diversity(P):
-    """(mean pairwise L1 distance |dx| + |dy| + |dtheta| of the poses P (N, 3), fraction of
-    distinct poses): afsa2014's 'mean Hamming distance', read as L1 on poses. Headings are taken
-    relative to the cloud's circular mean (exact while the cloud spans less than pi); O(N log N)."""
+@kernel(types.int64(_F2,), cache=True)
+def pose_distinct(P):
+    """The number of distinct poses of P (N, 3), exactly: sorted by x, then compared pairwise
+    within runs of equal x. (A sort: FastSLAM's sets are small, tens to hundreds, and a copy's
+    pose can repeat another's exactly: without predict noise, or a directional copy without
+    copy noise, so the count from the ancestors would not be exact.)"""
     N = P.shape[0]
-    if N < 2:
-        return 0.0, 1.0
-    th0 = circular_mean(P)
-    h = np.empty(N)
-    for i in range(N):
-        h[i] = wrap(P[i, 2] - th0)
-    acc = (_pairwise_abs_sum(np.ascontiguousarray(P[:, 0]))
-           + _pairwise_abs_sum(np.ascontiguousarray(P[:, 1])) + _pairwise_abs_sum(h))
-    # distinct poses: sorted by x, then pairwise within runs of equal x
     order = np.argsort(P[:, 0], kind="mergesort")
     distinct = 0
     a = 0
@@ -428,7 +422,24 @@ def pose_diversity(P):
                     break
             distinct += not dup
         a = b
-    return acc / (N * (N - 1) / 2), distinct / N
+    return distinct
+
+
+@kernel(types.UniTuple(types.float64, 2)(_F2,), cache=True)
+def pose_diversity(P):
+    """(mean pairwise L1 distance |dx| + |dy| + |dtheta| of the poses P (N, 3), fraction of
+    distinct poses): afsa2014's 'mean Hamming distance', read as L1 on poses. Headings are taken
+    relative to the cloud's circular mean (exact while the cloud spans less than pi); O(N log N)."""
+    N = P.shape[0]
+    if N < 2:
+        return 0.0, 1.0
+    th0 = circular_mean(P)
+    h = np.empty(N)
+    for i in range(N):
+        h[i] = wrap(P[i, 2] - th0)
+    acc = (_pairwise_abs_sum(np.ascontiguousarray(P[:, 0]))
+           + _pairwise_abs_sum(np.ascontiguousarray(P[:, 1])) + _pairwise_abs_sum(h))
+    return acc / (N * (N - 1) / 2), pose_distinct(P) / N
 
 
 @kernel(types.float64(_F, _F3, _B2, _I, _I2, types.int64, _F2, types.int8[::1]), cache=True)
@@ -471,7 +482,9 @@ class Options(NamedTuple):
     refine : a swarm algorithm (swarm.ALGORITHMS) or NO_SWARM; iters : its iterations
     scheme : a resampling code, EWA or DIRECTIONAL; threshold : resample when ESS < threshold;
         ewa_beta, ewa_mu, ewa_printed : the stepwise EWA's settings
-    diag : 1 to fill the diagnostics that cost time (diversity, the map-error trace)
+    diag : the diagnostics' flags (pfbench.diagnostics.Diag): DIAG_DISTINCT the fraction of
+        distinct poses after each resampling, DIAG_DIVERSITY their mean pairwise L1 distance too,
+        DIAG_MAP_TRACE the map-error trace
     """
 
     every: int
@@ -939,8 +952,8 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, o, start, sp, dnoise, lm_true, s
         highest-weight particle's mapped landmarks to the true ones after each observation's
         update, and for the duplicates
     div (K, 2) : after each observation that resampled, the particles' mean pairwise L1 pose
-        distance and the fraction of distinct poses (NaN where it did not resample). div and
-        lm_trace are filled only with o.diag (NaN otherwise).
+        distance and the fraction of distinct poses (NaN where it did not resample). Each is
+        filled only where o.diag asks for it (NaN otherwise), and so is lm_trace.
     """
     T, K, N, M = ctrl.shape[0], obs_n.shape[0], o.N, o.M
     ps, spare = new_particles(N, M, start), new_particles(N, M, start)
@@ -982,7 +995,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, o, start, sp, dnoise, lm_true, s
             for i in range(N):
                 Wn[i] = w[i] / Ssum
             lm_trace[k] = (map_error(Wn, ps.mu, ps.seen, ps.nl, ps.src, o.assoc, lm_true, first)
-                           if o.diag else np.nan)
+                           if o.diag & DIAG_MAP_TRACE else np.nan)
             resampled[k] = 0
             div[k, 0], div[k, 1] = np.nan, np.nan
             if o.scheme == DIRECTIONAL:
@@ -998,8 +1011,10 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, o, start, sp, dnoise, lm_true, s
                 lw[:] = 0.0
                 Wn[:] = 1.0 / N
                 resampled[k] = 1
-                if o.diag:
+                if o.diag & DIAG_DIVERSITY:
                     div[k, 0], div[k, 1] = pose_diversity(ps.P)
+                elif o.diag & DIAG_DISTINCT:
+                    div[k, 1] = pose_distinct(ps.P) / N
             if o.scheme == DIRECTIONAL:     # the board for the next observation
                 board, next_board = next_board, board
                 xbar_prev[:] = xbar
@@ -1067,11 +1082,14 @@ def options(model, params, particles, diag=True) -> Options:
         refine=ALGORITHMS.get(params["refine"], NO_SWARM), iters=int(params["iterations"]),
         scheme=int(scheme), threshold=float(threshold), ewa_beta=float(params["ewa_beta"]),
         ewa_mu=float(params["ewa_mu"]), ewa_printed=int(params["ewa_correction"] == "as_printed"),
-        diag=int(diag))
+        diag=int(flags(diag)))
 
 
 def run(model, data, params, particles, state, diag=True):
-    """Run FastSLAM (with the configured refinement) on a course trial; return the traces."""
+    """Run FastSLAM (with the configured refinement) on a course trial; return the traces (the
+    diagnostics 'div_l1', 'distinct' and 'lm_trace' where ``diag`` asks for them:
+    pfbench.diagnostics.flags)."""
+    diag = int(flags(diag))
     T = data.ctrl.shape[0]
     K = data.obs_n.shape[0]
     M_true = model.landmarks.shape[0]
@@ -1093,6 +1111,9 @@ def run(model, data, params, particles, state, diag=True):
         out["ess"], out["resampled"], out["lm_est"], out["lm_seen"], evals, stats, div,
         out["lm_trace"])
     out["div_l1"], out["distinct"] = div[:, 0], div[:, 1]
+    drop_unasked(out, diag)
+    if not diag & DIAG_MAP_TRACE:
+        del out["lm_trace"]
     out["lik_evals_per_step"] = float(evals.mean()) if K else 0.0
     if o.assoc:
         out["association_errors"] = stats[1] / stats[0] if stats[0] else 0.0

@@ -15,7 +15,9 @@ from ..schema import Key
 from ..resampling import SCHEME_CODES, resample
 from ..rng import STATE
 from ..models.scalar import ModelFn, add_process_noise
-from ._common import floored, mh_move, resampled_step, start, weigh_lanes
+from ._common import (DIAG_DISTINCT, drop_unasked, floored, mh_move, resampled_step, start,
+                      weigh_lanes)
+from ..diagnostics import flags
 from .keys import pf_keys
 from .types import FilterType
 
@@ -37,8 +39,10 @@ def pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, scheme, threshold
         moves), 0 = the weighted mean before resampling
     mh_steps : Metropolis-Hastings moves per particle after each resampling (0: plain PF; PF+MH)
     log_floor : log of an additive floor on the likelihood (-inf: none; see ``floored``)
-    diag : 1 = fill div_l1 (mean pairwise |x_i - x_j|) and distinct (fraction of distinct values)
-        after each resampling; NaN at steps without resampling
+    diag : flags (pfbench.diagnostics.Diag): DIAG_DISTINCT fills distinct (the fraction of
+        distinct particles, from the ancestors: ``distinct_count``), DIAG_DIVERSITY div_l1 (mean
+        pairwise |x_i - x_j|, a sort) after each resampling; NaN at steps without resampling and
+        where not asked
     An underflow step (every log-weight -inf or NaN) resets the weights to uniform: the measurement
     of that step is ignored rather than turned into NaN.
     """
@@ -52,6 +56,7 @@ def pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, scheme, threshold
     w = np.empty(N)
     lw = np.zeros(N)
     idx = np.empty(N, dtype=np.int64)
+    mark = np.empty(N if diag & DIAG_DISTINCT else 0, dtype=np.int8)
     m = mh_steps > 0
     xprev = np.empty(N if m else 0)
     hcur = np.empty(N if m else 0)
@@ -90,7 +95,8 @@ def pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, scheme, threshold
                 lw[i] = 0.0
             for _ in range(mh_steps):
                 mh_move(f, h, theta, noise, xprev, x, hcur, yt, tt, log_floor, s, prop, hprop)
-            est = resampled_step(x, t, est, estimate_after, diag, resampled, div_l1, distinct)
+            est = resampled_step(x, xn, idx, mark, t, est, estimate_after, diag, resampled,
+                                 div_l1, distinct)
         else:
             x, xn = xn, x
         xhat[t] = est
@@ -104,7 +110,10 @@ def log_floor(params) -> float:
 
 
 def run(model, y, params, particles, state, diag=True):
-    """Run the bootstrap PF; return a dict of traces and counters (see :func:`pf_kernel`)."""
+    """Run the bootstrap PF; return a dict of traces and counters (see :func:`pf_kernel`).
+    ``diag``: the per-step diagnostics (pfbench.diagnostics.flags; True: all), whose outputs
+    'distinct' and 'div_l1' it returns only when asked."""
+    diag = int(flags(diag))
     T1 = y.size
     out = {"xhat": np.empty(T1), "ess": np.empty(T1), "resampled": np.empty(T1, dtype=np.int64),
            "div_l1": np.empty(T1), "distinct": np.empty(T1)}
@@ -113,8 +122,9 @@ def run(model, y, params, particles, state, diag=True):
     out["underflow_steps"] = pf_kernel(
         model.transition, model.observe, model.theta, model.noise, y, model.prior_mean,
         model.prior_var, particles, SCHEME_CODES[params["resampling"]], threshold,
-        int(params["estimate"] == "after_resampling"), mh, log_floor(params), int(diag), state,
+        int(params["estimate"] == "after_resampling"), mh, log_floor(params), diag, state,
         out["xhat"], out["ess"], out["resampled"], out["div_l1"], out["distinct"])
+    drop_unasked(out, diag)
     # each MH sweep evaluates the likelihood once more per particle (at the proposal), at the
     # steps that resample
     out["lik_evals_per_step"] = particles * (1.0 + mh * float(np.mean(out["resampled"][1:])))

@@ -20,7 +20,8 @@ from ..resampling import SCHEME_CODES, SCHEMES, resample, stepwise_ewa_plan
 from ..rng import STATE, normal
 from ..schema import Key
 from ..models.scalar import NOISE_GAUSSIAN, ModelFn, add_process_noise
-from ._common import resampled_step, start, weigh_lanes
+from ._common import DIAG_DISTINCT, drop_unasked, resampled_step, start, weigh_lanes
+from ..diagnostics import flags
 from .keys import ewa_keys, pf_keys
 from .swarm import (ALGORITHMS, BA, FA, IFA, PSO, afsa_centres, afsa_propose, afsa_select, argmax,
                     ba_accept, ba_propose, fa_move, ifa_move, keys, pack, pso_accept, pso_propose)
@@ -53,7 +54,8 @@ class SwarmOptions(NamedTuple):
     N : particles; algo : the swarm algorithm (swarm.ALGORITHMS); iters : its iterations a step
     scheme : a resampling code, or EWA (stepwise EWA with ewa_beta, mutation ewa_mu, the bias
     correction inside the recursion when ewa_printed); threshold : resample when ESS < threshold
-    estimate_after : 1 to estimate after resampling; diag : 1 to fill the costly diagnostics
+    estimate_after : 1 to estimate after resampling; diag : the diagnostics' flags
+        (``_common.resampled_step``)
     """
 
     N: int
@@ -218,6 +220,7 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, p, s, xhat,
     w = np.empty(N)
     idx = np.empty(N, dtype=np.int64)
     mutant = np.empty(N, dtype=np.int8)
+    mark = np.empty(N if o.diag & DIAG_DISTINCT else 0, dtype=np.int8)
     wk = new_work(N)
     events = 0
     evals[0] = 0.0
@@ -239,7 +242,8 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, p, s, xhat,
         events += int(under)
         if ess[t] < o.threshold:
             resample_swarm(x, xn, w, S, lw, idx, mutant, o, s)
-            est = resampled_step(x, t, est, o.estimate_after, o.diag, resampled, div_l1, distinct)
+            est = resampled_step(x, xn, idx, mark, t, est, o.estimate_after, o.diag, resampled,
+                                 div_l1, distinct)
         else:
             x[:] = xn
         xhat[t] = est
@@ -249,6 +253,7 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, p, s, xhat,
 def make_run(kind: str):
     """The ``run`` of swarm filter ``kind`` (a key of ALGORITHMS)."""
     def run(model, y, params, particles, state, diag=True):
+        diag = int(flags(diag))
         T1 = y.size
         out = {"xhat": np.empty(T1), "ess": np.empty(T1),
                "resampled": np.empty(T1, dtype=np.int64), "div_l1": np.empty(T1),
@@ -262,13 +267,13 @@ def make_run(kind: str):
             scheme=int(scheme), threshold=float(threshold),
             estimate_after=int(params["estimate"] == "after_resampling"),
             ewa_beta=float(params["ewa_beta"]), ewa_mu=float(params["ewa_mu"]),
-            ewa_printed=int(params["ewa_correction"] == "as_printed"), diag=int(diag))
+            ewa_printed=int(params["ewa_correction"] == "as_printed"), diag=diag)
         out["underflow_steps"] = swarm_pf_kernel(
             model.transition, model.observe, model.theta, model.noise, y, model.prior_mean,
             model.prior_var, o, pack(kind, params), state, out["xhat"], out["ess"],
             out["resampled"], out["div_l1"], out["distinct"], evals)
         out["lik_evals_per_step"] = float(np.mean(evals[1:]))
-        return out
+        return drop_unasked(out, diag)
     return run
 
 

@@ -24,7 +24,8 @@ from ..schema import Key
 from ..resampling import SCHEME_CODES, SCHEMES, resample
 from ..rng import STATE, normal, uniform
 from ..models.scalar import ModelFn, process_logpdf
-from ._common import floored, resampled_step, start, weigh
+from ._common import DIAG_DISTINCT, drop_unasked, floored, resampled_step, start, weigh
+from ..diagnostics import flags
 from .ekf import noise_moments
 from .pf import log_floor
 from .keys import floor_key, gaussian_noise_keys, pf_keys, sigma_check, sigma_keys
@@ -69,7 +70,7 @@ class UpfOptions(NamedTuple):
     log_floor : log of an additive floor on the likelihood (-inf: none; see ``floored``)
     increment : 1 = the transition density at x_t - x_{t-1} instead of x_t - f(x_{t-1}) (what
     the benchmark's reference implementation does); 0 = the model's density
-    diag : 1 to fill the diagnostics that cost time
+    diag : the diagnostics' flags (``_common.resampled_step``)
     """
 
     N: int
@@ -248,6 +249,7 @@ def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, s, xhat, ess, re
     ha = np.empty(N)
     prop = np.empty(N)
     hprop = np.empty(N)
+    mark = np.empty(N if o.diag & DIAG_DISTINCT else 0, dtype=np.int8)
     events = 0
     for t in range(1, T + 1):
         tt, yt = float(t), y[t]
@@ -284,12 +286,15 @@ def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, s, xhat, ess, re
             lw[i] = 0.0
             Wprev[i] = 1.0 / N
         mh_moves(h, theta, tt, yt, noise, x, P, am, fa, ha, prop, hprop, o, s)
-        xhat[t] = resampled_step(x, t, est, o.estimate_after, o.diag, resampled, div_l1, distinct)
+        xhat[t] = resampled_step(x, xn, idx, mark, t, est, o.estimate_after, o.diag, resampled,
+                                 div_l1, distinct)
     return events
 
 
 def run(model, y, params, particles, state, diag=True):
-    """Run the UPF (or SSPF, by its parameters); return a dict of traces."""
+    """Run the UPF (or SSPF, by its parameters); return a dict of traces (the diagnostics
+    ``diag`` asks for: pfbench.diagnostics.flags)."""
+    diag = int(flags(diag))
     T1 = y.size
     out = {"xhat": np.empty(T1), "ess": np.empty(T1), "resampled": np.empty(T1, dtype=np.int64),
            "div_l1": np.empty(T1), "distinct": np.empty(T1)}
@@ -307,14 +312,14 @@ def run(model, y, params, particles, state, diag=True):
         scheme=SCHEME_CODES[params["resampling"]], trigger=int(trigger),
         threshold=float(threshold), estimate_after=int(params["estimate"] == "after_resampling"),
         mh_steps=mh, log_floor=float(log_floor(params)),
-        increment=int(params["prior_argument"] == "increment"), diag=int(diag))
+        increment=int(params["prior_argument"] == "increment"), diag=diag)
     out["underflow_steps"] = upf_kernel(
         model.transition, model.observe, model.theta, model.noise, y, model.prior_mean,
         model.prior_var, o, state, out["xhat"], out["ess"], out["resampled"], out["div_l1"],
         out["distinct"])
     # 7 sigma points through h per particle, plus the particle itself; an MH sweep adds one more
     out["lik_evals_per_step"] = particles * (8.0 + mh * float(np.mean(out["resampled"][1:])))
-    return out
+    return drop_unasked(out, diag)
 
 
 def upf_keys(resample: str, mh_steps: int) -> dict:

@@ -1,0 +1,144 @@
+"""Which per-step diagnostics an experiment computes, and why: the one place that decides it.
+
+Some outputs of a filter run cost time at every step and are read only by some experiments:
+
+- ``distinct_frac`` (output ``distinct``): the fraction of distinct particles right after each
+  resampling. Read by the tables of every experiment whose kind has the column (the console's
+  diagnostics table and table.md print it as 'Distinct'), so it is computed for scalar and SLAM
+  experiments. It costs a pass over the ancestors (see pfbench.filters._common.distinct_count).
+- ``diversity_l1`` (output ``div_l1``): the mean pairwise L1 distance of the particles right
+  after each resampling, averaged over the steps that resampled. Exact, through a sort of the
+  particles at each of those steps, so it is computed only where something reads it: the
+  paper file's table (a quantity, its per-run table or that table's ``also``, a finding that
+  cites the column) or the config's ``diagnostics`` key.
+- ``lm_trace`` (SLAM): the map error after each observation, which the SLAM figures draw. It is
+  computed in the trials whose trace is kept for the figures (trial 0), and in every trial when
+  the ``diagnostics`` key asks for it.
+
+A diagnostic not computed is absent from the filter's output, so its metric is NaN: blank in
+trials.csv and table.csv, '-' in the tables. A filter's ``run`` receives the diagnostics as a
+:class:`Diag` (an ``int`` of flags): ``bool(diag)`` is whether any is asked, so a filter written
+for the older ``run(..., diag: bool)`` still works; the runner drops the diagnostic outputs a run
+returns that were not asked for, so that what an experiment holds never depends on the filter.
+"""
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, field
+
+
+class Diag(enum.IntFlag):
+    """The per-step diagnostics a filter run is asked for (flags; 0: none)."""
+    NONE = 0
+    DISTINCT = 1        # distinct_frac: output 'distinct'
+    DIVERSITY = 2       # diversity_l1: output 'div_l1'
+    MAP_TRACE = 4       # lm_trace (SLAM): output 'lm_trace'
+
+
+ALL = Diag.DISTINCT | Diag.DIVERSITY | Diag.MAP_TRACE
+
+# name (a metric column, or the SLAM output lm_trace) -> (flag, the filter output holding it)
+NAMES = {"distinct_frac": (Diag.DISTINCT, "distinct"),
+         "diversity_l1": (Diag.DIVERSITY, "div_l1"),
+         "lm_trace": (Diag.MAP_TRACE, "lm_trace")}
+
+# What the ``diagnostics`` config key takes besides a list of NAMES.
+KEY_WORDS = ("auto", "all")
+
+
+def flags(diag) -> Diag:
+    """A filter's ``diag`` argument as flags: True (the older boolean form) asks for every
+    diagnostic, False for none, an int for its flags."""
+    if isinstance(diag, bool) or diag is None:
+        return ALL if diag else Diag.NONE
+    return Diag(int(diag) & int(ALL))
+
+
+def outputs_of(names) -> set[str]:
+    """The filter outputs that hold the diagnostics ``names``."""
+    return {NAMES[n][1] for n in names}
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What an experiment computes: ``every`` in every trial, ``traced`` in addition in the trials
+    whose trace its kind keeps for the figures; ``why``: name -> the reasons, in words;
+    ``offered``: the diagnostics its kind has."""
+    every: Diag
+    traced: Diag
+    why: dict = field(default_factory=dict)
+    offered: tuple = ()
+
+    def for_trial(self, keeps_trace: bool) -> Diag:
+        """The diagnostics of a trial (``keeps_trace``: its kind keeps its trace)."""
+        return self.every | self.traced if keeps_trace else self.every
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The diagnostics computed in some trial, in NAMES' order."""
+        on = self.every | self.traced
+        return tuple(n for n, (f, _) in NAMES.items() if f & on)
+
+    def describe(self) -> str:
+        """One line: each diagnostic computed and why, and those its kind has that are not."""
+        parts = []
+        for n in self.names:
+            where = "" if NAMES[n][0] & self.every else " in the trials kept for the figures"
+            parts.append(f"{n}{where} ({'; '.join(self.why[n])})")
+        left = [n for n in self.offered if n not in self.names]
+        text = "per-step diagnostics: " + (", ".join(parts) or "none")
+        if left:
+            text += (f"; not computed: {', '.join(left)} (blank in the tables; the "
+                     "'diagnostics' key adds them)")
+        elif not self.offered:
+            text += " (its kind has none)"
+        return text
+
+
+KEY_REASON = "the config's diagnostics key"
+
+
+def plan(exp) -> Plan:
+    """The diagnostics experiment ``exp`` computes, and why (see the module)."""
+    from .kinds import kind_of
+    kind = kind_of(exp.scenario)
+    have = kind.diagnostics
+    why: dict[str, list[str]] = {}
+
+    def need(name: str, reason: str) -> None:
+        if name in have and reason not in why.setdefault(name, []):
+            why[name].append(reason)
+
+    if "distinct_frac" in have:
+        need("distinct_frac", "the tables' Distinct column")
+    table = exp.reported
+    if table is not None:
+        where = f"paper {exp.paper} {exp.table}"
+        for q in table.quantities:
+            if q.metric in NAMES:
+                need(q.metric, f"{where}: quantity {q.key}")
+        pt = table.per_trial
+        if pt is not None:
+            if pt.metric in NAMES:
+                need(pt.metric, f"{where}: its per-run table")
+            for m in pt.also:
+                if m in NAMES:
+                    need(m, f"{where}: its per-run table's 'also'")
+    if exp.reference is not None:
+        for finding in exp.reference.findings:
+            for ref in finding.refs:
+                if ref.config == exp.name and ref.column in NAMES:
+                    need(ref.column, f"paper {exp.paper}: a finding cites {ref.column}")
+    key = exp.diagnostics
+    for name in (have if key == "all" else () if key == "auto" else key):
+        need(name, KEY_REASON)
+    every = Diag.NONE
+    for name in why:
+        every |= NAMES[name][0]
+    traced = Diag.NONE
+    if kind.tracer is not None:
+        for name in kind.figure_diagnostics:
+            if not every & NAMES[name][0]:
+                need(name, f"the {kind.name} figures")
+                traced |= NAMES[name][0]
+    return Plan(every, traced, {n: why[n] for n in NAMES if n in why}, have)
