@@ -206,3 +206,27 @@ def test_sweep_says_it_writes_its_figures(write_config, tmp_path):
     assert f"sweep: writing {tmp_path / 's'}/summary.csv and the figures" in r.stderr
     assert "sweep:" not in r.stdout
     assert pd.read_csv(tmp_path / "s" / "summary.csv")["trials"].tolist() == [2] * 6
+
+
+def test_a_progress_callback_that_raises_stops_the_run_and_its_workers(tmp_path, write_config):
+    import multiprocessing as mp
+    cfg = write_config(SMALL.replace("trials: 6", "trials: 40"))
+
+    def stop(done, total):
+        if done:
+            raise RuntimeError("enough")
+    with pytest.raises(RuntimeError, match="enough"):
+        pfbench.run_experiment(cfg, workers=2, out=tmp_path / "o", progress=stop)
+    assert not mp.active_children()
+    # the trials saved before it are kept: a resume runs the rest, the same trials
+    res = pfbench.run_experiment(cfg, workers=2, out=tmp_path / "o", resume=True)
+    ref = pfbench.run_experiment(cfg, workers=1, out=tmp_path / "ref")
+    assert res.run["trials_run_now"] < 40
+    assert (tmp_path / "o/trials.csv").read_bytes() == (tmp_path / "ref/trials.csv").read_bytes()
+    assert ref.run["trials_run_now"] == 40
+
+
+def test_trials_of_unknown_count_are_handed_out_too(write_config):
+    exp = load(write_config(SMALL))
+    got = [t.index for chunk in rn.execute(exp, iter(range(6)), 2) for t in chunk]
+    assert sorted(got) == list(range(6))
