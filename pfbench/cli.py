@@ -155,7 +155,14 @@ def _progress(bar, total: int, first, exps=(), underway=None):
     first call (once the folder is ready and the trials start); ``underway``: an executor's,
     so that the bar moves while trials of seconds run."""
     from .progress import tracker
-    return tracker(bar, total, _first_words(exps), first, underway)
+    words = _first_words(exps)
+    if words != "trials" and not err.is_terminal:     # a log: one line where it takes long
+
+        def first(header=first):
+            header()
+            err.print(f"pfbench: {words} ...", markup=False)
+        first = _once(first)
+    return tracker(bar, total, words, first, underway)
 
 
 def _warn(message: str) -> None:

@@ -230,3 +230,17 @@ def test_trials_of_unknown_count_are_handed_out_too(write_config):
     exp = load(write_config(SMALL))
     got = [t.index for chunk in rn.execute(exp, iter(range(6)), 2) for t in chunk]
     assert sorted(got) == list(range(6))
+
+
+def test_a_run_whose_kernels_compile_says_so_in_a_log(write_config, tmp_path, monkeypatch):
+    monkeypatch.setattr(rn, "uncompiled", lambda exp: ["pf", "ungm"])
+    r = cli.invoke(app, ["run", str(write_config(SMALL)), "--out", str(tmp_path / "o"),
+                         "--no-figures"])
+    assert r.exit_code == 0, r.output
+    lines = r.stderr.splitlines()
+    at = lines.index("pfbench: compiling the pf, ungm kernels (first run only) ...")
+    assert lines[at - 1].startswith("exp: 6 trials of ungm")      # after the run's header
+    monkeypatch.setattr(rn, "uncompiled", lambda exp: [])
+    r = cli.invoke(app, ["run", str(write_config(SMALL)), "--out", str(tmp_path / "o"),
+                         "--no-figures", "--force"])
+    assert r.exit_code == 0 and "compiling" not in r.stderr
