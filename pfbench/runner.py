@@ -418,20 +418,24 @@ def _signal_name(code: int | None) -> str:
 # bar moves within a fraction of a second of the first trials (after the kernels load), a run of
 # seconds-long trials (FastSLAM, MCL) hands them out one at a time, and trials of milliseconds
 # still go by the hundred, so that sending them to a worker and back costs little beside them.
-# Before a trial has finished the size comes from the work of a trial (trial_seconds, priced
-# high: the first units are small); after, from the seconds the latest units took. No unit holds
-# more than a fourth of a worker's share of the trials not yet handed out, so that the workers
-# finish together. The results do not depend on it: every trial is seeded on its own.
+# Before a trial has finished the size comes from the work of a trial (trial_seconds), taken as
+# GUESS_DOUBT times what it says: particles x steps miss what a step does besides (FastSLAM's
+# landmarks, a swarm's iterations: afsa_fastslam's trials take 55 times the guess), so the first
+# units are small and only trials of well under a millisecond go several at a time. After, the
+# size comes from the seconds the latest units took (their median: a first unit that loaded the
+# kernels does not count for long). No unit holds more than a fourth of a worker's share of the
+# trials not yet handed out, so that the workers finish together. The results do not depend on
+# it: every trial is seeded on its own.
 UNIT_SECONDS = 0.25
 MAX_UNIT = 500
-STEP_SECONDS = 2e-7         # a particle-step of a filter run, priced high
+STEP_SECONDS = 2e-7         # a particle-step of a filter run
 RUN_SECONDS = 5e-4          # a filter run's cost besides its particle-steps (copies, metrics)
+GUESS_DOUBT = 50
 
 
 def trial_seconds(exp: Experiment) -> float:
     """The seconds a trial of ``exp`` takes, guessed from its work before one has run: its filter
-    runs' particles x the scenario's steps (the steps as pfbench.resources counts them), priced
-    high."""
+    runs' particles x the scenario's steps (the steps as pfbench.resources counts them)."""
     steps = int(dict(exp.scenario_params).get("steps", 1000))
     return sum((run.particles or 1) * steps * STEP_SECONDS + RUN_SECONDS
                for run in exp.filters)
@@ -451,7 +455,7 @@ class Units:
 
     def size(self) -> int:
         """Trials in the next unit."""
-        per = sorted(self.seen)[len(self.seen) // 2] if self.seen else self.guess
+        per = sorted(self.seen)[len(self.seen) // 2] if self.seen else self.guess * GUESS_DOUBT
         n = int(UNIT_SECONDS / per) if per > 0 else MAX_UNIT
         if self.left >= 0:
             n = min(n, math.ceil(self.left / (4 * self.workers)))

@@ -33,17 +33,20 @@ def test_heavy_trials_go_one_at_a_time_light_ones_in_larger_units(write_config):
     heavy = load(ROOT / "configs" / "ifa_fastslam.yaml")
     light = load(write_config(SMALL.replace("trials: 6", "trials: 400")))
     assert rn.trial_seconds(heavy) > rn.UNIT_SECONDS > 10 * rn.trial_seconds(light)
-    # before any trial has finished: from the work of a trial
+    # before any trial has finished: from the work of a trial, doubted (the first units small)
     assert rn.Units(heavy, range(100), 100, 2).size() == 1
     units = rn.Units(light, range(400), 400, 2)
-    assert units.size() == math.ceil(400 / 8) > 1        # only a worker's share bounds it
+    assert 1 <= units.size() <= 3
+    tiny = load(write_config("trials: 400\nscenario: {name: ungm, steps: 10}\n"
+                             "filters: {pf: {particles: 10}}\n", "tiny.yaml"))
+    assert rn.Units(tiny, range(400), 400, 2).size() > 5
     # after trials were measured: a slow first unit (kernels loading) shrinks the next ones,
     # the measures that follow grow them again
     units.measured(10, 20.0)
     assert units.size() == 1
     for _ in range(4):
         units.measured(50, 0.05)
-    assert units.size() == 50
+    assert units.size() == math.ceil(400 / 8)           # only a worker's share bounds it
     heavy_units = rn.Units(heavy, range(100), 100, 2)
     heavy_units.measured(1, 3.0)
     assert _sizes(heavy_units) == [1] * 100
@@ -61,11 +64,12 @@ def test_units_hand_out_every_trial_once_in_order_and_shrink_toward_the_end(writ
         sizes.append(len(unit))
         units.measured(len(unit), 1e-5 * len(unit))       # cheap: bounded by the share left
     assert got == list(range(1000))
-    assert sizes[-1] == 1 and sizes == sorted(sizes, reverse=True)
+    assert sizes[0] <= 3 and sizes[-1] == 1 and sizes[1:] == sorted(sizes[1:], reverse=True)
     assert max(sizes) <= rn.MAX_UNIT
-    # count unknown: the measure alone sizes them
-    unknown = rn.Units(light, iter(range(10)), -1, 2)
-    assert _sizes(unknown) == [10]
+    # count unknown: the measure alone sizes them (no share to bound them)
+    unknown = rn.Units(light, iter(range(100)), -1, 2)
+    unknown.measured(1, 1e-5)
+    assert _sizes(unknown) == [100]
 
 
 @pytest.mark.parametrize("unit_seconds,workers", [(1e-9, 2), (1e9, 3), (1e9, 1)])
