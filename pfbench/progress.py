@@ -34,8 +34,10 @@ def time_left_column():
         max_refresh = 0.5
 
         def render(self, task) -> Text:
-            return Text(time_left(task.fields.get("since"), task.fields.get("base", 0),
-                                  task.completed, task.total, time.monotonic()),
+            # a task that no tracker drives: the pace since it started
+            return Text(time_left(task.fields.get("since", task.start_time),
+                                  task.fields.get("base", 0), task.completed, task.total,
+                                  time.monotonic()),
                         style="progress.remaining")
     return TimeLeft()
 
