@@ -102,7 +102,8 @@ def _takes(v, n: int) -> bool:
     return True
 
 
-_PROGRESS = (lambda v: v is None or _takes(v, 2), "a function of (done, total) or None")
+_PROGRESS = (lambda v: v is None or isinstance(v, bool) or _takes(v, 2),
+             "a function of (done, total), True (a progress bar) or None")
 _WARN = (lambda v: v is None or _takes(v, 1), "a function of one message or None")
 _ON_LOOK = (lambda v: v is None or _takes(v, 1), "a function of one look or None")
 _OVERRIDES = (lambda v: (not isinstance(v, (str, bytes, Mapping)) and hasattr(v, "__iter__")),
@@ -215,7 +216,7 @@ def _frame(rows: list[dict], columns: Iterable[str]) -> pd.DataFrame:
 def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
                    seed: int | None = None, workers: int = 1, overrides: Iterable[str] = (),
                    out: str | Path | None = None, resume: bool = False, figures: bool = True,
-                   executor=None, progress: Callable[[int, int], None] | None = None,
+                   executor=None, progress: Callable[[int, int], None] | bool | None = None,
                    warn: Callable[[str], None] | None = None, force: bool = False,
                    figure_format: str = "png") -> Result:
     """Run every trial of an experiment and compare it with its paper.
@@ -234,7 +235,13 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
         this one (refused otherwise)
     figures : (with ``out``) draw the figures; figure_format : png, svg or pdf
     executor : where the trials run (a pfbench.runner executor; default: ``workers`` local
-        processes); progress(done, total) is called as trials finish
+        processes)
+    progress : ``progress(done, total)`` is called when the trials start (``done``: those an
+        earlier run left, usually 0) and again each time trials finish, ``done`` growing to
+        ``total``; trials are handed out in units of a fraction of a second (one at a time
+        where a trial takes longer), so it is called every second or so. True shows a progress
+        bar on stderr (in a notebook, below the cell) instead; None (default) shows nothing.
+    warn : ``warn(message)`` is told what a run keeps or drops of an earlier one
     """
     fn = "run_experiment"
     _check_args(fn, config=(config, _CONFIG), trials=(trials, _OPT_COUNT),
@@ -244,12 +251,22 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
                 figure_format=(figure_format, _FORMAT))
     overrides = _overrides(fn, overrides)
     trials, seed, workers = _int(trials), _int(seed), int(workers)
-    from .compare import compare
-    from .runner import LocalExecutor, run_experiment as run_into, versions
-    from .store import trial_columns
+    from .progress import shown
+    from .runner import LocalExecutor
     out = out_folder(out)
     check_figure_format(figure_format)
     exp = _experiment(config, trials, seed, overrides)
+    executor = executor or LocalExecutor(workers)
+    with shown(progress, executor) as progress:
+        return _run(exp, workers, out, resume, figures, executor, progress, warn, force,
+                    figure_format)
+
+
+def _run(exp, workers, out, resume, figures, executor, progress, warn, force,
+         figure_format) -> Result:
+    from .compare import compare
+    from .runner import run_experiment as run_into, versions
+    from .store import trial_columns
     if out is not None:
         from .fsutil import FolderLock, recover_aside
         from .regen import write_experiment
@@ -267,7 +284,6 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
                       out, cmp, paths, up_to_date=res.up_to_date, run=res.run)
     if resume:
         raise UserError("resume needs a results folder (out)")
-    executor = executor or LocalExecutor(workers)
     done: dict[int, list[dict]] = {}
     t0 = time.perf_counter()
     if progress:
@@ -326,7 +342,7 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
                       max_trials: int | None = None, trials: int | None = None,
                       seed: int | None = None, workers: int = 1, overrides: Iterable[str] = (),
                       resume: bool = False, figures: bool = True, executor=None,
-                      progress: Callable[[int, int], None] | None = None,
+                      progress: Callable[[int, int], None] | bool | None = None,
                       warn: Callable[[str], None] | None = None,
                       on_look: Callable[[dict], None] | None = None,
                       force: bool = False, figure_format: str = "png") -> Result:
@@ -340,6 +356,9 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
     holds one run of the trials reached; meta.json's ``until_decided`` records the looks, and
     the table is recomputed with the same intervals by ``pfbench tables`` / ``report``.
     ``on_look(look)`` is called after each batch with {'trials', 'undecided'}.
+    ``progress(done, total)`` is called as trials finish, as run_experiment's; ``total`` is the
+    trials of the batches so far, raised as each batch starts. True shows a progress bar on
+    stderr (in a notebook, below the cell) instead.
     """
     fn = "run_until_decided"
     _check_args(fn, config=(config, _CONFIG), out=(out, _PATH),
@@ -360,7 +379,10 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
     first = _experiment(config, trials, seed, overrides)
     batch, most = first.trials, until_decided_budget(first, max_trials)
     recover_aside(folder, folder.parent, warn, clean=False)
-    with FolderLock(folder, "out"):
+    from .progress import shown
+    from .runner import LocalExecutor
+    executor = executor or LocalExecutor(workers)
+    with FolderLock(folder, "out"), shown(progress, executor) as progress:
         return _until_decided(first, folder, batch, most, workers, resume, figures, executor,
                               progress, warn, on_look, force, figure_format)
 

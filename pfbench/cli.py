@@ -149,16 +149,20 @@ def _first_words(exps) -> str:
     return f"compiling the {', '.join(names)} kernels (first run only)"
 
 
-def _progress(bar, total: int, first, exps=()):
-    """The progress callback of a run: a bar task of ``total`` trials (a run until decided
-    raises it batch by batch), which says which kernels compile until the first trial
-    finishes; ``first()`` on its first call (once the folder is ready and the trials start)."""
-    task = bar.add_task(_first_words(exps), total=total)
+def _progress(bar, total: int, first, exps=(), underway=None):
+    """The progress callback of a run (pfbench.progress.tracker): a bar task of ``total``
+    trials that says which kernels compile until the first trial finishes; ``first()`` on its
+    first call (once the folder is ready and the trials start); ``underway``: an executor's,
+    so that the bar moves while trials of seconds run."""
+    from .progress import tracker
+    words = _first_words(exps)
+    if words != "trials" and not err.is_terminal:     # a log: one line where it takes long
 
-    def progress(done, total):
-        first()
-        bar.update(task, completed=done, total=total, description="trials" if done else None)
-    return progress
+        def first(header=first):
+            header()
+            err.print(f"pfbench: {words} ...", markup=False)
+        first = _once(first)
+    return tracker(bar, total, words, first, underway)
 
 
 def _warn(message: str) -> None:
@@ -189,12 +193,21 @@ def _executor(kind: str, workers: int, scheduler: str | None):
 
 
 def _bar():
-    """The progress bar of long runs (on stderr, gone when done)."""
-    from rich.progress import (BarColumn, MofNCompleteColumn, Progress, SpinnerColumn,
-                               TextColumn, TimeElapsedColumn, TimeRemainingColumn)
-    return Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(),
-                    MofNCompleteColumn(), TimeElapsedColumn(), TimeRemainingColumn(),
-                    console=err, transient=True)
+    """The progress bar of long runs (on stderr, gone when done; pfbench.progress.bar)."""
+    from .progress import bar
+    return bar(err)
+
+
+@contextlib.contextmanager
+def _steps(command: str):
+    """A callback that says what ``command`` does as each of its steps begins: on a terminal a
+    spinner with the step's words (gone when done), in a log a line each ('report: reading
+    results/NAME (2 of 9)'). Stderr only: stdout keeps the command's output."""
+    if not err.is_terminal:
+        yield lambda text: err.print(f"{command}: {text}", markup=False, soft_wrap=True)
+        return
+    with err.status(f"{command} ...", spinner="dots") as status:
+        yield lambda text: status.update(f"{command}: {text}")
 
 
 @contextlib.contextmanager
@@ -367,7 +380,8 @@ def run(
                 f"{exp.name}: {exp.trials} trials{upto} of {exp.scenario} x [{runs}], seed "
                 f"{exp.seed}, {ex.describe()} -> {folder}", markup=False))
             with _bar() as bar:
-                progress = _progress(bar, exp.trials, header, [exp])
+                progress = _progress(bar, exp.trials, header, [exp],
+                                     getattr(ex, "underway", None))
 
                 def look(k):
                     bar.console.print(f"after {k['trials']} trials: {k['undecided']} judged "
@@ -453,15 +467,18 @@ def sweep(
         with _executor(executor, workers, scheduler) as ex, \
                 FolderLock(folder, "--out" if out_dir else "results folder"):
             with _bar() as bar:
-                progress = _progress(bar, total, header, [c.exp for c in cells])
+                progress = _progress(bar, total, header, [c.exp for c in cells],
+                                     getattr(ex, "underway", None))
                 with _stop_on_interrupt(bar, "interrupted in a cell: "):
                     trials_df = sw.run_sweep(cells, folder, workers=workers, resume=resume,
                                              progress=progress, executor=ex, warn=_warn,
-                                             force=force)
+                                             force=force, status=progress.describe)
             from .regen import write_sweep
-            summ, figs = write_sweep(trials_df, keys, folder, name, True, figure_format,
-                                     cells[0].exp,
-                                     missing_only=trials_df.attrs.get("up_to_date", False))
+            with _steps("sweep") as say:
+                say(f"writing {folder}/summary.csv and the figures")
+                summ, figs = write_sweep(trials_df, keys, folder, name, True, figure_format,
+                                         cells[0].exp,
+                                         missing_only=trials_df.attrs.get("up_to_date", False))
         from .figstyle import label
         from .plots import sweep_metrics
         extra = [m for m in sweep_metrics(cells[0].exp)[1:] if f"{m}_mean" in summ][:2]
@@ -551,19 +568,22 @@ def tables_(
         rows = []
         with _executor(executor, workers, scheduler) as ex, FolderLock(results, "--results"), \
                 _bar() as bar:
-            task = bar.add_task("trials", total=sum(totals))
+            progress = _progress(bar, sum(totals), lambda: None, (),
+                                 getattr(ex, "underway", None))
             before, grown = 0, {"total": sum(totals)}
             for p, n in zip(files, totals):
                 t0 = time.perf_counter()
-                bar.update(task, description=p.stem)
+                progress.describe(p.stem, now=True)
                 seen = [n]
 
                 def step(d, t, b=before, seen=seen):
                     if t > seen[0]:             # a run until decided adds a batch
                         grown["total"] += t - seen[0]
                         seen[0] = t
-                        bar.update(task, total=grown["total"])
-                    bar.update(task, completed=b + d)
+                    progress(b + d, grown["total"])
+
+                def cell(words, name=p.stem):   # a sweep's cell
+                    progress.describe(f"{name}: {words}", now=True)
                 with _stop_on_interrupt(bar, f"{p.name}: ", "" if check else
                                         "; 'pfbench tables --resume' continues"):
                     if check:
@@ -574,13 +594,15 @@ def tables_(
                                                   resume=resume, progress=step,
                                                   until_decided=until_decided,
                                                   max_trials=max_trials,
-                                                  figure_format=figure_format, warn=_warn)
+                                                  figure_format=figure_format, warn=_warn,
+                                                  status=cell)
                         bar.console.print(f"{p.name} -> {folder} in "
                                           f"{time.perf_counter() - t0:.1f} s", markup=False)
                 before += seen[0]
         if not check:
             from . import report as rp
-            w = rp.write_report(configs, results, warn=_warn)
+            with _steps("report") as say:
+                w = rp.write_report(configs, results, warn=_warn, status=say)
             err.print(f"wrote {w.markdown} and {w.index}", markup=False)
             return
         t = RichTable(title=f"pfbench tables --check: {len(files)} configs against {results}",
@@ -623,7 +645,9 @@ def report(
         configs, results = _path(configs, "--configs"), _path(results, "--results")
         out_file = _path(out_file, "--out")
         from . import report as rp
-        w = rp.write_report(configs, results, out_file, check=check, warn=_warn)
+        with _steps("report") as say:
+            w = rp.write_report(configs, results, out_file, check=check, warn=_warn,
+                                status=say)
         path, same, index, differ = w.markdown, w.same, w.index, w.differ
         if not check:
             err.print(f"wrote {path} and {index} ({len(differ)} of its files changed)",

@@ -173,9 +173,12 @@ def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int |
                figures: bool = True, resume: bool = False,
                progress: Callable[[int, int], None] | None = None,
                until_decided: bool = False, max_trials: int | None = None,
-               figure_format: str = "png", warn: Callable[[str], None] | None = None) -> Path:
+               figure_format: str = "png", warn: Callable[[str], None] | None = None,
+               status: Callable[[str], None] | None = None) -> Path:
     """Run one config (an experiment or a sweep) into results/<name>, replacing what the folder
-    held; return the folder. With ``until_decided``, an experiment that compares with a paper's
+    held; return the folder. ``progress(done, total)`` is called as trials finish (over every
+    cell of a sweep; a run until decided raises the total batch by batch), ``status(line)`` as
+    each cell of a sweep begins. With ``until_decided``, an experiment that compares with a paper's
     table runs in batches until its judged cells are decided (pfbench.api.run_until_decided;
     ``max_trials``: at most, default ten batches); the others run as usual.
 
@@ -203,7 +206,7 @@ def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int |
         with FolderLock(stage, "results folder", root=results):
             if sweep:
                 df = sw.run_sweep(cells, stage, resume=resume, progress=progress,
-                                  executor=executor)
+                                  executor=executor, status=status)
                 write_sweep(df, list(cells[0].values), stage, name, figures, figure_format,
                             cells[0].exp)
             elif until_decided and exp.reported is not None:
@@ -330,7 +333,8 @@ def check_trials(path: Path) -> int:
 
 def check_config(path: Path, results: Path, executor: LocalExecutor, z: float = Z_DEFAULT,
                  progress: Callable[[int, int], None] | None = None) -> CheckResult:
-    """Re-run the first check.trials trials of a config and compare them with results/<name>."""
+    """Re-run the first check.trials trials of a config and compare them with results/<name>;
+    ``progress(done, total)`` is called as trials finish (over every cell of a sweep)."""
     from . import sweep as sw
     progress = progress or (lambda done, total: None)
     with tempfile.TemporaryDirectory(prefix="pfbench-check-") as tmp:
@@ -338,12 +342,13 @@ def check_config(path: Path, results: Path, executor: LocalExecutor, z: float = 
             name, cells = sw.expand(path, {}, {})
             result = CheckResult(name, 0)
             before = 0
+            total = sum(min(c.exp.check["trials"], c.exp.trials) for c in cells)
             for cell in cells:
                 k = min(cell.exp.check["trials"], cell.exp.trials)
                 committed = _committed(child(Path(results), name, f"{path}: name") / "cells"
                                        / cell.name, cell.exp)
                 res = run_experiment(replace(cell.exp, trials=k), Path(tmp) / cell.name,
-                                     progress=lambda d, n, b=before: progress(b + d, 0),
+                                     progress=lambda d, n, b=before: progress(b + d, total),
                                      executor=executor)
                 before += k
                 result.trials = k

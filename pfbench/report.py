@@ -54,8 +54,10 @@ class Entry:
 
 
 def collect(configs: Path, results: Path, restore: bool = False,
-            warn: Callable[[str], None] | None = None) -> list[Entry]:
-    """Every config with its results, tables recomputed from the trials.
+            warn: Callable[[str], None] | None = None,
+            status: Callable[[str], None] | None = None) -> list[Entry]:
+    """Every config with its results, tables recomputed from the trials (``status`` is told
+    which results it reads as it goes: 'reading results/NAME (2 of 9)').
 
     A results folder that is missing while ``.NAME.old<pid>`` beside it holds it (a
     regeneration killed between its renames) is never reported as not run: with ``restore``
@@ -80,6 +82,9 @@ def collect(configs: Path, results: Path, restore: bool = False,
                                 "replaced the folder): 'pfbench report' or 'pfbench tables' "
                                 "into that results folder restores it")
             recover_aside(e.folder, Path(results), warn)
+    for k, e in enumerate(entries, 1):
+        if status:
+            status(f"reading {e.folder} ({k} of {len(entries)})")
         _read(e)
     return entries
 
@@ -628,13 +633,18 @@ class Written:
 
 
 def write_report(configs: Path, results: Path, out: Path | None = None, check: bool = False,
-                 warn: Callable[[str], None] | None = None, figures: bool = True) -> Written:
+                 warn: Callable[[str], None] | None = None, figures: bool = True,
+                 status: Callable[[str], None] | None = None) -> Written:
     """Build REPORT.md and the HTML report, then write both where ``out`` says (see ``where``),
     or with ``check`` only compare them with what is there. Everything is built before anything
     is written: a report that cannot be built (a broken reference of a finding) writes nothing.
     Writing into the results folder holds its lock (not while 'pfbench tables' rewrites the
     results); writing elsewhere holds the lock of that folder and never writes into the results
-    folder."""
+    folder.
+
+    ``status(line)`` is told what it does as each step begins (reading each experiment's
+    results, drawing its figures, writing), the progress of a build that takes tens of seconds:
+    the tables are recomputed from every trial and the figures drawn."""
     from . import report_html
     from .fsutil import FolderLock, atomic_write, not_in_use, own_folder
     configs, results = Path(configs), Path(results)
@@ -643,19 +653,24 @@ def write_report(configs: Path, results: Path, out: Path | None = None, check: b
     w = where(results, out)
 
     def build_all(restore: bool):
-        entries = collect(configs, results, restore=restore, warn=warn)
+        entries = collect(configs, results, restore=restore, warn=warn, status=status)
         not_run = [e.path.stem + (f" (an unfinished regeneration in .{e.name}.partial: "
                                   "'pfbench tables --resume' continues it)"
                                   if (results / f".{e.name}.partial").is_dir() else "")
                    for e in entries if e.status == "not run"]
         if not_run and warn:
             warn(f"not run (no results in {results}): {', '.join(not_run)}")
+        if status:
+            status(f"writing the text of {w.markdown.name}")
         text = build(configs, results, w.markdown, entries=entries)
-        files = report_html.build(configs, results, w.html, figures, entries=entries)
+        files = report_html.build(configs, results, w.html, figures, entries=entries,
+                                  status=status)
         return text, files
 
     if check:
         text, files = build_all(False)
+        if status:
+            status(f"comparing with {w.markdown} and {w.html}")
         same = w.markdown.is_file() and w.markdown.read_text(encoding="utf-8") == text
         return Written(w.markdown, same, w.html / "index.html",
                        report_html.differences(w.html, files, check=True))
@@ -663,6 +678,8 @@ def write_report(configs: Path, results: Path, out: Path | None = None, check: b
     with lock, (contextlib.nullcontext() if w.into_results else not_in_use(results, "--results")):
         text, files = build_all(w.into_results)
         own_folder(w.html, w.folder, "--out")
+        if status:
+            status(f"writing {w.markdown} and {w.html}")
         same = w.markdown.is_file() and w.markdown.read_text(encoding="utf-8") == text
         differ = report_html.differences(w.html, files)
         atomic_write(w.markdown, text)

@@ -205,7 +205,7 @@ def _draw_figures(e: rp.Entry, into: Path) -> list[Path]:
     return plots.write_figures(e.exp, rows, e.folder, "svg", e.table, into=into)
 
 
-def _section(e: rp.Entry, out_dir: Path, figures: bool) -> dict:
+def _section(e: rp.Entry, out_dir: Path, figures: bool, drawing=None) -> dict:
     table = e.exp.reported
     s = {"name": e.name, "status": e.status, "description": e.exp.description,
          "provenance": _provenance_html(e), "tables": [], "reasons": [], "notes": [],
@@ -234,6 +234,8 @@ def _section(e: rp.Entry, out_dir: Path, figures: bool) -> dict:
         s["tables"] = [{"title": None, "head": ["Filter", "N", "Trials", "RMSE mean [95% CI]"],
                         "rows": rows}]
     if figures:
+        if drawing:
+            drawing(e)
         into = out_dir / "figures" / e.name
         for p in sorted(_draw_figures(e, into)):
             s["figures"].append({"src": os.path.relpath(p, out_dir).replace(os.sep, "/"),
@@ -242,12 +244,19 @@ def _section(e: rp.Entry, out_dir: Path, figures: bool) -> dict:
 
 
 def build(configs: Path, results: Path, out_dir: Path, figures: bool = True,
-          entries: list | None = None) -> dict[str, bytes]:
+          entries: list | None = None, status=None) -> dict[str, bytes]:
     """Every file of the HTML report, by its path under ``out_dir``: index.html, a page per
     paper (other.html: the experiments that name none), and (``figures``) the SVG figures.
-    ``entries``: collected already (pfbench.report.collect)."""
+    ``entries``: collected already (pfbench.report.collect). ``status(line)``: told whose
+    figures it draws as it goes."""
     env = _env()
     entries = list(entries) if entries is not None else rp.collect(configs, results)
+    count = [0, sum(e.status == "ok" for e in entries)]
+
+    def drawing(e):
+        count[0] += 1
+        if status:
+            status(f"drawing the figures of {e.name} ({count[0]} of {count[1]})")
     papers = rp.reported_papers(entries, configs)
     by_name = {e.name: e for e in entries}
     # the experiments that name no paper get a page of their own, as REPORT.md's last section
@@ -277,7 +286,7 @@ def build(configs: Path, results: Path, out_dir: Path, figures: bool = True,
             p = papers[key]
             mine = [e for e in entries if e.exp.paper == key]
             mine.sort(key=lambda e: (e.cells is not None, e.exp.table or "", e.path.stem))
-            sections = [_section(e, stage, figures) for e in mine]
+            sections = [_section(e, stage, figures, drawing) for e in mine]
             files[f"{key}.html"] = env.get_template("paper.html").render(
                 title=f"{key}: pfbench reproduction", css=CSS, papers=nav, version=__version__,
                 paper=p, sections=sections, choices=rp.choice_rows(p, mine or entries),
@@ -288,7 +297,7 @@ def build(configs: Path, results: Path, out_dir: Path, figures: bool = True,
         if others:
             files["other.html"] = env.get_template("paper.html").render(
                 title="other experiments: pfbench", css=CSS, papers=nav, version=__version__,
-                paper=other, sections=[_section(e, stage, figures) for e in others],
+                paper=other, sections=[_section(e, stage, figures, drawing) for e in others],
                 choices=[], findings=[]).encode()
         for path in sorted(stage.rglob("*.svg")):
             files[path.relative_to(stage).as_posix()] = path.read_bytes()

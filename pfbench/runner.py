@@ -294,13 +294,15 @@ def _unpicklable_text(exp: Experiment, exc: BaseException) -> str | None:
 
 
 def _run_chunk_in_worker(exp: Experiment, trials: list[int], traces: bool = False
-                         ) -> tuple[list[Trial], frozenset | None]:
+                         ) -> tuple[list[Trial], frozenset | None, float]:
     """_run_chunk in a pool worker, with the kernels the worker has built when they are more
-    than it last said (else None; see _preload). SIGINT is ignored there: a KeyboardInterrupt or
+    than it last said (else None; see _preload) and the seconds the trials took (what sizes the
+    next units: Units). SIGINT is ignored there: a KeyboardInterrupt or
     SystemExit is a filter's own, and would end the worker and leave its trials to wait for
     ever; it comes back as a UserError naming what ran."""
     global _SAID
     text = None
+    t0 = time.perf_counter()
     try:
         done = _run_chunk(exp, trials, traces)
     except (KeyboardInterrupt, SystemExit) as exc:
@@ -315,7 +317,15 @@ def _run_chunk_in_worker(exp: Experiment, trials: list[int], traces: bool = Fals
     built = frozenset(key for key, k in _kernels() if k.built)
     news = built if built != _SAID else None
     _SAID = built
-    return done, news
+    return done, news, time.perf_counter() - t0
+
+
+def _timed_chunk(exp: Experiment, trials: list[int], traces: bool = False
+                 ) -> tuple[list[Trial], float]:
+    """_run_chunk and the seconds it took (on a Dask worker)."""
+    t0 = time.perf_counter()
+    done = _run_chunk(exp, trials, traces)
+    return done, time.perf_counter() - t0
 
 
 # ---------------------------------------------------------------- kernels the children built
@@ -417,15 +427,64 @@ def _signal_name(code: int | None) -> str:
     return f"exit status {code}"
 
 
-def _chunks(trials: Iterable[int], size: int) -> Iterable[list[int]]:
-    """Lists of ``size`` consecutive items of ``trials``, drawn lazily (a to-do list of a billion
-    trials is never built)."""
-    it = iter(trials)
-    while True:
-        chunk = list(itertools.islice(it, size))
-        if not chunk:
-            return
-        yield chunk
+# How trials are handed out: in units of about UNIT_SECONDS of work each, so that the progress
+# bar moves within a fraction of a second of the first trials (after the kernels load), a run of
+# seconds-long trials (FastSLAM, MCL) hands them out one at a time, and trials of milliseconds
+# still go by the hundred, so that sending them to a worker and back costs little beside them.
+# Before a trial has finished the size comes from the work of a trial (trial_seconds), taken as
+# GUESS_DOUBT times what it says: particles x steps miss what a step does besides (FastSLAM's
+# landmarks, a swarm's iterations: afsa_fastslam's trials take 55 times the guess), so the first
+# units are small and only trials of well under a millisecond go several at a time. After, the
+# size comes from the seconds the latest units took (their median: a first unit that loaded the
+# kernels does not count for long). No unit holds more than a fourth of a worker's share of the
+# trials not yet handed out, so that the workers finish together. The results do not depend on
+# it: every trial is seeded on its own.
+UNIT_SECONDS = 0.25
+MAX_UNIT = 500
+STEP_SECONDS = 2e-7         # a particle-step of a filter run
+RUN_SECONDS = 5e-4          # a filter run's cost besides its particle-steps (copies, metrics)
+GUESS_DOUBT = 50
+
+
+def trial_seconds(exp: Experiment) -> float:
+    """The seconds a trial of ``exp`` takes, guessed from its work before one has run: its filter
+    runs' particles x the scenario's steps (the steps as pfbench.resources counts them)."""
+    steps = int(dict(exp.scenario_params).get("steps", 1000))
+    return sum((run.particles or 1) * steps * STEP_SECONDS + RUN_SECONDS
+               for run in exp.filters)
+
+
+class Units:
+    """The units (lists of trial indices) in which ``trials`` go to ``workers`` workers, drawn
+    lazily (a to-do list of a billion trials is never built), each sized as the notes above
+    UNIT_SECONDS say; ``measured`` tells it what a unit took. ``count``: how many trials there
+    are (-1: unknown)."""
+
+    def __init__(self, exp: Experiment, trials: Iterable[int], count: int, workers: int):
+        self._it = iter(trials)
+        self.left, self.workers = count, max(1, workers)
+        self.guess = trial_seconds(exp)
+        self.seen: list[float] = []             # seconds a trial, of the latest units
+
+    def size(self) -> int:
+        """Trials in the next unit."""
+        per = sorted(self.seen)[len(self.seen) // 2] if self.seen else self.guess * GUESS_DOUBT
+        n = int(UNIT_SECONDS / per) if per > 0 else MAX_UNIT
+        if self.left >= 0:
+            n = min(n, math.ceil(self.left / (4 * self.workers)))
+        return max(1, min(MAX_UNIT, n))
+
+    def next(self) -> list[int]:
+        """The next unit ([] when every trial is handed out)."""
+        unit = list(itertools.islice(self._it, self.size()))
+        if self.left >= 0:
+            self.left = max(0, self.left - len(unit))
+        return unit
+
+    def measured(self, trials: int, seconds: float) -> None:
+        """A unit of ``trials`` trials took ``seconds`` on its worker."""
+        if trials > 0 and seconds >= 0:
+            self.seen = (self.seen + [seconds / trials])[-5:]
 
 
 def _count(trials) -> int:
@@ -442,7 +501,9 @@ def _in_process() -> bool:
 def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | None = None,
             traces: bool = False, running: list | None = None) -> Iterable[list[Trial]]:
     """Yield chunks of ``trials`` as they finish, each a list of Trial (with its trace where
-    ``traces`` and the kind keeps one).
+    ``traces`` and the kind keeps one): the units they were handed out in (Units), so that a
+    chunk arrives every fraction of a second once the kernels are loaded, or with each trial
+    where one takes longer.
 
     The trials run in a pool of ``workers`` child processes, one worker included, so that this
     process sees Ctrl-C at once even while a kernel holds a child's interpreter (in this process
@@ -459,12 +520,13 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
     if _in_process():
         if running is not None:
             running.append(lambda: [_now()])
-        for chunk in _chunks(trials, 1):
-            yield _run_chunk(exp, chunk, traces)
+        for k in trials:
+            yield _run_chunk(exp, [k], traces)
         return
     import multiprocessing as mp
+    import queue
     ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
-    size = 1 if workers == 1 else max(1, min(25, math.ceil(count / (workers * 6))))
+    units = Units(exp, trials, count, workers)
     from .precompile import compile_ahead
     compile_ahead(exp)
     _preload()
@@ -478,21 +540,38 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
     pool = ctx.Pool(workers, initializer=_worker_init, initargs=(now, pids, taken))
     procs = list(pool._pool)        # a worker ends only when it dies: seen by its exit code
     import_ahead()                  # the table's modules, while the workers run the trials
+    arrived: queue.SimpleQueue = queue.SimpleQueue()    # filled by the pool's result thread
+    work = partial(_run_chunk_in_worker, exp, traces=traces)
+    pending = 0
+
+    def hand_out() -> int:
+        unit = units.next()
+        if not unit:
+            return 0
+        pool.apply_async(work, (unit,), callback=lambda r, n=len(unit): arrived.put((n, r)),
+                         error_callback=lambda exc: arrived.put((0, exc)))
+        return 1
+
     try:
-        results = pool.imap_unordered(partial(_run_chunk_in_worker, exp, traces=traces),
-                                      _chunks(trials, size))
-        while True:
+        # two units a worker under way: a worker never waits for this process to hand it more
+        for _ in range(2 * workers):
+            pending += hand_out()
+        while pending:
             try:
-                chunk, built = results.next(timeout=0.25)
-            except StopIteration:
-                break
-            except mp.TimeoutError:
+                n, got = arrived.get(timeout=0.25)
+            except queue.Empty:
                 dead = [p for p in procs if p.exitcode is not None]
                 if dead:
                     raise _died(exp, dead[0], now, pids) from None
                 continue
+            pending -= 1
+            if isinstance(got, BaseException):
+                raise got
+            chunk, built, seconds = got
+            units.measured(n, seconds)
             if built:
                 _CHILD_KERNELS.update(built)
+            pending += hand_out()   # before this process writes what arrived
             yield chunk
         pool.close()
     finally:
@@ -538,6 +617,21 @@ class LocalExecutor:
             return _running_text(self._exp, self._running[-1]())
         except Exception:       # a pool torn down meanwhile
             return ""
+
+    def underway(self) -> float:
+        """How much of the trials its workers run now is done, in trials: each trial under way
+        counts the fraction of its filter runs that have finished (0.0 when nothing runs, or
+        unknown). What a progress bar adds to the trials finished, so that it moves while trials
+        of seconds run (they are handed out one at a time: Units)."""
+        exp = getattr(self, "_exp", None)
+        if not getattr(self, "_running", None) or exp is None or not exp.filters:
+            return 0.0
+        try:
+            marks = self._running[-1]()
+        except Exception:       # a pool torn down meanwhile
+            return 0.0
+        n = len(exp.filters)
+        return sum(min(max(0, int(i)), n - 1) / n for t, i in marks if t >= 0)
 
     def close(self) -> None:
         pass
@@ -609,14 +703,29 @@ class DaskExecutor(LocalExecutor):
     def run(self, exp: Experiment, trials: Iterable[int], count: int | None = None,
             traces: bool = False) -> Iterable[list[Trial]]:
         import distributed
-        trials = list(trials)
         n = max(1, len(self.client.scheduler_info().get("workers", {})))
-        size = max(1, min(25, math.ceil(len(trials) / (n * 6))))
-        futures = [self.client.submit(_run_chunk, exp, chunk, traces, pure=False)
-                   for chunk in _chunks(trials, size)]
-        try:
-            for fut in distributed.as_completed(futures):
-                yield fut.result()
+        units = Units(exp, trials, _count(trials) if count is None else count, n)
+        futures, sizes = [], {}
+
+        def hand_out():
+            unit = units.next()
+            if not unit:
+                return None
+            fut = self.client.submit(_timed_chunk, exp, unit, traces, pure=False)
+            futures.append(fut)
+            sizes[fut.key] = len(unit)
+            return fut
+
+        try:        # units sized as the local pool's (Units), two a worker under way
+            pending = distributed.as_completed([f for f in (hand_out() for _ in range(2 * n))
+                                                if f is not None])
+            for fut in pending:
+                chunk, seconds = fut.result()
+                units.measured(sizes[fut.key], seconds)
+                more = hand_out()
+                if more is not None:
+                    pending.add(more)
+                yield chunk
         finally:
             self.client.cancel(futures)
 

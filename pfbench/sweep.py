@@ -152,12 +152,17 @@ def expand(config: Path, sets: dict[str, list[Any]], overrides: dict[str, Any], 
 def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: bool = False,
               progress: Callable[[int, int], None] | None = None,
               executor=None, warn: Callable[[str], None] | None = None,
-              force: bool = False) -> pd.DataFrame:
+              force: bool = False, status: Callable[[str], None] | None = None
+              ) -> pd.DataFrame:
     """Run every cell (resumable) on one executor, then write the combined trials. A cell's
     folder that holds its trials keeps them; one that holds another experiment's is refused
     without ``force`` (pfbench.runner.run_experiment). The trials' ``attrs["up_to_date"]``:
     every cell was up to date (nothing ran). Every cell's folder lies inside ``out_dir``, no
-    link on the way (refused before any cell runs)."""
+    link on the way (refused before any cell runs).
+
+    ``progress(done, total)`` is called as trials finish, over every cell's (done counts the
+    trials of the cells before, so it only grows, and reaches the total); ``status(line)`` as
+    each cell begins ('cell particles=100 (2 of 8)')."""
     total = sum(c.exp.trials for c in cells)
     if not force and (Path(out_dir) / "meta.json").exists():
         raise UserError(f"{out_dir} holds the results of a run, not of a sweep: --force "
@@ -170,8 +175,10 @@ def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: boo
     done = 0
     frames = []
     fresh = True
-    for cell in cells:
+    for k, cell in enumerate(cells, 1):
         folder = out_dir / "cells" / cell.name
+        if status:
+            status(f"cell {cell.name} ({k} of {len(cells)})")
 
         def cell_progress(d, n, base=done):
             if progress:
