@@ -201,10 +201,11 @@ def _bar():
 @contextlib.contextmanager
 def _steps(command: str):
     """A callback that says what ``command`` does as each of its steps begins: on a terminal a
-    spinner with the step's words (gone when done), in a log a line each ('report: reading
-    results/NAME (2 of 9)'). Stderr only: stdout keeps the command's output."""
+    spinner with the step's words ('report: reading results/NAME (2 of 9)'), gone when done, on
+    stderr. In a log, nothing: a log keeps the command's output and, for bad input, its one line
+    of error."""
     if not err.is_terminal:
-        yield lambda text: err.print(f"{command}: {text}", markup=False, soft_wrap=True)
+        yield lambda text: None
         return
     with err.status(f"{command} ...", spinner="dots") as status:
         yield lambda text: status.update(f"{command}: {text}")

@@ -85,7 +85,12 @@ def test_a_trials_file_carries_its_kinds_columns(tmp_path, write_config):
     header = (tmp_path / "a/trials.csv").read_text().splitlines()[0].split(",")
     assert tuple(header) == KINDS["scalar"].columns
     assert "landmark_error" not in header and "converge_step" not in header
-    assert not pd.read_csv(tmp_path / "a/trials.csv")[list(KINDS["scalar"].metrics)].isna().all().any()
+    metrics = list(KINDS["scalar"].metrics)
+    rows = pd.read_csv(tmp_path / "a/trials.csv")
+    assert rows["diversity_l1"].isna().all()        # computed only where read (diagnostics)
+    assert not rows[[m for m in metrics if m != "diversity_l1"]].isna().all().any()
+    run_experiment(load(write_config(TINY + "diagnostics: all\n", "all.yaml")), tmp_path / "b")
+    assert not pd.read_csv(tmp_path / "b/trials.csv")[metrics].isna().all().any()
     # every kind: its metrics in METRICS' order, the SLAM kind with the final error too
     for kind in KINDS.values():
         assert list(kind.metrics) == [m for m in METRICS if m in kind.metrics]
