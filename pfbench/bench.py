@@ -26,8 +26,9 @@ from pathlib import Path
 
 import numba
 import numpy as np
-from numba import njit, prange, types
+from numba import prange, types
 
+from ._lazy import kernel
 from .errors import UserError
 from .filters.pf import pf_kernel
 from .rng import state_from_seed
@@ -44,8 +45,8 @@ _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
 
 
-@njit(types.void(ModelFn, ModelFn, _F, _F, _F2, types.float64, types.float64, types.int64,
-                 types.uint64[:, ::1], _F2), cache=True, parallel=True)
+@kernel(types.void(ModelFn, ModelFn, _F, _F, _F2, types.float64, types.float64, types.int64,
+                   types.uint64[:, ::1], _F2), cache=True, parallel=True, error_model="python")
 def pf_batch(f, h, theta, noise, Y, prior_mean, prior_var, N, S, XH):
     """Run pf_kernel on every row of Y (trials x (T+1)) in parallel; estimates into XH."""
     K, T1 = Y.shape

@@ -32,6 +32,8 @@ from pathlib import Path
 import numpy as np
 from numba import njit, types
 
+from ._lazy import kernel
+
 from . import vecmath as vm
 from .filters import mcl
 from .filters.fastslam import ekf_apply, innovation, nearest_innovation, options
@@ -49,13 +51,13 @@ _LANES = 8
 
 # --- UNGM ----------------------------------------------------------------------------------------
 
-@njit(types.void(STATE, _F, types.int64), cache=True)
+@kernel(types.void(STATE, _F, types.int64), cache=True, error_model="python")
 def _ungm_draws(s, z, T):
     for _ in range(T):
         fill_normal(s, z)
 
 
-@njit(types.void(_F, _F, _F, types.float64, types.int64), cache=True, error_model="numpy")
+@kernel(types.void(_F, _F, _F, types.float64, types.int64), cache=True, error_model="numpy")
 def _ungm_move(x, z, xn, sd, T):
     for t in range(1, T + 1):
         c = 8.0 * math.cos(1.2 * t)
@@ -64,7 +66,7 @@ def _ungm_move(x, z, xn, sd, T):
             xn[i] = 0.5 * xi + 25.0 * xi / (1.0 + xi * xi) + c + sd * z[i]
 
 
-@njit(types.float64(_F, _F, _F, types.float64), cache=True, error_model="numpy")
+@kernel(types.float64(_F, _F, _F, types.float64), cache=True, error_model="numpy")
 def _ungm_likelihood(xn, lw, y, half_inv_R):
     mx = np.full(_LANES, -np.inf)
     N = xn.size
@@ -84,7 +86,8 @@ def _ungm_likelihood(xn, lw, y, half_inv_R):
     return top
 
 
-@njit(types.float64(_F, _F, _F, types.float64, types.int64), cache=True, error_model="numpy")
+@kernel(types.float64(_F, _F, _F, types.float64, types.int64), cache=True,
+        error_model="numpy")
 def _ungm_exp_sums(lw, w, xn, m, T):
     acc = np.zeros((3, _LANES))
     N = lw.size
@@ -105,8 +108,8 @@ def _ungm_exp_sums(lw, w, xn, m, T):
     return acc.sum()
 
 
-@njit(types.void(_F, types.float64, STATE, _I, _F, _F, types.int64), cache=True,
-      error_model="numpy")
+@kernel(types.void(_F, types.float64, STATE, _I, _F, _F, types.int64), cache=True,
+        error_model="numpy")
 def _ungm_resample(w, S, s, idx, x, xn, T):
     for _ in range(T):
         systematic(w, S, s, idx)
