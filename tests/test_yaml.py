@@ -50,3 +50,31 @@ def test_numbers_in_exponent_form_are_numbers(write_config):
     exp = load(write_config(TINY.replace("trials: 4", "trials: 1e1").replace(
         "process_noise_var: 1.0", "process_noise_var: 2e-1")))
     assert exp.trials == 10 and exp.scenario_params["process_noise_var"] == 0.2
+
+
+def test_libyaml_and_the_pure_python_reader_give_the_same_data_and_lines():
+    """Where PyYAML has libyaml, files are read with it: every committed config, paper and world
+    file gives the same data and line numbers as the pure-Python loader; what libyaml refuses is
+    read again by the pure-Python loader, whose message names the character."""
+    import yaml
+
+    from pfbench import yamlio
+    from pfbench.schema import ConfigError
+
+    from .conftest import ROOT
+    if yamlio._FastLoader is None:
+        pytest.skip("PyYAML without libyaml")
+    files = sorted((ROOT / "configs").rglob("*.yaml"))
+    assert len(files) > 15
+    for path in files:
+        text = path.read_text()
+        fast = yamlio.parse_yaml(text, str(path))
+        loader = yamlio._StrictLoader(text)
+        node = loader.get_single_node()
+        slow = (loader.construct_document(node), yamlio._lines(node))
+        assert fast == slow, path
+    with pytest.raises(ConfigError, match="found character '\\\\t' that cannot start any token"):
+        yamlio.parse_yaml("a:\n\t- 1\n", "tabs.yaml")
+    with pytest.raises(ConfigError, match="found undefined alias 'nope'"):
+        yamlio.parse_yaml("a: *nope\n", "alias.yaml")
+    assert yaml.__with_libyaml__
