@@ -52,12 +52,20 @@ class LazyKernel:
         return self.dispatcher(*args, **kwargs)
 
     def __getattr__(self, name):
-        if name.startswith("__"):
+        if name.startswith("__") or name not in _dispatcher_names():
+            # not a dispatcher's: no build for it (pytest's collection, for one, asks every
+            # object of a test module for its fixture and mark attributes)
             raise AttributeError(name)
         return getattr(self.dispatcher, name)
 
     def __repr__(self) -> str:
         return f"<kernel {self.__qualname__} ({'built' if self.built else 'not built yet'})>"
+
+
+@functools.lru_cache(maxsize=1)
+def _dispatcher_names() -> frozenset:
+    """The attribute names a numba dispatcher has (those of one built without compiling)."""
+    return frozenset(dir(numba.njit(lambda x: x)))
 
 
 def kernel(sigs, **options):

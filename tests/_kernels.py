@@ -56,12 +56,18 @@ class CompileReporter:
             self.say(f"numba: compiled {self._name(ev)} in {time.perf_counter() - self.t0:.1f} s")
 
 
-def warm_jobs() -> list[str]:
-    """The committed configs whose filters' or scenario's kernels the numba cache lacks."""
+def warm_jobs(extra: Path | None = None) -> list[str]:
+    """The committed configs, and the suite's own small config (conftest.SMALL, written into the
+    folder ``extra``), whose filters' or scenario's kernels the numba cache lacks."""
     from pfbench.config import load
     from pfbench.runner import uncompiled
     jobs = []
-    for path in sorted((ROOT / "configs").glob("*.yaml")):
+    paths = sorted((ROOT / "configs").glob("*.yaml"))
+    if extra is not None:
+        from .conftest import SMALL
+        (extra / "small.yaml").write_text(SMALL)
+        paths.append(extra / "small.yaml")
+    for path in paths:
         text = path.read_text()
         if text.startswith("sweep:") or "\nsweep:" in text:
             continue
@@ -88,11 +94,16 @@ def _warm(path: str) -> tuple[str, float, str]:
 def warm(say, workers: int | None = None) -> None:
     """Compile the kernels of ``warm_jobs`` in ``workers`` processes (default: the cores),
     saying each config as it is done."""
-    jobs = warm_jobs()
+    import tempfile
+    with tempfile.TemporaryDirectory() as tmp:
+        _warm_all(say, warm_jobs(Path(tmp)), workers)
+
+
+def _warm_all(say, jobs: list[str], workers: int | None) -> None:
     if not jobs:
         return
     workers = max(1, min(len(jobs), workers or os.cpu_count() or 1))
-    say(f"numba: compiling the kernels of {len(jobs)} committed config(s) the cache lacks, in "
+    say(f"numba: compiling the kernels of {len(jobs)} config(s) the cache lacks, in "
         f"{workers} process(es) (first run only) ...")
     t0 = time.perf_counter()
     ctx = mp.get_context("spawn")       # a fresh interpreter: no state of the test session

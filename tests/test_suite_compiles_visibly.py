@@ -35,3 +35,18 @@ def test_the_warm_up_names_only_configs_whose_kernels_are_missing(monkeypatch):
                         lambda exp: ["mcl"] if any(f.type == "mcl" for f in exp.filters) else [])
     jobs = warm_jobs()
     assert jobs and all("mcl" in open(p).read() for p in jobs)
+
+
+def test_asking_a_kernel_for_what_no_dispatcher_has_builds_nothing():
+    """pytest's collection asks every object of a test module for its fixture and mark
+    attributes: a kernel imported into a test module must not compile for that."""
+    import pytest
+
+    from pfbench._lazy import kernel
+    k = kernel("float64(float64)", cache=False)(lambda x: x + 1.0)
+    for name in ("pytestmark", "_pytestfixturefunction", "_fixture_function_marker", "nope"):
+        with pytest.raises(AttributeError):
+            getattr(k, name)
+    assert not k.built
+    assert k.signatures == [] or k.built           # a dispatcher's own attribute builds it
+    assert k(1.0) == 2.0 and k.built
