@@ -38,6 +38,18 @@ def _cores() -> int:
         return os.cpu_count() or 1
 
 
+def _fits(exp, processes: int) -> bool:
+    """Whether ``processes`` trials of ``exp`` at once fit this machine's memory (each group runs
+    a part of a trial, so that many whole trials bound it)."""
+    from .errors import UserError
+    from .resources import check_fits
+    try:
+        check_fits(exp, processes)
+    except UserError:
+        return False
+    return True
+
+
 def _compile(exp, keys: tuple[str, ...]) -> None:
     """One trial of the filter runs ``keys`` of ``exp`` (their kernels build); errors are the
     run's to report."""
@@ -62,6 +74,8 @@ def compile_ahead(exp, processes: int | None = None) -> int:
         return 0
     todo = groups(exp)
     processes = min(len(todo), processes or _cores())
+    while processes >= 2 and not _fits(exp, processes):
+        processes -= 1          # never more trials at once than the memory holds
     if processes < 2:
         return 0
     import multiprocessing as mp

@@ -56,3 +56,17 @@ def test_a_failing_group_is_left_to_the_run(monkeypatch):
         raise RuntimeError("a filter that fails")
     monkeypatch.setattr(runner, "trial_result", boom)
     precompile._compile(exp, ("pf@50",))       # no error out of it
+
+
+def test_no_more_groups_at_once_than_the_memory_holds(tmp_path, monkeypatch):
+    """Each group runs a part of a trial: never more at once than whole trials fit the memory."""
+    import pfbench.resources as resources
+    monkeypatch.setattr(runner, "uncompiled", lambda exp: ["pf", "fa"])
+    monkeypatch.setattr(precompile, "_compile", _marking(tmp_path))
+    exp = load(CONFIG, {"trials": 2})
+    one = resources.estimate(exp, 1).bytes
+    monkeypatch.setattr(resources, "available_bytes", lambda: int(1.5 * one))
+    assert precompile.compile_ahead(exp, processes=2) == 0      # only one fits: no split
+    assert not list(tmp_path.iterdir())
+    monkeypatch.setattr(resources, "available_bytes", lambda: 3 * one)
+    assert precompile.compile_ahead(exp, processes=2) == 2
