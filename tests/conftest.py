@@ -1,4 +1,5 @@
 import os
+import sys
 from pathlib import Path
 
 import pytest
@@ -68,11 +69,17 @@ def _say(config):
         cap = config.pluginmanager.getplugin("capturemanager")
         if tr is None:
             return
-        if cap is not None:
+        if cap is None:
+            tr.write_line(text)
+            return
+        # pytest's capture, suspended and resumed, sets sys.stdout and sys.stderr to its own:
+        # a test that swapped them (typer's CliRunner) gets its own back
+        out, err = sys.stdout, sys.stderr
+        try:
             with cap.global_and_fixture_disabled():
                 tr.write_line(text)
-        else:
-            tr.write_line(text)
+        finally:
+            sys.stdout, sys.stderr = out, err
     return say
 
 

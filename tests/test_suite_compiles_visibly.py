@@ -50,3 +50,19 @@ def test_asking_a_kernel_for_what_no_dispatcher_has_builds_nothing():
     assert not k.built
     assert k.signatures == [] or k.built           # a dispatcher's own attribute builds it
     assert k(1.0) == 2.0 and k.built
+
+
+def test_a_compilation_inside_a_cli_runner_keeps_its_output():
+    """The suite's compile lines go to the terminal without taking sys.stdout from a test that
+    swapped it (typer's CliRunner, whose output was lost, then read from a closed file)."""
+    import typer
+    from typer.testing import CliRunner
+    app = typer.Typer()
+
+    @app.command()
+    def go():
+        f = numba.njit("float64(float64)")(lambda x: 3.0 * x)     # compiles here
+        print(f"result {f(2.0)}")
+    res = CliRunner().invoke(app, [])
+    assert res.exit_code == 0, res.output
+    assert "result 6.0" in res.output
