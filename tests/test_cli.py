@@ -57,6 +57,12 @@ def test_bench_quick_writes_records(tmp_path, monkeypatch):
     run = [r for r in recs if r["workload"] == "run"]        # what ran: command, cores, versions
     assert len(run) == 1 and run[0]["command"] == "pfbench bench --quick"
     recs = [r for r in recs if r["workload"] != "run"]
+    # what `pfbench run` runs beside the bare kernel, per family, with its ratio and target
+    path_recs = [r for r in recs if r["workload"] == "run-path"]
+    assert {r["impl"] for r in path_recs} == {"kernel", "run"}
+    assert {r["filter"] for r in path_recs if "run_over_kernel" in r} == {"ungm", "mcl",
+                                                                          "fastslam"}
+    recs = [r for r in recs if r["workload"] != "run-path"]
     keys = {"workload", "impl", "particles", "trials", "steps", "particle_steps_per_s"}
     assert all(keys <= set(r) for r in recs)
     assert {r["impl"] for r in recs} == {"pfbench", "numpy"}
