@@ -130,6 +130,19 @@ def _lines(node, path="", out=None) -> dict[str, int]:
     return out
 
 
+def _load(text: str, loader_class) -> tuple[Any, dict[str, int]]:
+    """(data, line numbers by key path) of ``text`` read by ``loader_class``, its shape checked
+    first (_check_shape)."""
+    _check_shape(text, loader_class)
+    loader = loader_class(text)
+    try:
+        node = loader.get_single_node()
+        data = loader.construct_document(node) if node is not None else None
+    finally:
+        loader.dispose()
+    return data, (_lines(node) if node is not None else {})
+
+
 def parse_yaml(text: str, source: str) -> tuple[Any, dict[str, int]]:
     """(data, line numbers by key path) of YAML ``text``; errors are ConfigErrors of ``source``."""
     if len(text) > MAX_YAML_BYTES:
@@ -137,24 +150,11 @@ def parse_yaml(text: str, source: str) -> tuple[Any, dict[str, int]]:
                           source=source)
     if _FastLoader is not None:
         try:
-            _check_shape(text, _FastLoader)
-            loader = _FastLoader(text)
-            try:
-                node = loader.get_single_node()
-                data = loader.construct_document(node) if node is not None else None
-            finally:
-                loader.dispose()
-            return data, (_lines(node) if node is not None else {})
+            return _load(text, _FastLoader)
         except Exception:       # refused: the pure-Python loader says why, in its words
             pass
     try:
-        _check_shape(text)
-        loader = _StrictLoader(text)
-        try:
-            node = loader.get_single_node()
-            data = loader.construct_document(node) if node is not None else None
-        finally:
-            loader.dispose()
+        return _load(text, _StrictLoader)
     except ConfigError as err:
         raise ConfigError(err.path, err.message, source=source, line=err.line) from None
     except yaml.YAMLError as exc:
@@ -164,7 +164,6 @@ def parse_yaml(text: str, source: str) -> tuple[Any, dict[str, int]]:
                           line=mark.line + 1 if mark else None) from None
     except (RecursionError, MemoryError):
         raise ConfigError("", "too deeply nested or too large to read", source=source) from None
-    return data, (_lines(node) if node is not None else {})
 
 
 def read_regular(path: str | Path, limit: int = MAX_YAML_BYTES) -> bytes:
