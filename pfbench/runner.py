@@ -799,8 +799,12 @@ class Interrupted(Exception):
     def __init__(self, done: int, total: int, path: Path, running: str = ""):
         self.done, self.total, self.path, self.running = done, total, path, running
         what = f" (it was running: {running})" if running else ""
-        super().__init__(f"interrupted: {done} of {total} trials saved in {path}; "
-                         f"run again with --resume to continue{what}")
+        if done:
+            super().__init__(f"interrupted: {done} of {total} trials saved in {path}; "
+                             f"run again with --resume to continue{what}")
+        else:       # the run's folder keeps nothing of it (fsutil.FolderLock.release)
+            super().__init__(f"interrupted before any of the {total} trials finished: nothing "
+                             f"was saved{what}")
 
 
 @dataclass

@@ -230,3 +230,12 @@ def test_every_copy_of_the_package_shares_one_kernel_cache(tmp_path):
     there = _python(code, cwd=tmp_path).splitlines()
     assert here[0] != there[0] and str(tmp_path) in there[0]       # two copies
     assert here[1] == there[1] and here[1].endswith("pfbench/filters")
+
+
+def test_an_interruption_before_the_first_trial_says_nothing_was_saved(tmp_path):
+    from pfbench.runner import Interrupted
+    none = str(Interrupted(0, 5, tmp_path / "trials.partial.csv", "filter run 'pf' (type pf)"))
+    assert none == ("interrupted before any of the 5 trials finished: nothing was saved (it was "
+                    "running: filter run 'pf' (type pf))")
+    some = str(Interrupted(2, 5, tmp_path / "trials.partial.csv"))
+    assert some.startswith("interrupted: 2 of 5 trials saved in ") and "--resume" in some
