@@ -15,11 +15,10 @@ ROOT = Path(__file__).resolve().parents[1]
 
 class CompileReporter:
     """A numba event listener that says, on the terminal, which kernel compiles and how long it
-    took (only the outermost compilation: a kernel's callees compile inside it), in this process
-    and in the worker processes a test forks (they inherit it)."""
+    took (only the outermost compilation of this process: a kernel's callees compile inside it)."""
 
     def __init__(self, say):
-        self.say, self.depth, self.t0 = say, 0, 0.0
+        self.say, self.depth, self.t0, self.pid = say, 0, 0.0, os.getpid()
 
     def listener(self):
         from numba.core import event
@@ -42,21 +41,19 @@ class CompileReporter:
                 if func is not None else "a kernel")
 
     def start(self, ev):
+        if os.getpid() != self.pid:
+            return
         if self.depth == 0:
             self.t0 = time.perf_counter()
-            self._say(f"numba: compiling {self._name(ev)} ...")
+            self.say(f"numba: compiling {self._name(ev)} ...")
         self.depth += 1
 
     def end(self, ev):
+        if os.getpid() != self.pid:
+            return
         self.depth -= 1
         if self.depth == 0:
-            self._say(f"numba: compiled {self._name(ev)} in {time.perf_counter() - self.t0:.1f} s")
-
-    def _say(self, text: str) -> None:
-        try:
-            self.say(text)
-        except Exception:       # a line that cannot be written never stops a compilation
-            pass
+            self.say(f"numba: compiled {self._name(ev)} in {time.perf_counter() - self.t0:.1f} s")
 
 
 def warm_jobs(extra: Path | None = None) -> list[str]:

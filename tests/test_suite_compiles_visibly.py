@@ -66,29 +66,3 @@ def test_a_compilation_inside_a_cli_runner_keeps_its_output():
     res = CliRunner().invoke(app, [])
     assert res.exit_code == 0, res.output
     assert "result 6.0" in res.output
-
-
-def _compile_in_child(x):
-    f = numba.njit("float64(float64)")(lambda v: 7.0 * v)
-    return f(x)
-
-
-def test_a_worker_process_a_test_forks_names_its_compilations_too(tmp_path):
-    """Trials run in forked worker processes: they inherit the listener and name what they
-    compile (the line reaches the terminal from the worker)."""
-    import multiprocessing as mp
-    log = tmp_path / "said"
-
-    def say(text):
-        with open(log, "a") as fh:
-            fh.write(text + "\n")
-    listener = CompileReporter(say).listener()
-    event.register("numba:compile", listener)
-    try:
-        with mp.get_context("fork").Pool(1) as pool:
-            assert pool.map(_compile_in_child, [2.0]) == [14.0]
-    finally:
-        event.unregister("numba:compile", listener)
-    lines = log.read_text().splitlines()
-    assert [line.split(" ")[1] for line in lines] == ["compiling", "compiled"], lines
-    assert "_compile_in_child" in lines[0]
