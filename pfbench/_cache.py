@@ -17,17 +17,23 @@ from pathlib import Path
 import numba
 
 
-def _source_hash() -> str:
-    """Hash of every source file of the package that holds numba code (an edit of the CLI or the
-    tables does not invalidate the kernels)."""
+def sources_hash(kernels_only: bool = False):
+    """A sha256 object fed with the path (in the package) and bytes of every source file of the
+    package, or with ``kernels_only`` of those that hold numba code."""
     root = Path(__file__).resolve().parent
     h = hashlib.sha256()
     for path in sorted(root.rglob("*.py")):
         text = path.read_bytes()
-        if b"@njit" in text or b"@kernel(" in text:
+        if not kernels_only or b"@njit" in text or b"@kernel(" in text:
             h.update(str(path.relative_to(root)).encode())
             h.update(text)
-    return h.hexdigest()[:16]
+    return h
+
+
+def _source_hash() -> str:
+    """Hash of every source file of the package that holds numba code (an edit of the CLI or the
+    tables does not invalidate the kernels)."""
+    return sources_hash(kernels_only=True).hexdigest()[:16]
 
 
 _ROOT = os.path.dirname(os.path.abspath(__file__))

@@ -302,9 +302,8 @@ def _run_chunk_in_worker(exp: Experiment, trials: list[int], traces: bool = Fals
     ever; it comes back as a UserError naming what ran."""
     global _SAID
     text = None
-    t0 = time.perf_counter()
     try:
-        done = _run_chunk(exp, trials, traces)
+        done, seconds = _timed_chunk(exp, trials, traces)
     except (KeyboardInterrupt, SystemExit) as exc:
         what = _running_text(exp, [_now()]) or f"a trial of {exp.name}"
         raise UserError(f"{what} raised {_exception_text(exc)}") from None
@@ -317,12 +316,12 @@ def _run_chunk_in_worker(exp: Experiment, trials: list[int], traces: bool = Fals
     built = frozenset(key for key, k in _kernels() if k.built)
     news = built if built != _SAID else None
     _SAID = built
-    return done, news, time.perf_counter() - t0
+    return done, news, seconds
 
 
 def _timed_chunk(exp: Experiment, trials: list[int], traces: bool = False
                  ) -> tuple[list[Trial], float]:
-    """_run_chunk and the seconds it took (on a Dask worker)."""
+    """_run_chunk and the seconds it took (what sizes the next units: Units)."""
     t0 = time.perf_counter()
     done = _run_chunk(exp, trials, traces)
     return done, time.perf_counter() - t0

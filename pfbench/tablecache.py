@@ -35,10 +35,9 @@ def _code_digest() -> str:
         import numpy
         import pandas
         import scipy
-        root = Path(__file__).resolve().parent
-        h = hashlib.sha256()
-        for path in sorted(root.rglob("*.py")):
-            h.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes() + b"\0")
+
+        from ._cache import sources_hash
+        h = sources_hash()
         h.update(f"{sys.version}|{numpy.__version__}|{scipy.__version__}|"
                  f"{pandas.__version__}".encode())
         _CODE = h.hexdigest()

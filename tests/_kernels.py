@@ -67,9 +67,9 @@ def warm_jobs(extra: Path | None = None) -> list[str]:
         from .conftest import SMALL
         (extra / "small.yaml").write_text(SMALL)
         paths.append(extra / "small.yaml")
+    from pfbench.regen import is_sweep
     for path in paths:
-        text = path.read_text()
-        if text.startswith("sweep:") or "\nsweep:" in text:
+        if is_sweep(path):
             continue
         exp = load(path, {"trials": 1})
         if uncompiled(exp):
