@@ -5,7 +5,7 @@ filters' kernels are not cached yet would compile them all in its first trial, o
 run on several workers would compile them in every worker at once. ``compile_ahead`` instead
 splits the experiment's filter runs into groups that compile different kernels (one per module
 of filter types), and runs one trial of each group, on the experiment's own first trial's data,
-in a pool of one process per core (at most one per group): each kernel compiles once, into the
+in one worker process per core (at most one per group): each kernel compiles once, into the
 numba cache, while the others compile beside it. The run then loads them all from the cache.
 
 Only pfbench's own kernels are compiled so (``runner.uncompiled``); a plug-in's compile in its
@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import replace
+from functools import partial
 
 
 def groups(exp) -> list[tuple[str, ...]]:
@@ -78,21 +79,25 @@ def compile_ahead(exp, processes: int | None = None) -> int:
         processes -= 1          # never more trials at once than the memory holds
     if processes < 2:
         return 0
-    import multiprocessing as mp
-
     from .tablecache import settle
+    from .workers import WorkerDied, Workers
     settle()                    # no fork while a thread of this process imports
-    ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
-    pool = ctx.Pool(processes, initializer=_worker_init)
-    procs = list(pool._pool)
-    try:
-        results = pool.starmap_async(_group, [(exp, keys) for keys in todo], chunksize=1)
-        while not results.ready():
-            results.wait(0.25)
-            if any(p.exitcode is not None for p in procs):
-                return 0        # a worker died: the run meets (and names) what killed it
+    with Workers(processes, partial(_group, exp), setup=_worker_init,
+                 setup_args=(None, None)) as pool:
+        left = list(todo)
+        held = [0] * processes
+        try:
+            for slot in range(processes):
+                if left:
+                    pool.send(slot, left.pop(0))
+                    held[slot] += 1
+            while any(held):
+                for slot, _, _ in pool.results(timeout=0.25):
+                    held[slot] -= 1
+                    if left:
+                        pool.send(slot, left.pop(0))
+                        held[slot] += 1
+        except WorkerDied:
+            return 0            # the run meets (and names) what killed it
         pool.close()
-    finally:
-        pool.terminate()
-        pool.join()
     return len(todo)

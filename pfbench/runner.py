@@ -399,19 +399,15 @@ def _running_text(exp: Experiment, marks) -> str:
 
 # ---------------------------------------------------------------- executors
 
-def _worker_init(now=None, pids=None, taken=None):
-    """A pool worker leaves Ctrl-C to the parent, which stops it, and closes the parent's folder
-    locks (the parent keeps them). ``now``: two entries per slot, what the worker of that slot
-    runs (_NOW), which the parent reads to say what was running; ``pids``: the worker's process
-    id per slot; ``taken`` counts the slots given out (there are two per worker: one that
-    replaces a worker that died takes a spare one, leaving the dead one's as it was)."""
+def _worker_init(now=None, pids=None, slot: int = 0):
+    """A worker process leaves Ctrl-C to the parent, which stops it, and closes the parent's
+    folder locks (the parent keeps them). ``now``: two entries per slot, what the worker of that
+    slot runs (_NOW), which the parent reads to say what was running; ``pids``: the worker's
+    process id per slot; ``slot``: this worker's."""
     global _NOW
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     close_inherited_locks()
     if now is not None:
-        with taken.get_lock():
-            slot = taken.value % len(pids)
-            taken.value += 1
         pids[slot] = os.getpid()
         _NOW = (now, 2 * slot)
         _mark(-1, -1)
@@ -480,6 +476,13 @@ class Units:
             self.left = max(0, self.left - len(unit))
         return unit
 
+    def ahead(self) -> int:
+        """How many units a worker holds at once: two while a unit takes well under a second (the
+        next is there when one ends, whatever this process is doing), else one (a worker never
+        waits behind another's unit at the end of a run while one of the others is idle)."""
+        per = sorted(self.seen)[len(self.seen) // 2] if self.seen else self.guess * GUESS_DOUBT
+        return 2 if self.size() * per < 1.0 else 1
+
     def measured(self, trials: int, seconds: float) -> None:
         """A unit of ``trials`` trials took ``seconds`` on its worker."""
         if trials > 0 and seconds >= 0:
@@ -522,70 +525,55 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
         for k in trials:
             yield _run_chunk(exp, [k], traces)
         return
-    import multiprocessing as mp
-    import queue
-    ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
     units = Units(exp, trials, count, workers)
     from .precompile import compile_ahead
     compile_ahead(exp)
     _preload()
-    slots = 2 * workers
-    now, pids = ctx.RawArray("q", [-1] * (2 * slots)), ctx.RawArray("q", [0] * slots)
-    taken = ctx.Value("q", 0)
+    import multiprocessing as mp
+    now, pids = mp.RawArray("q", [-1] * (2 * workers)), mp.RawArray("q", [0] * workers)
     if running is not None:
         running.append(lambda: [tuple(now[i:i + 2]) for i in range(0, len(now), 2)])
     from .tablecache import import_ahead, settle
+    from .workers import WorkerDied, Workers
     settle()                        # no fork while a thread of this process imports
-    pool = ctx.Pool(workers, initializer=_worker_init, initargs=(now, pids, taken))
-    procs = list(pool._pool)        # a worker ends only when it dies: seen by its exit code
-    import_ahead()                  # the table's modules, while the workers run the trials
-    arrived: queue.SimpleQueue = queue.SimpleQueue()    # filled by the pool's result thread
-    work = partial(_run_chunk_in_worker, exp, traces=traces)
-    pending = 0
+    with Workers(workers, partial(_run_chunk_in_worker, exp, traces=traces),
+                 setup=_worker_init, setup_args=(now, pids)) as pool:
+        import_ahead()              # the table's modules, while the workers run the trials
+        sizes: list[list[int]] = [[] for _ in range(workers)]   # units each worker holds
 
-    def hand_out() -> int:
-        unit = units.next()
-        if not unit:
-            return 0
-        pool.apply_async(work, (unit,), callback=lambda r, n=len(unit): arrived.put((n, r)),
-                         error_callback=lambda exc: arrived.put((0, exc)))
-        return 1
+        def hand_out(slot: int) -> None:
+            while len(sizes[slot]) < units.ahead():
+                unit = units.next()
+                if not unit:
+                    return
+                pool.send(slot, unit)
+                sizes[slot].append(len(unit))
 
-    try:
-        # two units a worker under way: a worker never waits for this process to hand it more
-        for _ in range(2 * workers):
-            pending += hand_out()
-        while pending:
-            try:
-                n, got = arrived.get(timeout=0.25)
-            except queue.Empty:
-                dead = [p for p in procs if p.exitcode is not None]
-                if dead:
-                    raise _died(exp, dead[0], now, pids) from None
-                continue
-            pending -= 1
-            if isinstance(got, BaseException):
-                raise got
-            chunk, built, seconds = got
-            units.measured(n, seconds)
-            if built:
-                _CHILD_KERNELS.update(built)
-            pending += hand_out()   # before this process writes what arrived
-            yield chunk
+        try:
+            for slot in range(workers):
+                hand_out(slot)
+            while any(sizes):
+                for slot, ok, got in pool.results(timeout=0.25):
+                    n = sizes[slot].pop(0)
+                    if not ok:
+                        raise got
+                    chunk, built, seconds = got
+                    units.measured(n, seconds)
+                    if built:
+                        _CHILD_KERNELS.update(built)
+                    hand_out(slot)  # before this process writes what arrived
+                    yield chunk
+        except WorkerDied as dead:
+            raise _died(exp, dead, now, pids) from None
         pool.close()
-    finally:
-        pool.terminate()
-        pool.join()
 
 
-def _died(exp: Experiment, proc, now, pids) -> UserError:
+def _died(exp: Experiment, dead, now, pids) -> UserError:
     """The error of a worker process that died (a crash in a kernel, a filter that ended its
-    process), naming what it was running."""
-    what = ""
-    for slot, pid in enumerate(pids):
-        if pid == proc.pid:
-            what = _running_text(exp, [tuple(now[2 * slot:2 * slot + 2])])
-    return UserError(f"a worker process ended ({_signal_name(proc.exitcode)}) while running "
+    process), naming what it was running (``dead``: workers.WorkerDied)."""
+    slot = dead.slot
+    what = _running_text(exp, [tuple(now[2 * slot:2 * slot + 2])])
+    return UserError(f"a worker process ended ({_signal_name(dead.exitcode)}) while running "
                      f"{what or 'a trial'}; the trials finished before it are kept (--resume "
                      "continues)")
 
