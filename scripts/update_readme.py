@@ -166,6 +166,21 @@ def bench_block() -> str:
                             f"reference ({1e9 / c:.1f} ns)" if c else "")
                     out.append(f"| the pfbench kernel | {r['ns_per_particle_step']:.1f} | "
                                f"{r['kernel_over_limit']:.2f}x the limit{vs_c} |")
+    runs = [r for r in recs if r["workload"] == "run-path"]
+    if runs:
+        out += ["", "What `pfbench run` runs, beside the bare kernel (ns per particle-step on the "
+                "same trials, one thread, timed alternately; run: `runner.trial_result` with the "
+                "trial's simulation, each run's fresh inputs, the diagnostics its config "
+                "computes, the output checks, the metrics and the traces kept for the figures; "
+                "kernel: the same filters with the diagnostics off):", "",
+                "| workload | N | diagnostics | kernel | run | run / kernel | target |",
+                "| --- | --- | --- | --- | --- | --- | --- |"]
+        for k, r in zip(runs[0::2], runs[1::2]):
+            out.append(f"| {r['filter']}: `{Path(r['config']).stem}`, {r['runs']} | "
+                       f"{r['particles']:,} | {', '.join(r['diagnostics']) or 'none'} | "
+                       f"{k['ns_per_particle_step']:.1f} | {r['ns_per_particle_step']:.1f} | "
+                       f"{r['run_over_kernel']:.2f}x | {r['target']:.1f}x"
+                       f"{'' if r['meets_target'] else ' (missed)'} |")
     costs = [r for r in recs if r["workload"] == "ungm-filters"]
     if costs:
         base = next(c["seconds_per_step"] for c in costs if c["filter"] == "pf")
