@@ -293,26 +293,33 @@ def _unpicklable_text(exp: Experiment, exc: BaseException) -> str | None:
     return None
 
 
-def _run_chunk_in_worker(exp: Experiment, trials: list[int], traces: bool = False
-                         ) -> tuple[list[Trial], frozenset | None, float]:
-    """_run_chunk in a pool worker, with the kernels the worker has built when they are more
-    than it last said (else None; see _preload) and the seconds the trials took (what sizes the
-    next units: Units). SIGINT is ignored there: a KeyboardInterrupt or
-    SystemExit is a filter's own, and would end the worker and leave its trials to wait for
-    ever; it comes back as a UserError naming what ran."""
-    global _SAID
+def _guarded_chunk(exp: Experiment, trials: list[int], traces: bool = False
+                   ) -> tuple[list[Trial], float]:
+    """_timed_chunk in a worker (a local one or Dask's), whose errors must come back to this
+    process as one line naming what ran: a KeyboardInterrupt or SystemExit is a filter's own
+    (Ctrl-C goes to the parent), and would end the worker and leave its trials to wait for ever;
+    an exception that cannot be pickled goes as its text."""
     text = None
     try:
-        done, seconds = _timed_chunk(exp, trials, traces)
+        return _timed_chunk(exp, trials, traces)
     except (KeyboardInterrupt, SystemExit) as exc:
         what = _running_text(exp, [_now()]) or f"a trial of {exp.name}"
         raise UserError(f"{what} raised {_exception_text(exc)}") from None
-    except Exception as exc:        # sent back pickled: one that cannot be goes as its text
+    except Exception as exc:
         text = _unpicklable_text(exp, exc)
         if text is None:
             raise
-    if text is not None:            # raised outside the handler: no context to pickle (tblib,
-        raise UserError(text)       # which Dask installs, pickles an exception's context too)
+    raise UserError(text)           # raised outside the handler: no context to pickle (tblib,
+                                    # which Dask installs, pickles an exception's context too)
+
+
+def _run_chunk_in_worker(exp: Experiment, trials: list[int], traces: bool = False
+                         ) -> tuple[list[Trial], frozenset | None, float]:
+    """_guarded_chunk in a local worker process, with the kernels the worker has built when they
+    are more than it last said (else None; see _preload) and the seconds the trials took (what
+    sizes the next units: Units)."""
+    global _SAID
+    done, seconds = _guarded_chunk(exp, trials, traces)
     built = frozenset(key for key, k in _kernels() if k.built)
     news = built if built != _SAID else None
     _SAID = built
@@ -698,7 +705,7 @@ class DaskExecutor(LocalExecutor):
             unit = units.next()
             if not unit:
                 return None
-            fut = self.client.submit(_timed_chunk, exp, unit, traces, pure=False)
+            fut = self.client.submit(_guarded_chunk, exp, unit, traces, pure=False)
             futures.append(fut)
             sizes[fut.key] = len(unit)
             return fut

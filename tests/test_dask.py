@@ -94,3 +94,31 @@ def test_scheduler_without_the_dask_executor_is_refused(write_config, tmp_path):
     res = runner.invoke(app, ["run", str(write_config(SMALL)), "--scheduler", "tcp://x:1",
                               "--out", str(tmp_path / "o")])
     assert res.exit_code == 2 and "--scheduler needs --executor dask" in res.output
+
+
+@pytest.mark.parametrize("exc,name", [(SystemExit(3), "SystemExit: 3"),
+                                      (KeyboardInterrupt(), "KeyboardInterrupt"),
+                                      (ValueError("bad\nthing"), "ValueError: bad thing")])
+def test_an_error_or_exit_inside_a_filter_on_a_dask_worker_is_one_line_naming_it(
+        exc, name, monkeypatch, write_config, tmp_path):
+    """As on the local workers: a filter's KeyboardInterrupt or SystemExit would end the Dask
+    worker's task thread, and its trials wait for ever; it comes back as one line. The cluster
+    runs in this process, so that the filter registered here is the workers' too."""
+    import distributed
+
+    from pfbench.filters import FILTERS, FilterType
+
+    def run(model, y, params, particles, state, diag=True):
+        raise exc
+    monkeypatch.setitem(FILTERS, "raiser", FilterType("raiser", "raises", {}, run,
+                                                      particles=False))
+    exp = load(write_config("seed: 3\ntrials: 3\nscenario: {name: ungm, steps: 25}\n"
+                            "filters:\n  r: {type: raiser}\n"))
+    ex = DaskExecutor.__new__(DaskExecutor)
+    ex.workers, ex.scheduler, ex.cluster = 1, None, None
+    ex.client = distributed.Client(processes=False, n_workers=1, threads_per_worker=1,
+                                   dashboard_address=None)
+    with ex, pytest.raises(UserError) as info:
+        run_experiment(exp, tmp_path / "o", executor=ex)
+    text = str(info.value)
+    assert "filter run 'r' (type raiser)" in text and name in text and "\n" not in text
