@@ -75,6 +75,18 @@ def test_a_generated_block_that_vanishes_or_loses_its_end_is_an_error(tmp_path):
         mod.main(["--check"])
 
 
+def test_generated_prose_never_reads_as_html(tmp_path):
+    mod = _script(tmp_path)
+    assert mod._esc("the folder results/<name> or `results/<name>`") == (
+        "the folder results/&lt;name&gt; or `results/<name>`")
+    keys = (DOCS / "reference/config.md").read_text()
+    assert "results/&lt;name&gt;" in keys
+    for page in ("reference/config.md", "reference/cli.md", "reference/api.md"):
+        prose = re.sub(r"`[^`]*`", "", (DOCS / page).read_text())
+        prose = re.sub(r"```.*?```|<!--.*?-->", "", prose, flags=re.S)
+        assert not re.search(r"<[A-Za-z/]", prose), page
+
+
 def test_the_reference_covers_every_key_command_option_and_api_name():
     """Generated, so nothing is left out: every schema key, every command and option of the
     typer app, every public name of the API, every module of the package."""

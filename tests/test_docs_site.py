@@ -70,6 +70,8 @@ def test_the_site_builds_strictly_without_touching_the_checkout(tmp_path):
     "[an anchor that is not there](glossary.md#no-such-term)",
     "[an anchor of this page that is not there](#no-such-section)",
     "![a figure that is not there](results/ifa_pf_ungm/figures/nope.png)",
+    "[a link that leaves the docs](../README.md)",
+    None,                                   # a page that the nav leaves out
 ])
 def test_a_broken_link_or_anchor_fails_the_build(tmp_path, edit):
     pytest.importorskip("mkdocs")
@@ -78,8 +80,8 @@ def test_a_broken_link_or_anchor_fails_the_build(tmp_path, edit):
     shutil.copytree(DOCS, tmp_path / "docs")
     (tmp_path / "results").symlink_to(ROOT / "results")
     assert _mkdocs(tmp_path, tmp_path / "ok").returncode == 0
-    page = tmp_path / "docs/index.md"
-    page.write_text(page.read_text() + f"\n{edit}\n")
+    page = tmp_path / ("docs/index.md" if edit else "docs/orphan.md")
+    page.write_text(page.read_text() + f"\n{edit}\n" if edit else "# Orphan\n")
     res = _mkdocs(tmp_path, tmp_path / "broken")
     assert res.returncode != 0
-    assert "index.md" in res.stdout + res.stderr
+    assert page.name in res.stdout + res.stderr
