@@ -44,6 +44,23 @@ def test_every_python_example_of_the_docs_runs(page, blocks, monkeypatch, tmp_pa
         exec(compile(code, f"{page.name} (python block {i + 1})", "exec"), scope)
 
 
+def test_every_relative_link_of_the_docs_resolves_in_the_repository_too():
+    """The pages read on GitHub as well: each relative link or image, taken from the page's
+    file in the repository, names a file there (the site's hook maps links into results/)."""
+    bad, n = [], 0
+    for page in sorted(DOCS.rglob("*.md")):
+        text = re.sub(r"```.*?```", "", page.read_text(), flags=re.S)
+        for target in re.findall(r"\]\(([^)\s]+)\)", text):
+            path = target.split("#", 1)[0]
+            if not path or "://" in path:
+                continue
+            n += 1
+            if not (page.parent / path).resolve().exists():
+                bad.append(f"{page.relative_to(ROOT)}: {target}")
+    assert n > 100
+    assert not bad, bad
+
+
 def _mkdocs(cwd, out, env=None):
     return subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "-d",
                            str(out)], cwd=cwd, capture_output=True, text=True,
@@ -69,7 +86,7 @@ def test_the_site_builds_strictly_without_touching_the_checkout(tmp_path):
     "[a page that is not there](nowhere.md)",
     "[an anchor that is not there](glossary.md#no-such-term)",
     "[an anchor of this page that is not there](#no-such-section)",
-    "![a figure that is not there](results/ifa_pf_ungm/figures/nope.png)",
+    "![a figure that is not there](../results/ifa_pf_ungm/figures/nope.png)",
     "[a link that leaves the docs](../README.md)",
     None,                                   # a page that the nav leaves out
 ])
