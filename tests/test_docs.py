@@ -162,7 +162,7 @@ def test_the_docs_experiment_files_validate(tmp_path, monkeypatch):
 _TAIL = r"pfbench ([a-z][a-z-]*)((?:[ \t]+[^\s`'\"]+)*)"
 _PROSE = re.compile(r"(?:(?<=`)|(?<=')|(?<=^    )|(?<=^       )|(?<=\$ ))" + _TAIL, re.M)
 _SOURCE = re.compile(r"(?:(?<=`)|(?<='))" + _TAIL)
-_FENCE = re.compile(r"^```(?:bash|sh|shell|console)?\n(.*?)^```", re.S | re.M)
+_FENCE = re.compile(r"^```(?:bash|sh|shell|console|text)?\n(.*?)^```", re.S | re.M)
 _LINE = re.compile(r"^[ \t]*(?:\$ )?" + _TAIL, re.M)
 
 
