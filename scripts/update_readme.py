@@ -1,17 +1,31 @@
 #!/usr/bin/env python3
-"""Regenerate the generated blocks of README.md: the config-key reference (from the schemas), the
-trials file's metric columns of each scenario kind (from pfbench.kinds and pfbench.metrics), the
-worked example (from the committed results/ifa_pf_ungm/table.csv) and the speed tables (from the
-committed bench record, bench/record.json, which `pfbench bench --json` wrote).
+"""Regenerate what the documentation shows of the code and of the committed results, never
+written by hand:
 
-    python scripts/update_readme.py            # print the blocks
-    python scripts/update_readme.py --write    # replace them in README.md
-    python scripts/update_readme.py --check    # exit 1 if README.md is stale
+- in docs/: the config-key reference (from the schemas), the trials file's metric columns of each
+  scenario kind (from pfbench.kinds and pfbench.metrics), the worked example (from the committed
+  results/ifa_pf_ungm/table.csv), the speed tables (from the committed bench record,
+  bench/record.json, which `pfbench bench --json` wrote), and each paper page's findings and open
+  choices (from the committed results/REPORT.md);
+- whole pages: the command-line reference (docs/reference/cli.md, from the typer app: every
+  command and option with its help) and the Python API (docs/reference/api.md, from the
+  docstrings of pfbench.api's public names);
+- in README.md: the summary of the committed results (from results/REPORT.md).
+
+A generated block sits between `<!-- NAME:begin -->` and `<!-- NAME:end -->` in a Markdown file
+(README.md or any page under docs/); NAME is one of BLOCKS, or `findings:PAPER` /
+`choices:PAPER`.
+
+    python scripts/update_readme.py            # list the generated blocks and pages
+    python scripts/update_readme.py --write    # rewrite them
+    python scripts/update_readme.py --check    # exit 1 if any is stale
 """
 from __future__ import annotations
 
+import inspect
 import json
 import math
+import re
 import sys
 from pathlib import Path
 
@@ -26,6 +40,8 @@ from pfbench.schema import REQUIRED
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
+DOCS = ROOT / "docs"
+REPORT = ROOT / "results" / "REPORT.md"
 EXAMPLE = ROOT / "results" / "ifa_pf_ungm" / "table.csv"
 BENCH = ROOT / "bench" / "record.json"
 
@@ -44,7 +60,7 @@ def _table(title: str, schema: dict, prefix: str) -> list[str]:
     lines = [f"**{title}**", "", "| key | type | default | meaning |", "| --- | --- | --- | --- |"]
     for name, key in schema.items():
         lines.append(f"| `{prefix}{name}` | {key.expected()} | {_default(key)} | "
-                     f"{key.doc.replace('|', '/')} |")
+                     f"{_esc(key.doc.replace('|', '/'))} |")
     return lines + [""]
 
 
@@ -89,7 +105,7 @@ def metrics_block() -> str:
            "| --- | " + " | ".join("---" for _ in kinds) + " | --- |"]
     for m, doc in METRICS.items():
         marks = " | ".join("x" if m in k.metrics else "" for k in kinds)
-        out.append(f"| `{m}` | {marks} | {doc.replace('|', '/')} |")
+        out.append(f"| `{m}` | {marks} | {_esc(doc.replace('|', '/'))} |")
     return "\n".join(out + [""])
 
 
@@ -224,32 +240,233 @@ def bench_block() -> str:
     return "\n".join(out + [""])
 
 
+# ---- the papers' findings and open choices, from the committed report
+
+def _report_section(paper: str) -> str:
+    text = REPORT.read_text()
+    m = re.search(rf"^## `{re.escape(paper)}`.*?(?=^## |\Z)", text, re.S | re.M)
+    if not m:
+        raise SystemExit(f"results/REPORT.md has no section for paper {paper!r}")
+    return m.group(0)
+
+
+def findings_block(paper: str) -> str:
+    """The report's 'What reproduced and what did not' of one paper."""
+    sec = _report_section(paper)
+    m = re.search(r"What reproduced and what did not:\n\n(.*?)(?:\n\n|\Z)", sec, re.S)
+    if not m:
+        raise SystemExit(f"results/REPORT.md: paper {paper!r} has no findings")
+    return ("\n*From the committed `results/REPORT.md` (`pfbench report`), by `python "
+            "scripts/update_readme.py --write`.*\n\n" + m.group(1).strip() + "\n")
+
+
+def choices_block(paper: str) -> str:
+    """The report's table of the choices the paper left open, with the value each config uses."""
+    sec = _report_section(paper)
+    m = re.search(r"### Choices the paper left open, and the values used\n\n.*?\n\n"
+                  r"(\| The paper.*?)(?:\n\n|\n*\Z)", sec, re.S)
+    if not m:
+        raise SystemExit(f"results/REPORT.md: paper {paper!r} has no table of choices")
+    return ("\n*From the committed `results/REPORT.md` (`pfbench report`), by `python "
+            "scripts/update_readme.py --write`; 'unset' is the key's default of none (see "
+            "the [config keys](../reference/config.md)).*\n\n" + m.group(1).strip() + "\n")
+
+
+def summary_block() -> str:
+    """The report's summary table: per config, the paper values compared and their verdicts."""
+    text = REPORT.read_text()
+    m = re.search(r"^## Summary\n\n(\|.*?)(?:\n\n|\Z)", text, re.S | re.M)
+    if not m:
+        raise SystemExit("results/REPORT.md has no summary table")
+    return ("\n*From the committed `results/REPORT.md` by `python scripts/update_readme.py "
+            "--write`.*\n\n" + m.group(1).strip() + "\n")
+
+
+# ---- the command line, from the typer app
+
+def _unrich(text: str) -> str:
+    return _esc(re.sub(r"\\\[", "[", (text or "").strip()))
+
+
+def _esc(text: str) -> str:
+    """Markdown prose with `<` and `>` shown as such (outside code spans), never read as HTML."""
+    parts = re.split(r"(`[^`]*`)", text)
+    return "".join(p if p.startswith("`") else p.replace("<", "&lt;").replace(">", "&gt;")
+                   for p in parts)
+
+
+def cli_page() -> str:
+    import click
+    import typer
+
+    from pfbench.cli import app
+    group = typer.main.get_command(app)
+    top = click.Context(group, info_name="pfbench")
+    out = ["# Command line", "",
+           "*Generated from the typer app (`pfbench.cli`) by `python scripts/update_readme.py "
+           "--write`: every command and option with its help, as `pfbench COMMAND --help` "
+           "prints it. What the commands do, at length: [Running experiments]"
+           "(../guide/running.md).*", "",
+           "```text", "pfbench [OPTIONS] COMMAND [ARGS]...", "```", "",
+           _unrich(group.help), "", "| option | meaning |", "| --- | --- |"]
+    for p in group.params:
+        rec = p.get_help_record(top)
+        if rec and not getattr(p, "hidden", False):
+            out.append(f"| `{rec[0]}` | {_unrich(rec[1]).replace('|', '/')} |")
+    out.append("")
+    for name, cmd in group.commands.items():
+        if getattr(cmd, "hidden", False):
+            continue
+        ctx = click.Context(cmd, info_name=name, parent=top)
+        args = [p.name.upper() for p in cmd.params if p.param_type_name == "argument"]
+        out += [f"## `pfbench {name}`", "", "```text",
+                " ".join(["pfbench", name, "[OPTIONS]", *args]), "```", "",
+                " ".join(_unrich(cmd.help).split()), "",
+                "| argument or option | meaning |", "| --- | --- |"]
+        for p in cmd.params:
+            rec = p.get_help_record(ctx)
+            if rec and not getattr(p, "hidden", False):
+                opt = rec[0] if p.param_type_name != "argument" else p.name.upper()
+                out.append(f"| `{opt}` | {' '.join(_unrich(rec[1]).split()).replace('|', '/')} |")
+        out.append("")
+    return "\n".join(out)
+
+
+# ---- the Python API, from the docstrings
+
+def _docstring_md(doc: str) -> list[str]:
+    """A numpy-style docstring as Markdown: its prose as paragraphs, each `name : text` entry as
+    a bullet; ``code`` as `code`."""
+    doc = inspect.cleandoc(doc or "").replace("``", "`")
+    out: list[str] = []
+    entry = re.compile(r"^([A-Za-z_][\w, ]*) : (.*)$")
+    for line in doc.splitlines():
+        m = entry.match(line)
+        if m:
+            out.append(f"- `{m.group(1)}`: {_esc(m.group(2))}")
+        elif line.startswith("    ") and out and out[-1].startswith("- "):
+            out[-1] += " " + _esc(line.strip())
+        elif line.startswith("    "):
+            out.append(line)            # a code example, indented in the docstring
+        else:
+            out.append(_esc(line))
+    return out
+
+
+def api_page() -> str:
+    import pfbench
+    from pfbench import api
+    from pfbench.errors import UserError
+    out = ["# Python API", "",
+           "*Generated from the docstrings of `pfbench.api`'s public names by `python "
+           "scripts/update_readme.py --write`. How to use them: [the Python API]"
+           "(../how-to/python-api.md).*", ""]
+    out += _docstring_md(api.__doc__) + [""]
+    names = [n for n in pfbench.__all__ if n in api.__all__]
+    for name in names:
+        obj = getattr(api, name)
+        kind = "class" if inspect.isclass(obj) else "function"
+        out += [f"## `pfbench.{name}`", "", "```text",
+                f"{kind} pfbench.{name}{inspect.signature(obj)}", "```", ""]
+        out += _docstring_md(obj.__doc__) + [""]
+    out += ["## `pfbench.errors.UserError`", "", "```text",
+            "class pfbench.errors.UserError(Exception)", "```", ""]
+    out += _docstring_md(UserError.__doc__) + [""]
+    out += ["## `pfbench.CACHE_DIR`, `pfbench.__version__`", "",
+            "The folder of the kernel cache (see [caches](../internals/caches.md)), and the "
+            "installed version.", ""]
+    return "\n".join(out)
+
+
+# ---- the map of the code, from the modules' docstrings
+
+def modules_block() -> str:
+    """Every module of the package with the first line of its docstring, so the map of the code
+    names every module there is."""
+    import ast
+    out = ["", "*Generated from the modules' docstrings by `python scripts/update_readme.py "
+           "--write`.*", "", "| module | what it is |", "| --- | --- |"]
+    for path in sorted((ROOT / "pfbench").rglob("*.py")):
+        doc = ast.get_docstring(ast.parse(path.read_text())) or ""
+        first = " ".join(doc.split("\n\n")[0].split()).replace("``", "`").replace("|", "/")
+        out.append(f"| `{path.relative_to(ROOT).as_posix()}` | {first} |")
+    return "\n".join(out + [""])
+
+
 BLOCKS = {"config-keys": keys_block, "metrics": metrics_block, "example": example_block,
-          "bench": bench_block}
+          "bench": bench_block, "summary": summary_block, "modules": modules_block}
+PARAMETRISED = {"findings": findings_block, "choices": choices_block}
+# the blocks that must appear somewhere: a generated table never vanishes from the docs unseen
+REQUIRED_BLOCKS = ("config-keys", "metrics", "example", "bench", "summary", "modules")
+PAGES = {"reference/cli.md": cli_page, "reference/api.md": api_page}
+MARK = re.compile(r"<!-- ([\w-]+(?::[\w-]+)?):begin -->")
 
 
-def render(text: str) -> str:
-    for name, make in BLOCKS.items():
-        begin, end = f"<!-- {name}:begin -->", f"<!-- {name}:end -->"
-        i, j = text.find(begin), text.find(end)
-        if i < 0 or j < 0:
-            raise SystemExit(f"README.md has no {name} block")
-        text = text[: i + len(begin)] + "\n" + make() + "\n" + text[j:]
+def _make(name: str) -> str:
+    if name in BLOCKS:
+        return BLOCKS[name]()
+    kind, _, arg = name.partition(":")
+    if kind in PARAMETRISED and arg:
+        return PARAMETRISED[kind](arg)
+    raise SystemExit(f"unknown generated block {name!r}")
+
+
+def render(text: str, where: str = "README.md") -> str:
+    pos = 0
+    while (m := MARK.search(text, pos)):
+        name = m.group(1)
+        end = f"<!-- {name}:end -->"
+        j = text.find(end, m.end())
+        if j < 0:
+            raise SystemExit(f"{where}: the {name} block has no end marker")
+        text = text[: m.end()] + "\n" + _make(name) + "\n" + text[j:]
+        pos = text.find(end, m.end()) + len(end)
     return text
 
 
+def sources() -> list[Path]:
+    """README.md and every Markdown page under docs/ (the generated pages aside)."""
+    pages = sorted(p for p in DOCS.rglob("*.md")
+                   if p.relative_to(DOCS).as_posix() not in PAGES)
+    return [README, *pages]
+
+
+def expected() -> dict[Path, str]:
+    """Every file the script writes, with what it must hold."""
+    out: dict[Path, str] = {}
+    seen: set[str] = set()
+    for path in sources():
+        text = path.read_text()
+        seen |= set(MARK.findall(text))
+        out[path] = render(text, str(path.relative_to(ROOT)))
+    missing = [b for b in REQUIRED_BLOCKS if b not in seen]
+    if missing:
+        raise SystemExit(f"no page holds the generated block(s) {', '.join(missing)}")
+    for rel, make in PAGES.items():
+        out[DOCS / rel] = make()
+    return out
+
+
 def main(argv: list[str]) -> int:
-    text = README.read_text()
-    new = render(text)
+    want = expected()
     if "--write" in argv:
-        README.write_text(new)
+        for path, text in want.items():
+            if not path.is_file() or path.read_text() != text:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                path.write_text(text)
+                print(f"wrote {path.relative_to(ROOT)}")
     elif "--check" in argv:
-        if new != text:
-            print("README.md is stale (config keys or the worked example): run python "
-                  "scripts/update_readme.py --write", file=sys.stderr)
+        stale = [str(p.relative_to(ROOT)) for p, t in want.items()
+                 if not p.is_file() or p.read_text() != t]
+        if stale:
+            print(f"stale generated docs ({', '.join(stale)}; config keys, CLI, API, results "
+                  "or bench record changed): run python scripts/update_readme.py --write",
+                  file=sys.stderr)
             return 1
     else:
-        print(new)
+        for path, text in want.items():
+            names = MARK.findall(text) or ["(whole page)"]
+            print(f"{path.relative_to(ROOT)}: {', '.join(names)}")
     return 0
 
 

@@ -89,17 +89,16 @@ def test_load_results_reads_the_committed_results_and_refuses_other_folders(tmp_
 
 
 @pytest.mark.slow
-def test_the_readmes_python_example_runs(monkeypatch):
+def test_the_docs_python_api_example_runs(monkeypatch):
     import re
 
     import matplotlib
     matplotlib.use("Agg")
-    text = (ROOT / "README.md").read_text()
-    section = text.split("### From Python", 1)[1].split("\n### ", 1)[0]
-    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    text = (ROOT / "docs/how-to/python-api.md").read_text()
+    code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
     monkeypatch.chdir(ROOT)
     scope: dict = {}
-    exec(compile(code, "README.md (From Python)", "exec"), scope)
+    exec(compile(code, "docs/how-to/python-api.md", "exec"), scope)
     res, old = scope["res"], scope["old"]
     assert set(res.table["filter"]) >= {"pf@50", "pf@100", "fa@100"}
     assert "verdict_rmse_mean" in res.table and old.experiment.name == "ifa_pf_ungm"

@@ -1,5 +1,5 @@
 """Paper files: read strictly, found beside a config or with --papers, the package holds no
-paper's values, and the README's example paper is judged by pfbench run."""
+paper's values, and the docs' example paper (docs/how-to/papers.md) is judged by pfbench run."""
 import re
 
 import pytest
@@ -85,7 +85,8 @@ def test_the_package_holds_no_paper_values_and_points_outside_nowhere():
         hits = [str(p) for p, src in sources.items()
                 if re.search(rf"(?<![\d.]){re.escape(text)}(?!\d)", src)]
         assert not hits, (text, hits)
-    for p, src in {**sources, ROOT / "README.md": (ROOT / "README.md").read_text()}.items():
+    docs = {p: p.read_text() for p in [ROOT / "README.md", *(ROOT / "docs").rglob("*.md")]}
+    for p, src in {**sources, **docs}.items():
         for word in ("PAPERS.md", "DESIGN.md", "../shared"):
             assert word not in src, (p, word)
 
@@ -153,8 +154,8 @@ def test_a_config_finds_its_paper_beside_it_or_in_a_papers_folder(tmp_path):
 
 
 def _readme_example() -> tuple[str, str]:
-    text = (ROOT / "README.md").read_text()
-    section = text.split("### Adding a paper", 1)[1].split("\n### ", 1)[0]
+    """The paper file and config of the docs' page on paper files."""
+    section = (ROOT / "docs/how-to/papers.md").read_text()
     blocks = re.findall(r"```yaml\n(.*?)```", section, re.S)
     paper = next(b for b in blocks if b.startswith("# papers/"))
     config = next(b for b in blocks if not b.startswith("# papers/"))

@@ -1,1 +1,1 @@
-"""An example pfbench plug-in package (see pfbench's README, "Adding a filter")."""
+"""An example pfbench plug-in package (see pfbench's docs, docs/how-to/plugins.md)."""
