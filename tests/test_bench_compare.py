@@ -2,6 +2,7 @@
 part 3)."""
 import json
 import math
+import os
 
 import pytest
 from typer.testing import CliRunner
@@ -42,7 +43,8 @@ def test_records_are_matched_by_what_they_timed_and_slowdowns_flagged():
 
 
 def test_a_file_that_is_not_bench_records_is_one_line(tmp_path):
-    for text in ("not json", "{}", "[]", '[{"impl": "x"}]'):
+    for text in ("not json", "{}", "[]", '[{"impl": "x"}]', '[{"workload": ["x"], "impl": "y"}]',
+                 '[{"workload": "ungm", "impl": "pfbench", "particles": {"n": 1}}]', "\xff\xfe"):
         bad = tmp_path / "bad.json"
         bad.write_text(text)
         with pytest.raises(UserError, match="--compare"):
@@ -52,6 +54,11 @@ def test_a_file_that_is_not_bench_records_is_one_line(tmp_path):
         assert "--compare" in line
     line = one_line_exit_2(runner.invoke(app, ["bench", "--compare", str(tmp_path / "no.json")]))
     assert "cannot read" in line
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)                 # read, it would wait for a writer for ever
+    for path in (fifo, tmp_path, "/dev/zero"):
+        line = one_line_exit_2(runner.invoke(app, ["bench", "--compare", str(path)]))
+        assert line.startswith("pfbench: error: --compare") and "not a regular file" in line
 
 
 @pytest.mark.slow

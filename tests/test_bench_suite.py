@@ -45,7 +45,7 @@ def test_bad_options_are_refused_before_anything_is_timed(untimed, tmp_path):
         (dict(json_path=tmp_path), "--json"),
         (dict(only=("ungm", "nosuch")), "--only nosuch"),
         (dict(only=("ungm",), c_ref=tmp_path / "no_ref"), "no such file"),
-        (dict(only=("ungm",), c_ref=tmp_path), "no such file"),
+        (dict(only=("ungm",), c_ref=tmp_path), "not a file"),
         (dict(only=("ungm",), c_ref=plain), "not an executable"),
         (dict(only=("mcl",), c_ref=ref), "--only ungm"),
         (dict(only=("limit",), c_ref=ref), "--only ungm"),

@@ -8,6 +8,7 @@ import math
 from pathlib import Path
 
 from ..errors import UserError
+from ..fsutil import require_regular
 
 # What names a bench record (two runs' records with the same identity timed the same work), and
 # the throughput compared, in order of preference.
@@ -29,7 +30,12 @@ def record_rate(rec: dict) -> float:
 
 
 def read_records(path: Path) -> list[dict]:
-    """The records of an earlier ``pfbench bench --json`` run; a UserError for anything else."""
+    """The records of an earlier ``pfbench bench --json`` run; a UserError for anything else
+    (a FIFO or a device is never read: it could wait or run for ever)."""
+    try:
+        require_regular(path)
+    except UserError as exc:
+        raise UserError(f"--compare {exc}") from None
     try:
         data = json.loads(Path(path).read_text(encoding="utf-8"))
     except OSError as exc:
@@ -38,7 +44,9 @@ def read_records(path: Path) -> list[dict]:
         raise UserError(f"--compare {path}: not JSON (a file 'pfbench bench --json' wrote?)") \
             from None
     if (not isinstance(data, list) or not data
-            or not all(isinstance(r, dict) and "workload" in r and "impl" in r for r in data)):
+            or not all(isinstance(r, dict) and "workload" in r and "impl" in r
+                       and all(isinstance(r[k], (str, int, float, bool)) or r[k] is None
+                               for k in IDENTITY if k in r) for r in data)):
         raise UserError(f"--compare {path}: not a list of bench records (a file 'pfbench bench "
                         "--json' wrote?)")
     return data

@@ -44,8 +44,10 @@ def _c_reference(c_ref) -> Path:
     """``--c-ref`` as an absolute path to a program this user can run (a bare name would be
     looked up on PATH, not in the current folder); a UserError otherwise."""
     path = Path(c_ref)
-    if not path.is_file():
+    if not path.exists():
         raise UserError(f"--c-ref {c_ref}: no such file (build it: {C_BUILD})")
+    if not path.is_file():
+        raise UserError(f"--c-ref {c_ref}: not a file (build it: {C_BUILD})")
     if not os.access(path, os.X_OK):
         raise UserError(f"--c-ref {c_ref}: not an executable program (build it: {C_BUILD})")
     return path.resolve()
@@ -77,6 +79,8 @@ def run_bench(json_path=None, quick=False, c_ref=None, threads=0, console=None, 
         json_path = Path(json_path)
         if json_path.is_dir() or not json_path.parent.is_dir():
             raise UserError(f"--json {json_path}: expected a file in an existing folder")
+        if not os.access(json_path.parent, os.W_OK | os.X_OK):
+            raise UserError(f"--json {json_path}: its folder is not writable")
     old = read_records(compare) if compare is not None else None
     parts = _parts(only, limit, c_ref)
     if peers:
