@@ -798,11 +798,11 @@ def _check_contract(configs: Path, executor: str, workers: int, scheduler: str |
 
 @app.command()
 def bench(
-    json_path: Optional[Path] = typer.Option(None, "--json", help="Also write the records as "
-                                             "JSON to this file."),
+    json_path: Optional[str] = typer.Option(None, "--json", help="Also write the records as "
+                                            "JSON to this file."),
     quick: bool = typer.Option(False, "--quick", help="Fewer sizes and repeats (a smoke test)."),
-    c_ref: Optional[Path] = typer.Option(None, "--c-ref", help="A compiled C reference "
-                                         "(ungm_ref) to time in the same run."),
+    c_ref: Optional[str] = typer.Option(None, "--c-ref", help="A compiled C reference "
+                                        "(ungm_ref) to time in the same run."),
     threads: int = typer.Option(0, "--threads", min=0, help="Threads for the batch "
                                 "(0: every core)."),
     only: List[str] = typer.Option([], "--only", help="Only this part, repeatable: ungm, costs, "
@@ -814,25 +814,17 @@ def bench(
     peers: bool = typer.Option(False, "--peers", help="Also time the same UNGM filter written "
                                "with the particles library and with filterpy's resampling "
                                "(pip install '.\\[peers]')."),
-    compare: Optional[Path] = typer.Option(None, "--compare", help="An earlier run's --json "
-                                           "file: print each record's throughput ratio to it."),
+    compare: Optional[str] = typer.Option(None, "--compare", help="An earlier run's --json "
+                                          "file: print each record's throughput ratio to it."),
 ):
     """Kernel speed beside numpy (and a C reference): UNGM PF, every filter, FastSLAM, MCL."""
     with _guard():
-        if json_path is not None:       # a file it can write, known before minutes of timing
-            json_path = _path(str(json_path), "--json")
-            if json_path.is_dir() or not json_path.parent.is_dir():
-                raise UserError(f"--json {json_path}: expected a file in an existing folder")
+        json_path, c_ref = _path(json_path, "--json"), _path(c_ref, "--c-ref")
+        compare = _path(compare, "--compare")
         _load_kernels()
-        from .bench import run_bench
+        from .benchmarks.suite import run_bench
         run_bench(json_path=json_path, quick=quick, c_ref=c_ref, threads=threads, console=out,
-                  only=only, compare=compare, limit=limit, peers=peers,
-                  command=" ".join(["pfbench bench"] + (["--quick"] if quick else [])
-                                   + ([f"--c-ref {c_ref.name}"] if c_ref else [])
-                                   + ([f"--threads {threads}"] if threads else [])
-                                   + [f"--only {o}" for o in only]
-                                   + (["--limit"] if limit else [])
-                                   + (["--peers"] if peers else [])))
+                  only=only, compare=compare, limit=limit, peers=peers)
 
 
 def main():  # console-script entry point

@@ -2,11 +2,12 @@
 part 3)."""
 import json
 import math
+import os
 
 import pytest
 from typer.testing import CliRunner
 
-from pfbench.bench import SLOWER, compare_records, read_records, record_key
+from pfbench.benchmarks.records import SLOWER, compare_records, read_records, record_key
 from pfbench.cli import app
 from pfbench.errors import UserError
 
@@ -42,7 +43,8 @@ def test_records_are_matched_by_what_they_timed_and_slowdowns_flagged():
 
 
 def test_a_file_that_is_not_bench_records_is_one_line(tmp_path):
-    for text in ("not json", "{}", "[]", '[{"impl": "x"}]'):
+    for text in ("not json", "{}", "[]", '[{"impl": "x"}]', '[{"workload": ["x"], "impl": "y"}]',
+                 '[{"workload": "ungm", "impl": "pfbench", "particles": {"n": 1}}]', "\xff\xfe"):
         bad = tmp_path / "bad.json"
         bad.write_text(text)
         with pytest.raises(UserError, match="--compare"):
@@ -52,6 +54,11 @@ def test_a_file_that_is_not_bench_records_is_one_line(tmp_path):
         assert "--compare" in line
     line = one_line_exit_2(runner.invoke(app, ["bench", "--compare", str(tmp_path / "no.json")]))
     assert "cannot read" in line
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)                 # read, it would wait for a writer for ever
+    for path in (fifo, tmp_path, "/dev/zero"):
+        line = one_line_exit_2(runner.invoke(app, ["bench", "--compare", str(path)]))
+        assert line.startswith("pfbench: error: --compare") and "not a regular file" in line
 
 
 @pytest.mark.slow
@@ -73,35 +80,3 @@ def test_bench_compares_with_an_earlier_run(tmp_path, monkeypatch):
     line = next(l for l in res.output.splitlines() if "ungm-filters pfbench pf " in l)
     assert "SLOWER" in line
     assert "records matched are below" in res.output
-
-
-def test_peers_without_the_extra_is_one_line(monkeypatch):
-    """--peers without the 'peers' extra says how to install it, before timing anything."""
-    import sys
-    monkeypatch.setitem(sys.modules, "particles", None)      # import particles -> ImportError
-    res = runner.invoke(app, ["bench", "--peers", "--only", "costs"])
-    assert "pip install '.[peers]'" in one_line_exit_2(res)
-
-
-def test_peers_compute_the_same_filter():
-    """Where the extra is installed: the particles and filterpy versions of the bench's filter
-    give the same mean RMSE as pfbench's kernel over the same 60 trials, within 4 standard
-    errors of the paired difference (fixed seeds)."""
-    pytest.importorskip("particles")
-    pytest.importorskip("filterpy")
-    import numpy as np
-
-    from pfbench import bench
-    mods = bench.peer_modules()
-    X, Y = bench.bench_data(60, seed=5)
-    model = bench.bench_model()
-    state = bench.state_from_seed(np.random.SeedSequence(6))
-    np.random.seed(6)
-    ours = np.array([np.sqrt(np.mean((bench.pfbench_single(model, Y[k], 100, state)[1:]
-                                      - X[k, 1:]) ** 2)) for k in range(60)])
-    for make in (bench.particles_pf, bench.filterpy_pf):
-        run = make(mods)
-        theirs = np.array([np.sqrt(np.mean((run(Y[k], 100) - X[k, 1:]) ** 2))
-                           for k in range(60)])
-        d = theirs - ours
-        assert abs(d.mean()) <= 4 * d.std(ddof=1) / np.sqrt(60), make.__name__

@@ -5,7 +5,7 @@ import json
 import pytest
 from typer.testing import CliRunner
 
-from pfbench import bench
+from pfbench.benchmarks import run_path, suite
 from pfbench.cli import app
 
 from .conftest import ROOT, one_line_exit_2
@@ -17,14 +17,14 @@ cli = CliRunner()
 def small(monkeypatch):
     """The run-path workloads at a few hundred particles and steps (the same configs)."""
     monkeypatch.chdir(ROOT)
-    monkeypatch.setattr(bench, "RUN_PATH", (
+    monkeypatch.setattr(run_path, "RUN_PATH", (
         ("ungm", "configs/ifa_pf_ungm.yaml", "pf", 200, None, 1.3),
         ("mcl", "configs/sspf_global.yaml", "mcl", 200, None, 1.3),
         ("fastslam", "configs/afsa_fastslam.yaml", None, None, (30, 30), 1.5)))
 
 
 def test_run_path_rows_beside_the_kernel_with_ratio_and_target(small):
-    recs = bench.run_bench(quick=True, only=("run",))
+    recs = suite.run_bench(quick=True, only=("run",))
     rows = [r for r in recs if r["workload"] == "run-path"]
     assert [(r["filter"], r["impl"]) for r in rows] == [
         (f, i) for f in ("ungm", "mcl", "fastslam") for i in ("kernel", "run")]

@@ -32,14 +32,21 @@ from pathlib import Path
 import numpy as np
 from numba import njit, types
 
-from ._lazy import kernel
+from .. import vecmath as vm
+from .._lazy import kernel
+from ..filters import mcl
+from ..filters.fastslam import ekf_apply, innovation, nearest_innovation, options
+from ..models.beacons import loglik_const
+from ..resampling import systematic
+from ..rng import STATE, fill_normal, state_from_seed
+from .common import P0, Q, R, SCHEME_SYSTEMATIC, T, bench_data, bench_model, best_time, \
+    pfbench_single
 
-from . import vecmath as vm
-from .filters import mcl
-from .filters.fastslam import ekf_apply, innovation, nearest_innovation, options
-from .models.beacons import loglik_const
-from .resampling import systematic
-from .rng import STATE, fill_normal, state_from_seed
+# MCL's passes, timed alone below: the public names of pfbench.filters.mcl, or the private ones
+# of a pfbench that does not have them yet (same arguments)
+loglik_pass = getattr(mcl, "loglik_pass", None) or mcl._loglik
+exp_pass = getattr(mcl, "exp_pass", None) or mcl._exps
+trig_pass = getattr(mcl, "trig_pass", None) or mcl._trig
 
 _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
@@ -118,9 +125,10 @@ def _ungm_resample(w, S, s, idx, x, xn, T):
 
 
 def _timed(fn, min_time, reps) -> float:
-    from .bench import _best
-    fn()                                   # compile or load, and warm the caches
-    return _best(fn, min_time, reps)[0]
+    """Seconds a call of ``fn`` takes, best of ``reps`` (after a first call: compiled or
+    loaded, and the caches warm)."""
+    fn()
+    return best_time(fn, min_time, reps)[0]
 
 
 def _rows(workload, N, T, passes, kernel_s, label):
@@ -143,7 +151,6 @@ def _rows(workload, N, T, passes, kernel_s, label):
 
 def ungm_limit(N: int, min_time: float, reps: int) -> list[dict]:
     """The UNGM bootstrap PF's passes at N particles over the bench's T steps, and its kernel."""
-    from .bench import T, Q, R, P0, bench_data, bench_model, pfbench_single
     _, Y = bench_data(1)
     y = Y[0]
     s = state_from_seed(np.random.SeedSequence(31))
@@ -193,7 +200,7 @@ def _mcl_move(P, CS, Z, ctrl, mnoise, o):
 def _mcl_likelihood(P, bc, obs_n, obs_id, obs_z, o, ll):
     N = P.shape[1]
     for t in range(obs_n.size):
-        mcl._loglik(P[0], P[1], P[2], N, bc, obs_n[t], obs_id[t], obs_z[t], o.sensor, o.sr, o.sb,
+        loglik_pass(P[0], P[1], P[2], N, bc, obs_n[t], obs_id[t], obs_z[t], o.sensor, o.sr, o.sb,
                     loglik_const(obs_n[t], o.sensor, o.sr, o.sb), ll)
 
 
@@ -201,7 +208,7 @@ def _mcl_likelihood(P, bc, obs_n, obs_id, obs_z, o, ll):
 def _mcl_exps(ll, W, T):
     N = ll.size
     for _ in range(T):
-        mcl._exps(ll, ll.max(), N, W)
+        exp_pass(ll, ll.max(), N, W)
 
 
 @njit(cache=True, error_model="numpy")
@@ -220,9 +227,9 @@ def _mcl_resample(W, cum, o, idx, scratch, s, T):
 def mcl_limit(N: int, min_time: float, reps: int) -> list[dict]:
     """Plain MCL's passes (the kernel's own) at N particles over one trial of the beacon field of
     configs/sspf_global.yaml, and its kernel; [] without that config."""
-    from .config import Params, load
-    from .filters import FILTERS
-    from .runner import trial_data
+    from ..config import Params, load
+    from ..filters import FILTERS
+    from ..runner import trial_data
     cfg = Path("configs/sspf_global.yaml")
     if not cfg.exists():
         return []
@@ -235,7 +242,7 @@ def mcl_limit(N: int, min_time: float, reps: int) -> list[dict]:
     rng = np.random.default_rng(32)
     P = np.ascontiguousarray((truth.pose[0] + 0.3 * rng.standard_normal((N, 3))).T)
     CS = np.empty((2, N))
-    mcl._trig(P, 0, N, CS)
+    trig_pass(P, 0, N, CS)
     Z = np.empty(2 * N if model.motion == 0 else 3 * N)
     ll = np.empty(N)
     W = np.empty(N)
@@ -243,7 +250,7 @@ def mcl_limit(N: int, min_time: float, reps: int) -> list[dict]:
     idx = np.empty(N, dtype=np.int64)
     o = mcl.MclOptions(motion=int(model.motion), sensor=int(model.sensor),
                        sr=float(model.sense[2]), sb=float(model.sense[3]), N=N,
-                       threshold=np.inf, scheme=1, reset=0, inject_sensor=0, kld=0)
+                       threshold=np.inf, scheme=SCHEME_SYSTEMATIC, reset=0, inject_sensor=0, kld=0)
     P0, CS0 = P.copy(), CS.copy()
     cum = np.empty(N)
     scratch = np.empty(N, dtype=np.int64)
@@ -388,29 +395,13 @@ def _fs_resample(w, s, idx, P, mu, sig, seen, nl, src, P2, mu2, sig2, seen2, nl2
             nl2[i] = nl[j]
 
 
-def fastslam_limit(N: int, steps: int, min_time: float, reps: int) -> list[dict]:
-    """FastSLAM's passes at N particles over the first ``steps`` steps of one trial of
-    configs/afsa_fastslam.yaml (its first filter: FastSLAM with nearest-neighbour association),
-    and its kernel; [] without that config."""
-    from .config import load
-    from .filters import FILTERS
-    from .runner import trial_data
-    cfg = Path("configs/afsa_fastslam.yaml")
-    if not cfg.exists():
-        return []
-    exp = load(cfg, sets=[f"scenario.steps={steps}"])
-    model, truth, data = trial_data(exp, 0)
-    run = exp.filters[0]
-    ft = FILTERS[run.type]
-    s = state_from_seed(np.random.SeedSequence(33))
+def _true_maps(model, data, N: int, M: int):
+    """Every particle's map (M slots): the true landmarks in the order the trial first sees them
+    (so that step k searches those seen before it, as a particle that associates them right
+    does), with a landmark's covariance after a few observations. Returns the map arrays (mu,
+    sig, seen, src, nl), the landmarks seen by each step, and the observations' slots."""
     K = data.obs_n.shape[0]
     M_true = model.landmarks.shape[0]
-    o = options(model, run.params, N, False)      # the kernel's own settings
-    M, Rr, Rb = o.M, o.Rr, o.Rb
-    poses = np.ascontiguousarray(truth.pose[1:K + 1] if truth.pose.shape[0] > K else truth.pose)
-    # every particle's map: the true landmarks in the order the trial first sees them (so that
-    # step k searches those seen before it, as a particle that associates them right does), with
-    # a landmark's covariance after a few observations
     order = list(dict.fromkeys(int(i) for k in range(K) for i in data.obs_id[k, :data.obs_n[k]]))
     order += [m for m in range(M_true) if m not in order]
     seen_by = np.array([len(set(int(i) for kk in range(k + 1)
@@ -427,6 +418,29 @@ def fastslam_limit(N: int, steps: int, min_time: float, reps: int) -> list[dict]
     slot = np.empty(M_true, dtype=np.int64)
     slot[order] = np.arange(M_true)
     ids = np.ascontiguousarray(slot[np.maximum(data.obs_id, 0)])
+    return mu, sig, seen, src, nl, seen_by, ids
+
+
+def fastslam_limit(N: int, steps: int, min_time: float, reps: int) -> list[dict]:
+    """FastSLAM's passes at N particles over the first ``steps`` steps of one trial of
+    configs/afsa_fastslam.yaml (its first filter: FastSLAM with nearest-neighbour association),
+    and its kernel; [] without that config."""
+    from ..config import load
+    from ..filters import FILTERS
+    from ..runner import trial_data
+    cfg = Path("configs/afsa_fastslam.yaml")
+    if not cfg.exists():
+        return []
+    exp = load(cfg, sets=[f"scenario.steps={steps}"])
+    model, truth, data = trial_data(exp, 0)
+    run = exp.filters[0]
+    ft = FILTERS[run.type]
+    s = state_from_seed(np.random.SeedSequence(33))
+    K = data.obs_n.shape[0]
+    o = options(model, run.params, N, False)      # the kernel's own settings
+    M, Rr, Rb = o.M, o.Rr, o.Rb
+    poses = np.ascontiguousarray(truth.pose[1:K + 1] if truth.pose.shape[0] > K else truth.pose)
+    mu, sig, seen, src, nl, seen_by, ids = _true_maps(model, data, N, M)
     bound = max(o.gate_reject, o.gate_augment)
     pc = np.full((N, 6), 1e-6)
     P = np.tile(poses[0], (N, 1))
@@ -473,3 +487,44 @@ def fastslam_limit(N: int, steps: int, min_time: float, reps: int) -> list[dict]
     ]
     kern = _timed(lambda: ft.run(model, data, run.params, N, s, False), min_time, reps) / K
     return _rows("fastslam-limit", N, K, passes, kern, run.label)
+
+
+def limit_bench(quick: bool, min_time: float, reps: int, say, console=None) -> list[dict]:
+    """The practical limit of each kernel (this module): its irreducible passes timed alone,
+    their sum, and the kernel's time over that sum, for UNGM at N = 100 and 1e5, MCL at 10,000
+    and FastSLAM in the landmark world at 100."""
+    from rich.table import Table
+
+    runs = [("UNGM bootstrap PF", lambda: ungm_limit(100, min_time, reps))]
+    if not quick:
+        runs.append(("UNGM bootstrap PF", lambda: ungm_limit(100_000, min_time, reps)))
+    runs += [("MCL, beacon field (sspf_global), systematic resampling every step",
+              lambda: mcl_limit(1000 if quick else 10_000, min_time, reps)),
+             ("FastSLAM, landmark world (afsa_fastslam), nearest-neighbour association",
+              lambda: fastslam_limit(100, 50 if quick else 200, min_time, reps))]
+    records = []
+    for title, run in runs:
+        recs = run()
+        if not recs:
+            say(f"{title}: skipped (its config is not here; run from the repository root)")
+            continue
+        records += recs
+        N = recs[0]["particles"]
+        tab = Table(title=f"{title}, N = {N:,}: each pass alone, per particle and step",
+                    title_justify="left")
+        for h in ("pass", "ns", "share"):
+            tab.add_column(h, justify="right" if h != "pass" else "left")
+        for r in recs:
+            share = (f"{100 * r['share_of_limit']:.0f}%" if "share_of_limit" in r
+                     else f"{r['kernel_over_limit']:.2f}x the limit"
+                     if "kernel_over_limit" in r else "")
+            name = {"limit": "practical limit (the sum)"}.get(r["impl"], r["filter"])
+            if r["impl"] == "pfbench":
+                name = f"the pfbench kernel ({r['filter']})"
+            tab.add_row(name, f"{r['ns_per_particle_step']:.1f}", share)
+        if console:
+            console.print(tab)
+        else:
+            for r in recs:
+                say(f"{r['filter']}: {r['ns_per_particle_step']:.1f} ns")
+    return records

@@ -4,7 +4,7 @@ themselves belong to the bench, never to a test."""
 import pytest
 from typer.testing import CliRunner
 
-from pfbench import limits
+from pfbench.benchmarks import limits
 from pfbench.cli import app
 
 from .conftest import ROOT
