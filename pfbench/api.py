@@ -23,6 +23,7 @@ import pandas as pd
 
 from .errors import UserError
 from .fsutil import require_regular
+from .outputs import anytime_of, check_figure_format  # noqa: F401  (this module's API)
 
 __all__ = ["Result", "load_results", "run_experiment", "run_until_decided"]
 
@@ -187,14 +188,6 @@ def out_folder(out, what: str = "out") -> Path | None:
     return folder
 
 
-def check_figure_format(fmt, what: str = "figure_format") -> str:
-    """``fmt`` when it is a figure format pfbench draws (png, svg, pdf), else a UserError."""
-    from .figstyle import FORMATS
-    if not isinstance(fmt, str) or fmt not in FORMATS:
-        raise UserError(f"{what} {fmt}: one of {', '.join(FORMATS)}")
-    return fmt
-
-
 def _missing_figures(exp, res, folder: Path, fmt: str) -> bool:
     """Whether an up-to-date folder lacks a figure a run draws (a run killed while it drew them);
     the temporary files such a kill left are removed."""
@@ -269,7 +262,7 @@ def _run(exp, workers, out, resume, figures, executor, progress, warn, force,
     from .store import trial_columns
     if out is not None:
         from .fsutil import FolderLock, recover_aside
-        from .regen import write_experiment
+        from .outputs import write_experiment
         recover_aside(out, out.parent, warn, clean=False)   # a replace killed half-way
         with FolderLock(out, "out"):
             res = run_into(exp, out, workers=workers, resume=resume, progress=progress,
@@ -301,13 +294,6 @@ def _run(exp, workers, out, resume, figures, executor, progress, warn, force,
            "wall_s": round(time.perf_counter() - t0, 3)}
     cmp = compare(exp, rows)
     return Result(_frame(rows, trial_columns(exp)), cmp.table, meta, exp, None, cmp, run=run)
-
-
-def anytime_of(meta: dict | None) -> int | None:
-    """The most trials a run until decided could reach (its confidence sequences are tuned for
-    it), from a results folder's meta; None for a run of a fixed trial count."""
-    until = (meta or {}).get("until_decided")
-    return int(until["max_trials"]) if isinstance(until, dict) and "max_trials" in until else None
 
 
 def undecided(cmp) -> list[int | None]:
@@ -390,7 +376,7 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
 def _until_decided(first, folder, batch, most, workers, resume, figures, executor, progress,
                    warn, on_look, force, figure_format) -> Result:
     from .compare import compare
-    from .regen import write_experiment
+    from .outputs import write_experiment
     from .runner import RUN_TIMINGS, run_experiment as run_into
     from .store import trial_columns, write_json
     n, looks, ran, wall = batch, [], 0, 0.0

@@ -33,7 +33,8 @@ from .errors import UserError
 from .metrics import METRICS
 from .fsutil import FolderLock, child, own_folder, recover_aside, remove_tree, replace_tree
 from .runner import LocalExecutor, keep_provenance, run_experiment
-from .store import TIMING_COLUMNS, write_csv
+from .outputs import write_experiment, write_sweep  # noqa: F401  (this module's API)
+from .store import TIMING_COLUMNS
 
 Z_DEFAULT = 4.0
 
@@ -53,59 +54,6 @@ def config_files(folder: Path) -> list[Path]:
 def is_sweep(path: Path) -> bool:
     raw, _ = read_yaml(path)
     return isinstance(raw, dict) and "sweep" in raw
-
-
-def write_experiment(exp, res, folder: Path, figures: bool = True,
-                     figure_format: str = "png") -> tuple:
-    """The comparison (table.csv / table.md) and figures of a finished run; returns (comparison,
-    figure paths)."""
-    from . import tables
-    from .api import anytime_of, check_figure_format
-    from .tablecache import cached_compare
-    if figures:
-        check_figure_format(figure_format)
-        own_folder(Path(folder) / "figures", folder, "figures folder")
-    cmp = cached_compare(exp, res.rows, anytime=anytime_of(res.meta))
-    tables.write(cmp, folder, res.meta)
-    paths = []
-    if figures:
-        from .plots import write_figures
-        paths = write_figures(exp, res.rows, folder, figure_format, cmp.table)
-    return cmp, paths
-
-
-def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: str,
-                figures: bool = True, figure_format: str = "png", exp=None,
-                missing_only: bool = False) -> tuple:
-    """summary.csv and the figures of a finished sweep (``exp``: a cell's experiment, whose
-    metrics the figures draw); returns (summary, figure paths). ``missing_only`` (an up-to-date
-    sweep): the figures are drawn only when one is missing, as an up-to-date run's."""
-    from . import sweep as sw
-    from .api import check_figure_format
-    if figures:
-        check_figure_format(figure_format)
-        own_folder(Path(folder) / "figures", folder, "figures folder")
-    summ = sw.summary(trials_df, keys)
-    write_csv(folder / "summary.csv", summ)
-    if not figures:
-        return summ, []
-    from .figstyle import prune
-    from .kinds import kind_of
-    from .plots import sweep_figures, sweep_metrics
-    if missing_only:
-        which = sweep_metrics(exp) if exp else ["rmse"]
-        want = [folder / "figures" / f"{m}.{figure_format}" for m in which
-                if f"{m}_mean" in summ and not summ[f"{m}_mean"].isna().all()]
-        if want and all(p.is_file() for p in want):
-            return summ, want
-    paths = sweep_figures(summ, keys, folder, name, sweep_metrics(exp) if exp else None,
-                          fmt=figure_format, unit=kind_of(exp.scenario).unit if exp else "")
-    prune(folder / "figures", paths)
-    if "wall_s" in trials_df and trials_df["wall_s"].notna().any():
-        # the run times: beside the timings file, never in figures/ (they depend on the machine)
-        sweep_figures(sw.summary(trials_df, keys, ("wall_s",)), keys, folder, name,
-                      ["wall_s"], folder / f"timings.{figure_format}", figure_format)
-    return summ, paths
 
 
 def experiment_name(path: Path, trials: int | None = None) -> str:
@@ -192,7 +140,7 @@ def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int |
     else:
         exp = load(path, {"trials": trials})
         name = exp.name
-    from .api import check_figure_format
+    from .outputs import check_figure_format
     if figures:
         check_figure_format(figure_format)
     results = Path(results)

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from . import __version__
+from .version import __version__
 from . import tables as tb
 from .compare import Comparison, pair_counts
 from .tablecache import cached_compare

@@ -20,7 +20,7 @@ from types import SimpleNamespace
 import jinja2
 from markupsafe import Markup, escape
 
-from . import __version__
+from .version import __version__
 from . import report as rp
 from . import tables as tb
 from .verdicts import DEFINITIONS

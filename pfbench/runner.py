@@ -30,7 +30,7 @@ from typing import Callable, Iterable, Mapping, NamedTuple
 
 import numpy as np
 
-from . import __version__
+from .version import __version__
 from .config import FORMAT_VERSION, Experiment, Params
 from .diagnostics import NAMES as DIAGNOSTIC_NAMES
 from .diagnostics import Diag
@@ -808,7 +808,8 @@ class RunResult:
 def uncompiled(exp: Experiment) -> list[str]:
     """The names of the experiment's filter types (and its scenario) whose kernels the numba
     cache does not hold yet: they compile when the first trial uses them (pfbench._lazy)."""
-    from . import CACHE_DIR, _cache
+    from . import _cache
+    from .version import CACHE_DIR
     index = Path(CACHE_DIR) / "pfbench"
     have = ({p.name.split(".")[0] for p in index.rglob("*.nbi")}
             if _cache.ENABLED and index.is_dir() else set())

@@ -58,7 +58,7 @@ def key(exp, rows, anytime) -> str:
 
 def folder() -> Path | None:
     """The cache's folder (None: no kernel cache folder, so no cache)."""
-    from . import CACHE_DIR
+    from .version import CACHE_DIR
     if not str(CACHE_DIR):
         return None
     return Path(CACHE_DIR).parent / "pfbench-tables"
