@@ -21,7 +21,7 @@ import jinja2
 from markupsafe import Markup, escape
 
 from .version import __version__
-from . import report as rp
+from . import report_data as rp
 from . import tables as tb
 from .verdicts import DEFINITIONS
 
