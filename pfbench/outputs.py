@@ -9,12 +9,12 @@ from pathlib import Path
 import pandas as pd
 
 from .errors import UserError
+from .figstyle import FORMATS, prune
 from .fsutil import own_folder
 
 
 def check_figure_format(fmt, what: str = "figure_format") -> str:
     """``fmt`` when it is a figure format pfbench draws (png, svg, pdf), else a UserError."""
-    from .figstyle import FORMATS
     if not isinstance(fmt, str) or fmt not in FORMATS:
         raise UserError(f"{what} {fmt}: one of {', '.join(FORMATS)}")
     return fmt
@@ -59,7 +59,6 @@ def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: st
     write_csv(folder / "summary.csv", summ)
     if not figures:
         return summ, []
-    from .figstyle import prune
     from .kinds import kind_of
     from .plots import sweep_figures, sweep_metrics
     if missing_only:

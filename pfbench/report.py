@@ -19,6 +19,7 @@ from pathlib import Path
 
 from .version import __version__
 from .errors import UserError
+from .fsutil import FolderLock, atomic_write, not_in_use, own_folder
 from .verdicts import DEFINITIONS
 from .report_data import (  # noqa: F401  (this module's API)
     TITLE,
@@ -126,7 +127,6 @@ def where(results: Path, out: Path | None = None) -> Where:
         same = folder.resolve() == results.resolve()
     except (OSError, RuntimeError):
         same = False
-    from .fsutil import own_folder
     own_folder(folder / "report", folder, "--out")      # no link: refused before the build
     return Where(folder, md, folder / "report", same)
 
@@ -155,7 +155,6 @@ def write_report(configs: Path, results: Path, out: Path | None = None, check: b
     results, drawing its figures, writing), the progress of a build that takes tens of seconds:
     the tables are recomputed from every trial and the figures drawn."""
     from . import report_html
-    from .fsutil import FolderLock, atomic_write, not_in_use, own_folder
     configs, results = Path(configs), Path(results)
     if not results.is_dir():
         raise UserError(f"{results}: no such results folder; run 'pfbench tables' first")

@@ -16,11 +16,14 @@ import pandas as pd
 from . import tables as tb
 from .compare import Comparison, pair_counts
 from .tablecache import cached_compare
-from .config import Experiment, load
+from .config import Experiment, load, read_yaml
 from .errors import UserError
 from . import papers as pp
 from .outputs import anytime_of
 from .schema import did_you_mean
+from . import sweep as sw
+from .fsutil import aside_names, recover_aside
+from .store import TIMING_COLUMNS, read_meta, read_results, read_sweep
 from .regen import config_files, is_sweep
 
 TITLE = "pfbench reproduction report"
@@ -54,8 +57,6 @@ def collect(configs: Path, results: Path, restore: bool = False,
     regeneration killed between its renames) is never reported as not run: with ``restore``
     (the caller holds the results folder's lock) it is moved back, and ``warn`` told; without,
     a UserError says so."""
-    from . import sweep as sw
-    from .fsutil import aside_names, recover_aside
     entries = []
     for path in config_files(configs):
         if is_sweep(path):
@@ -108,7 +109,6 @@ def _read_files(e: Entry) -> None:
                 e.status = f"{why} (cell {cell.name})"
                 return
             e.meta = e.meta or meta
-        from .store import read_sweep
         e.table = read_sweep(e.folder)[1]     # checked: its trials, summary and cells agree
         return
     trials = e.folder / "trials.csv"
@@ -120,7 +120,6 @@ def _read_files(e: Entry) -> None:
     if why:
         e.status = why
         return
-    from .store import read_results, TIMING_COLUMNS
     got = read_results(e.folder)[1]      # checked: the trials are those meta.json records
     rows = pd.DataFrame(got.rows).drop(columns=list(TIMING_COLUMNS), errors="ignore")
     e.comparison = cached_compare(e.exp, rows, anytime=anytime_of(e.meta))
@@ -128,7 +127,6 @@ def _read_files(e: Entry) -> None:
 
 
 def _meta(folder: Path) -> dict | None:
-    from .store import read_meta
     return read_meta(folder) if (folder / "meta.json").exists() else None
 
 
@@ -247,7 +245,6 @@ def home_names(paper: pp.Paper) -> set[str]:
     names: set[str] = set()
     if not paper.source or not home.is_dir():
         return names
-    from .config import read_yaml
     for p in home.iterdir():
         if p.suffix not in (".yaml", ".yml") or not p.is_file():
             continue
