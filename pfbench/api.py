@@ -26,7 +26,7 @@ from .fsutil import FolderLock, recover_aside, require_regular
 from .outputs import anytime_of, check_figure_format  # noqa: F401  (this module's API)
 from .outputs import write_experiment
 from .progress import shown
-from .schema import describe
+from .schema import ConfigError, describe
 
 __all__ = ["Result", "load_results", "run_experiment", "run_until_decided"]
 
@@ -145,7 +145,6 @@ def _overrides(fn: str, overrides) -> tuple[str, ...]:
 
 def _experiment(config, trials, seed, overrides):
     from .config import Experiment, apply_override, load, validate
-    from .schema import ConfigError
     if isinstance(config, Experiment):          # validated already (the CLI's)
         if trials is not None or seed is not None or tuple(overrides):
             raise UserError("trials, seed and overrides go with a config file or mapping")

@@ -20,6 +20,7 @@ from .config import Experiment, load, read_yaml
 from .errors import UserError
 from . import papers as pp
 from .outputs import anytime_of
+from .figstyle import label
 from .schema import did_you_mean
 from . import sweep as sw
 from .fsutil import aside_names, recover_aside
@@ -455,7 +456,6 @@ def _sweep_section(e: Entry, where: Path) -> list[str]:
 def sweep_cells(e: Entry) -> tuple[list[str], list[list[str]]]:
     """A sweep's table: per cell and filter run, the RMSE and the other metrics its figures draw
     (plots.sweep_metrics), mean [95% CI], and the likelihood evaluations per step."""
-    from .figstyle import label
     from .plots import sweep_metrics
     keys, s = e.sweep_keys, e.table
     metrics = [m for m in sweep_metrics(e.exp) if f"{m}_mean" in s]

@@ -30,6 +30,7 @@ from typing import Callable, Iterable, Mapping, NamedTuple
 
 import numpy as np
 
+from ._lazy import LazyKernel
 from .version import __version__
 from .config import FORMAT_VERSION, Experiment, Params
 from .diagnostics import NAMES as DIAGNOSTIC_NAMES
@@ -37,7 +38,7 @@ from .diagnostics import Diag
 from .diagnostics import flags as diag_flags
 from .diagnostics import plan as plan_diagnostics
 from .errors import UserError
-from .fsutil import FolderLock, require_regular
+from .fsutil import FolderLock, remove_tree, require_regular
 from .filters import FILTERS, LOAD_SECONDS
 from .kinds import check_outputs, kind_of
 from .plugins import FILTER_GROUP, SCENARIO_GROUP
@@ -45,6 +46,7 @@ from .precompile import compile_ahead, uncompiled  # noqa: F401  (uncompiled: th
 from .rng import state_from_seed
 from .scenarios import SCENARIOS
 from .seeding import run_seed
+from .workers import WorkerDied, Workers
 from .workers import in_worker as _in_process
 from .workers import quiet_worker
 from .store import (TIMINGS, TIMINGS_PARTIAL, atomic_write, clear_staged_traces,
@@ -347,7 +349,6 @@ def _kernels() -> list:
     imported in this process (found once)."""
     global _KERNELS
     if _KERNELS is None:
-        from ._lazy import LazyKernel
         _KERNELS = [((name, attr), v) for name, mod in list(sys.modules.items())
                     if mod is not None and (name == "pfbench" or name.startswith("pfbench."))
                     for attr, v in list(vars(mod).items()) if isinstance(v, LazyKernel)]
@@ -528,7 +529,6 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
     if running is not None:
         running.append(lambda: [tuple(now[i:i + 2]) for i in range(0, len(now), 2)])
     from .tablecache import import_ahead, settle
-    from .workers import WorkerDied, Workers
     settle()                        # no fork while a thread of this process imports
     with Workers(workers, partial(_run_chunk_in_worker, exp, traces=traces),
                  setup=_worker_init, setup_args=(now, pids)) as pool:
@@ -891,7 +891,6 @@ def _check_folder(exp: Experiment, out_dir: Path, resume: bool, force: bool,
     if force:
         if _holds_sweep(out_dir):
             # a sweep's results give way to this run's: its cells and summary go
-            from .fsutil import remove_tree
             remove_tree(out_dir / "cells", out_dir)
             (out_dir / "summary.csv").unlink(missing_ok=True)
         return resume, None

@@ -37,6 +37,8 @@ import numpy as np
 from .config import Experiment
 from .errors import UserError
 from .fsutil import atomic_write, is_regular, remove_tree, require_regular
+from .schema import describe
+from .version import __version__
 from .kinds import END_COLUMNS, ID_COLUMNS, kind_of
 from .metrics import METRICS, summarize
 
@@ -376,7 +378,6 @@ def check_meta(meta, path: Path) -> dict:
     pfbench reads; a one-line UserError naming the file and the key otherwise. A folder of a
     newer results format than this pfbench's is refused, with the version that wrote it."""
     from .config import FORMAT_VERSION
-    from .schema import describe
     if not isinstance(meta, dict):
         raise UserError(f"{path}: expected a mapping of keys, got {describe(meta)}")
     fmt = meta.get("format")
@@ -384,7 +385,6 @@ def check_meta(meta, path: Path) -> dict:
         v = meta.get("versions")
         who = v.get("pfbench") if isinstance(v, dict) else None
         by = f"pfbench {who}" if isinstance(who, str) else "a newer pfbench"
-        from .version import __version__
         raise UserError(f"{path}: written by {by} in results format {fmt}; this pfbench "
                         f"({__version__}) reads formats up to {FORMAT_VERSION}: upgrade pfbench "
                         "to read it")

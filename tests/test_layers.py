@@ -56,6 +56,15 @@ NEVER = (
      "API it imports (pfbench.version holds the version and the cache folder)"),
 )
 
+# Modules that cost nothing to import once pfbench is (they import no library, or are loaded with
+# the package): importing one inside a function defers nothing, so it is imported at the top.
+LIGHT = ("pfbench.errors", "pfbench.version", "pfbench._cache", "pfbench.fsutil", "pfbench.schema",
+         "pfbench.progress", "pfbench.figstyle", "pfbench.diag", "pfbench.protocols",
+         "pfbench.workers")
+# The command line defers even those: ``import pfbench.cli`` loads nothing a command does not
+# need (the startup of every command).
+DEFER_ALL = {"pfbench.cli"}
+
 # What the command line may do that no other module may: read the package's namespace.
 ALLOWED = {("pfbench.cli", "pfbench")}
 
@@ -79,16 +88,16 @@ MODULES = _modules()
 
 def _in(name: str, pattern: str) -> bool:
     """Whether module ``name`` is what ``pattern`` names: '*' any module, 'a.b.*' a module
-    inside package a.b (not a.b itself), 'a.b' a.b and (when a.b is a package other than the
-    root) everything in it."""
+    inside package a.b (not a.b itself), 'a.b' a.b and (when a.b is a package other than
+    pfbench itself, whose namespace is a module of its own layer) everything in it."""
     if pattern == "*":
         return True
     if pattern.endswith(".*"):
         return name.startswith(pattern[:-1])
     if name == pattern:
         return True
-    return "." in pattern and MODULES.get(pattern, (None, False))[1] and name.startswith(
-        pattern + ".")
+    return (pattern != "pfbench" and MODULES.get(pattern, (None, False))[1]
+            and name.startswith(pattern + "."))
 
 
 def layer_of(name: str) -> int | None:
@@ -251,6 +260,16 @@ def test_never(importer, imported, why):
     bad = [_where(a, b, GRAPH) for a, targets in _checked(GRAPH).items() if _in(a, importer)
            for b in targets if _in(b, imported) and (a, b) not in ALLOWED]
     assert not bad, f"{why}:\n  " + "\n  ".join(bad)
+
+
+def test_imports_inside_functions_defer_something():
+    """An import inside a function defers an expensive module (numba's kernels and the
+    registries, pandas, matplotlib, scipy, jinja2); a LIGHT one goes at the top."""
+    bad = [f"{MODULES[a][0].relative_to(ROOT)}:{line} imports {b} inside a function"
+           for a, targets in _checked(GRAPH).items() if a not in DEFER_ALL
+           for b, where in targets.items() if b in LIGHT
+           for line, top in where if not top]
+    assert not bad, "\n".join(bad)
 
 
 def test_the_layers_are_written_down():
