@@ -22,6 +22,15 @@ field of view.
 Kidnapping: at each step in ``kidnap_steps`` the robot is put, after its move, at a pose drawn
 uniformly over the field (or the next of ``kidnap_poses``), and told nothing: the odometry of that
 step is the commanded move as always.
+
+The world (area, beacons, start pose, waypoints) is a world file (scenarios.worlds); the model
+(FieldModel) and its simulator live in pfbench.models.field. Another beacon world is a world file
+and a scenario module of a few lines that takes this module's resolve, build and simulate and
+its own defaults:
+
+    from pfbench.scenarios.beacon_field import build, resolve, schema, simulate
+    NAME, KIND, DESCRIPTION = "beacon_hall", "localization", "a hall with four beacons"
+    SCHEMA = schema(world="worlds/beacon_hall.yaml", steps=120, sensor="range_bearing")
 """
 from __future__ import annotations
 
@@ -142,7 +151,6 @@ def build(p) -> FieldModel:
                   p["start"][2] * DEG, p["initial_std_m"], p["initial_std_deg"] * DEG]),
         int(p["score_from"]),
         int(p["report_step"]), int(p["converge_hold_steps"]))
-
 
 
 def schema(**defaults) -> dict:
