@@ -1,14 +1,5 @@
 """pfbench: reproduce the tables of particle-filter papers for mobile robots."""
-from importlib.metadata import PackageNotFoundError, version as _version
-
-try:
-    __version__ = _version("pfbench")
-except PackageNotFoundError:  # running from a source tree that is not installed
-    __version__ = "0.1.0+src"
-
-from . import _cache
-
-CACHE_DIR = _cache.configure(__version__)
+from .version import CACHE_DIR, __version__
 
 _API = ("Result", "load_results", "run_experiment", "run_until_decided")
 

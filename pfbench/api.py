@@ -22,7 +22,11 @@ from typing import Any, Callable, Iterable, Mapping
 import pandas as pd
 
 from .errors import UserError
-from .fsutil import require_regular
+from .fsutil import FolderLock, recover_aside, require_regular
+from .outputs import anytime_of, check_figure_format  # noqa: F401  (this module's API)
+from .outputs import write_experiment
+from .progress import shown
+from .schema import ConfigError, describe
 
 __all__ = ["Result", "load_results", "run_experiment", "run_until_decided"]
 
@@ -73,7 +77,6 @@ def _int(v):
 
 
 def _describe(v) -> str:
-    from .schema import describe
     return describe(v)
 
 
@@ -142,7 +145,6 @@ def _overrides(fn: str, overrides) -> tuple[str, ...]:
 
 def _experiment(config, trials, seed, overrides):
     from .config import Experiment, apply_override, load, validate
-    from .schema import ConfigError, describe
     if isinstance(config, Experiment):          # validated already (the CLI's)
         if trials is not None or seed is not None or tuple(overrides):
             raise UserError("trials, seed and overrides go with a config file or mapping")
@@ -185,14 +187,6 @@ def out_folder(out, what: str = "out") -> Path | None:
     if folder.exists() and not folder.is_dir():
         raise UserError(f"{what} {folder}: exists and is not a folder")
     return folder
-
-
-def check_figure_format(fmt, what: str = "figure_format") -> str:
-    """``fmt`` when it is a figure format pfbench draws (png, svg, pdf), else a UserError."""
-    from .figstyle import FORMATS
-    if not isinstance(fmt, str) or fmt not in FORMATS:
-        raise UserError(f"{what} {fmt}: one of {', '.join(FORMATS)}")
-    return fmt
 
 
 def _missing_figures(exp, res, folder: Path, fmt: str) -> bool:
@@ -251,7 +245,6 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
                 figure_format=(figure_format, _FORMAT))
     overrides = _overrides(fn, overrides)
     trials, seed, workers = _int(trials), _int(seed), int(workers)
-    from .progress import shown
     from .runner import LocalExecutor
     out = out_folder(out)
     check_figure_format(figure_format)
@@ -268,8 +261,6 @@ def _run(exp, workers, out, resume, figures, executor, progress, warn, force,
     from .runner import run_experiment as run_into, versions
     from .store import trial_columns
     if out is not None:
-        from .fsutil import FolderLock, recover_aside
-        from .regen import write_experiment
         recover_aside(out, out.parent, warn, clean=False)   # a replace killed half-way
         with FolderLock(out, "out"):
             res = run_into(exp, out, workers=workers, resume=resume, progress=progress,
@@ -301,13 +292,6 @@ def _run(exp, workers, out, resume, figures, executor, progress, warn, force,
            "wall_s": round(time.perf_counter() - t0, 3)}
     cmp = compare(exp, rows)
     return Result(_frame(rows, trial_columns(exp)), cmp.table, meta, exp, None, cmp, run=run)
-
-
-def anytime_of(meta: dict | None) -> int | None:
-    """The most trials a run until decided could reach (its confidence sequences are tuned for
-    it), from a results folder's meta; None for a run of a fixed trial count."""
-    until = (meta or {}).get("until_decided")
-    return int(until["max_trials"]) if isinstance(until, dict) and "max_trials" in until else None
 
 
 def undecided(cmp) -> list[int | None]:
@@ -371,7 +355,6 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
     overrides = _overrides(fn, overrides)
     trials, seed, workers = _int(trials), _int(seed), int(workers)
     max_trials = _int(max_trials)
-    from .fsutil import FolderLock, recover_aside
     folder = out_folder(out)
     if folder is None:
         raise UserError("out: a run until decided needs a results folder, got None")
@@ -379,7 +362,6 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
     first = _experiment(config, trials, seed, overrides)
     batch, most = first.trials, until_decided_budget(first, max_trials)
     recover_aside(folder, folder.parent, warn, clean=False)
-    from .progress import shown
     from .runner import LocalExecutor
     executor = executor or LocalExecutor(workers)
     with FolderLock(folder, "out"), shown(progress, executor) as progress:
@@ -390,7 +372,6 @@ def run_until_decided(config: str | Path | Mapping, *, out: str | Path,
 def _until_decided(first, folder, batch, most, workers, resume, figures, executor, progress,
                    warn, on_look, force, figure_format) -> Result:
     from .compare import compare
-    from .regen import write_experiment
     from .runner import RUN_TIMINGS, run_experiment as run_into
     from .store import trial_columns, write_json
     n, looks, ran, wall = batch, [], 0, 0.0

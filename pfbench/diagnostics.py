@@ -23,40 +23,10 @@ returns that were not asked for, so that what an experiment holds never depends 
 """
 from __future__ import annotations
 
-import enum
 from dataclasses import dataclass, field
 
-
-class Diag(enum.IntFlag):
-    """The per-step diagnostics a filter run is asked for (flags; 0: none)."""
-    NONE = 0
-    DISTINCT = 1        # distinct_frac: output 'distinct'
-    DIVERSITY = 2       # diversity_l1: output 'div_l1'
-    MAP_TRACE = 4       # lm_trace (SLAM): output 'lm_trace'
-
-
-ALL = Diag.DISTINCT | Diag.DIVERSITY | Diag.MAP_TRACE
-
-# name (a metric column, or the SLAM output lm_trace) -> (flag, the filter output holding it)
-NAMES = {"distinct_frac": (Diag.DISTINCT, "distinct"),
-         "diversity_l1": (Diag.DIVERSITY, "div_l1"),
-         "lm_trace": (Diag.MAP_TRACE, "lm_trace")}
-
-# What the ``diagnostics`` config key takes besides a list of NAMES.
-KEY_WORDS = ("auto", "all")
-
-
-def flags(diag) -> Diag:
-    """A filter's ``diag`` argument as flags: True (the older boolean form) asks for every
-    diagnostic, False for none, an int for its flags."""
-    if isinstance(diag, bool) or diag is None:
-        return ALL if diag else Diag.NONE
-    return Diag(int(diag) & int(ALL))
-
-
-def outputs_of(names) -> set[str]:
-    """The filter outputs that hold the diagnostics ``names``."""
-    return {NAMES[n][1] for n in names}
+from .diag import ALL, KEY_WORDS, NAMES, Diag, flags, outputs_of  # noqa: F401  (this module's API)
+from .kinds import kind_of
 
 
 @dataclass(frozen=True)
@@ -100,7 +70,6 @@ KEY_REASON = "the config's diagnostics key"
 
 def plan(exp) -> Plan:
     """The diagnostics experiment ``exp`` computes, and why (see the module)."""
-    from .kinds import kind_of
     kind = kind_of(exp.scenario)
     have = kind.diagnostics
     why: dict[str, list[str]] = {}

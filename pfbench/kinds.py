@@ -33,8 +33,10 @@ from typing import Callable
 
 import numpy as np
 
+from .diag import NAMES as DIAGNOSTIC_NAMES
 from .metrics import (CONVERGE_HOLD_STEPS, METRICS, localization_metrics, slam_metrics,
                       trial_metrics)
+from .protocols import KIND_NAMES
 from .traces import LocalizationTracer, SlamTracer
 
 # The columns every trials file starts and ends with; a kind's metrics go between. A trial row
@@ -89,9 +91,8 @@ class Kind:
         unknown = [m for m in self.metrics if m not in METRICS]
         if unknown:
             raise ValueError(f"kind {self.name}: no metric {unknown[0]}")
-        from .diagnostics import NAMES
         unknown = [d for d in self.diagnostics + self.figure_diagnostics
-                   if d not in NAMES or d not in self.diagnostics]
+                   if d not in DIAGNOSTIC_NAMES or d not in self.diagnostics]
         if unknown:
             raise ValueError(f"kind {self.name}: no diagnostic {unknown[0]}")
         # the metrics in METRICS' order, so that every file of a kind has one column order
@@ -242,9 +243,11 @@ LOCALIZATION = Kind(
     outputs=_localization_outputs)
 
 KINDS = {k.name: k for k in (SCALAR, SLAM, LOCALIZATION)}
+# the names the plug-in checks know (pfbench.protocols, below the registries this module reads)
+assert tuple(KINDS) == KIND_NAMES, "pfbench.protocols.KIND_NAMES must name every kind"
 
 
 def kind_of(scenario: str) -> Kind:
     """The kind of the registered scenario ``scenario``."""
-    from .scenarios import SCENARIOS
+    from .scenarios import SCENARIOS    # the registry: every scenario and filter, numba's types
     return KINDS[SCENARIOS[scenario].KIND]

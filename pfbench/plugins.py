@@ -24,6 +24,9 @@ import functools
 from importlib.metadata import entry_points
 from typing import Any, Callable
 
+from .protocols import FILTER_COMMON, KIND_NAMES, NEEDS, SCENARIO_NEEDS, FilterType
+from .schema import Key
+
 FILTER_GROUP = "pfbench.filters"
 SCENARIO_GROUP = "pfbench.scenarios"
 
@@ -104,17 +107,14 @@ def problem_for(group: str, name: str) -> str | None:
 
 def check_filter(name: str, obj: Any) -> str | None:
     """Why ``obj`` cannot be the filter type ``name``, or None."""
-    from .filters.types import FILTER_COMMON, NEEDS, FilterType
-    from .kinds import KINDS
-    from .schema import Key
     if not isinstance(obj, FilterType):
         return f"expected a pfbench.filters.FilterType, got {type(obj).__name__}"
     if obj.name != name:
         return f"its FilterType is named '{obj.name}', the entry point '{name}'"
     if not callable(obj.run):
         return "its run is not callable"
-    if obj.kind not in KINDS:
-        return f"its kind '{obj.kind}' is not one of {', '.join(KINDS)}"
+    if obj.kind not in KIND_NAMES:
+        return f"its kind '{obj.kind}' is not one of {', '.join(KIND_NAMES)}"
     if not isinstance(obj.schema, dict) or not all(isinstance(k, Key) for k in obj.schema.values()):
         return "its schema is not a mapping of key name -> pfbench.schema.Key"
     undocumented = [k for k, key in obj.schema.items() if not key.doc]
@@ -134,20 +134,15 @@ def check_filter(name: str, obj: Any) -> str | None:
     return None
 
 
-SCENARIO_NEEDS = ("NAME", "KIND", "DESCRIPTION", "SCHEMA", "build", "simulate")
-
-
 def check_scenario(name: str, obj: Any) -> str | None:
     """Why ``obj`` cannot be the scenario ``name``, or None."""
-    from .kinds import KINDS
-    from .schema import Key
     missing = [a for a in SCENARIO_NEEDS if not hasattr(obj, a)]
     if missing:
         return f"it has no {', '.join(missing)}"
     if obj.NAME != name:
         return f"its NAME is '{obj.NAME}', the entry point '{name}'"
-    if obj.KIND not in KINDS:
-        return f"its KIND '{obj.KIND}' is not one of {', '.join(KINDS)}"
+    if obj.KIND not in KIND_NAMES:
+        return f"its KIND '{obj.KIND}' is not one of {', '.join(KIND_NAMES)}"
     if not callable(obj.build) or not callable(obj.simulate):
         return "build and simulate must be callables"
     if not isinstance(obj.SCHEMA, dict) or not all(isinstance(k, Key) for k in obj.SCHEMA.values()):
@@ -155,7 +150,6 @@ def check_scenario(name: str, obj: Any) -> str | None:
     if "name" in obj.SCHEMA:
         return "its SCHEMA declares 'name', the key that names the scenario"
     provides = getattr(obj, "PROVIDES", ())
-    from .filters.types import NEEDS
     if not isinstance(provides, tuple) or any(p not in NEEDS for p in provides):
         return f"its PROVIDES {provides!r} is not a tuple of {', '.join(NEEDS)}"
     return None

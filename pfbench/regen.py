@@ -33,7 +33,11 @@ from .errors import UserError
 from .metrics import METRICS
 from .fsutil import FolderLock, child, own_folder, recover_aside, remove_tree, replace_tree
 from .runner import LocalExecutor, keep_provenance, run_experiment
-from .store import TIMING_COLUMNS, write_csv
+from . import sweep as sw
+from .api import run_until_decided
+from .outputs import check_figure_format
+from .outputs import write_experiment, write_sweep  # noqa: F401  (this module's API)
+from .store import TIMING_COLUMNS, read_results, trial_columns
 
 Z_DEFAULT = 4.0
 
@@ -55,62 +59,8 @@ def is_sweep(path: Path) -> bool:
     return isinstance(raw, dict) and "sweep" in raw
 
 
-def write_experiment(exp, res, folder: Path, figures: bool = True,
-                     figure_format: str = "png") -> tuple:
-    """The comparison (table.csv / table.md) and figures of a finished run; returns (comparison,
-    figure paths)."""
-    from . import tables
-    from .api import anytime_of, check_figure_format
-    from .tablecache import cached_compare
-    if figures:
-        check_figure_format(figure_format)
-        own_folder(Path(folder) / "figures", folder, "figures folder")
-    cmp = cached_compare(exp, res.rows, anytime=anytime_of(res.meta))
-    tables.write(cmp, folder, res.meta)
-    paths = []
-    if figures:
-        from .plots import write_figures
-        paths = write_figures(exp, res.rows, folder, figure_format, cmp.table)
-    return cmp, paths
-
-
-def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: str,
-                figures: bool = True, figure_format: str = "png", exp=None,
-                missing_only: bool = False) -> tuple:
-    """summary.csv and the figures of a finished sweep (``exp``: a cell's experiment, whose
-    metrics the figures draw); returns (summary, figure paths). ``missing_only`` (an up-to-date
-    sweep): the figures are drawn only when one is missing, as an up-to-date run's."""
-    from . import sweep as sw
-    from .api import check_figure_format
-    if figures:
-        check_figure_format(figure_format)
-        own_folder(Path(folder) / "figures", folder, "figures folder")
-    summ = sw.summary(trials_df, keys)
-    write_csv(folder / "summary.csv", summ)
-    if not figures:
-        return summ, []
-    from .figstyle import prune
-    from .kinds import kind_of
-    from .plots import sweep_figures, sweep_metrics
-    if missing_only:
-        which = sweep_metrics(exp) if exp else ["rmse"]
-        want = [folder / "figures" / f"{m}.{figure_format}" for m in which
-                if f"{m}_mean" in summ and not summ[f"{m}_mean"].isna().all()]
-        if want and all(p.is_file() for p in want):
-            return summ, want
-    paths = sweep_figures(summ, keys, folder, name, sweep_metrics(exp) if exp else None,
-                          fmt=figure_format, unit=kind_of(exp.scenario).unit if exp else "")
-    prune(folder / "figures", paths)
-    if "wall_s" in trials_df and trials_df["wall_s"].notna().any():
-        # the run times: beside the timings file, never in figures/ (they depend on the machine)
-        sweep_figures(sw.summary(trials_df, keys, ("wall_s",)), keys, folder, name,
-                      ["wall_s"], folder / f"timings.{figure_format}", figure_format)
-    return summ, paths
-
-
 def experiment_name(path: Path, trials: int | None = None) -> str:
     """The name of a config's experiment (a sweep's too): its folder under the results."""
-    from . import sweep as sw
     if is_sweep(path):
         return sw.expand(path, {}, {"trials": trials})[0]
     return load(path, {"trials": trials}).name
@@ -185,14 +135,12 @@ def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int |
     The run goes to a staging folder beside it (``.<name>.partial``) that replaces the old folder
     only when everything is written, so an error or Ctrl-C leaves the committed results as they
     were; ``resume`` keeps the staging folder's finished trials."""
-    from . import sweep as sw
     sweep = is_sweep(path)
     if sweep:
         name, cells = sw.expand(path, {}, {"trials": trials})
     else:
         exp = load(path, {"trials": trials})
         name = exp.name
-    from .api import check_figure_format
     if figures:
         check_figure_format(figure_format)
     results = Path(results)
@@ -210,7 +158,6 @@ def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int |
                 write_sweep(df, list(cells[0].values), stage, name, figures, figure_format,
                             cells[0].exp)
             elif until_decided and exp.reported is not None:
-                from .api import run_until_decided
                 run_until_decided(exp, out=stage, max_trials=max_trials, resume=resume,
                                   figures=figures, executor=executor, progress=progress,
                                   figure_format=figure_format)
@@ -226,7 +173,6 @@ def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int |
 
 def total_trials(path: Path, trials: int | None = None) -> int:
     """Trials a regeneration of the config runs (over all cells of a sweep)."""
-    from . import sweep as sw
     if is_sweep(path):
         return sum(c.exp.trials for c in sw.expand(path, {}, {"trials": trials})[1])
     return load(path, {"trials": trials}).trials
@@ -311,7 +257,6 @@ def _committed(folder: Path, exp) -> pd.DataFrame:
     if not path.exists():
         raise UserError(f"{path}: no committed trials to check against; run 'pfbench tables' "
                         "first")
-    from .store import read_results, trial_columns
     # checked: every row's checksum, and the trials and filter runs its meta.json records
     df = pd.DataFrame(read_results(folder)[1].rows)
     missing = [m for m in trial_columns(exp) if m not in df.columns]
@@ -323,7 +268,6 @@ def _committed(folder: Path, exp) -> pd.DataFrame:
 
 def check_trials(path: Path) -> int:
     """Trials a check of the config re-runs (over all cells of a sweep); validates it."""
-    from . import sweep as sw
     if is_sweep(path):
         return sum(min(c.exp.check["trials"], c.exp.trials)
                    for c in sw.expand(path, {}, {})[1])
@@ -335,7 +279,6 @@ def check_config(path: Path, results: Path, executor: LocalExecutor, z: float = 
                  progress: Callable[[int, int], None] | None = None) -> CheckResult:
     """Re-run the first check.trials trials of a config and compare them with results/<name>;
     ``progress(done, total)`` is called as trials finish (over every cell of a sweep)."""
-    from . import sweep as sw
     progress = progress or (lambda done, total: None)
     with tempfile.TemporaryDirectory(prefix="pfbench-check-") as tmp:
         if is_sweep(path):

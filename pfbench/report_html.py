@@ -20,8 +20,9 @@ from types import SimpleNamespace
 import jinja2
 from markupsafe import Markup, escape
 
-from . import __version__
-from . import report as rp
+from .fsutil import FolderLock, atomic_write, make_folders, own_folder
+from .version import __version__
+from . import report_data as rp
 from . import tables as tb
 from .verdicts import DEFINITIONS
 
@@ -338,7 +339,6 @@ def write(configs: Path, results: Path, check: bool = False, figures: bool = Tru
     and figures it held, no other file), or with ``check`` compare (see differences); return
     (its index, the files that differ from what the folder held). Writing into the results
     folder holds its lock (not while 'pfbench tables' rewrites the results)."""
-    from .fsutil import FolderLock, own_folder
     out_dir = Path(out_dir) if out_dir is not None else Path(results) / "report"
     files = build(Path(configs), Path(results), out_dir, figures)
     differ = differences(out_dir, files, check)
@@ -354,7 +354,6 @@ def replace(out_dir: Path, files: dict[str, bytes]) -> None:
     """Make ``out_dir`` hold ``files`` and none of the report's other pages and figures (only
     what changed is rewritten; files the report does not write are left alone; no link is
     followed)."""
-    from .fsutil import atomic_write, make_folders, own_folder
     out_dir = Path(out_dir)
     held = _held(out_dir)
     for name in set(held) - set(files):

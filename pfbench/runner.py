@@ -30,20 +30,25 @@ from typing import Callable, Iterable, Mapping, NamedTuple
 
 import numpy as np
 
-from . import __version__
+from ._lazy import LazyKernel
+from .version import __version__
 from .config import FORMAT_VERSION, Experiment, Params
 from .diagnostics import NAMES as DIAGNOSTIC_NAMES
 from .diagnostics import Diag
 from .diagnostics import flags as diag_flags
 from .diagnostics import plan as plan_diagnostics
 from .errors import UserError
-from .fsutil import FolderLock, close_inherited_locks, require_regular
+from .fsutil import FolderLock, remove_tree, require_regular
 from .filters import FILTERS, LOAD_SECONDS
 from .kinds import check_outputs, kind_of
 from .plugins import FILTER_GROUP, SCENARIO_GROUP
+from .precompile import compile_ahead, uncompiled  # noqa: F401  (uncompiled: this module's API)
 from .rng import state_from_seed
 from .scenarios import SCENARIOS
 from .seeding import run_seed
+from .workers import WorkerDied, Workers
+from .workers import in_worker as _in_process
+from .workers import quiet_worker
 from .store import (TIMINGS, TIMINGS_PARTIAL, atomic_write, clear_staged_traces,
                     complete_trials, csv_text, finish_traces, read_staged_traces, read_timings,
                     read_traces, read_trials, stage_trace, timings_text, trial_columns,
@@ -351,7 +356,6 @@ def _kernels() -> list:
     imported in this process (found once)."""
     global _KERNELS
     if _KERNELS is None:
-        from ._lazy import LazyKernel
         _KERNELS = [((name, attr), v) for name, mod in list(sys.modules.items())
                     if mod is not None and (name == "pfbench" or name.startswith("pfbench."))
                     for attr, v in list(vars(mod).items()) if isinstance(v, LazyKernel)]
@@ -412,8 +416,7 @@ def _worker_init(now=None, pids=None, slot: int = 0):
     slot runs (_NOW), which the parent reads to say what was running; ``pids``: the worker's
     process id per slot; ``slot``: this worker's."""
     global _NOW
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    close_inherited_locks()
+    quiet_worker()
     if now is not None:
         pids[slot] = os.getpid()
         _NOW = (now, 2 * slot)
@@ -500,13 +503,6 @@ def _count(trials) -> int:
     return len(trials) if hasattr(trials, "__len__") else -1
 
 
-def _in_process() -> bool:
-    """Whether trials must run in this process: a daemonic process (a pool worker) may start
-    none."""
-    import multiprocessing as mp
-    return mp.current_process().daemon
-
-
 def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | None = None,
             traces: bool = False, running: list | None = None) -> Iterable[list[Trial]]:
     """Yield chunks of ``trials`` as they finish, each a list of Trial (with its trace where
@@ -533,15 +529,13 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
             yield _run_chunk(exp, [k], traces)
         return
     units = Units(exp, trials, count, workers)
-    from .precompile import compile_ahead
-    compile_ahead(exp)
+    compile_ahead(exp, trial_result)
     _preload()
     import multiprocessing as mp
     now, pids = mp.RawArray("q", [-1] * (2 * workers)), mp.RawArray("q", [0] * workers)
     if running is not None:
         running.append(lambda: [tuple(now[i:i + 2]) for i in range(0, len(now), 2)])
     from .tablecache import import_ahead, settle
-    from .workers import WorkerDied, Workers
     settle()                        # no fork while a thread of this process imports
     with Workers(workers, partial(_run_chunk_in_worker, exp, traces=traces),
                  setup=_worker_init, setup_args=(now, pids)) as pool:
@@ -812,22 +806,6 @@ class RunResult:
     run: dict | None = None     # timings.json: this run's wall time, workers, start and end
 
 
-def uncompiled(exp: Experiment) -> list[str]:
-    """The names of the experiment's filter types (and its scenario) whose kernels the numba
-    cache does not hold yet: they compile when the first trial uses them (pfbench._lazy)."""
-    from . import CACHE_DIR, _cache
-    index = Path(CACHE_DIR) / "pfbench"
-    have = ({p.name.split(".")[0] for p in index.rglob("*.nbi")}
-            if _cache.ENABLED and index.is_dir() else set())
-    out = []
-    for what, obj in ([(f.type, FILTERS[f.type].run) for f in exp.filters]
-                      + [(exp.scenario, getattr(SCENARIOS[exp.scenario], "simulate", None))]):
-        module = getattr(obj, "__module__", "") or ""
-        if module.startswith("pfbench.") and module.rsplit(".", 1)[-1] not in have:
-            out.append(what)
-    return list(dict.fromkeys(out))
-
-
 def difference(old: dict, exp: Experiment) -> str:
     """What tells the experiment of a folder's stamp ``old`` (meta.json or run.json) from
     ``exp``, in a few words ('seed 2021 -> 5; scenario.steps 100 -> 60')."""
@@ -920,7 +898,6 @@ def _check_folder(exp: Experiment, out_dir: Path, resume: bool, force: bool,
     if force:
         if _holds_sweep(out_dir):
             # a sweep's results give way to this run's: its cells and summary go
-            from .fsutil import remove_tree
             remove_tree(out_dir / "cells", out_dir)
             (out_dir / "summary.csv").unlink(missing_ok=True)
         return resume, None

@@ -37,8 +37,10 @@ import numpy as np
 from .config import Experiment
 from .errors import UserError
 from .fsutil import atomic_write, is_regular, remove_tree, require_regular
+from .schema import describe
+from .version import __version__
 from .kinds import END_COLUMNS, ID_COLUMNS, kind_of
-from .metrics import METRICS
+from .metrics import METRICS, summarize
 
 __all__ = ["META", "check_meta", "check_trials", "read_meta", "read_results", "read_sweep",
            "trials_digest",
@@ -376,7 +378,6 @@ def check_meta(meta, path: Path) -> dict:
     pfbench reads; a one-line UserError naming the file and the key otherwise. A folder of a
     newer results format than this pfbench's is refused, with the version that wrote it."""
     from .config import FORMAT_VERSION
-    from .schema import describe
     if not isinstance(meta, dict):
         raise UserError(f"{path}: expected a mapping of keys, got {describe(meta)}")
     fmt = meta.get("format")
@@ -384,7 +385,6 @@ def check_meta(meta, path: Path) -> dict:
         v = meta.get("versions")
         who = v.get("pfbench") if isinstance(v, dict) else None
         by = f"pfbench {who}" if isinstance(who, str) else "a newer pfbench"
-        from . import __version__
         raise UserError(f"{path}: written by {by} in results format {fmt}; this pfbench "
                         f"({__version__}) reads formats up to {FORMAT_VERSION}: upgrade pfbench "
                         "to read it")
@@ -561,9 +561,8 @@ def read_sweep(folder: Path):
         raise UserError(f"{spath}: missing (not a finished pfbench sweep)") from None
     except (OSError, UnicodeDecodeError, ValueError) as exc:
         raise UserError(f"{spath}: unreadable ({str(exc).splitlines()[0]})") from None
-    from .sweep import summary as summarise
     keys = list(header[:k])
-    again = summarise(trials.drop(columns=["crc"]), keys)
+    again = sweep_summary(trials.drop(columns=["crc"]), keys)
     if not _same_frame(summary, again):
         raise UserError(f"{spath}: does not match the summary of {path.name} (an edited or "
                         "stale file); run the sweep again")
@@ -589,3 +588,25 @@ def _same_frame(a, b) -> bool:
         elif list(x.astype(str)) != list(y.astype(str)):
             return False
     return True
+
+
+def sweep_summary(trials, keys: list[str],
+                  metrics: tuple[str, ...] | None = None):
+    """Mean and 95% interval of each of ``metrics`` (default: every metric of pfbench.metrics the
+    trials hold) per cell and filter run (the run time ``wall_s`` only when asked: summary.csv
+    holds what the seed determines). A pandas DataFrame: summary.csv, which pfbench.sweep
+    writes and read_sweep checks."""
+    import pandas as pd
+    if metrics is None:
+        metrics = tuple(m for m in METRICS if m in trials)
+    out = []
+    for vals, g in trials.groupby(keys + ["filter", "label"], sort=False, dropna=False):
+        r = dict(zip(keys + ["filter", "label"], vals))
+        r["particles"] = g["particles"].iloc[0]
+        r["trials"] = len(g)
+        for m in metrics:
+            if m in g and pd.to_numeric(g[m], errors="coerce").notna().any():
+                s = summarize(g[m])
+                r[f"{m}_mean"], r[f"{m}_ci_lo"], r[f"{m}_ci_hi"] = s["mean"], s["ci_lo"], s["ci_hi"]
+        out.append(r)
+    return pd.DataFrame(out)

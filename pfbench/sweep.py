@@ -23,9 +23,9 @@ import pandas as pd
 from .config import Experiment, apply_override, locate, read_yaml, validate
 from .errors import UserError
 from .fsutil import FolderLock, own_folder
-from .metrics import METRICS, summarize
 from .runner import run_experiment
 from .store import TIMINGS, write_csv
+from .store import sweep_summary as summary  # noqa: F401  (this module's API)
 from .schema import ConfigError
 from .yamlio import parse_yaml
 
@@ -204,23 +204,3 @@ def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: boo
         write_csv(out_dir / TIMINGS, trials[keys + ["trial", "filter", "wall_s"]])
     trials.attrs["up_to_date"] = fresh      # every cell held its trials: nothing ran
     return trials
-
-
-def summary(trials: pd.DataFrame, keys: list[str],
-            metrics: tuple[str, ...] | None = None) -> pd.DataFrame:
-    """Mean and 95% interval of each of ``metrics`` (default: every metric of pfbench.metrics the
-    trials hold) per cell and filter run (the run time ``wall_s`` only when asked: summary.csv
-    holds what the seed determines)."""
-    if metrics is None:
-        metrics = tuple(m for m in METRICS if m in trials)
-    out = []
-    for vals, g in trials.groupby(keys + ["filter", "label"], sort=False, dropna=False):
-        r = dict(zip(keys + ["filter", "label"], vals))
-        r["particles"] = g["particles"].iloc[0]
-        r["trials"] = len(g)
-        for m in metrics:
-            if m in g and pd.to_numeric(g[m], errors="coerce").notna().any():
-                s = summarize(g[m])
-                r[f"{m}_mean"], r[f"{m}_ci_lo"], r[f"{m}_ci_hi"] = s["mean"], s["ci_lo"], s["ci_hi"]
-        out.append(r)
-    return pd.DataFrame(out)

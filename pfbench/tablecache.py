@@ -23,6 +23,9 @@ import tempfile
 from dataclasses import replace
 from pathlib import Path
 
+from ._cache import sources_hash
+from .version import CACHE_DIR
+
 KEEP = 256
 _CODE: str | None = None
 
@@ -36,7 +39,6 @@ def _code_digest() -> str:
         import pandas
         import scipy
 
-        from ._cache import sources_hash
         h = sources_hash()
         h.update(f"{sys.version}|{numpy.__version__}|{scipy.__version__}|"
                  f"{pandas.__version__}".encode())
@@ -58,7 +60,6 @@ def key(exp, rows, anytime) -> str:
 
 def folder() -> Path | None:
     """The cache's folder (None: no kernel cache folder, so no cache)."""
-    from . import CACHE_DIR
     if not str(CACHE_DIR):
         return None
     return Path(CACHE_DIR).parent / "pfbench-tables"

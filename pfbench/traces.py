@@ -112,7 +112,7 @@ class LocalizationTracer:
     def extras(self, exp, model, data, trial: int) -> dict:
         if trial >= SNAPSHOT_TRIALS:
             return {}
-        from .filters import FILTERS
+        from .filters import FILTERS     # the registry: numba and every kernel module, on demand
         steps = snapshot_steps(data.ctrl.shape[0], model.kidnaps)
         return {r.key: {"snapshots": steps} for r in snapshot_runs(exp)
                 if FILTERS[r.type].snapshots}

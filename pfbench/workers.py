@@ -15,8 +15,11 @@ Which work goes to which worker is the caller's choice (``send``): this module o
 from __future__ import annotations
 
 import multiprocessing as mp
+import signal
 from multiprocessing.connection import wait
 from typing import Any, Callable
+
+from .fsutil import close_inherited_locks
 
 
 class WorkerDied(Exception):
@@ -145,3 +148,15 @@ class Workers:
 
     def __exit__(self, *exc):
         self.stop()
+
+
+def in_worker() -> bool:
+    """Whether this process is a worker (a daemonic process), which may start none."""
+    return mp.current_process().daemon
+
+
+def quiet_worker(*_args) -> None:
+    """A worker's setup: it leaves Ctrl-C to its parent, which stops it, and closes the parent's
+    folder locks (the parent keeps them)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    close_inherited_locks()

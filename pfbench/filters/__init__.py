@@ -1,7 +1,7 @@
 """Filter registry. Each filter family declares its types in its own module, beside its kernel:
 name, the scenario kind it runs on, its keys (schema), rules across keys, and ``run``
-(``pfbench.filters.types.FilterType``). pfbench's own register through the entry-point group
-``pfbench.filters``, as a plug-in's do (pyproject.toml)."""
+(``pfbench.filters.FilterType``, defined in pfbench.protocols). pfbench's own register through
+the entry-point group ``pfbench.filters``, as a plug-in's do (pyproject.toml)."""
 from __future__ import annotations
 
 import time
@@ -9,7 +9,8 @@ import time
 _t0 = time.perf_counter()
 
 from . import ekf, fastslam, kalman, mcl, pf, sspf_field, swarm_pf, ukf, upf  # noqa: E402
-from .types import FilterType  # noqa: E402,F401  (part of this package's API)
+from ..plugins import FILTER_GROUP, check_filter, discover  # noqa: E402
+from ..protocols import FilterType  # noqa: E402,F401  (part of this package's API)
 
 # Seconds spent importing the kernels: numba compiles them here (first run) or loads them from the
 # disk cache. Reported in meta.json as kernel_load_s, apart from the trials' wall time.
@@ -26,6 +27,4 @@ BUILTIN = {f.name: f for f in (
     ekf.EKF, kalman.KF)}
 
 # Every filter type: pfbench's own and the plug-ins', found through entry points.
-from ..plugins import FILTER_GROUP, check_filter, discover  # noqa: E402
-
 FILTERS = discover(FILTER_GROUP, check_filter, BUILTIN)

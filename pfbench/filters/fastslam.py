@@ -29,7 +29,7 @@ from ..rng import STATE, normal
 from ..schema import Key
 from ._common import (DIAG_DISTINCT, DIAG_DIVERSITY, DIAG_MAP_TRACE, drop_unasked,
                       normalise)
-from ..diagnostics import flags
+from ..diag import flags
 from .keys import ewa_keys, pf_keys
 from .swarm import (AFSA, ALGORITHMS, BA, FA, IFA, NO_SWARM, afsa_centres, afsa_propose,
                     afsa_select, argmax, ba_accept, ba_propose, fa_move, ifa_move, keys, pack,

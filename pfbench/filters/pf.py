@@ -17,7 +17,7 @@ from ..rng import STATE
 from ..models.scalar import ModelFn, add_process_noise
 from ._common import (DIAG_DISTINCT, drop_unasked, floored, mh_move, resampled_step, start,
                       weigh_lanes)
-from ..diagnostics import flags
+from ..diag import flags
 from .keys import pf_keys
 from .types import FilterType
 

@@ -21,7 +21,7 @@ from ..rng import STATE, normal
 from ..schema import Key
 from ..models.scalar import NOISE_GAUSSIAN, ModelFn, add_process_noise
 from ._common import DIAG_DISTINCT, drop_unasked, resampled_step, start, weigh_lanes
-from ..diagnostics import flags
+from ..diag import flags
 from .keys import ewa_keys, pf_keys
 from .swarm import (ALGORITHMS, BA, FA, IFA, PSO, afsa_centres, afsa_propose, afsa_select, argmax,
                     ba_accept, ba_propose, fa_move, ifa_move, keys, pack, pso_accept, pso_propose)

@@ -25,7 +25,7 @@ from ..resampling import SCHEME_CODES, SCHEMES, resample
 from ..rng import STATE, normal, uniform
 from ..models.scalar import ModelFn, process_logpdf
 from ._common import DIAG_DISTINCT, drop_unasked, floored, resampled_step, start, weigh
-from ..diagnostics import flags
+from ..diag import flags
 from .ekf import noise_moments
 from .pf import log_floor
 from .keys import floor_key, gaussian_noise_keys, pf_keys, sigma_check, sigma_keys

@@ -4,6 +4,7 @@ resolve(params, base_dir) -> params (load files the scenario names, at validatio
 from . import beacon_field, landmark_world, linear_gaussian, ungm, upf_gamma, waypoint_course
 
 from ..plugins import SCENARIO_GROUP, check_scenario, discover
+from ..protocols import register_scenarios
 
 # pfbench's own scenarios: each module is an entry point of group pfbench.scenarios
 # (pyproject.toml), as a plug-in's scenario is.
@@ -12,3 +13,4 @@ BUILTIN = {m.NAME: m for m in (ungm, upf_gamma, linear_gaussian, waypoint_course
 
 # Every scenario: pfbench's own and the plug-ins', found through entry points.
 SCENARIOS = discover(SCENARIO_GROUP, check_scenario, BUILTIN)
+register_scenarios(SCENARIOS)

@@ -22,23 +22,27 @@ field of view.
 Kidnapping: at each step in ``kidnap_steps`` the robot is put, after its move, at a pose drawn
 uniformly over the field (or the next of ``kidnap_poses``), and told nothing: the odometry of that
 step is the commanded move as always.
+
+The world (area, beacons, start pose, waypoints) is a world file (scenarios.worlds); the model
+(FieldModel) and its simulator live in pfbench.models.field. Another beacon world is a world file
+and a scenario module of a few lines that takes this module's resolve, build and simulate and
+its own defaults:
+
+    from pfbench.scenarios.beacon_field import build, resolve, schema, simulate
+    NAME, KIND, DESCRIPTION = "beacon_hall", "localization", "a hall with four beacons"
+    SCHEMA = schema(world="worlds/beacon_hall.yaml", steps=120, sensor="range_bearing")
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-from numba import types
-from .._lazy import kernel
 
-from ..angles import wrap
-from ..rng import STATE, uniform
-from ..models.beacons import sense_beacons
-from ..models.odometry import noisy_odometry
+from ..models.field import FieldData, FieldModel, simulate  # noqa: F401  (this module's simulate)
 from ..schema import ConfigError, Key
-from .waypoint_course import load_world, next_waypoint
+from .worlds import load_world
 
 NAME = "beacon_field"
 KIND = "localization"
@@ -103,53 +107,8 @@ SCHEMA = {
 }
 
 
-@dataclass(frozen=True)
-class FieldModel:
-    """Everything a trial of the beacon field needs (SI units, radians).
-
-    area (2,): the field is [0, area[0]] x [0, area[1]]; beacons (B, 2); waypoints (K, 2);
-    start (3,); drive: [step, max_turn, waypoint radius]; motion: 0 odometry, 1 rot_trans_rot;
-    mnoise (4,): [sigma_trans, sigma_turn, 0, 0] or alpha1..alpha4; sensor: 0 range, 1
-    range_bearing; sense: [max_range, half_fov, sigma_r, sigma_b, nearest (0/1)]; kidnaps (k,)
-    steps; kidnap_poses (k, 3) (NaN rows: uniform); bound: the convergence bound; init: the
-    filters' initial belief (see init_particles); score_from, report_step, hold
-    (converge_hold_steps): see the keys.
-    """
-
-    area: np.ndarray
-    beacons: np.ndarray
-    waypoints: np.ndarray
-    start: np.ndarray
-    drive: np.ndarray
-    motion: int
-    mnoise: np.ndarray
-    sensor: int
-    sense: np.ndarray
-    steps: int
-    kidnaps: np.ndarray
-    kidnap_poses: np.ndarray
-    bound: float
-    init: np.ndarray        # [known (0/1), x, y, heading, sd_xy, sd_heading]
-    score_from: int = 1
-    report_step: int = 0
-    hold: int = 10          # converge_hold_steps
-
-
-@dataclass
-class FieldData:
-    """Truth and measurements of one trial: pose (T+1, 3) true poses; ctrl (T, 3) the odometry
-    [rot1, trans, rot2]; obs_n (T,), obs_id (T, B), obs_z (T, B, 2) [range, bearing] of the beacons
-    seen at each step."""
-
-    pose: np.ndarray
-    ctrl: np.ndarray
-    obs_n: np.ndarray
-    obs_id: np.ndarray
-    obs_z: np.ndarray
-
-
 def resolve(params: dict, base_dir) -> dict:
-    """Load and check the world file (see waypoint_course.load_world; beacons in the place of
+    """Load and check the world file (see worlds.load_world; beacons in the place of
     landmarks, the field [0, width] x [0, height]) into the params; check the kidnappings."""
     out = dict(params)
     out.update(load_world(Path(base_dir) / params["world"], points_key="beacons",
@@ -194,60 +153,22 @@ def build(p) -> FieldModel:
         int(p["report_step"]), int(p["converge_hold_steps"]))
 
 
-_F = types.float64[::1]
-_F2 = types.float64[:, ::1]
-_F3 = types.float64[:, :, ::1]
-_I = types.int64[::1]
-_I2 = types.int64[:, ::1]
+def schema(**defaults) -> dict:
+    """SCHEMA with other defaults (``world="worlds/my_field.yaml"``, ``steps=120``, ...): what a
+    scenario module of another beacon world declares as its SCHEMA, beside this module's resolve,
+    build and simulate. A name that is no key, or a default its key refuses, raises ValueError."""
+    unknown = [k for k in defaults if k not in SCHEMA]
+    if unknown:
+        raise ValueError(f"beacon_field.schema: no key '{unknown[0]}' (its keys: "
+                         f"{', '.join(SCHEMA)})")
+    out = dict(SCHEMA)
+    for name, value in defaults.items():
+        try:
+            value = SCHEMA[name].validate(name, value)
+        except ConfigError as err:
+            raise ValueError(f"beacon_field.schema: {err}") from None
+        out[name] = replace(SCHEMA[name], default=value)
+    return out
 
 
-
-@kernel(types.void(_F, _F2, _F2, _F, _F, types.int64, _F, types.int64, _F, _I, _F2, STATE, _F2,
-                 _F2, _I, _I2, _F3), cache=True)
-def simulate_field(area, bc, wp, start, drive, motion, mnoise, sensor, sense, kid, kpose, s, pose,
-                   ctrl, obs_n, obs_id, obs_z):
-    step, maxturn, radius = drive[0], drive[1], drive[2]
-    x, y, th = start[0], start[1], start[2]
-    pose[0, 0], pose[0, 1], pose[0, 2] = x, y, th
-    iw = 0
-    lap = 0
-    ik = 0
-    for t in range(ctrl.shape[0]):
-        iw, lap = next_waypoint(wp, iw, lap, x, y, radius)
-        want = wrap(math.atan2(wp[iw, 1] - y, wp[iw, 0] - x) - th)
-        turn = max(-maxturn, min(maxturn, want))
-        if motion == 0:           # (T, dtheta): move, then turn
-            r1, tr, r2 = 0.0, step, turn
-        else:                     # turn, move
-            r1, tr, r2 = turn, step, 0.0
-        ctrl[t, 0], ctrl[t, 1], ctrl[t, 2] = r1, tr, r2
-        a1, a2, a3 = noisy_odometry(r1, tr, r2, motion, mnoise, s)
-        th += a1
-        x += a2 * math.cos(th)
-        y += a2 * math.sin(th)
-        th = wrap(th + a3)
-        while ik < kid.size and kid[ik] == t + 1:
-            if math.isnan(kpose[ik, 0]):
-                x = area[0] * uniform(s)
-                y = area[1] * uniform(s)
-                th = math.pi * (2.0 * uniform(s) - 1.0)
-            else:
-                x, y, th = kpose[ik, 0], kpose[ik, 1], wrap(kpose[ik, 2])
-            ik += 1
-        pose[t + 1, 0], pose[t + 1, 1], pose[t + 1, 2] = x, y, th
-        obs_n[t] = sense_beacons(bc, x, y, th, sensor, sense, s, obs_id[t], obs_z[t])
-
-
-def simulate(model: FieldModel, state: np.ndarray) -> tuple[FieldData, FieldData]:
-    """Simulate one trial; returns (truth, data), the same object: the filters read only ctrl and
-    the observations."""
-    T, B = model.steps, model.beacons.shape[0]
-    d = FieldData(np.empty((T + 1, 3)), np.empty((T, 3)), np.zeros(T, dtype=np.int64),
-                  np.zeros((T, B), dtype=np.int64), np.zeros((T, B, 2)))
-    simulate_field(model.area, model.beacons, model.waypoints, model.start, model.drive,
-                   model.motion, model.mnoise, model.sensor, model.sense, model.kidnaps,
-                   model.kidnap_poses, state, d.pose, d.ctrl, d.obs_n, d.obs_id, d.obs_z)
-    return d, d
-
-
-__all__ = ["NAME", "KIND", "DESCRIPTION", "SCHEMA", "build", "simulate", "resolve"]
+__all__ = ["NAME", "KIND", "DESCRIPTION", "SCHEMA", "build", "simulate", "resolve", "schema"]

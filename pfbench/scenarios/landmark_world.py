@@ -15,14 +15,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import types
-from .._lazy import kernel
 
-from ..angles import wrap
-from ..rng import STATE, normal
+from ..models.slam import CourseData, SlamModel, simulate  # noqa: F401  (this module's simulate)
 from ..schema import Key
-from .waypoint_course import CourseData, SlamModel, next_waypoint, run_simulator, sense
-from .waypoint_course import resolve as _resolve
+from .worlds import resolve_course
 
 NAME = "landmark_world"
 KIND = "slam"
@@ -61,8 +57,8 @@ SCHEMA = {
 
 
 def resolve(params: dict, base_dir):
-    """Load and check the world file (see waypoint_course.resolve)."""
-    return _resolve(params, base_dir)
+    """Load and check the world file (worlds.resolve_course)."""
+    return resolve_course(params, base_dir)
 
 
 def build(p) -> SlamModel:
@@ -82,53 +78,6 @@ def build(p) -> SlamModel:
         noise, np.array([p["max_range_m"], 0.5 * p["field_of_view_deg"] * deg,
                          float(p["obs_every"])]), int(p["steps"]), motion=1)
 
-
-_F = types.float64[::1]
-_F2 = types.float64[:, ::1]
-_F3 = types.float64[:, :, ::1]
-_I = types.int64[::1]
-_I2 = types.int64[:, ::1]
-
-
-@kernel(types.int64(_F2, _F2, _F, _F, _F, _F, types.int64, STATE, _F2, _F2, _I, _I2, _F3, _I),
-      cache=True)
-def simulate_odometry(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, obs_n, obs_id,
-                      obs_z, wp_idx):
-    """Drive the closed path; fill the true poses, the odometry [ds, dtheta] and the observations
-    (as waypoint_course.simulate_course); return the steps driven."""
-    V, dt, maxturn, radius, laps = veh[0], veh[1], veh[3], veh[5], veh[6]
-    rmax, half_fov, every = sensor[0], sensor[1], int(sensor[2])
-    x, y, th = start[0], start[1], start[2]
-    pose[0, 0], pose[0, 1], pose[0, 2] = x, y, th
-    iw = 0
-    lap = 0
-    wp_idx[0] = 0
-    k = 0
-    for t in range(steps):
-        iw, lap = next_waypoint(wp, iw, lap, x, y, radius)
-        if laps > 0 and lap >= laps:
-            return t
-        dx, dy = wp[iw, 0] - x, wp[iw, 1] - y
-        lim = maxturn * dt
-        dth = max(-lim, min(lim, wrap(math.atan2(dy, dx) - th)))
-        ds = V * dt
-        ctrl[t, 0] = ds
-        ctrl[t, 1] = dth
-        th = th + dth + noise[1] * normal(s)
-        x += ds * math.cos(th) + noise[0] * normal(s)
-        y += ds * math.sin(th) + noise[0] * normal(s)
-        th = wrap(th)
-        pose[t + 1, 0], pose[t + 1, 1], pose[t + 1, 2] = x, y, th
-        wp_idx[t + 1] = iw
-        if (t + 1) % every == 0:
-            obs_n[k] = sense(lm, x, y, th, rmax, half_fov, noise, s, obs_id[k], obs_z[k])
-            k += 1
-    return steps
-
-
-def simulate(model: SlamModel, state: np.ndarray) -> tuple[CourseData, CourseData]:
-    """Simulate one trial; returns (truth, data), the same object (see waypoint_course)."""
-    return run_simulator(simulate_odometry, model, state)
 
 
 __all__ = ["NAME", "KIND", "DESCRIPTION", "SCHEMA", "build", "simulate", "resolve"]

@@ -1,0 +1,77 @@
+"""What a finished run writes beside its trials: the comparison (table.csv, table.md) and the
+figures of an experiment, the summary and figures of a sweep. ``pfbench run`` (pfbench.api),
+``pfbench sweep`` and ``pfbench tables`` (pfbench.regen) all write them through here.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+
+from .errors import UserError
+from .figstyle import FORMATS, prune
+from .fsutil import own_folder
+
+
+def check_figure_format(fmt, what: str = "figure_format") -> str:
+    """``fmt`` when it is a figure format pfbench draws (png, svg, pdf), else a UserError."""
+    if not isinstance(fmt, str) or fmt not in FORMATS:
+        raise UserError(f"{what} {fmt}: one of {', '.join(FORMATS)}")
+    return fmt
+
+
+def anytime_of(meta: dict | None) -> int | None:
+    """The most trials a run until decided could reach (its confidence sequences are tuned for
+    it), from a results folder's meta; None for a run of a fixed trial count."""
+    until = (meta or {}).get("until_decided")
+    return int(until["max_trials"]) if isinstance(until, dict) and "max_trials" in until else None
+
+
+def write_experiment(exp, res, folder: Path, figures: bool = True,
+                     figure_format: str = "png") -> tuple:
+    """The comparison (table.csv / table.md) and figures of a finished run; returns (comparison,
+    figure paths)."""
+    from . import tables
+    from .tablecache import cached_compare
+    if figures:
+        check_figure_format(figure_format)
+        own_folder(Path(folder) / "figures", folder, "figures folder")
+    cmp = cached_compare(exp, res.rows, anytime=anytime_of(res.meta))
+    tables.write(cmp, folder, res.meta)
+    paths = []
+    if figures:
+        from .plots import write_figures
+        paths = write_figures(exp, res.rows, folder, figure_format, cmp.table)
+    return cmp, paths
+
+
+def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: str,
+                figures: bool = True, figure_format: str = "png", exp=None,
+                missing_only: bool = False) -> tuple:
+    """summary.csv and the figures of a finished sweep (``exp``: a cell's experiment, whose
+    metrics the figures draw); returns (summary, figure paths). ``missing_only`` (an up-to-date
+    sweep): the figures are drawn only when one is missing, as an up-to-date run's."""
+    if figures:
+        check_figure_format(figure_format)
+        own_folder(Path(folder) / "figures", folder, "figures folder")
+    from .store import sweep_summary, write_csv
+    summ = sweep_summary(trials_df, keys)
+    write_csv(folder / "summary.csv", summ)
+    if not figures:
+        return summ, []
+    from .kinds import kind_of
+    from .plots import sweep_figures, sweep_metrics
+    if missing_only:
+        which = sweep_metrics(exp) if exp else ["rmse"]
+        want = [folder / "figures" / f"{m}.{figure_format}" for m in which
+                if f"{m}_mean" in summ and not summ[f"{m}_mean"].isna().all()]
+        if want and all(p.is_file() for p in want):
+            return summ, want
+    paths = sweep_figures(summ, keys, folder, name, sweep_metrics(exp) if exp else None,
+                          fmt=figure_format, unit=kind_of(exp.scenario).unit if exp else "")
+    prune(folder / "figures", paths)
+    if "wall_s" in trials_df and trials_df["wall_s"].notna().any():
+        # the run times: beside the timings file, never in figures/ (they depend on the machine)
+        sweep_figures(sweep_summary(trials_df, keys, ("wall_s",)), keys, folder, name,
+                      ["wall_s"], folder / f"timings.{figure_format}", figure_format)
+    return summ, paths
