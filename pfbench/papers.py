@@ -6,7 +6,7 @@ values per row, the notes, the rankings and factors the paper claims, its single
 choices the paper leaves open, as key paths into configs; and the findings, text whose
 ``{config:run:column}`` references are filled in from our results. This module holds no paper's
 numbers or prose: it reads and checks the files with the strict schema machinery of configs (file,
-line, key, did-you-mean). The README's "Adding a paper" describes the format.
+line, key, did-you-mean). docs/how-to/papers.md describes the format.
 
 A config names its paper (``paper: ifa2021``); the file is looked up in the folders given with
 ``--papers`` (``search_folders``), then in ``papers/`` beside the config, then in

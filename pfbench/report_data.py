@@ -473,7 +473,7 @@ def _choices(paper: pp.Paper, entries: list[Entry]) -> list[str]:
         return []
     out = ["### Choices the paper left open, and the values used", "",
            "Each value with the configs that use it; 'unset' is the key's default of none "
-           "(the README's key reference says what that means).", "",
+           "(the key reference, docs/reference/config.md, says what that means).", "",
            "| The paper | Key | Value (config) |", "| --- | --- | --- |"]
     out += [f"| {what} | `{key}` | {vals} |" for what, key, vals in choice_rows(paper, entries)]
     return out + [""]

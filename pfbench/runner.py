@@ -933,7 +933,7 @@ def run_experiment(exp: Experiment, out_dir: Path, *, workers: int = 1, resume: 
                    executor: LocalExecutor | None = None,
                    warn: Callable[[str], None] | None = None, traces: bool = True,
                    force: bool = False) -> RunResult:
-    """Run every trial of ``exp`` into ``out_dir`` (the README's "Results" lists the files).
+    """Run every trial of ``exp`` into ``out_dir`` (docs/guide/results.md lists the files).
 
     Trials go to ``trials.partial.csv`` as they finish; at the end the sorted ``trials.csv``
     replaces it. ``resume`` keeps the finished trials of a partial (or a complete) earlier run of

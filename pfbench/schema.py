@@ -198,7 +198,7 @@ class Key:
     kind : 'int', 'float', 'str', 'bool', 'choice', 'ints' (an int or a list of distinct ints),
         'names' (one of ``words``, or a list of distinct names of ``choices``, empty allowed)
     default : value used when the key is absent; ``REQUIRED`` if it must be given
-    doc : one line for the README's key reference (scripts/update_readme.py) and for the error
+    doc : one line for the key reference, docs/reference/config.md (scripts/update_readme.py) and for the error
         that names the key
     min, max : bounds for numbers (``min_exclusive``: strictly greater than min)
     choices : allowed values for 'choice', the names a 'names' list may hold

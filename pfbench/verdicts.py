@@ -52,7 +52,7 @@ METHODS = {
     "cs": "asymptotic confidence sequence (valid at every look; Waudby-Smith et al. 2024)",
 }
 
-# What each verdict means, for the report and the README (the code below decides them so).
+# What each verdict means, for the report and the docs (the code below decides them so).
 DEFINITIONS = (
     f"*reproduced*: equivalence shown: the {1 - 2 * ALPHA:.0%} interval of ours - paper (two "
     f"one-sided tests at {ALPHA:.0%}) lies within the margin the paper file declares for the "
