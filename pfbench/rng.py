@@ -131,9 +131,8 @@ _LOCAL = types.UniTuple(types.uint64, 4)
 def next_local(q):
     """next_u64 on a state held in local variables, q = (s0, s1, s2, s3): (64 random bits, the
     next state). The compiler keeps a local state in registers, where it must reload an array's
-    after every store that might alias it. :func:`fill_normal` shows the ziggurat's draw on a
-    local state, bit for bit :func:`normal`'s: written out in the loop, for a function that
-    returns the state kept it out of registers here (three times slower).
+    after every store that might alias it. :func:`normal_local` is the ziggurat's draw on a
+    local state, bit for bit :func:`normal`'s, inlined into its callers' loops.
     """
     s0, s1, s2, s3 = q
     r = s0 + s3
@@ -159,22 +158,33 @@ def store_local(s, q):
     s[0], s[1], s[2], s[3] = q
 
 
+@kernel(types.Tuple((types.float64, _LOCAL))(STATE, _LOCAL), cache=True, inline="always")
+def normal_local(s, q):
+    """One standard normal draw, :func:`normal`'s bit for bit, on a local state q (see
+    ``next_local``): (the draw, the next local state). The ziggurat's step: 64 bits give a
+    layer and a candidate (``_layer``), kept when it lies in the layer's rectangle (98.8%);
+    otherwise the state goes back to the array s for the tail or wedge test (``_normal_slow``,
+    and a fresh :func:`normal` when that rejects) and is loaded again. Inlined into the
+    caller's loop (numba's inlining: the state stays in registers there)."""
+    r, q = next_local(q)
+    layer, rabs, x = _layer(r)
+    if rabs >= _ZKI[layer]:
+        store_local(s, q)
+        x = _normal_slow(s, layer, rabs, x)
+        if x != x:
+            x = normal(s)
+        q = load_local(s)
+    return x, q
+
+
 @kernel(types.void(STATE, types.float64[::1]), cache=True)
 def fill_normal(s, z):
     """Fill ``z`` with independent standard normal draws: the draws of as many calls of
-    :func:`normal`, bit for bit, about 2.5x faster, with the state in registers (see
-    ``next_local``)."""
+    :func:`normal`, bit for bit, about 2.5x faster, with the state in registers
+    (``normal_local``)."""
     q = load_local(s)
     for i in range(z.size):
-        r, q = next_local(q)
-        idx, rabs, x = _layer(r)
-        if rabs < _ZKI[idx]:
-            z[i] = x
-            continue
-        store_local(s, q)
-        x = _normal_slow(s, idx, rabs, x)
-        z[i] = x if x == x else normal(s)
-        q = load_local(s)
+        z[i], q = normal_local(s, q)
     store_local(s, q)
 
 

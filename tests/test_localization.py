@@ -203,7 +203,7 @@ def test_kld_sampling_in_passes_is_the_one_at_a_time_loop_bit_for_bit(kld_one_at
         if not W.any():
             W[-1] = 1.0
         W /= W.sum()
-        cum = np.cumsum(W)                      # the running sums, in order (summarise's)
+        cum = np.cumsum(W)                      # the running sums, in order (weighted_sums's)
         kp = np.array([float(rng.choice([0.02, 0.05, 0.3])), NormalDist().inv_cdf(0.99), 0.5,
                        math.radians(10.0), float(rng.choice([1, 20, 300]))])
         nmax = int(rng.choice([5, 50, 700, 6000]))
@@ -513,13 +513,13 @@ def _lanes(terms, n):
 
 
 def test_the_summary_pass_is_its_sums():
-    """``summarise``: the weights' running sums in order (the last, S, their sum), the estimate
+    """``weighted_sums``: the weights' running sums in order (the last, S, their sum), the estimate
     (weighted means of x and y, sums over S; the heading's circular mean) and the ESS
     S^2 / sum W^2, each sum in four lanes, for every length; the weights are not touched and
     nothing past n is read or written. With whole numbers every product and sum is exact, so
     the lanes must give these sums to the bit whether or not a multiply-add is fused; with real
     numbers, to rounding."""
-    from pfbench.filters.mcl import summarise
+    from pfbench.filters.mcl import weighted_sums
     rng = np.random.default_rng(8)
     for whole in (True, False):
         for n in list(range(1, 13)) + [1001]:
@@ -531,7 +531,7 @@ def test_the_summary_pass_is_its_sums():
             W[n:] = np.nan
             before = W.copy()
             cum, out = np.full(n + 2, -1.0), np.empty(3)
-            ess = summarise(P, W, n, CS, cum, out)
+            ess = weighted_sums(P, W, n, CS, cum, out)
             w = before[:n].tolist()
             acc, sums = 0.0, []
             for x in w:
