@@ -52,14 +52,15 @@ def test_each_concept_is_written_once(pattern, owner):
 
 
 def test_the_kernels_steps_do_not_share_names():
-    """A step function's name says what it does: no two modules of pfbench/filters define
-    ``weigh``, none ``summarise`` beside metrics' ``summarize``, no kernel is a vague '_core'."""
+    """A name says what it does: no two modules define ``weigh``, ``compare`` or ``Finding``,
+    none ``summarise`` beside metrics' ``summarize``, no kernel is a vague '_core'."""
     defined: dict[str, list[str]] = {}
     for name, text in _sources().items():
         for node in ast.walk(ast.parse(text)):
-            if isinstance(node, ast.FunctionDef) and node.col_offset == 0:
+            if isinstance(node, (ast.FunctionDef, ast.ClassDef)) and node.col_offset == 0:
                 defined.setdefault(node.name, []).append(name)
-    assert len(defined.get("weigh", [])) <= 1, defined["weigh"]
+    for twice in ("weigh", "compare", "Finding"):
+        assert len(defined.get(twice, [])) <= 1, (twice, defined[twice])
     assert "summarise" not in defined
     assert not [n for n in defined if n.endswith("_core")]
     assert not any(re.search(r"\b\w+_core\s*=\s*variant\(", t) for t in _sources().values())
