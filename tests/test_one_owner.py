@@ -38,8 +38,10 @@ def _where(pattern: str) -> list[str]:
 
 
 @pytest.mark.parametrize("pattern, owner", [
-    # the ziggurat's acceptance test reads the thresholds _ZKI: rng.normal and rng.normal_local
+    # the ziggurat: its acceptance test reads the thresholds _ZKI (rng.in_layer_rectangle), and
+    # the tail and wedge test on a local state is rng.normal_off_rectangle
     (r"_ZKI\[", "pfbench/rng.py"),
+    (r"_normal_slow\(", "pfbench/rng.py"),
     # the ESS threshold a filter resamples below: resampling.ess_threshold
     (r"\['neff_ratio'\] \*", "pfbench/resampling.py"),
     # the stepwise EWA's scheme code after the standard ones: resampling.STEPWISE_EWA
@@ -66,20 +68,26 @@ def test_the_kernels_steps_do_not_share_names():
     assert not any(re.search(r"\b\w+_core\s*=\s*variant\(", t) for t in _sources().values())
 
 
-def test_normal_local_is_normals_draw_on_a_local_state():
-    """rng.normal_local, the one ziggurat step on a local state, draws what rng.normal draws,
-    and leaves the state where normal leaves it (tail and wedge draws included: 20,000 draws
-    pass through both about 240 times)."""
+def test_the_ziggurat_step_on_a_local_state_is_normals_draw():
+    """rng's ziggurat step on a local state (next_local, _layer, in_layer_rectangle, else
+    normal_off_rectangle), the one the kernels' loops write, draws what rng.normal draws and
+    leaves the state where normal leaves it (tail and wedge draws included: 20,000 draws pass
+    through them about 240 times)."""
     import numba
 
-    from pfbench.rng import load_local, normal, normal_local, state_from_seed, store_local
+    from pfbench.rng import (_layer, in_layer_rectangle, load_local, next_local, normal,
+                             normal_off_rectangle, state_from_seed, store_local)
 
     @numba.njit
     def local_draws(s, n):
         out = np.empty(n)
         q = load_local(s)
         for i in range(n):
-            out[i], q = normal_local(s, q)
+            r, q = next_local(q)
+            layer, rabs, x = _layer(r)
+            if not in_layer_rectangle(layer, rabs):
+                x, q = normal_off_rectangle(s, q, layer, rabs, x)
+            out[i] = x
         store_local(s, q)
         return out
 

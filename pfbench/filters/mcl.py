@@ -48,8 +48,8 @@ from numba import typeof, types
 from .._lazy import kernel
 
 from ..resampling import SCHEME_CODES, ess_threshold, resample, systematic_from_sums
-from ..rng import (STATE, fill_normal, load_local, next_local, normal_local, store_local, uniform,
-                   unit)
+from ..rng import (STATE, _layer, fill_normal, in_layer_rectangle, load_local, next_local,
+                   normal_off_rectangle, store_local, uniform, unit)
 from .. import vecmath as vm
 from ..models.beacons import loglik_const, sensor_pose
 from ..models.odometry import _odometry, odometry_with
@@ -454,7 +454,7 @@ def kld_draws(rd, c, X, Y, H, acc, prob, u, motion, mnoise, area, sensor, bc, no
     state in registers (``rng.next_local``) and kept after each particle (rd.kept): whether it
     is a new pose (probability prob: drawn from the sensor model of (ids, zs)[:nobs], uniform
     when nobs is 0, into (X, Y, H)[r]), else its position in [0, acc); then its noisy odometry
-    (``normal_local``, 2 or 3 draws by the motion model) into rd.odo."""
+    (the ziggurat's step of ``rng``, 2 or 3 draws by the motion model) into rd.odo."""
     q = load_local(s)
     for r in range(c):
         new = False
@@ -471,11 +471,18 @@ def kld_draws(rd, c, X, Y, H, acc, prob, u, motion, mnoise, area, sensor, bc, no
             bits, q = next_local(q)
             rd.pos[r] = unit(bits) * acc
             rd.src[r] = 0
-        n1, q = normal_local(s, q)
-        n2, q = normal_local(s, q)
-        n3 = 0.0
-        if motion != 0:
-            n3, q = normal_local(s, q)
+        n1 = n2 = n3 = 0.0
+        for d in range(2 if motion == 0 else 3):     # noisy_odometry's normal draws
+            bits, q = next_local(q)
+            layer, rabs, x = _layer(bits)
+            if not in_layer_rectangle(layer, rabs):
+                x, q = normal_off_rectangle(s, q, layer, rabs, x)
+            if d == 0:
+                n1 = x
+            elif d == 1:
+                n2 = x
+            else:
+                n3 = x
         rd.odo[0, r], rd.odo[1, r], rd.odo[2, r] = _odometry(u[0], u[1], u[2], motion, mnoise,
                                                              n1, n2, n3)
         rd.kept[r, 0], rd.kept[r, 1], rd.kept[r, 2], rd.kept[r, 3] = q
@@ -596,13 +603,17 @@ def _draws_copying(s, Z, per, P, CS, idx, P2, CS2, n):
     """fill_normal(s, Z) (per draws a particle, n particles), and meanwhile the resampled set:
     (P2, CS2)[:, i] = (P, CS)[:, idx[i]]. The draws wait on the generator, one step after
     another; the copy's loads and stores fill that wait, and cost far less there than in a pass
-    of their own. The draws are ``fill_normal``'s (``rng.normal_local``, inlined). Compiled for
+    of their own. The draws are ``fill_normal``'s (the ziggurat's step of ``rng``). Compiled for
     each ``per`` it is called with (a constant: the loop over a particle's draws unrolls)."""
     q = load_local(s)
     for i in range(n):
         _copy_particle(P, CS, P2, CS2, i, idx[i])
         for d in range(per):
-            Z[per * i + d], q = normal_local(s, q)
+            r, q = next_local(q)
+            layer, rabs, x = _layer(r)
+            if not in_layer_rectangle(layer, rabs):
+                x, q = normal_off_rectangle(s, q, layer, rabs, x)
+            Z[per * i + d] = x
     store_local(s, q)
 
 
