@@ -361,62 +361,79 @@ def run(
         out_dir = _path(out_dir, "--out")
         if max_trials is not None and not until_decided:
             raise UserError("--max-trials goes with --until-decided")
-        from .fsutil import FolderLock
         exp = _load(config, trials, seed, set_)
-        from .api import run_experiment, run_until_decided, until_decided_budget
-        if out_dir is None:
-            from .regen import reserved_name
-            reserved_name(exp.name, config)
-        folder = out_dir or Path("results") / exp.name
-        from .fsutil import recover_aside
-        recover_aside(folder, folder.parent, _warn, clean=False)   # a replace killed half-way
+        from .api import until_decided_budget
+        folder = _results_folder(exp.name, config, out_dir)
         most = until_decided_budget(exp, max_trials) if until_decided else exp.trials
         workers = _workers_that_fit([(replace(exp, trials=most), str(config))], workers,
                                     executor)
-        runs = ", ".join(f.key for f in exp.filters)
-        with _executor(executor, workers, scheduler) as ex, \
-                FolderLock(folder, "--out" if out_dir else "results folder"):
-            upto = f" (batches until decided, at most {most})" if until_decided else ""
-            header = _once(lambda: err.print(
-                f"{exp.name}: {exp.trials} trials{upto} of {exp.scenario} x [{runs}], seed "
-                f"{exp.seed}, {ex.describe()} -> {folder}", markup=False))
-            with _bar() as bar:
-                progress = _progress(bar, exp.trials, header, [exp],
-                                     getattr(ex, "underway", None))
-
-                def look(k):
-                    bar.console.print(f"after {k['trials']} trials: {k['undecided']} judged "
-                                      f"cell{'s' if k['undecided'] != 1 else ''} undecided",
-                                      markup=False)
-                with _stop_on_interrupt(bar):
-                    if until_decided:
-                        res = run_until_decided(exp, out=folder, max_trials=most,
-                                                workers=workers, resume=resume,
-                                                figures=not no_figures, progress=progress,
-                                                figure_format=figure_format,
-                                                executor=ex, warn=_warn, on_look=look,
-                                                force=force)
-                    else:
-                        res = run_experiment(exp, out=folder, workers=workers, resume=resume,
-                                             figures=not no_figures, progress=progress,
-                                             figure_format=figure_format,
-                                             executor=ex, warn=_warn, force=force)
+        res = _run_trials(exp, folder, out_dir, most, workers, (executor, scheduler),
+                          until_decided, dict(resume=resume, figures=not no_figures,
+                                              figure_format=figure_format, force=force))
         _print_table(res.comparison, wide, folder)
-        if res.up_to_date:
-            err.print(f"{folder} is up to date: it holds the {exp.trials} trials of this "
-                      "experiment (the table above is computed from them; nothing ran). "
-                      "--force runs them again.", markup=False)
-            return
-        if until_decided:
-            u = res.meta["until_decided"]
-            err.print(f"until decided: {len(u['looks'])} look(s), {res.experiment.trials} "
-                      f"trials; stopped: {u['stopped']}", markup=False)
-        exp = res.experiment
-        ran = res.run["trials_run_now"]
-        note = f" ({exp.trials - ran} resumed)" if ran < exp.trials else ""
-        err.print(f"{ran} trials in {res.run['wall_s']:.1f} s{note}; wrote {folder}/trials.csv, "
-                  "table.csv, table.md, meta.json, timings.csv"
-                  + (f" and {len(res.figures)} figures" if res.figures else ""), markup=False)
+        _say_what_ran(exp, res, folder, until_decided)
+
+
+def _results_folder(name: str, config: Path, out_dir: Path | None) -> Path:
+    """The results folder of the experiment ``name``: --out, else results/<name> (a name no
+    other config reserves); a replace of it killed half-way is recovered first."""
+    if out_dir is None:
+        from .regen import reserved_name
+        reserved_name(name, config)
+    folder = out_dir or Path("results") / name
+    from .fsutil import recover_aside
+    recover_aside(folder, folder.parent, _warn, clean=False)   # a replace killed half-way
+    return folder
+
+
+def _run_trials(exp, folder: Path, out_dir, most: int, workers: int, where: tuple,
+                until_decided: bool, opts: dict):
+    """Run the trials of ``exp`` into ``folder`` (locked meanwhile) on the executor ``where``
+    ((kind, scheduler)) under a progress bar: all at once, or in batches until decided (at most
+    ``most``); opts: the api's resume, figures, figure_format and force. The api's result."""
+    from .api import run_experiment, run_until_decided
+    from .fsutil import FolderLock
+    runs = ", ".join(f.key for f in exp.filters)
+    with _executor(where[0], workers, where[1]) as ex, \
+            FolderLock(folder, "--out" if out_dir else "results folder"):
+        upto = f" (batches until decided, at most {most})" if until_decided else ""
+        header = _once(lambda: err.print(
+            f"{exp.name}: {exp.trials} trials{upto} of {exp.scenario} x [{runs}], seed "
+            f"{exp.seed}, {ex.describe()} -> {folder}", markup=False))
+        with _bar() as bar:
+            progress = _progress(bar, exp.trials, header, [exp],
+                                 getattr(ex, "underway", None))
+
+            def look(k):
+                bar.console.print(f"after {k['trials']} trials: {k['undecided']} judged "
+                                  f"cell{'s' if k['undecided'] != 1 else ''} undecided",
+                                  markup=False)
+            with _stop_on_interrupt(bar):
+                if until_decided:
+                    return run_until_decided(exp, out=folder, max_trials=most, workers=workers,
+                                             progress=progress, executor=ex, warn=_warn,
+                                             on_look=look, **opts)
+                return run_experiment(exp, out=folder, workers=workers, progress=progress,
+                                      executor=ex, warn=_warn, **opts)
+
+
+def _say_what_ran(exp, res, folder: Path, until_decided: bool) -> None:
+    """The lines after a run's table: nothing ran (up to date), or what ran and was written."""
+    if res.up_to_date:
+        err.print(f"{folder} is up to date: it holds the {exp.trials} trials of this "
+                  "experiment (the table above is computed from them; nothing ran). "
+                  "--force runs them again.", markup=False)
+        return
+    if until_decided:
+        u = res.meta["until_decided"]
+        err.print(f"until decided: {len(u['looks'])} look(s), {res.experiment.trials} "
+                  f"trials; stopped: {u['stopped']}", markup=False)
+    exp = res.experiment
+    ran = res.run["trials_run_now"]
+    note = f" ({exp.trials - ran} resumed)" if ran < exp.trials else ""
+    err.print(f"{ran} trials in {res.run['wall_s']:.1f} s{note}; wrote {folder}/trials.csv, "
+              "table.csv, table.md, meta.json, timings.csv"
+              + (f" and {len(res.figures)} figures" if res.figures else ""), markup=False)
 
 
 @app.command()
@@ -452,12 +469,7 @@ def sweep(
         from .fsutil import FolderLock
         name, cells = sw.expand(config, sw.parse_sets(set_), {"trials": trials, "seed": seed},
                                 confirm_above=None if yes else sw.CONFIRM_ABOVE)
-        if out_dir is None:
-            from .regen import reserved_name
-            reserved_name(name, config)
-        folder = out_dir or Path("results") / name
-        from .fsutil import recover_aside
-        recover_aside(folder, folder.parent, _warn, clean=False)   # a replace killed half-way
+        folder = _results_folder(name, config, out_dir)
         keys = list(cells[0].values)
         total = sum(c.exp.trials for c in cells)
         workers = _workers_that_fit([(c.exp, f"{config} (sweep cell {c.name})") for c in cells],
@@ -480,30 +492,38 @@ def sweep(
                 summ, figs = write_sweep(trials_df, keys, folder, name, True, figure_format,
                                          cells[0].exp,
                                          missing_only=trials_df.attrs.get("up_to_date", False))
-        from .figstyle import label
-        from .plots import sweep_metrics
-        extra = [m for m in sweep_metrics(cells[0].exp)[1:] if f"{m}_mean" in summ][:2]
-        out.print(f"{name}: sweep over {', '.join(keys)}, {cells[0].exp.trials} trials a cell; "
-                  f"means, every metric with its interval in {folder}/summary.csv",
-                  markup=False, style="bold")
-        t = RichTable(show_edge=False)
-        for h in ([k.split(".")[-1] for k in keys] + ["Filter", "N", "RMSE [95% CI]"]
-                  + [label(m) for m in extra] + ["ms/trial"]):
-            t.add_column(h, no_wrap=h in ("RMSE [95% CI]", "Filter"))
-        # the run times (not in summary.csv): the same cells and filter runs, in the same order
-        wall = sw.summary(trials_df, keys, ("wall_s",))
-        ms_per_trial = (list(1e3 * wall["wall_s_mean"]) if "wall_s_mean" in wall
-                        else [float("nan")] * len(summ))
-        for (_, r), ms in zip(summ.iterrows(), ms_per_trial):
-            n = r["particles"]
-            t.add_row(*[str(r[k]) for k in keys], str(r["label"]),
-                      "-" if n != n or n is None else str(int(n)),
-                      f"{r['rmse_mean']:.3g} [{r['rmse_ci_lo']:.3g}, {r['rmse_ci_hi']:.3g}]",
-                      *[f"{r[f'{m}_mean']:.3g}" for m in extra],
-                      "-" if ms != ms else f"{ms:.3g}")
-        out.print(t)
-        err.print(f"wrote {folder}/trials.csv, summary.csv, {len(figs)} figures and a results "
-                  "folder per cell under cells/", markup=False)
+        _print_sweep(summ, trials_df, keys, cells[0].exp, name, folder, len(figs))
+
+
+def _print_sweep(summ, trials_df, keys: list, exp, name: str, folder: Path,
+                 figures: int) -> None:
+    """A sweep's table: a row per cell and filter run (the means of RMSE and two more metrics,
+    the time a trial took), and the lines that say where the rest is."""
+    from . import sweep as sw
+    from .figstyle import label
+    from .plots import sweep_metrics
+    extra = [m for m in sweep_metrics(exp)[1:] if f"{m}_mean" in summ][:2]
+    out.print(f"{name}: sweep over {', '.join(keys)}, {exp.trials} trials a cell; "
+              f"means, every metric with its interval in {folder}/summary.csv",
+              markup=False, style="bold")
+    t = RichTable(show_edge=False)
+    for h in ([k.split(".")[-1] for k in keys] + ["Filter", "N", "RMSE [95% CI]"]
+              + [label(m) for m in extra] + ["ms/trial"]):
+        t.add_column(h, no_wrap=h in ("RMSE [95% CI]", "Filter"))
+    # the run times (not in summary.csv): the same cells and filter runs, in the same order
+    wall = sw.summary(trials_df, keys, ("wall_s",))
+    ms_per_trial = (list(1e3 * wall["wall_s_mean"]) if "wall_s_mean" in wall
+                    else [float("nan")] * len(summ))
+    for (_, r), ms in zip(summ.iterrows(), ms_per_trial):
+        n = r["particles"]
+        t.add_row(*[str(r[k]) for k in keys], str(r["label"]),
+                  "-" if n != n or n is None else str(int(n)),
+                  f"{r['rmse_mean']:.3g} [{r['rmse_ci_lo']:.3g}, {r['rmse_ci_hi']:.3g}]",
+                  *[f"{r[f'{m}_mean']:.3g}" for m in extra],
+                  "-" if ms != ms else f"{ms:.3g}")
+    out.print(t)
+    err.print(f"wrote {folder}/trials.csv, summary.csv, {figures} figures and a results "
+              "folder per cell under cells/", markup=False)
 
 
 @app.command("tables")
@@ -536,8 +556,6 @@ def tables_(
 ):
     """Regenerate every config's results, or check them (--check) against the committed ones."""
     import math
-    import time
-
     with _guard():
         _check_figure_format(figure_format)
         _load_kernels()
@@ -547,83 +565,107 @@ def tables_(
         from .fsutil import FolderLock
         if not math.isfinite(z) or z <= 0:
             raise UserError(f"--z: expected a finite number > 0, got {z}")
-        files = regen.config_files(configs)
-        if only:
-            want = set(only)
-            unknown = want - {p.name for p in files} - {p.stem for p in files}
-            if unknown:
-                raise UserError(f"--only {sorted(unknown)[0]}: no such config in {configs}; "
-                                f"configs: {', '.join(p.stem for p in files)}")
-            files = [p for p in files if p.name in want or p.stem in want]
-        if check and resume:
-            raise UserError("--resume continues a regeneration; --check starts afresh each time")
-        if check and until_decided:
-            raise UserError("--until-decided regenerates; --check re-runs the committed trials")
-        if max_trials is not None and not until_decided:
-            raise UserError("--max-trials goes with --until-decided")
+        files = _only_configs(regen.config_files(configs), only, configs)
+        _check_tables_flags(check, resume, until_decided, max_trials)
         # every config is valid (and its trial count known) before anything runs, and no two
         # write into one folder, or into another's
         totals = [regen.check_trials(p) if check else regen.total_trials(p) for p in files]
         if not check:
             regen.check_outputs(files, results)
-        rows = []
         with _executor(executor, workers, scheduler) as ex, FolderLock(results, "--results"), \
                 _bar() as bar:
-            progress = _progress(bar, sum(totals), lambda: None, (),
-                                 getattr(ex, "underway", None))
-            before, grown = 0, {"total": sum(totals)}
-            for p, n in zip(files, totals):
-                t0 = time.perf_counter()
-                progress.describe(p.stem, now=True)
-                seen = [n]
-
-                def step(d, t, b=before, seen=seen):
-                    if t > seen[0]:             # a run until decided adds a batch
-                        grown["total"] += t - seen[0]
-                        seen[0] = t
-                    progress(b + d, grown["total"])
-
-                def cell(words, name=p.stem):   # a sweep's cell
-                    progress.describe(f"{name}: {words}", now=True)
-                with _stop_on_interrupt(bar, f"{p.name}: ", "" if check else
-                                        "; 'pfbench tables --resume' continues"):
-                    if check:
-                        r = regen.check_config(p, results, ex, z, progress=step)
-                        rows.append((p.name, r, time.perf_counter() - t0))
-                    else:
-                        folder = regen.regenerate(p, results, ex, figures=not no_figures,
-                                                  resume=resume, progress=step,
-                                                  until_decided=until_decided,
-                                                  max_trials=max_trials,
-                                                  figure_format=figure_format, warn=_warn,
-                                                  status=cell)
-                        bar.console.print(f"{p.name} -> {folder} in "
-                                          f"{time.perf_counter() - t0:.1f} s", markup=False)
-                before += seen[0]
+            rows = _each_config(files, totals, results, ex, bar, z if check else None,
+                                dict(figures=not no_figures, resume=resume,
+                                     until_decided=until_decided, max_trials=max_trials,
+                                     figure_format=figure_format))
         if not check:
             from . import report as rp
             with _steps("report") as say:
                 w = rp.write_report(configs, results, warn=_warn, status=say)
             err.print(f"wrote {w.markdown} and {w.index}", markup=False)
             return
-        t = RichTable(title=f"pfbench tables --check: {len(files)} configs against {results}",
-                      title_justify="left")
-        for h in ("config", "trials re-run", "metrics compared", "same trials bit for bit",
-                  "result", "s"):
-            t.add_column(h)
-        for name, r, sec in rows:
-            t.add_row(name, str(r.trials), str(r.compared), "yes" if r.identical else "no",
-                      "ok" if r.ok else f"{len(r.findings)} moved", f"{sec:.1f}")
-        out.print(t)
-        for _, r, _ in rows:
-            for f in r.findings:
-                out.print(f"moved: {f.line()}", markup=False, soft_wrap=True)
-        out.print(f"Tolerance: |mean now - mean committed| <= {z:g} s sqrt(1/n_now + "
-                  "1/n_committed) per filter run and metric (s: the pooled standard deviation "
-                  "of the trials of both); constant metrics to 1e-9 relative.", markup=False,
-                  soft_wrap=True)
+        _print_check(rows, len(files), results, z)
         if not all(r.ok for _, r, _ in rows):
             raise typer.Exit(1)
+
+
+def _only_configs(files: list[Path], only: list[str], configs: Path) -> list[Path]:
+    """The config files ``only`` names (by file name or stem; every one of them, if none)."""
+    if not only:
+        return files
+    want = set(only)
+    unknown = want - {p.name for p in files} - {p.stem for p in files}
+    if unknown:
+        raise UserError(f"--only {sorted(unknown)[0]}: no such config in {configs}; "
+                        f"configs: {', '.join(p.stem for p in files)}")
+    return [p for p in files if p.name in want or p.stem in want]
+
+
+def _check_tables_flags(check: bool, resume: bool, until_decided: bool, max_trials) -> None:
+    """The flags of 'pfbench tables' that do not go together."""
+    if check and resume:
+        raise UserError("--resume continues a regeneration; --check starts afresh each time")
+    if check and until_decided:
+        raise UserError("--until-decided regenerates; --check re-runs the committed trials")
+    if max_trials is not None and not until_decided:
+        raise UserError("--max-trials goes with --until-decided")
+
+
+def _each_config(files: list[Path], totals: list[int], results: Path, ex, bar, z, opts: dict):
+    """Check (z: the tolerance; None: regenerate, with regen.regenerate's opts) each config of
+    ``files`` in turn under one progress bar of their ``totals`` trials (a run until decided
+    grows it). Returns the checks' (name, result, seconds)."""
+    import time
+    from . import regen
+    rows = []
+    progress = _progress(bar, sum(totals), lambda: None, (), getattr(ex, "underway", None))
+    before, grown = 0, {"total": sum(totals)}
+    for p, n in zip(files, totals):
+        t0 = time.perf_counter()
+        progress.describe(p.stem, now=True)
+        seen = [n]
+
+        def step(d, t, b=before, seen=seen):
+            if t > seen[0]:             # a run until decided adds a batch
+                grown["total"] += t - seen[0]
+                seen[0] = t
+            progress(b + d, grown["total"])
+
+        def cell(words, name=p.stem):   # a sweep's cell
+            progress.describe(f"{name}: {words}", now=True)
+        with _stop_on_interrupt(bar, f"{p.name}: ", "" if z is not None else
+                                "; 'pfbench tables --resume' continues"):
+            if z is not None:
+                r = regen.check_config(p, results, ex, z, progress=step)
+                rows.append((p.name, r, time.perf_counter() - t0))
+            else:
+                folder = regen.regenerate(p, results, ex, progress=step, warn=_warn,
+                                          status=cell, **opts)
+                bar.console.print(f"{p.name} -> {folder} in "
+                                  f"{time.perf_counter() - t0:.1f} s", markup=False)
+        before += seen[0]
+    return rows
+
+
+def _print_check(rows: list, configs: int, results: Path, z: float) -> None:
+    """The table of 'pfbench tables --check', a line for each metric that moved, the
+    tolerance."""
+    t = RichTable(title=f"pfbench tables --check: {configs} configs against {results}",
+                  title_justify="left")
+    for h in ("config", "trials re-run", "metrics compared", "same trials bit for bit",
+              "result", "s"):
+        t.add_column(h)
+    for name, r, sec in rows:
+        t.add_row(name, str(r.trials), str(r.compared), "yes" if r.identical else "no",
+                  "ok" if r.ok else f"{len(r.findings)} moved", f"{sec:.1f}")
+    out.print(t)
+    for _, r, _ in rows:
+        for f in r.findings:
+            out.print(f"moved: {f.line()}", markup=False, soft_wrap=True)
+    out.print(f"Tolerance: |mean now - mean committed| <= {z:g} s sqrt(1/n_now + "
+              "1/n_committed) per filter run and metric (s: the pooled standard deviation "
+              "of the trials of both); constant metrics to 1e-9 relative.", markup=False,
+              soft_wrap=True)
 
 
 @app.command()

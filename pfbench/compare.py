@@ -386,74 +386,18 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame,
     untimed: dict[str, list[int]] = {}      # Comparison.untimed_n
     for run in exp.filters:
         g = by_key[run.key]
-        r = {"filter": run.key, "label": run.label, "particles": run.particles, "trials": len(g)}
-        for metric in ("rmse", "mse"):
-            s = summarize(g[metric])
-            r.update({f"{metric}_{k}": s[k] for k in ("mean", "ci_lo", "ci_hi", "var",
-                                                       "var_ci_lo", "var_ci_hi", "se")})
-        for metric in MEAN_COLUMNS:     # NaN where the scenario's kind has no such column
-            r[metric] = summarize(g[metric])["mean"] if metric in g else math.nan
-        r["underflow_steps"] = float(g["underflow_steps"].sum())
-        dv = g["diverged_steps"] if "diverged_steps" in g else pd.Series(dtype=float)
-        r["diverged_steps"] = float(dv.sum())
-        r["diverged_trials"] = float((dv > 0).sum())
-        wall = g["wall_s"] if "wall_s" in g else pd.Series(dtype=float)
-        r["wall_ms_per_trial"] = 1e3 * float(wall.mean()) if wall.notna().any() else math.nan
-        r["baseline"] = pairs.get(run.key)
-        if run.key in pairs:
-            a = g.set_index("trial")["rmse"]
-            b = by_key[pairs[run.key]].set_index("trial")["rmse"].reindex(a.index)
-            r.update({f"rmse_{k}": v for k, v in paired(a.values, b.values).items()})
-        else:
-            r.update(rmse_diff_mean=math.nan, rmse_diff_ci_lo=math.nan, rmse_diff_ci_hi=math.nan,
-                     rmse_win_rate=math.nan)
+        r = _summary_row(run, g, by_key, pairs)
         if table is not None:
-            values = table.row(run.label, run.particles)
             base = by_key.get(pairs.get(run.key))
             for q in table.quantities:
-                paper = values.get(q.key)
-                est = estimate(q, g, base, exp.seed, f"{run.key}:{q.key}")
-                ours = est.value
-                r[f"ours_{q.key}"] = ours
-                # the 95% interval printed beside our value, by the estimate's own method
-                r[f"ours_lo_{q.key}"], r[f"ours_hi_{q.key}"] = est.interval(1 - ALPHA)
-                r[f"n_{q.key}"] = est.n         # the trials it averages (a conditional metric:
-                                                # those where it is defined)
-                if q.metric in MACHINE_METRICS:
-                    paired_n = 0 if base is None else int(g["trial"].isin(base["trial"]).sum())
-                    untimed.setdefault(f"n_{q.key}", []).append(paired_n)
-                r[f"method_{q.key}"] = est.method
-                if isinstance(paper, tuple):      # a range: shown as such, ratio to its middle
-                    r[f"paper_{q.key}"] = f"{paper[0]:g}-{paper[1]:g}"
-                    r[f"ratio_{q.key}"] = _ratio(ours, 0.5 * (paper[0] + paper[1]))
-                else:
-                    r[f"paper_{q.key}"] = paper
-                    r[f"ratio_{q.key}"] = _ratio(ours, paper) if paper else math.nan
-                floored_q = q.metric == "rmse" and q.stat == "mean"  # the floor is an RMSE level
-                judge = est
-                if q.judged_by is not None:     # a deterministic measure of the same thing
-                    judge = estimate(replace(q, metric=q.judged_by), g, base, exp.seed,
-                                     f"{run.key}:{q.key}:{q.judged_by}")
-                if anytime:
-                    judge = judge.anytime(anytime)
-                claim = Claim(paper, judge, q.margin, table.runs,
-                              floor if floored_q and run.key != exp.compare["floor"] else None,
-                              (table.cell_notes.get((run.label, run.particles, q.key))
-                               or q.not_comparable or table.not_comparable),
-                              q.judged_by is not None or q.metric not in MACHINE_METRICS)
+                judge, claim = _paper_cell(exp, table, run, q, r, g, base, floor, anytime,
+                                           untimed)
                 cells.append((r, q, claim, judge))
         out.append(r)
     found = factor_claims(exp, table, by_key, anytime) if table is not None else []
     verdicts = decide_family([c for (_, _, c, _) in cells] + [c for (_, c) in found])
     for (r, q, _, judge), v in zip(cells, verdicts):
-        text = v.text
-        if q.judged_by is not None and v.kind in ("reproduced", "differs", "inconclusive"):
-            text = f"{text}, judged on {q.judged_by.replace('_', ' ')} {judge.value:.3g}"
-        r[f"verdict_{q.key}"] = text
-        r[f"kind_{q.key}"] = v.kind
-        r[f"verdict_lo_{q.key}"], r[f"verdict_hi_{q.key}"] = v.lo, v.hi
-        r[f"verdict_level_{q.key}"] = v.level
-        r[f"needed_{q.key}"] = v.needed if v.needed is not None else math.nan
+        _put_verdict(r, q, judge, v)
     facts = [{**row, "verdict": v.text, "kind": v.kind, "needed": v.needed}
              for (row, _), v in zip(found, verdicts[len(cells):])]
     tab = pd.DataFrame(out)
@@ -461,6 +405,83 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame,
         return Comparison(exp, tab, anytime=anytime)
     return Comparison(exp, tab, facts, per_trial(exp, table, by_key),
                       rankings(exp, tab, by_key, anytime), anytime, untimed)
+
+
+def _summary_row(run, g: pd.DataFrame, by_key: dict, pairs: dict) -> dict:
+    """A filter run's row of the comparison before the paper's cells: its metrics' means and
+    intervals, counters, time a trial, and the paired difference to its baseline run."""
+    r = {"filter": run.key, "label": run.label, "particles": run.particles, "trials": len(g)}
+    for metric in ("rmse", "mse"):
+        s = summarize(g[metric])
+        r.update({f"{metric}_{k}": s[k] for k in ("mean", "ci_lo", "ci_hi", "var",
+                                                   "var_ci_lo", "var_ci_hi", "se")})
+    for metric in MEAN_COLUMNS:     # NaN where the scenario's kind has no such column
+        r[metric] = summarize(g[metric])["mean"] if metric in g else math.nan
+    r["underflow_steps"] = float(g["underflow_steps"].sum())
+    dv = g["diverged_steps"] if "diverged_steps" in g else pd.Series(dtype=float)
+    r["diverged_steps"] = float(dv.sum())
+    r["diverged_trials"] = float((dv > 0).sum())
+    wall = g["wall_s"] if "wall_s" in g else pd.Series(dtype=float)
+    r["wall_ms_per_trial"] = 1e3 * float(wall.mean()) if wall.notna().any() else math.nan
+    r["baseline"] = pairs.get(run.key)
+    if run.key in pairs:
+        a = g.set_index("trial")["rmse"]
+        b = by_key[pairs[run.key]].set_index("trial")["rmse"].reindex(a.index)
+        r.update({f"rmse_{k}": v for k, v in paired(a.values, b.values).items()})
+    else:
+        r.update(rmse_diff_mean=math.nan, rmse_diff_ci_lo=math.nan, rmse_diff_ci_hi=math.nan,
+                 rmse_win_rate=math.nan)
+    return r
+
+
+def _paper_cell(exp: Experiment, table: Table, run, q: Quantity, r: dict, g: pd.DataFrame,
+                base: pd.DataFrame | None, floor, anytime: int | None,
+                untimed: dict) -> tuple:
+    """The cell of quantity q in run's row r: our value, its interval and the paper's (into r);
+    returns the estimate judged and the claim to judge it by."""
+    paper = table.row(run.label, run.particles).get(q.key)
+    est = estimate(q, g, base, exp.seed, f"{run.key}:{q.key}")
+    ours = est.value
+    r[f"ours_{q.key}"] = ours
+    # the 95% interval printed beside our value, by the estimate's own method
+    r[f"ours_lo_{q.key}"], r[f"ours_hi_{q.key}"] = est.interval(1 - ALPHA)
+    r[f"n_{q.key}"] = est.n         # the trials it averages (a conditional metric:
+                                    # those where it is defined)
+    if q.metric in MACHINE_METRICS:
+        paired_n = 0 if base is None else int(g["trial"].isin(base["trial"]).sum())
+        untimed.setdefault(f"n_{q.key}", []).append(paired_n)
+    r[f"method_{q.key}"] = est.method
+    if isinstance(paper, tuple):      # a range: shown as such, ratio to its middle
+        r[f"paper_{q.key}"] = f"{paper[0]:g}-{paper[1]:g}"
+        r[f"ratio_{q.key}"] = _ratio(ours, 0.5 * (paper[0] + paper[1]))
+    else:
+        r[f"paper_{q.key}"] = paper
+        r[f"ratio_{q.key}"] = _ratio(ours, paper) if paper else math.nan
+    floored_q = q.metric == "rmse" and q.stat == "mean"  # the floor is an RMSE level
+    judge = est
+    if q.judged_by is not None:     # a deterministic measure of the same thing
+        judge = estimate(replace(q, metric=q.judged_by), g, base, exp.seed,
+                         f"{run.key}:{q.key}:{q.judged_by}")
+    if anytime:
+        judge = judge.anytime(anytime)
+    claim = Claim(paper, judge, q.margin, table.runs,
+                  floor if floored_q and run.key != exp.compare["floor"] else None,
+                  (table.cell_notes.get((run.label, run.particles, q.key))
+                   or q.not_comparable or table.not_comparable),
+                  q.judged_by is not None or q.metric not in MACHINE_METRICS)
+    return judge, claim
+
+
+def _put_verdict(r: dict, q: Quantity, judge, v) -> None:
+    """The verdict v on quantity q's cell, into its row r."""
+    text = v.text
+    if q.judged_by is not None and v.kind in ("reproduced", "differs", "inconclusive"):
+        text = f"{text}, judged on {q.judged_by.replace('_', ' ')} {judge.value:.3g}"
+    r[f"verdict_{q.key}"] = text
+    r[f"kind_{q.key}"] = v.kind
+    r[f"verdict_lo_{q.key}"], r[f"verdict_hi_{q.key}"] = v.lo, v.hi
+    r[f"verdict_level_{q.key}"] = v.level
+    r[f"needed_{q.key}"] = v.needed if v.needed is not None else math.nan
 
 
 def _run_by_label(exp: Experiment, label: str):

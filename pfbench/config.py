@@ -316,33 +316,7 @@ def validate(raw: Any, source: str = "config") -> Experiment:
         raise ConfigError("sweep", "this file describes a sweep: run it with 'pfbench sweep'")
     problems = Problems()
     top = check_section(raw, TOP_SCHEMA, "", ignore=SECTIONS, problems=problems)
-    scen_name = scen_params = None
-    if "scenario" not in raw:
-        problems.add(ConfigError("scenario", "missing required section (a mapping with 'name' "
-                                 "and the scenario's keys)"))
-    else:
-        with problems.attempt():
-            scen_raw = check_mapping("scenario", raw["scenario"])
-            name = scen_raw.get("name")
-            if not isinstance(name, str) or name not in SCENARIOS:
-                if isinstance(name, str) and (broken := problem_for(SCENARIO_GROUP, name)):
-                    raise ConfigError("scenario.name", f"scenario '{name}': {broken}")
-                msg = ("missing required key" if name is None
-                       else f"unknown scenario {describe(name)}" + did_you_mean(name, SCENARIOS))
-                raise ConfigError("scenario.name", f"{msg}; valid scenarios: "
-                                  f"{', '.join(SCENARIOS)}")
-            scen_name = name
-        if scen_name is not None:
-            before = len(problems.found)
-            params = check_section(scen_raw, SCENARIOS[scen_name].SCHEMA, "scenario",
-                                   ignore=("name",), problems=problems)
-            params.pop("name", None)
-            resolve = getattr(SCENARIOS[scen_name], "resolve", None)
-            if len(problems.found) == before:
-                with problems.attempt():
-                    if resolve is not None:  # files the scenario names, relative to the file
-                        params = resolve(params, _folder_of(source))
-                    scen_params = params
+    scen_name, scen_params = _validate_scenario(raw, source, problems)
     filters: tuple[FilterRun, ...] = ()
     if "filters" not in raw:
         problems.add(ConfigError("filters", "missing required section (a mapping of filter "
@@ -350,6 +324,59 @@ def validate(raw: Any, source: str = "config") -> Experiment:
     else:
         with problems.attempt():
             filters = _validate_filters(raw["filters"], scen_name, scen_params, problems)
+    compare = _validate_compare(raw, filters, problems)
+    _check_diagnostics(top, scen_name, problems)
+    check = {k: key.default for k, key in CHECK_SCHEMA.items()}
+    with problems.attempt():
+        check = check_section(raw.get("check") or {}, CHECK_SCHEMA, "check", problems=problems)
+    name = _experiment_name(top, source, problems)
+    reference = _validate_reference(top, raw, source, problems)
+    problems.raise_if_any()
+    return Experiment(name=name, source=printable(source), paper=top["paper"],
+                      table=top["table"],
+                      description=top["description"] or "", seed=top["seed"],
+                      trials=top["trials"], scenario=scen_name,
+                      scenario_params=Params(scen_params), filters=filters,
+                      compare=Params(compare), check=Params(check), raw=copy.deepcopy(raw),
+                      reference=reference, diagnostics=top["diagnostics"])
+
+
+def _validate_scenario(raw: dict, source: str, problems: Problems) -> tuple:
+    """The scenario section: (its name, its parameters), None for what is not valid (each
+    problem added to ``problems``)."""
+    scen_name = scen_params = None
+    if "scenario" not in raw:
+        problems.add(ConfigError("scenario", "missing required section (a mapping with 'name' "
+                                 "and the scenario's keys)"))
+        return scen_name, scen_params
+    with problems.attempt():
+        scen_raw = check_mapping("scenario", raw["scenario"])
+        name = scen_raw.get("name")
+        if not isinstance(name, str) or name not in SCENARIOS:
+            if isinstance(name, str) and (broken := problem_for(SCENARIO_GROUP, name)):
+                raise ConfigError("scenario.name", f"scenario '{name}': {broken}")
+            msg = ("missing required key" if name is None
+                   else f"unknown scenario {describe(name)}" + did_you_mean(name, SCENARIOS))
+            raise ConfigError("scenario.name", f"{msg}; valid scenarios: "
+                              f"{', '.join(SCENARIOS)}")
+        scen_name = name
+    if scen_name is not None:
+        before = len(problems.found)
+        params = check_section(scen_raw, SCENARIOS[scen_name].SCHEMA, "scenario",
+                               ignore=("name",), problems=problems)
+        params.pop("name", None)
+        resolve = getattr(SCENARIOS[scen_name], "resolve", None)
+        if len(problems.found) == before:
+            with problems.attempt():
+                if resolve is not None:  # files the scenario names, relative to the file
+                    params = resolve(params, _folder_of(source))
+                scen_params = params
+    return scen_name, scen_params
+
+
+def _validate_compare(raw: dict, filters: tuple, problems: Problems) -> dict:
+    """The compare section (its keys that moved to the paper file refused), its floor and
+    baseline among the filter runs."""
     moved = {"rel_tol": "a margin of the quantity in the paper file",
              "paper_runs": "the table's 'runs' in the paper file"}
     compare = {"floor": None, "baseline": None}
@@ -372,6 +399,11 @@ def validate(raw: Any, source: str = "config") -> Experiment:
             problems.add(ConfigError("compare.baseline", f"no filter '{compare['baseline']}'"
                                      + did_you_mean(compare["baseline"], names)
                                      + f"; filters: {', '.join(names)}"))
+    return compare
+
+
+def _check_diagnostics(top: dict, scen_name: str | None, problems: Problems) -> None:
+    """The diagnostics named are those of the scenario's kind."""
     if (scen_name is not None and isinstance(top["diagnostics"], tuple)
             and (bad := [n for n in top["diagnostics"]
                          if n not in kind_of(scen_name).diagnostics])):
@@ -379,9 +411,10 @@ def validate(raw: Any, source: str = "config") -> Experiment:
         problems.add(ConfigError("diagnostics", f"a {kind.name} scenario has no diagnostic "
                                  f"'{bad[0]}'; its diagnostics: "
                                  f"{', '.join(kind.diagnostics) or 'none'}"))
-    check = {k: key.default for k, key in CHECK_SCHEMA.items()}
-    with problems.attempt():
-        check = check_section(raw.get("check") or {}, CHECK_SCHEMA, "check", problems=problems)
+
+
+def _experiment_name(top: dict, source: str, problems: Problems) -> str:
+    """The experiment's name: 'name', else the file's stem when it makes a folder name."""
     name = top["name"] or _stem(source)
     if top["name"] is None and not_utf8(name):
         problems.add(ConfigError("name", f"the file name '{printable(name)}' is not UTF-8 text: "
@@ -389,6 +422,11 @@ def validate(raw: Any, source: str = "config") -> Experiment:
     elif top["name"] is None and (problem := name_problem(name)):
         problems.add(ConfigError("name", f"the file name gives the experiment no usable folder "
                                  f"name: {problem}; set 'name'"))
+    return name
+
+
+def _validate_reference(top: dict, raw: dict, source: str, problems: Problems):
+    """The paper the config names (its file found) and the table of it."""
     reference = None
     if top["paper"] is not None:
         with problems.attempt():
@@ -401,14 +439,7 @@ def validate(raw: Any, source: str = "config") -> Experiment:
             problems.add(ConfigError("table", f"paper {top['paper']} has no table "
                                      f"'{top['table']}'" + did_you_mean(top["table"], tables)
                                      + f"; tables: {', '.join(tables)}"))
-    problems.raise_if_any()
-    return Experiment(name=name, source=printable(source), paper=top["paper"],
-                      table=top["table"],
-                      description=top["description"] or "", seed=top["seed"],
-                      trials=top["trials"], scenario=scen_name,
-                      scenario_params=Params(scen_params), filters=filters,
-                      compare=Params(compare), check=Params(check), raw=copy.deepcopy(raw),
-                      reference=reference, diagnostics=top["diagnostics"])
+    return reference
 
 
 def _stem(source: str) -> str:

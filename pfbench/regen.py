@@ -179,8 +179,8 @@ def total_trials(path: Path, trials: int | None = None) -> int:
 
 
 @dataclass
-class Finding:
-    """One (filter run, metric) comparison that failed."""
+class MovedMetric:
+    """One (filter run, metric) of a --check that moved past its tolerance."""
     where: str          # config, and the sweep cell if any
     run: str
     metric: str
@@ -200,21 +200,22 @@ class CheckResult:
     trials: int                   # trials re-run (per cell)
     compared: int = 0             # (run, metric) pairs compared
     identical: bool = True        # the re-run trials equal the committed ones bit for bit
-    findings: list[Finding] = field(default_factory=list)
+    findings: list[MovedMetric] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
         return not self.findings
 
 
-def compare(check: pd.DataFrame, committed: pd.DataFrame, where: str, z: float = Z_DEFAULT,
-            result: CheckResult | None = None) -> CheckResult:
+def check_against_committed(check: pd.DataFrame, committed: pd.DataFrame, where: str,
+                            z: float = Z_DEFAULT,
+                            result: CheckResult | None = None) -> CheckResult:
     """Compare re-run trials with committed ones, metric by metric, for every filter run."""
     result = result or CheckResult(where, int(check["trial"].nunique()))
     for run, a_rows in check.groupby("filter", sort=False):
         b_rows = committed[committed["filter"] == run]
         if b_rows.empty:
-            result.findings.append(Finding(where, run, "(missing)", math.nan, math.nan, 0.0))
+            result.findings.append(MovedMetric(where, run, "(missing)", math.nan, math.nan, 0.0))
             continue
         for metric in (m for m in METRICS if m in check.columns and m in committed.columns):
             a = a_rows[metric].to_numpy(float)
@@ -227,7 +228,7 @@ def compare(check: pd.DataFrame, committed: pd.DataFrame, where: str, z: float =
             se = pooled_se(a, b)
             tol = z * se if se > 0 else 1e-9 * max(1.0, abs(float(b.mean())))
             if not abs(d) <= tol:
-                result.findings.append(Finding(where, run, metric, float(a.mean()),
+                result.findings.append(MovedMetric(where, run, metric, float(a.mean()),
                                                float(b.mean()), tol))
     cols = [c for c in check.columns if c not in TIMING_COLUMNS + ("crc",)]
     same = committed[committed["trial"].isin(check["trial"].unique())]
@@ -295,11 +296,13 @@ def check_config(path: Path, results: Path, executor: LocalExecutor, z: float = 
                                      executor=executor)
                 before += k
                 result.trials = k
-                compare(pd.DataFrame(res.rows), committed, f"{name} [{cell.name}]", z, result)
+                check_against_committed(pd.DataFrame(res.rows), committed,
+                                        f"{name} [{cell.name}]", z, result)
             return result
         exp = load(path)
         k = min(exp.check["trials"], exp.trials)
         committed = _committed(child(Path(results), exp.name, f"{path}: name"), exp)
         res = run_experiment(replace(exp, trials=k), Path(tmp) / exp.name, progress=progress,
                              executor=executor)
-        return compare(pd.DataFrame(res.rows), committed, exp.name, z, CheckResult(exp.name, k))
+        return check_against_committed(pd.DataFrame(res.rows), committed, exp.name, z,
+                                       CheckResult(exp.name, k))

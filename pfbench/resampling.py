@@ -22,7 +22,7 @@ import numpy as np
 from numba import types
 from ._lazy import kernel
 
-from .rng import STATE, uniform
+from .rng import STATE, normal, uniform
 
 SCHEMES = {
     "multinomial": "independent draws from the weights (sorted uniforms, O(N))",
@@ -31,6 +31,21 @@ SCHEMES = {
     "residual": "floor(N w) deterministic copies, the rest multinomial on the residual weights",
 }
 SCHEME_CODES = {name: code for code, name in enumerate(SCHEMES)}
+# the stepwise EWA resampling's code (ifa2021; the swarm PFs and FastSLAM), after the standard ones
+STEPWISE_EWA = len(SCHEME_CODES)
+
+
+def ess_threshold(params, particles: int) -> float:
+    """The ESS below which a filter resamples, from its keys 'resample' and 'neff_ratio':
+    infinite for 'always' (every step), else neff_ratio * particles."""
+    return np.inf if params["resample"] == "always" else params["neff_ratio"] * particles
+
+
+@kernel(types.float64(types.float64, types.float64, STATE), cache=True, inline="always")
+def ewa_mutant(v, mu, s):
+    """The stepwise EWA's mutation of a copied value v: v + v mu z, z a standard normal draw
+    (ifa2021)."""
+    return v + v * mu * normal(s)
 
 _IDX = types.int64[::1]
 _W = types.float64[::1]

@@ -117,7 +117,7 @@ def normal(s):
     """One standard normal draw (ziggurat: one 64-bit draw per value 98.8% of the time)."""
     while True:
         idx, rabs, x = _layer(next_u64(s))
-        if rabs < _ZKI[idx]:
+        if in_layer_rectangle(idx, rabs):
             return x
         x = _normal_slow(s, idx, rabs, x)
         if x == x:
@@ -131,9 +131,8 @@ _LOCAL = types.UniTuple(types.uint64, 4)
 def next_local(q):
     """next_u64 on a state held in local variables, q = (s0, s1, s2, s3): (64 random bits, the
     next state). The compiler keeps a local state in registers, where it must reload an array's
-    after every store that might alias it. :func:`fill_normal` shows the ziggurat's draw on a
-    local state, bit for bit :func:`normal`'s: written out in the loop, for a function that
-    returns the state kept it out of registers here (three times slower).
+    after every store that might alias it. :func:`normal_off_rectangle` says how the ziggurat
+    draws on a local state, bit for bit :func:`normal`'s.
     """
     s0, s1, s2, s3 = q
     r = s0 + s3
@@ -159,22 +158,45 @@ def store_local(s, q):
     s[0], s[1], s[2], s[3] = q
 
 
+@kernel(types.boolean(types.uint64, types.uint64), cache=True, inline="always")
+def in_layer_rectangle(layer, rabs):
+    """The ziggurat's fast test (98.8% of draws): the candidate of magnitude rabs (``_layer``)
+    lies inside its layer's rectangle, and is the draw."""
+    return rabs < _ZKI[layer]
+
+
+@kernel(types.Tuple((types.float64, _LOCAL))(STATE, _LOCAL, types.uint64, types.uint64,
+                                             types.float64), cache=True, inline="always")
+def normal_off_rectangle(s, q, layer, rabs, x):
+    """The rest of a draw on a local state q (see ``next_local``) whose candidate x fell outside
+    its layer's rectangle: the state goes back to the array s for the tail or wedge test
+    (``_normal_slow``), a fresh :func:`normal` when that rejects, and is loaded again. Returns
+    (the draw, the local state).
+
+    The ziggurat's step on a local state, :func:`normal`'s bit for bit, is
+    ``r, q = next_local(q); layer, rabs, x = _layer(r)``, then this when not
+    ``in_layer_rectangle(layer, rabs)``. Its fast path stays in the caller's loop: a helper
+    that returns the local state on the fast path keeps it out of registers (2.5 times slower,
+    even inlined)."""
+    store_local(s, q)
+    x = _normal_slow(s, layer, rabs, x)
+    if x != x:
+        x = normal(s)
+    return x, load_local(s)
+
+
 @kernel(types.void(STATE, types.float64[::1]), cache=True)
 def fill_normal(s, z):
     """Fill ``z`` with independent standard normal draws: the draws of as many calls of
     :func:`normal`, bit for bit, about 2.5x faster, with the state in registers (see
-    ``next_local``)."""
+    ``normal_off_rectangle``)."""
     q = load_local(s)
     for i in range(z.size):
         r, q = next_local(q)
-        idx, rabs, x = _layer(r)
-        if rabs < _ZKI[idx]:
-            z[i] = x
-            continue
-        store_local(s, q)
-        x = _normal_slow(s, idx, rabs, x)
-        z[i] = x if x == x else normal(s)
-        q = load_local(s)
+        layer, rabs, x = _layer(r)
+        if not in_layer_rectangle(layer, rabs):
+            x, q = normal_off_rectangle(s, q, layer, rabs, x)
+        z[i] = x
     store_local(s, q)
 
 

@@ -203,7 +203,7 @@ def test_kld_sampling_in_passes_is_the_one_at_a_time_loop_bit_for_bit(kld_one_at
         if not W.any():
             W[-1] = 1.0
         W /= W.sum()
-        cum = np.cumsum(W)                      # the running sums, in order (summarise's)
+        cum = np.cumsum(W)                      # the running sums, in order (weighted_sums's)
         kp = np.array([float(rng.choice([0.02, 0.05, 0.3])), NormalDist().inv_cdf(0.99), 0.5,
                        math.radians(10.0), float(rng.choice([1, 20, 300]))])
         nmax = int(rng.choice([5, 50, 700, 6000]))
@@ -513,13 +513,13 @@ def _lanes(terms, n):
 
 
 def test_the_summary_pass_is_its_sums():
-    """``summarise``: the weights' running sums in order (the last, S, their sum), the estimate
+    """``weighted_sums``: the weights' running sums in order (the last, S, their sum), the estimate
     (weighted means of x and y, sums over S; the heading's circular mean) and the ESS
     S^2 / sum W^2, each sum in four lanes, for every length; the weights are not touched and
     nothing past n is read or written. With whole numbers every product and sum is exact, so
     the lanes must give these sums to the bit whether or not a multiply-add is fused; with real
     numbers, to rounding."""
-    from pfbench.filters.mcl import summarise
+    from pfbench.filters.mcl import weighted_sums
     rng = np.random.default_rng(8)
     for whole in (True, False):
         for n in list(range(1, 13)) + [1001]:
@@ -531,7 +531,7 @@ def test_the_summary_pass_is_its_sums():
             W[n:] = np.nan
             before = W.copy()
             cum, out = np.full(n + 2, -1.0), np.empty(3)
-            ess = summarise(P, W, n, CS, cum, out)
+            ess = weighted_sums(P, W, n, CS, cum, out)
             w = before[:n].tolist()
             acc, sums = 0.0, []
             for x in w:
@@ -547,3 +547,36 @@ def test_the_summary_pass_is_its_sums():
                 assert out.tolist() + [ess] == want, n
             else:
                 assert np.allclose(out.tolist() + [ess], want, rtol=1e-13, atol=1e-13), n
+
+
+def test_mcls_passes_are_public_and_keep_their_contracts():
+    """loglik_pass, exp_pass and trig_pass (the passes the speed-limit bench times alone): the
+    log-likelihood of pose_loglik for every particle (vecmath's arctangent: to rounding), the
+    shifted exponentials, the headings' cosines and sines, on a part of the set [i0, i1)."""
+    from pfbench.filters.mcl import exp_pass, loglik_pass, trig_pass
+    from pfbench.models.beacons import loglik_const, pose_loglik
+
+    rng = np.random.default_rng(5)
+    N = 37
+    P = np.ascontiguousarray(np.vstack([rng.uniform(0, 10, N), rng.uniform(0, 10, N),
+                                        rng.uniform(-np.pi, np.pi, N)]))
+    CS = np.full((2, N), 7.0)
+    trig_pass(P, 3, 30, CS)
+    assert np.allclose(CS[0, 3:30], np.cos(P[2, 3:30]), rtol=0, atol=1e-15)
+    assert np.allclose(CS[1, 3:30], np.sin(P[2, 3:30]), rtol=0, atol=1e-15)
+    assert (CS[:, :3] == 7.0).all() and (CS[:, 30:] == 7.0).all()
+    bc = np.array([[1.0, 2.0], [8.0, 3.0], [5.0, 9.0]])
+    ids = np.array([0, 2, 1], dtype=np.int64)
+    zs = np.array([[3.0, 0.5], [4.0, -1.0], [6.0, 2.0]])
+    for sensor in (0, 1):
+        for m in (0, 1, 3):
+            ll = np.full(N, np.nan)
+            loglik_pass(P[0], P[1], P[2], N, bc, m, ids, zs, sensor, 0.3, 0.1,
+                        loglik_const(m, sensor, 0.3, 0.1), ll)
+            ref = [pose_loglik(P[0, i], P[1, i], P[2, i], bc, m, ids, zs, sensor, 0.3, 0.1)
+                   for i in range(N)]
+            assert np.allclose(ll, ref, rtol=1e-12, atol=1e-9), (sensor, m)
+    a = rng.normal(size=N)
+    out = np.empty(N)
+    exp_pass(a, 0.5, N - 1, out)
+    assert np.allclose(out[:N - 1], np.exp(a[:N - 1] - 0.5), rtol=1e-15, atol=0)

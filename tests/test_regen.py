@@ -88,9 +88,9 @@ def test_check_flags_a_changed_constant_metric():
             for t in range(6)]
     committed = pd.DataFrame(rows)
     now = committed.head(3).copy()
-    assert regen.compare(now, committed, "x").ok
+    assert regen.check_against_committed(now, committed, "x").ok
     now["lik_evals_per_step"] = 21.0
-    found = regen.compare(now, committed, "x").findings
+    found = regen.check_against_committed(now, committed, "x").findings
     assert [f.metric for f in found] == ["lik_evals_per_step"]
 
 
@@ -107,9 +107,9 @@ def test_check_tolerance_holds_its_false_alarm_rate_and_sees_a_shift():
         committed = pd.DataFrame({"trial": range(100), "filter": "f",
                                   "rmse": rng.standard_normal(100)})
         now = pd.DataFrame({"trial": range(10), "filter": "f", "rmse": rng.standard_normal(10)})
-        false_alarms += not regen.compare(now, committed, "x").ok
+        false_alarms += not regen.check_against_committed(now, committed, "x").ok
         now["rmse"] += 2.0
-        seen += not regen.compare(now, committed, "x").ok
+        seen += not regen.check_against_committed(now, committed, "x").ok
     assert false_alarms <= 3
     assert seen >= 0.95 * n
 

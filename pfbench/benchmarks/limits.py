@@ -42,12 +42,6 @@ from ..rng import STATE, fill_normal, state_from_seed
 from .common import P0, Q, R, SCHEME_SYSTEMATIC, T, bench_data, bench_model, best_time, \
     pfbench_single
 
-# MCL's passes, timed alone below: the public names of pfbench.filters.mcl, or the private ones
-# of a pfbench that does not have them yet (same arguments)
-loglik_pass = getattr(mcl, "loglik_pass", None) or mcl._loglik
-exp_pass = getattr(mcl, "exp_pass", None) or mcl._exps
-trig_pass = getattr(mcl, "trig_pass", None) or mcl._trig
-
 _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
 _F3 = types.float64[:, :, ::1]
@@ -200,7 +194,7 @@ def _mcl_move(P, CS, Z, ctrl, mnoise, o):
 def _mcl_likelihood(P, bc, obs_n, obs_id, obs_z, o, ll):
     N = P.shape[1]
     for t in range(obs_n.size):
-        loglik_pass(P[0], P[1], P[2], N, bc, obs_n[t], obs_id[t], obs_z[t], o.sensor, o.sr, o.sb,
+        mcl.loglik_pass(P[0], P[1], P[2], N, bc, obs_n[t], obs_id[t], obs_z[t], o.sensor, o.sr, o.sb,
                     loglik_const(obs_n[t], o.sensor, o.sr, o.sb), ll)
 
 
@@ -208,14 +202,14 @@ def _mcl_likelihood(P, bc, obs_n, obs_id, obs_z, o, ll):
 def _mcl_exps(ll, W, T):
     N = ll.size
     for _ in range(T):
-        exp_pass(ll, ll.max(), N, W)
+        mcl.exp_pass(ll, ll.max(), N, W)
 
 
 @njit(cache=True, error_model="numpy")
 def _mcl_summarise(P, W, CS, cum, T):
     out = np.empty(3)
     for _ in range(T):
-        mcl.summarise(P, W, P.shape[1], CS, cum, out)
+        mcl.weighted_sums(P, W, P.shape[1], CS, cum, out)
 
 
 @njit(cache=True, error_model="numpy")
@@ -242,7 +236,7 @@ def mcl_limit(N: int, min_time: float, reps: int) -> list[dict]:
     rng = np.random.default_rng(32)
     P = np.ascontiguousarray((truth.pose[0] + 0.3 * rng.standard_normal((N, 3))).T)
     CS = np.empty((2, N))
-    trig_pass(P, 0, N, CS)
+    mcl.trig_pass(P, 0, N, CS)
     Z = np.empty(2 * N if model.motion == 0 else 3 * N)
     ll = np.empty(N)
     W = np.empty(N)

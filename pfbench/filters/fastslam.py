@@ -24,7 +24,8 @@ from .._lazy import kernel, stub, variant
 from ..angles import wrap
 from .. import vecmath as vm
 from ..models.pose import estimate_pose
-from ..resampling import SCHEME_CODES, SCHEMES, resample, stepwise_ewa_plan
+from ..resampling import (SCHEME_CODES, SCHEMES, STEPWISE_EWA, ess_threshold, ewa_mutant, resample,
+                          stepwise_ewa_plan)
 from ..rng import STATE, normal
 from ..schema import Key
 from ._common import (DIAG_DISTINCT, DIAG_DIVERSITY, DIAG_MAP_TRACE, drop_unasked,
@@ -43,7 +44,7 @@ _I = types.int64[::1]
 _I2 = types.int64[:, ::1]
 _B2 = types.int8[:, ::1]
 
-EWA = len(SCHEME_CODES)
+EWA = STEPWISE_EWA
 DIRECTIONAL = EWA + 1
 _SYSTEMATIC = SCHEME_CODES["systematic"]
 LOG_2PI = math.log(2.0 * math.pi)
@@ -884,7 +885,7 @@ def resample_set(ps, out, pc, pcm, Wn, w, Ssum, o, board, xbar, xbar_prev, dnois
         out.nl[i] = ps.nl[j]
         if mutant[i]:
             for d in range(3):
-                P2[i, d] += P2[i, d] * o.ewa_mu * normal(s)
+                P2[i, d] = ewa_mutant(P2[i, d], o.ewa_mu, s)
             P2[i, 2] = wrap(P2[i, 2])
             if o.gate_pose:
                 for d in range(3):
@@ -928,6 +929,38 @@ def final_map(ps, Wn, o, lm_est, lm_seen, assoc_stats):
         lm_seen[m] = 1 if wsum > 0.0 else 0
         lm_est[m, 0] = ax / wsum if wsum > 0.0 else np.nan
         lm_est[m, 1] = ay / wsum if wsum > 0.0 else np.nan
+
+
+@kernel(types.void(_F2, _F, OPTIONS), cache=True)
+def settle_pose_cov(pc, pcm, o):
+    """After the maps' update: the cloud's mean pose uncertainty pcm (6,) of pc (N, 6) when the
+    gates use it (o.gate_pose), and pc zeroed (the poses are tied to their maps again)."""
+    if o.gate_pose:
+        for d in range(6):
+            pcm[d] = pc[:, d].mean()
+    pc[:] = 0.0         # the poses are now tied to their maps again
+
+
+@kernel(types.UniTuple(types.float64, 3)(_F, _F, _F, _F2, types.float64), cache=True)
+def map_weights(lw, w, Wn, P, mx):
+    """The particles' weights after their maps' update (``normalise``): w = exp(lw - mx) (lw
+    shifted in place, mx its maximum), Wn = w over their sum. P (N, 3) the poses. Returns (the
+    weights' sum, the ESS, 1.0 when every weight underflowed and was reset, else 0.0)."""
+    Ssum, S2, sx, under = normalise(lw, w, P[:, 0].copy(), mx)
+    ess = Ssum * Ssum / S2
+    for i in range(Wn.size):
+        Wn[i] = w[i] / Ssum
+    return Ssum, ess, under
+
+
+@kernel(types.void(PARTICLES, OPTIONS, _F), cache=True)
+def resampled_diversity(ps, o, div_k):
+    """The diversity diagnostics of a resampled set into div_k (2,) where o.diag asks for them:
+    the mean pairwise L1 pose distance and the fraction of distinct poses."""
+    if o.diag & DIAG_DIVERSITY:
+        div_k[0], div_k[1] = pose_diversity(ps.P)
+    elif o.diag & DIAG_DISTINCT:
+        div_k[1] = pose_distinct(ps.P) / o.N
 
 
 FASTSLAM_SIG = types.int64(
@@ -985,15 +1018,9 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, o, start, sp, dnoise, lm_true, s
                 nev += refine_poses(ps, pc, ids, zs, n, o, sp, wk, s)
             mx = update_maps(ps, pc, ids, zs, n, o, lw, stats)
             evals[k] = nev + N
-            if o.gate_pose:
-                for d in range(6):
-                    pcm[d] = pc[:, d].mean()
-            pc[:] = 0.0         # the poses are now tied to their maps again
-            Ssum, S2, sx, under = normalise(lw, w, ps.P[:, 0].copy(), mx)
+            settle_pose_cov(pc, pcm, o)
+            Ssum, ess[k], under = map_weights(lw, w, Wn, ps.P, mx)
             events += int(under)
-            ess[k] = Ssum * Ssum / S2
-            for i in range(N):
-                Wn[i] = w[i] / Ssum
             lm_trace[k] = (map_error(Wn, ps.mu, ps.seen, ps.nl, ps.src, o.assoc, lm_true, first)
                            if o.diag & DIAG_MAP_TRACE else np.nan)
             resampled[k] = 0
@@ -1011,10 +1038,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, o, start, sp, dnoise, lm_true, s
                 lw[:] = 0.0
                 Wn[:] = 1.0 / N
                 resampled[k] = 1
-                if o.diag & DIAG_DIVERSITY:
-                    div[k, 0], div[k, 1] = pose_diversity(ps.P)
-                elif o.diag & DIAG_DISTINCT:
-                    div[k, 1] = pose_distinct(ps.P) / N
+                resampled_diversity(ps, o, div[k])
             if o.scheme == DIRECTIONAL:     # the board for the next observation
                 board, next_board = next_board, board
                 xbar_prev[:] = xbar
@@ -1026,9 +1050,9 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, o, start, sp, dnoise, lm_true, s
 
 
 # AFSA's refinement and directional resampling (afsa2014) are the costliest kernels to compile. The
-# kernel for every other setting is a variant whose branches for them call stubs it never reaches
-# (run() picks it only then), so an experiment without them does not compile them; its arithmetic
-# is the full kernel's, and its trials are the same bit for bit.
+# kernel for every other setting, fastslam_kernel_without_afsa2014, is a variant whose branches for
+# them call stubs it never reaches (run() picks it only then), so an experiment without them does
+# not compile them; its arithmetic is the full kernel's, and its trials are the same bit for bit.
 def _no_afsa(ps, pc, ids, zs, n, o, sp, wk, s):
     return 0
 
@@ -1042,13 +1066,14 @@ def _no_board(Wn, ps, board, xbar):
     pass
 
 
-_CORE = "_core"
-refine_poses_core = variant(refine_poses, _CORE, afsa_iteration=stub(afsa_iteration, _no_afsa))
-resample_set_core = variant(resample_set, _CORE,
-                            directional_resample=stub(directional_resample, _no_directional))
-fastslam_kernel_core = variant(fastslam_kernel, _CORE, refine_poses=refine_poses_core,
-                               resample_set=resample_set_core,
-                               note_board=stub(note_board, _no_board))
+_WITHOUT = "_without_afsa2014"
+refine_poses_without_afsa = variant(refine_poses, _WITHOUT,
+                                    afsa_iteration=stub(afsa_iteration, _no_afsa))
+resample_set_without_directional = variant(
+    resample_set, _WITHOUT, directional_resample=stub(directional_resample, _no_directional))
+fastslam_kernel_without_afsa2014 = variant(
+    fastslam_kernel, _WITHOUT, refine_poses=refine_poses_without_afsa,
+    resample_set=resample_set_without_directional, note_board=stub(note_board, _no_board))
 
 
 def options(model, params, particles, diag=True) -> Options:
@@ -1071,7 +1096,7 @@ def options(model, params, particles, diag=True) -> Options:
     R = np.array([pick("range_noise_m", model.noise[2]) ** 2,
                   (pick("bearing_noise_deg", model.noise[3] / deg) * deg) ** 2])
     scheme = {"stepwise_ewa": EWA, "directional": DIRECTIONAL, **SCHEME_CODES}[params["resampling"]]
-    threshold = np.inf if params["resample"] == "always" else params["neff_ratio"] * particles
+    threshold = ess_threshold(params, particles)
     return Options(
         every=int(model.sensor[2]), N=int(particles), M=int(M), dt=float(model.vehicle[1]),
         L=float(model.vehicle[2]), motion=int(motion), q0=float(qctrl[0]), q1=float(qctrl[1]),
@@ -1105,7 +1130,7 @@ def run(model, data, params, particles, state, diag=True):
     div = np.empty((K, 2))
     out["lm_trace"] = np.empty(K)
     full = refine == "afsa" or scheme == DIRECTIONAL
-    out["underflow_steps"] = (fastslam_kernel if full else fastslam_kernel_core)(
+    out["underflow_steps"] = (fastslam_kernel if full else fastslam_kernel_without_afsa2014)(
         data.ctrl, data.obs_n, data.obs_id, data.obs_z, o, model.start, pack(refine, params),
         dnoise, np.ascontiguousarray(model.landmarks, dtype=np.float64), state, out["pose"],
         out["ess"], out["resampled"], out["lm_est"], out["lm_seen"], evals, stats, div,

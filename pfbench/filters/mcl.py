@@ -31,22 +31,10 @@ is consistent with one observation of the step: on its range circle around the b
 sensor: heading uniform), or, with a bearing, also heading so that the beacon is seen at that
 bearing.
 
-Speed: the kernel keeps the particles as rows (x, y, heading: (3, N), and the headings' cosines
-and sines (2, N)) and runs each step as passes over them: all the move's normal draws at once
-(``fill_normal``), then the move, the range likelihood and the weights' exponentials each in a
-loop the compiler vectorises, with the branch-free sine, cosine, arctangent and exponential of
-``pfbench.vecmath`` (within 2 ulp of the C library's; the beacon-field results moved by at most
-1e-11 relative when they came in). The likelihood multiplies by the reciprocals of the noise
-levels, ``summarise``'s sums and ``vecmath.sincos`` are fused multiply-adds (``vecmath.fma``),
-and the weights are never normalised: the estimate's sums are divided by the weights' sum once,
-and the resampling takes that sum as its total. Each of these changed the last bits and moved
-the beacon-field results by at most 4e-11 relative when it came in (no trial took another
-path). Work that must run one element after another carries other work in its wait: the
-weights' running sum carries the estimate's and the ESS's sums (``summarise``), and the
-generator's draws carry the copy of the last step's resampled set (``_draws_copying``);
-systematic resampling counts from those running sums in a vectorised pass
-(``resampling.systematic_from_sums``). KLD-sampling runs in rounds of passes too (see
-``kld_sample``).
+The kernel (``mcl_kernel``) runs each step as named steps: move (``move_particles``, or
+KLD-sampling's ``kld_step``), weigh (``weigh_observations``), estimate (``weighted_sums``),
+resample (``ancestors``), inject (``inject``); the passes behind them are documented as contracts
+in their docstrings. Their design and what each speed-up took: docs/internals/kernels.md.
 """
 from __future__ import annotations
 
@@ -59,9 +47,9 @@ import numpy as np
 from numba import typeof, types
 from .._lazy import kernel
 
-from ..resampling import SCHEME_CODES, resample, systematic_from_sums
-from ..rng import (STATE, _ZKI, _layer, _normal_slow, fill_normal, load_local, next_local, normal,
-                   store_local, uniform, unit)
+from ..resampling import SCHEME_CODES, ess_threshold, resample, systematic_from_sums
+from ..rng import (STATE, _layer, fill_normal, in_layer_rectangle, load_local, next_local,
+                   normal_off_rectangle, store_local, uniform, unit)
 from .. import vecmath as vm
 from ..models.beacons import loglik_const, sensor_pose
 from ..models.odometry import _odometry, odometry_with
@@ -97,8 +85,12 @@ def _lanesum(a, n):
 
 
 @kernel(types.void(_F2, types.int64, types.int64, _F2), cache=True, error_model="numpy")
-def _trig(P, i0, i1, CS):
-    """CS[:, i] = cos, sin of the heading P[2, i] for i0 <= i < i1 (particles as rows)."""
+def trig_pass(P, i0, i1, CS):
+    """CS[:, i] = cos, sin of the heading P[2, i] for i0 <= i < i1.
+
+    P (3, N) the particles as rows x, y, heading; CS (2, N); 0 <= i0 <= i1 <= N. One loop of
+    ``vecmath.sincos`` (branch-free, fused multiply-adds) that the compiler vectorises: the
+    cosines and sines kept with the particles spare the move and the estimate recomputing them."""
     for i in range(i0, i1):
         CS[1, i], CS[0, i] = vm.sincos(P[2, i])
 
@@ -146,11 +138,16 @@ def _move_rot_trans_rot(X, Y, H, C, S, Z, rot1, trans, rot2, mnoise, n):
 @kernel(types.void(_F, _F, _F, types.int64, _F2, types.int64, _I, _F2, types.int64,
                  types.float64, types.float64, types.float64, _F), cache=True,
       error_model="numpy")
-def _loglik(X, Y, H, n, bc, m, ids, zs, sensor, sr, sb, cst, ll):
+def loglik_pass(X, Y, H, n, bc, m, ids, zs, sensor, sr, sb, cst, ll):
     """ll[:n] = log p(z | particle i) of the step's m observations (pose_quad's sum, in its
-    order, + loglik_const), an observation at a time over all particles: passes the vectoriser
-    takes, with vecmath's arctangent and wrap for the bearings. The first pass starts each sum
-    from zero and the last adds the constant (no passes of their own for either)."""
+    order, + cst, the constant ``loglik_const(m, sensor, sr, sb)``).
+
+    X, Y, H (>= n,) the particles' x, y, heading; bc (B, 2) the beacons; ids (>= m,) and zs
+    (>= m, 2) the observations' beacons and [range, bearing]; sensor 1: ranges and bearings,
+    0: ranges; sr, sb > 0 their noise levels; ll (>= n,) written. An observation at a time over
+    all particles: passes the vectoriser takes (vecmath's arctangent and wrap for the
+    bearings), multiplying by the reciprocals of the noise levels. The first pass starts each
+    sum from zero and the last adds the constant (no passes of their own for either)."""
     rr, rb = 1.0 / sr, 1.0 / sb
     if m == 0:
         for i in range(n):
@@ -175,16 +172,19 @@ def _loglik(X, Y, H, n, bc, m, ids, zs, sensor, sr, sb, cst, ll):
 
 
 @kernel(types.void(_F, types.float64, types.int64, _F), cache=True, error_model="numpy")
-def _exps(a, shift, n, out):
-    """out[i] = exp(a[i] - shift) for i < n."""
+def exp_pass(a, shift, n, out):
+    """out[i] = exp(a[i] - shift) for i < n (a, out of at least n; out may be a).
+
+    ``vecmath.exp`` (within 2 ulp of the C library's, 0 below -708, NaN and -inf give 0) in a
+    loop the compiler vectorises: the weights' exponentials after their maximum's shift."""
     for i in range(n):
         out[i] = vm.exp(a[i] - shift)
 
 
 @kernel(types.float64(_F, types.float64, types.int64, _F), cache=True, error_model="numpy")
 def _exp_sum(a, shift, n, out):
-    """``_exps``, returning their sum (in partial sums, ``_lanesum``)."""
-    _exps(a, shift, n, out)
+    """``exp_pass``, returning their sum (in partial sums, ``_lanesum``)."""
+    exp_pass(a, shift, n, out)
     return _lanesum(out, n)
 
 
@@ -375,7 +375,7 @@ def guided_upper_bound(cum, n, guide, ginv, v):
 def kld_sample(P, cum, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob, inject_sensor,
                sensor, bc, nobs, ids, zs, sr, sb, s, out):
     """KLD-sampling: draw particles from the weighted set (P[:, :n] as rows, cum[:n] the running
-    sums of its weights, added in order: ``summarise``'s) one at a time, move each by the
+    sums of its weights, added in order: ``weighted_sums``'s) one at a time, move each by the
     odometry u (3,) with its own noise, into out, until their count reaches the bound for
     the bins they occupy (kp: [eps, z_(1-delta), bin m, bin rad, n_min]) or nmax. With
     probability ``prob`` a draw is a new pose (uniform, or from the sensor model of the
@@ -383,123 +383,183 @@ def kld_sample(P, cum, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob,
     be all zero; it is left so (a histogram of more bins, or an occ too small for it, counts the
     occupied bins in a hash set instead: the same count). Returns (count, injected).
 
-    It runs in rounds of passes over up to KLD_CHUNK particles (at least the count the bound
-    still asks for): their random draws in the generator's order, the generator's state kept
-    after each particle; the searches for the drawn positions (from a guide table); the moves
-    (vecmath's sine, cosine and wrap, vectorised, as plain MCL's) and the bins; then the count,
-    which stops at the bound. Draws past the stopping particle are taken back by restoring the
-    state kept after it, so the particles, their order and the generator's state are those of
-    drawing one particle at a time, bit for bit."""
-    acc = cum[n - 1]
+    It runs in rounds over up to KLD_CHUNK particles (at least the count the bound still asks
+    for): draw (``kld_draws``), copy (``kld_copies``), move and bin (``kld_moves``), count
+    (``kld_tally``, which stops at the bound and takes back the draws past it), so that the
+    particles, their order and the generator's state are those of one particle at a time."""
     nmin = int(kp[4])
-    target = nmin
-    k = 0
-    m = 0
-    injected = 0
-    CH = KLD_CHUNK
-    src = np.empty(CH, dtype=np.int64)      # the particle copied, -1 for a new pose
-    pos = np.empty(CH)                      # the position drawn in [0, acc)
-    odo = np.empty((3, CH))                 # the noisy odometry of each draw
-    kept = np.empty((CH, 4), dtype=np.uint64)
-    bins = np.empty(CH, dtype=np.int64)
-    pose = np.empty(3)
+    target, k, m, injected = nmin, 0, 0, 0
+    rd = new_kld_round(KLD_CHUNK)
     guide = np.empty(n, dtype=np.int64)
     ginv = guide_table(cum, n, guide)
     nb = kld_bins(area, kp)
     dense = 0 < nb <= occ.size
-    nx, ny, nt = kld_cells(area, kp) if dense else (1, 1, 1)
-    fx, fy, ft = kld_grid(area, kp)
     cap = 1
     while cap < 2 * nmax and not dense:
         cap *= 2
     hk = np.empty((cap, 3))                 # the hash set of occupied bins (sparse histograms)
     hused = np.zeros(cap, dtype=np.uint8)
     while m < nmax:
-        c = min(CH, nmax - m, max(target - m, 32))
-        # the draws, in the order of the one-at-a-time loop, the state in registers
-        q = load_local(s)
-        for r in range(c):
-            new = False
-            if prob > 0.0:
-                bits, q = next_local(q)
-                new = unit(bits) < prob
-            if new:
-                store_local(s, q)
-                sensor_pose(area, sensor, bc, nobs if inject_sensor else 0, ids, zs, sr, sb,
-                            pose, s)
-                q = load_local(s)
-                out[0, m + r], out[1, m + r], out[2, m + r] = pose[0], pose[1], pose[2]
-                src[r] = -1
-            else:
-                bits, q = next_local(q)
-                pos[r] = unit(bits) * acc
-                src[r] = 0
-            n1 = n2 = n3 = 0.0
-            for d in range(2 if motion == 0 else 3):     # noisy_odometry's normal draws
-                bits, q = next_local(q)
-                idx, rabs, x = _layer(bits)
-                if rabs >= _ZKI[idx]:
-                    store_local(s, q)
-                    x = _normal_slow(s, idx, rabs, x)
-                    x = x if x == x else normal(s)
-                    q = load_local(s)
-                if d == 0:
-                    n1 = x
-                elif d == 1:
-                    n2 = x
-                else:
-                    n3 = x
-            odo[0, r], odo[1, r], odo[2, r] = _odometry(u[0], u[1], u[2], motion, mnoise, n1,
-                                                        n2, n3)
-            kept[r, 0], kept[r, 1], kept[r, 2], kept[r, 3] = q
-        store_local(s, q)
-        # the copies: the first particle whose running weight passes the position, from the
-        # guide table's entry below it
-        for r in range(c):
-            if src[r] >= 0:
-                j = min(guided_upper_bound(cum, n, guide, ginv, pos[r]), n - 1)
-                src[r] = j
-                out[0, m + r], out[1, m + r], out[2, m + r] = P[0, j], P[1, j], P[2, j]
-        # the moves and the histogram bins (kld_bin's)
-        X, Y, H = out[0, m:m + c], out[1, m:m + c], out[2, m:m + c]
-        for r in range(c):      # two loops: one has too many arrays for the vectoriser
-            th = H[r] + odo[0, r]
-            st, ct = vm.sincos(th)
-            X[r] += odo[1, r] * ct
-            Y[r] += odo[1, r] * st
-            H[r] = vm.wrap(th + odo[2, r])
-        if dense:
-            for r in range(c):
-                bins[r] = kld_cell(X[r], Y[r], H[r], kp[2], kp[3], nx, ny, nt)
-        # the count, up to the bound
-        for r in range(c):
-            if dense:
-                b = bins[r]
-                new_bin = occ[b] == 0
-                if new_bin:
-                    occ[b] = 1
-            else:
-                b = _hash_insert(hk, hused, _cell_key(X[r], kp[2], fx, area[0]),
-                                 _cell_key(Y[r], kp[2], fy, area[1]),
-                                 _cell_key(H[r] + math.pi, kp[3], ft, 2.0 * math.pi))
-                new_bin = b >= 0
-            if new_bin:
-                touched[k] = b
-                k += 1
-                target = max(nmin, kld_count(k, kp[0], kp[1]))
-            if src[r] < 0:
-                injected += 1
-            m += 1
-            if m >= target:
-                if r < c - 1:       # take back the draws of the particles after this one
-                    store_local(s, (kept[r, 0], kept[r, 1], kept[r, 2], kept[r, 3]))
-                break
+        c = min(KLD_CHUNK, nmax - m, max(target - m, 32))
+        X, Y, H = out[0, m:m + c], out[1, m:m + c], out[2, m:m + c]     # the round's particles
+        kld_draws(rd, c, X, Y, H, cum[n - 1], prob, u, motion, mnoise, area, sensor, bc,
+                  nobs if inject_sensor else 0, ids, zs, sr, sb, s)
+        kld_copies(rd, c, X, Y, H, P, cum, n, guide, ginv)
+        kld_moves(rd, c, X, Y, H, area, kp, dense)
+        m, k, target, injected = kld_tally(rd, c, X, Y, H, m, k, target, injected, nmin, area,
+                                           kp, dense, occ, touched, hk, hused, s)
         if m >= target:
             break
     if dense:
         for r in range(k):
             occ[touched[r]] = 0
     return m, injected
+
+
+class KldRound(NamedTuple):
+    """A round of KLD-sampling's draws (CH = KLD_CHUNK at most), particle r's:
+    src (CH,) : the particle copied, -1 for a new pose (0 until ``kld_copies`` finds it)
+    pos (CH,) : the position drawn in [0, the weights' sum) for a copy
+    odo (3, CH) : the noisy odometry
+    kept (CH, 4) : the generator's state after its draws
+    bins (CH,) : its histogram bin (dense histograms)
+    pose (3,) : scratch for a pose drawn from the sensor model
+    """
+
+    src: np.ndarray
+    pos: np.ndarray
+    odo: np.ndarray
+    kept: np.ndarray
+    bins: np.ndarray
+    pose: np.ndarray
+
+
+KLD_ROUND = types.NamedTuple((_I, _F, _F2, types.uint64[:, ::1], _I, _F), KldRound)
+
+
+@kernel(KLD_ROUND(types.int64), cache=True)
+def new_kld_round(CH):
+    """The scratch of a round of up to CH draws."""
+    return KldRound(np.empty(CH, dtype=np.int64), np.empty(CH), np.empty((3, CH)),
+                    np.empty((CH, 4), dtype=np.uint64), np.empty(CH, dtype=np.int64),
+                    np.empty(3))
+
+
+@kernel(types.void(KLD_ROUND, types.int64, _F, _F, _F, types.float64, types.float64, _F,
+                   types.int64, _F, _F, types.int64, _F2, types.int64, _I, _F2, types.float64,
+                   types.float64, STATE), cache=True, error_model="numpy")
+def kld_draws(rd, c, X, Y, H, acc, prob, u, motion, mnoise, area, sensor, bc, nobs, ids, zs, sr, sb,
+              s):
+    """The random draws of c particles, in the order of the one-at-a-time loop, the generator's
+    state in registers (``rng.next_local``) and kept after each particle (rd.kept): whether it
+    is a new pose (probability prob: drawn from the sensor model of (ids, zs)[:nobs], uniform
+    when nobs is 0, into (X, Y, H)[r]), else its position in [0, acc); then its noisy odometry
+    (the ziggurat's step of ``rng``, 2 or 3 draws by the motion model) into rd.odo."""
+    q = load_local(s)
+    for r in range(c):
+        new = False
+        if prob > 0.0:
+            bits, q = next_local(q)
+            new = unit(bits) < prob
+        if new:
+            store_local(s, q)
+            sensor_pose(area, sensor, bc, nobs, ids, zs, sr, sb, rd.pose, s)
+            q = load_local(s)
+            X[r], Y[r], H[r] = rd.pose[0], rd.pose[1], rd.pose[2]
+            rd.src[r] = -1
+        else:
+            bits, q = next_local(q)
+            rd.pos[r] = unit(bits) * acc
+            rd.src[r] = 0
+        n1 = n2 = n3 = 0.0
+        for d in range(2 if motion == 0 else 3):     # noisy_odometry's normal draws
+            bits, q = next_local(q)
+            layer, rabs, x = _layer(bits)
+            if not in_layer_rectangle(layer, rabs):
+                x, q = normal_off_rectangle(s, q, layer, rabs, x)
+            if d == 0:
+                n1 = x
+            elif d == 1:
+                n2 = x
+            else:
+                n3 = x
+        rd.odo[0, r], rd.odo[1, r], rd.odo[2, r] = _odometry(u[0], u[1], u[2], motion, mnoise,
+                                                             n1, n2, n3)
+        rd.kept[r, 0], rd.kept[r, 1], rd.kept[r, 2], rd.kept[r, 3] = q
+    store_local(s, q)
+
+
+@kernel(types.void(KLD_ROUND, types.int64, _F, _F, _F, _F2, _F, types.int64, _I,
+                   types.float64),
+        cache=True, error_model="numpy")
+def kld_copies(rd, c, X, Y, H, P, cum, n, guide, ginv):
+    """The copies of the round: for each drawn position, the first particle of P[:, :n] whose
+    running weight cum passes it (``guided_upper_bound`` on the guide table), into X, Y, H."""
+    for r in range(c):
+        if rd.src[r] >= 0:
+            j = min(guided_upper_bound(cum, n, guide, ginv, rd.pos[r]), n - 1)
+            rd.src[r] = j
+            X[r], Y[r], H[r] = P[0, j], P[1, j], P[2, j]
+
+
+@kernel(types.void(KLD_ROUND, types.int64, _F, _F, _F, _F, _F, types.boolean), cache=True,
+        error_model="numpy")
+def kld_moves(rd, c, X, Y, H, area, kp, dense):
+    """The round's particles (X, Y, H)[:c] moved by their odometry rd.odo (vecmath's sine,
+    cosine and wrap, a pass the compiler vectorises, as plain MCL's move), and, for a dense
+    histogram, their bins (``kld_cell``) into rd.bins."""
+    odo = rd.odo
+    for r in range(c):      # two loops: one has too many arrays for the vectoriser
+        th = H[r] + odo[0, r]
+        st, ct = vm.sincos(th)
+        X[r] += odo[1, r] * ct
+        Y[r] += odo[1, r] * st
+        H[r] = vm.wrap(th + odo[2, r])
+    if dense:
+        nx, ny, nt = kld_cells(area, kp)
+        for r in range(c):
+            rd.bins[r] = kld_cell(X[r], Y[r], H[r], kp[2], kp[3], nx, ny, nt)
+
+
+@kernel(types.UniTuple(types.int64, 4)(
+    KLD_ROUND, types.int64, _F, _F, _F, types.int64, types.int64, types.int64, types.int64,
+    types.int64, _F, _F, types.boolean, types.uint8[::1], _I, _F2, types.uint8[::1], STATE),
+    cache=True, error_model="numpy")
+def kld_tally(rd, c, X, Y, H, m, k, target, injected, nmin, area, kp, dense, occ, touched, hk,
+              hused, s):
+    """Count the round's particles one at a time (m drawn so far, k occupied bins, listed in
+    touched; target the bound for them, at least nmin) until the count reaches the bound: a
+    particle in a new bin (the dense histogram occ, else the hash set hk, hused) raises it to
+    ``kld_count``. Where it stops before the round's end, the generator's state goes back to
+    the one kept after the stopping particle. Returns (m, k, target, injected)."""
+    if not dense:
+        fx, fy, ft = kld_grid(area, kp)
+    else:
+        fx = fy = ft = 1.0
+    for r in range(c):
+        if dense:
+            b = rd.bins[r]
+            new_bin = occ[b] == 0
+            if new_bin:
+                occ[b] = 1
+        else:
+            b = _hash_insert(hk, hused, _cell_key(X[r], kp[2], fx, area[0]),
+                             _cell_key(Y[r], kp[2], fy, area[1]),
+                             _cell_key(H[r] + math.pi, kp[3], ft, 2.0 * math.pi))
+            new_bin = b >= 0
+        if new_bin:
+            touched[k] = b
+            k += 1
+            target = max(nmin, kld_count(k, kp[0], kp[1]))
+        if rd.src[r] < 0:
+            injected += 1
+        m += 1
+        if m >= target:
+            if r < c - 1:       # take back the draws of the particles after this one
+                kept = rd.kept
+                store_local(s, (kept[r, 0], kept[r, 1], kept[r, 2], kept[r, 3]))
+            break
+    return m, k, target, injected
 
 
 class MclOptions(NamedTuple):
@@ -543,21 +603,16 @@ def _draws_copying(s, Z, per, P, CS, idx, P2, CS2, n):
     """fill_normal(s, Z) (per draws a particle, n particles), and meanwhile the resampled set:
     (P2, CS2)[:, i] = (P, CS)[:, idx[i]]. The draws wait on the generator, one step after
     another; the copy's loads and stores fill that wait, and cost far less there than in a pass
-    of their own. The ziggurat is written out as in ``fill_normal`` (a helper that returned the
-    generator's state ran three times slower). Compiled for each ``per`` it is called with (a
-    constant: the loop over a particle's draws unrolls)."""
+    of their own. The draws are ``fill_normal``'s (the ziggurat's step of ``rng``). Compiled for
+    each ``per`` it is called with (a constant: the loop over a particle's draws unrolls)."""
     q = load_local(s)
     for i in range(n):
         _copy_particle(P, CS, P2, CS2, i, idx[i])
         for d in range(per):
             r, q = next_local(q)
             layer, rabs, x = _layer(r)
-            if rabs >= _ZKI[layer]:
-                store_local(s, q)
-                x = _normal_slow(s, layer, rabs, x)
-                if x != x:
-                    x = normal(s)
-                q = load_local(s)
+            if not in_layer_rectangle(layer, rabs):
+                x, q = normal_off_rectangle(s, q, layer, rabs, x)
             Z[per * i + d] = x
     store_local(s, q)
 
@@ -586,24 +641,24 @@ def move_particles(P, CS, Z, u, o, mnoise):
 @kernel(types.Tuple((types.float64, types.float64, types.float64, types.boolean))(
     _F2, types.int64, _F2, types.int64, _I, _F2, MCL_OPTIONS, _F, _F, _F, types.boolean),
     cache=True, error_model="numpy")
-def weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh):
+def weigh_observations(P, n, bc, m, ids, zs, o, lw, W, ll, equal_weights):
     """Weigh the n particles by the step's m observations: log-weights lw, weights W (as they
-    are: W = exp(lw - max lw), never normalised; ``summarise`` divides by their sum where it
+    are: W = exp(lw - max lw), never normalised; ``weighted_sums`` divides by their sum where it
     matters). Returns (1 when every weight underflowed and was reset, else 0; the largest
     log-likelihood lmax; the sum of exp(ll - lmax); whether W holds those very terms). The mean
     likelihood of the moved particles is exp(lmax) times that sum over n (``mean_likelihood``);
-    when W holds the terms, their sum is not computed here: ``summarise``'s running sums end
-    with it. ``fresh``: the set was just resampled or drawn (its log-weights all zero, whatever
+    when W holds the terms, their sum is not computed here: ``weighted_sums``'s running sums end
+    with it. ``equal_weights``: the set was just resampled or drawn (its log-weights all zero, whatever
     lw holds), so the likelihoods are the weights, and lw is left as it is: unless every weight
     underflowed (then lw is all zero), the log-weights are ll, and the caller swaps the two
     arrays."""
-    _loglik(P[0], P[1], P[2], n, bc, m, ids, zs, o.sensor, o.sr, o.sb,
-            loglik_const(m, o.sensor, o.sr, o.sb), ll)
+    loglik_pass(P[0], P[1], P[2], n, bc, m, ids, zs, o.sensor, o.sr, o.sb,
+                loglik_const(m, o.sensor, o.sr, o.sb), ll)
     # the two maxima in four lanes each (the same maxima: a NaN loses every comparison)
     m0 = m1 = m2 = m3 = -np.inf
     l0 = l1 = l2 = l3 = -np.inf
     top = n - n % 4
-    if fresh:       # the log-weights are the log-likelihoods: the caller takes ll as lw
+    if equal_weights:   # the log-weights are the log-likelihoods: the caller takes ll as lw
         for i in range(0, top, 4):
             l0, l1 = max(l0, ll[i]), max(l1, ll[i + 1])
             l2, l3 = max(l2, ll[i + 2]), max(l3, ll[i + 3])
@@ -624,8 +679,8 @@ def weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh):
             l0 = max(l0, ll[i])
     mx = max(max(m0, m1), max(m2, m3))
     lmax = max(max(l0, l1), max(l2, l3))
-    if fresh and np.isfinite(mx):       # the weights are the likelihood's terms
-        _exps(ll, lmax, n, W)
+    if equal_weights and np.isfinite(mx):   # the weights are the likelihood's terms
+        exp_pass(ll, lmax, n, W)
         return 0.0, lmax, 0.0, True
     acc = _exp_sum(ll, lmax, n, W)      # W as scratch
     under = 0.0
@@ -633,7 +688,7 @@ def weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh):
         under = 1.0
         lw[:n] = 0.0
         mx = 0.0
-    _exps(lw, mx, n, W)
+    exp_pass(lw, mx, n, W)
     return under, lmax, acc, False
 
 
@@ -657,7 +712,7 @@ def _fma_lanes(w0, w1, w2, w3, A, i, s0, s1, s2, s3):
 
 
 @kernel(types.float64(_F2, _F, types.int64, _F2, _F, _F), cache=True, error_model="numpy")
-def summarise(P, W, n, CS, cum, out):
+def weighted_sums(P, W, n, CS, cum, out):
     """One pass over the n weighted particles (rows P, their headings' cosines and sines CS;
     weights W, not normalised): the weights' running sums into cum (summed in order, for the
     resampling; cum[n - 1] is their sum S), the estimate into out (``estimate_pose``'s weighted
@@ -720,7 +775,7 @@ def likelihood_averages(w_slow, w_fast, pm, m, o, rp):
 @kernel(types.void(_F, _F, MCL_OPTIONS, _I, _I, STATE), cache=True, error_model="numpy")
 def ancestors(W, cum, o, idx, scratch, s):
     """The resampled set's ancestors idx of the weights W (cum: their running sums, from
-    ``summarise``; their sum cum[-1]) by the scheme of o."""
+    ``weighted_sums``; their sum cum[-1]) by the scheme of o."""
     S = cum[cum.size - 1]
     if o.scheme == 1:
         systematic_from_sums(W, cum, S, s, idx, scratch)
@@ -749,7 +804,7 @@ def inject(P, CS, area, bc, m, ids, zs, o, rp, pm, prob, perm, pose, s):
             if uniform(s) < prob:
                 sensor_pose(area, o.sensor, bc, drawn_from, ids, zs, o.sr, o.sb, pose, s)
                 P[0, i], P[1, i], P[2, i] = pose[0], pose[1], pose[2]
-                _trig(P, i, i + 1, CS)
+                trig_pass(P, i, i + 1, CS)
                 k += 1
         return k
     if m == 0 or not (o.reset == 1 or o.reset == 2):
@@ -768,8 +823,64 @@ def inject(P, CS, area, bc, m, ids, zs, o, rp, pm, prob, perm, pose, s):
         perm[r], perm[j] = perm[j], perm[r]
         sensor_pose(area, o.sensor, bc, m, ids, zs, o.sr, o.sb, pose, s)
         P[0, perm[r]], P[1, perm[r]], P[2, perm[r]] = pose[0], pose[1], pose[2]
-        _trig(P, perm[r], perm[r] + 1, CS)
+        trig_pass(P, perm[r], perm[r] + 1, CS)
     return k
+
+
+class MclWork(NamedTuple):
+    """MCL's scratch for a set of at most N particles.
+
+    idx (N,) : the resampled set's ancestors; scratch (N,) : the resampling scheme's
+    perm (N,) : the injection's random choice of particles; pose (3,) : a pose drawn for it
+    occ (``kld_bins``,) : KLD-sampling's dense histogram, all zero between steps (1 without it)
+    touched (N,) : the bins KLD-sampling occupied in a step
+    Z (2 N or 3 N,) : the move's normal draws, 2 or 3 a particle by the motion model
+    """
+
+    idx: np.ndarray
+    scratch: np.ndarray
+    perm: np.ndarray
+    pose: np.ndarray
+    occ: np.ndarray
+    touched: np.ndarray
+    Z: np.ndarray
+
+
+MCL_WORK = types.NamedTuple((_I, _I, _I, _F, types.uint8[::1], _I, _F), MclWork)
+
+
+@kernel(MCL_WORK(MCL_OPTIONS, _F, _F), cache=True, error_model="numpy")
+def new_mcl_work(o, area, kp):
+    """The scratch (``MclWork``) of MCL with settings o on the field ``area`` (KLD: kp)."""
+    N = o.N
+    return MclWork(np.empty(N, dtype=np.int64), np.empty(N, dtype=np.int64),
+                   np.empty(N, dtype=np.int64), np.empty(3),
+                   np.zeros(kld_bins(area, kp) if o.kld else 1, dtype=np.uint8),
+                   np.empty(N, dtype=np.int64), np.empty(N * (2 if o.motion == 0 else 3)))
+
+
+@kernel(types.Tuple((_F2, _F2))(_F, _F, types.int64, STATE), cache=True, error_model="numpy")
+def initial_set(area, init, N, s):
+    """The initial belief's N particles (``init_particles``) as rows x, y, heading (3, N), so
+    that the passes over them vectorise, and their headings' cosines and sines (2, N)."""
+    P0 = np.empty((N, 3))
+    init_particles(P0, area, init, s)
+    P = np.ascontiguousarray(P0.T)
+    CS = np.empty((2, N))
+    trig_pass(P, 0, N, CS)
+    return P, CS
+
+
+@kernel(types.UniTuple(types.int64, 2)(
+    _F2, _F, types.int64, _F, MCL_OPTIONS, _F, _F, _F, MCL_WORK, types.float64,
+    _F2, types.int64, _I, _F2, STATE, _F2), cache=True, error_model="numpy")
+def kld_step(P, cum, n, u, o, mnoise, area, kp, wk, prob, bc, m, ids, zs, s, out):
+    """KLD-sampling's step: resample the last step's weighted set (P[:, :n], running sums cum)
+    and move by the odometry u in one loop (``kld_sample``), the new set into out, injecting
+    with probability prob from the last step's m observations (ids, zs). Returns (the new
+    count, how many were injected)."""
+    return kld_sample(P, cum, n, u, o.motion, mnoise, area, kp, o.N, wk.occ, wk.touched, prob,
+                      o.inject_sensor, o.sensor, bc, m, ids, zs, o.sr, o.sb, s, out)
 
 
 MCL_SIG = types.int64(
@@ -786,69 +897,48 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
     with kp (see kld_sample), o.N the largest count; init: the initial belief (init_particles).
     snap_t: increasing steps at which the particles (after the step's move, before resampling;
     step 0: the initial cloud) are copied into snap (S, N, 3), their count into snap_n. Returns
-    the steps whose weights all underflowed."""
+    the steps whose weights all underflowed.
+
+    Each step: move (sample the motion model), weigh, estimate, resample, inject; KLD-sampling
+    resamples and moves in one loop at the start of the next step instead."""
     T, N = ctrl.shape[0], o.N
-    # the particles as rows x, y, heading (3, N), so that the passes over them vectorise
-    P0 = np.empty((N, 3))
-    init_particles(P0, area, init, s)
-    P = np.ascontiguousarray(P0.T)
-    P2 = np.empty((3, N))
-    n = N
-    lw = np.zeros(N)
-    W = np.ones(N)          # the weights as they are, never normalised (see summarise)
-    idx = np.empty(N, dtype=np.int64)
-    scratch = np.empty(N, dtype=np.int64)
-    perm = np.empty(N, dtype=np.int64)
-    ll = np.empty(N)
-    pose = np.empty(3)
-    occ = np.zeros(kld_bins(area, kp) if o.kld else 1, dtype=np.uint8)
-    touched = np.empty(N, dtype=np.int64)
-    cum = np.empty(N)
-    w_slow = 0.0
-    w_fast = 0.0
-    prob = 0.0
-    events = 0
-    # the headings' cosines and sines, kept with the particles: a move without a first turn
-    # (sspf2008's odometry) reuses them, and the estimate never recomputes them
-    CS = np.empty((2, N))
-    CS2 = np.empty((2, N))
-    Z = np.empty(N * (2 if o.motion == 0 else 3))
-    _trig(P, 0, N, CS)
-    fresh = True            # the log-weights are all zero (a resampled or initial set)
-    pending = False         # (P, CS) is the last step's set, to be resampled by idx
-    summarise(P, W, N, CS, cum, est[0])
+    P, CS = initial_set(area, init, N, s)       # particles as rows, their headings' cos, sin
+    P2, CS2 = np.empty((3, N)), np.empty((2, N))    # the next set, swapped in when built
+    lw, W, ll, cum = np.zeros(N), np.ones(N), np.empty(N), np.empty(N)
+    wk = new_mcl_work(o, area, kp)
+    n, events = N, 0
+    w_slow = w_fast = prob = 0.0
+    equal_weights = True    # the log-weights are all zero (an initial, resampled or drawn set)
+    copy_due = False        # the set to move is the last step's resampled by wk.idx, not copied
+    weighted_sums(P, W, N, CS, cum, est[0])
     si = snapshot(0, P, N, snap_t, snap, snap_n, 0, True)
     for t in range(T):
-        if o.kld:
-            # resample (the last step's weighted set, by the running sums summarise left in
-            # cum) and move in one loop, as many as the bins the moved particles occupy call for
+        if o.kld:       # resample (by the running sums in cum) and move, as many as bins ask
             tp = max(t - 1, 0)
-            n, k = kld_sample(P, cum, n, ctrl[t], o.motion, mnoise, area, kp, N, occ, touched,
-                              prob, o.inject_sensor, o.sensor, bc, obs_n[tp] if t > 0 else 0,
-                              obs_id[tp], obs_z[tp], o.sr, o.sb, s, P2)
+            n, injected[t] = kld_step(P, cum, n, ctrl[t], o, mnoise, area, kp, wk, prob, bc,
+                                      obs_n[tp] if t > 0 else 0, obs_id[tp], obs_z[tp], s, P2)
             P, P2 = P2, P
-            _trig(P, 0, n, CS)
-            fresh = True
+            trig_pass(P, 0, n, CS)
+            equal_weights = True
             resampled[t] = 1
-            injected[t] = k
         else:
-            if pending:         # the resampled set is copied while the noise is drawn
-                draws_copying(s, Z, o.motion, P, CS, idx, P2, CS2, N)
-                P, P2 = P2, P
-                CS, CS2 = CS2, CS
-                pending = False
+            if copy_due:    # the resampled set is copied while the noise is drawn
+                draws_copying(s, wk.Z, o.motion, P, CS, wk.idx, P2, CS2, N)
+                P, P2, CS, CS2 = P2, P, CS2, CS
+                copy_due = False
             else:
-                fill_normal(s, Z)
-            move_particles(P, CS, Z, ctrl[t], o, mnoise)
+                fill_normal(s, wk.Z)
+            move_particles(P, CS, wk.Z, ctrl[t], o, mnoise)
         count[t] = n
         m, ids, zs = obs_n[t], obs_id[t], obs_z[t]
-        under, lmax, acc, terms = weigh(P, n, bc, m, ids, zs, o, lw, W, ll, fresh)
-        if fresh and under == 0.0:
-            lw, ll = ll, lw         # the log-weights of a fresh set are its log-likelihoods
+        under, lmax, acc, w_is_terms = weigh_observations(P, n, bc, m, ids, zs, o, lw, W, ll,
+                                                          equal_weights)
+        if equal_weights and under == 0.0:
+            lw, ll = ll, lw         # the log-weights of such a set are its log-likelihoods
         events += int(under)
-        fresh = False
-        ess[t] = summarise(P, W, n, CS, cum, est[t + 1])
-        pm = mean_likelihood(lmax, cum[n - 1] if terms else acc, n)
+        equal_weights = False
+        ess[t] = weighted_sums(P, W, n, CS, cum, est[t + 1])
+        pm = mean_likelihood(lmax, cum[n - 1] if w_is_terms else acc, n)
         pmean[t] = pm
         si = snapshot(t + 1, P, n, snap_t, snap, snap_n, si, True)
         if o.reset == 3 and m > 0:
@@ -857,18 +947,16 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
             continue            # the next step's sampling resamples (and injects)
         resampled[t] = 0
         if ess[t] < o.threshold:
-            ancestors(W, cum, o, idx, scratch, s)
-            if o.reset == 0:
-                pending = True      # nothing is injected: the next step's draws copy the set
-            else:
-                gather_rows(P, CS, P2, CS2, idx, N)
-                P, P2 = P2, P
-                CS, CS2 = CS2, CS
-            fresh = True
+            ancestors(W, cum, o, wk.idx, wk.scratch, s)
+            copy_due = o.reset == 0     # nothing is injected: the next step's draws copy it
+            if not copy_due:
+                gather_rows(P, CS, P2, CS2, wk.idx, N)
+                P, P2, CS, CS2 = P2, P, CS2, CS
+            equal_weights = True
             resampled[t] = 1
-        injected[t] = inject(P, CS, area, bc, m, ids, zs, o, rp, pm, prob, perm, pose, s)
+        injected[t] = inject(P, CS, area, bc, m, ids, zs, o, rp, pm, prob, wk.perm, wk.pose, s)
         if injected[t] > 0 and resampled[t] == 0:
-            fresh = True        # injected particles join a set of equal weights
+            equal_weights = True    # injected particles join a set of equal weights
     return events
 
 
@@ -876,7 +964,7 @@ def run(model, data, params, particles, state, diag=True, snapshots=()):
     """Run MCL (with the configured injection) on a beacon-field trial; return the traces (with
     'snapshots': (steps, particles, counts) of the particles at the steps ``snapshots``)."""
     T = data.ctrl.shape[0]
-    threshold = np.inf if params["resample"] == "always" else params["neff_ratio"] * particles
+    threshold = ess_threshold(params, particles)
     rp = np.array([params["srl_fraction"], params["srl_threshold"], params["asrl_mu"],
                    params["asrl_pt"], params["alpha_slow"], params["alpha_fast"]])
     out = {"pose": np.empty((T + 1, 3)), "ess": np.empty(T),

@@ -12,7 +12,7 @@ from numba import types
 from .._lazy import kernel
 
 from ..schema import Key
-from ..resampling import SCHEME_CODES, resample
+from ..resampling import SCHEME_CODES, ess_threshold, resample
 from ..rng import STATE
 from ..models.scalar import ModelFn, add_process_noise
 from ._common import (DIAG_DISTINCT, drop_unasked, floored, mh_move, resampled_step, start,
@@ -117,7 +117,7 @@ def run(model, y, params, particles, state, diag=True):
     T1 = y.size
     out = {"xhat": np.empty(T1), "ess": np.empty(T1), "resampled": np.empty(T1, dtype=np.int64),
            "div_l1": np.empty(T1), "distinct": np.empty(T1)}
-    threshold = np.inf if params["resample"] == "always" else params["neff_ratio"] * particles
+    threshold = ess_threshold(params, particles)
     mh = int(params.get("mh_steps", 0))
     out["underflow_steps"] = pf_kernel(
         model.transition, model.observe, model.theta, model.noise, y, model.prior_mean,

@@ -25,11 +25,11 @@ ancestor's proposal: accept x* ~ N(m_a, Pn_a) with probability
 min(1, p(z|x*) p(x*|x_prev) q(x) / (p(z|x) p(x|x_prev) q(x*))). The estimate is the weighted mean
 (circular heading) before resampling.
 
-Speed: the particles are rows (pose (3, N), each 3 x 3 matrix nine rows) and every step of
-their UKFs is a pass over a chunk of 256 particles, which the compiler vectorises with the
-branch-free sine, cosine, arctangent and wrap of ``pfbench.vecmath`` (within 2 ulp of the C
-library's; the sensor's range is sqrt(dx^2 + dy^2), not hypot). The draws from the proposals,
-their densities and the MH moves run a particle at a time.
+The kernel (``sspf_field_kernel``) keeps the particles as rows (pose (3, N), each 3 x 3 matrix
+nine rows) and runs their UKFs a chunk at a time: predict (``predict_moments``), update
+(``sensor_update``: sigma observations, predicted observation, innovation covariances, Kalman gain,
+mean, covariance), draw (``draw_particles``), weigh (``weights_and_change``), resample and move
+(``copy_resampled``, ``mh_moves``). Their design and speed record: docs/internals/kernels.md.
 """
 from __future__ import annotations
 
@@ -41,7 +41,7 @@ from numba import typeof, types
 from .._lazy import kernel
 
 from ..angles import wrap
-from ..resampling import SCHEME_CODES, resample
+from ..resampling import SCHEME_CODES, ess_threshold, resample
 from ..rng import STATE, fill_normal, normal, uniform
 from .. import vecmath as vm
 from ..models.beacons import pose_loglik
@@ -183,7 +183,7 @@ def observation_vector(zs, m, o, zobs, isb):
 
 
 @kernel(types.UniTuple(types.float64, 3)(_F, _F, _F, types.float64), cache=True)
-def weigh(lw, W, Wprev, mx):
+def weights_and_change(lw, W, Wprev, mx):
     """Normalised weights W from the log-weights lw (max mx; all -inf: reset to uniform); returns
     (1 when they underflowed, the ESS, the weight change K = sum W (W - Wprev)^2)."""
     N = lw.size
@@ -387,12 +387,27 @@ def predict_moments(pr, i0, c, u, sq, sd, jit, wk, Wm, Wc):
 @kernel(types.void(_F2, _I, _F2, types.int64, types.int64, FIELD_OPTIONS, _F, _I, CHUNK_WORK, _F,
                    _F, types.int64), cache=True, error_model="numpy")
 def sensor_update(bc, ids, zs, m, nz, o, zobs, isb, wk, Wm, Wc, c):
-    """For a chunk's c particles, after predict_moments: the sigma points through the sensor of
-    the step's observations (zobs (nz,), bearings flagged in isb), their mean, covariance (plus
-    the sensor noise) and cross-covariance with the pose, then the UKF's update of wk.xm and
-    wk.Pn (from wk.Pm) with gain K = C S^-1; both stay predicted where S is not positive
-    definite."""
-    Y, Z, zm, S, C, K, d, xm = wk.Y, wk.Z, wk.zm, wk.S, wk.C, wk.K, wk.d, wk.xm
+    """For a chunk's c particles, after predict_moments: the UKF's measurement update of wk.xm
+    and wk.Pn (from wk.Pm) by the step's observations zobs (nz,) (bearings flagged in isb);
+    both stay predicted where the innovation covariance is not positive definite."""
+    sigma_observations(bc, ids, m, nz, o, wk, c)
+    predicted_observation(nz, isb, wk, Wm, c)
+    innovation_covariances(nz, o, isb, wk, Wc, c)
+    kalman_gain(nz, wk, c)
+    update_mean(nz, zobs, isb, wk, c)
+    update_covariance(nz, wk, c)
+
+
+_UPDATE_PASS = dict(cache=True, error_model="numpy")
+
+
+@kernel(types.void(_F2, _I, types.int64, types.int64, FIELD_OPTIONS, CHUNK_WORK, types.int64),
+        **_UPDATE_PASS)
+def sigma_observations(bc, ids, m, nz, o, wk, c):
+    """The 13 sigma points wk.Y (rows 3 j .. 3 j + 2) through the sensor of the step's m
+    observations (beacons bc[ids]): row nz j + r of wk.Z the r-th measurement component (a
+    range, then a bearing with o.sensor 1) of sigma point j."""
+    Y, Z = wk.Y, wk.Z
     for j in range(13):
         r = 0
         for q in range(m):
@@ -408,6 +423,13 @@ def sensor_update(bc, ids, zs, m, nz, o, zobs, isb, wk, Wm, Wc, c):
                     dy = by - Y[3 * j + 1, p]
                     Z[nz * j + r, p] = vm.wrap(vm.atan2(dy, dx) - Y[3 * j + 2, p])
                 r += 1
+
+
+@kernel(types.void(types.int64, _I, CHUNK_WORK, _F, types.int64), **_UPDATE_PASS)
+def predicted_observation(nz, isb, wk, Wm, c):
+    """The predicted measurement wk.zm (nz, c): the sigma observations' mean with weights Wm
+    (a bearing's as sigma point 0's plus the weighted mean of the wrapped differences)."""
+    Z, zm = wk.Z, wk.zm
     for r in range(nz):
         for p in range(c):
             zm[r, p] = 0.0
@@ -421,6 +443,14 @@ def sensor_update(bc, ids, zs, m, nz, o, zobs, isb, wk, Wm, Wc, c):
         if isb[r]:
             for p in range(c):
                 zm[r, p] = vm.wrap(Z[r, p] + zm[r, p])
+
+
+@kernel(types.void(types.int64, FIELD_OPTIONS, _I, CHUNK_WORK, _F, types.int64), **_UPDATE_PASS)
+def innovation_covariances(nz, o, isb, wk, Wc, c):
+    """The innovation covariance wk.S (nz x nz rows, the sensor noise on its diagonal) and the
+    cross-covariance wk.C of pose and measurement (row nz b + a: pose b, component a), with
+    weights Wc over the sigma points (wk.d their deviations: pose, then measurement)."""
+    Y, Z, zm, S, C, d, xm = wk.Y, wk.Z, wk.zm, wk.S, wk.C, wk.d, wk.xm
     for a in range(nz):
         for b in range(nz):
             v = (o.sb * o.sb if isb[a] else o.sr * o.sr) if a == b else 0.0
@@ -448,9 +478,13 @@ def sensor_update(bc, ids, zs, m, nz, o, zobs, isb, wk, Wm, Wc, c):
             for b in range(3):
                 for p in range(c):
                     C[nz * b + a, p] += Wc[j] * d[b, p] * d[3 + a, p]
-    # the update: K = C S^-1 row by row (chol_solve's substitutions), xm += K (z - zm),
-    # Pn = Pm - K C^T symmetrised; where S is not positive definite, xm and Pn = Pm stay
-    ok, LS, rb, Pm, Pn = wk.ok, wk.LS, wk.b, wk.Pm, wk.Pn
+
+
+@kernel(types.void(types.int64, CHUNK_WORK, types.int64), **_UPDATE_PASS)
+def kalman_gain(nz, wk, c):
+    """The gain wk.K = C S^-1 (row nz b + a), row by row: S's Cholesky factor wk.LS (wk.ok: S
+    positive definite) and chol_solve's two substitutions in wk.b."""
+    S, C, K, ok, LS, rb = wk.S, wk.C, wk.K, wk.ok, wk.LS, wk.b
     chol_rows(S, nz, c, LS, ok)
     for b in range(3):
         for a in range(nz):
@@ -471,6 +505,13 @@ def sensor_update(bc, ids, zs, m, nz, o, zobs, isb, wk, Wm, Wc, c):
         for a in range(nz):
             for p in range(c):
                 K[nz * b + a, p] = rb[a, p]
+
+
+@kernel(types.void(types.int64, _F, _I, CHUNK_WORK, types.int64), **_UPDATE_PASS)
+def update_mean(nz, zobs, isb, wk, c):
+    """xm += K (z - zm) (bearing innovations wrapped, the heading wrapped) where wk.ok; the new
+    mean goes through wk.d."""
+    zm, K, d, xm, ok = wk.zm, wk.K, wk.d, wk.xm, wk.ok
     for b in range(3):
         for p in range(c):
             v = 0.0
@@ -485,6 +526,12 @@ def sensor_update(bc, ids, zs, m, nz, o, zobs, isb, wk, Wm, Wc, c):
             xm[0, p] = d[0, p]
             xm[1, p] = d[1, p]
             xm[2, p] = vm.wrap(d[2, p])
+
+
+@kernel(types.void(types.int64, CHUNK_WORK, types.int64), **_UPDATE_PASS)
+def update_covariance(nz, wk, c):
+    """wk.Pn = Pm - K C^T, symmetrised, where wk.ok; Pm elsewhere."""
+    C, K, ok, Pm, Pn = wk.C, wk.K, wk.ok, wk.Pm, wk.Pn
     for a in range(3):
         for b in range(3):
             for p in range(c):
@@ -594,6 +641,37 @@ def mh_moves(pr, bc, ids, zs, m, o, s, T3):
     return acc
 
 
+@kernel(types.float64(FIELD_ROWS, _F, _F2, _I, _F2, types.int64, types.int64, FIELD_OPTIONS, _F, _I,
+                      CHUNK_WORK, _F, _F, types.float64, _F, _F, _F, _F, _F, _F3), cache=True,
+        error_model="numpy")
+def propose_and_draw(pr, u, bc, ids, zs, m, nz, o, zobs, isb, wk, Wm, Wc, sq, sd, jit, z, lw, xm3,
+                     T3):
+    """Every particle's UKF proposal for the step (odometry u, the m observations as zobs (nz,)),
+    a chunk of wk's columns at a time: predict (``predict_moments``), update
+    (``sensor_update``; without observations the prediction), then the draws from them and their
+    log-weights lw (``draw_particles``, from the normal draws z). Returns the largest
+    log-weight."""
+    N, CH = pr.X.shape[1], wk.ok.size
+    mx = -np.inf
+    for i0 in range(0, N, CH):
+        c = min(CH, N - i0)
+        predict_moments(pr, i0, c, u, sq, sd, jit, wk, Wm, Wc)
+        if nz > 0:
+            sensor_update(bc, ids, zs, m, nz, o, zobs, isb, wk, Wm, Wc, c)
+        else:
+            wk.Pn[:, :c] = wk.Pm[:, :c]
+        mx = max(mx, draw_particles(pr, i0, c, u, bc, ids, zs, m, o, wk, sd, jit, z, lw, xm3, T3))
+    return mx
+
+
+@kernel(types.boolean(FIELD_OPTIONS, types.float64, types.float64), cache=True)
+def resample_due(o, ess, Kc):
+    """Whether the step resamples (o.trigger, ``TRIGGERS``): every step (0), the ESS below
+    o.threshold (1), or sspf2008's weight change K above it (2)."""
+    return (o.trigger == 0 or (o.trigger == 1 and ess < o.threshold)
+            or (o.trigger == 2 and Kc > o.threshold))
+
+
 @kernel(SSPF_SIG, cache=True, error_model="numpy")
 def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, up, init, jit, start, s,
                      est, ess, resampled, accepted, snap_t, snap, snap_n):
@@ -633,24 +711,15 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, up, init,
         noise_sd(u, o.motion, mnoise, sd)
         nz = observation_vector(zs, m, o, zobs, isb)
         fill_normal(s, z)      # the draws of the particles' proposals, in particle order
-        mx = -np.inf
-        for i0 in range(0, N, CH):
-            c = min(CH, N - i0)
-            predict_moments(pr, i0, c, u, sq, sd, jit, wk, Wm, Wc)
-            if nz > 0:
-                sensor_update(bc, ids, zs, m, nz, o, zobs, isb, wk, Wm, Wc, c)
-            else:
-                wk.Pn[:, :c] = wk.Pm[:, :c]
-            mx = max(mx, draw_particles(pr, i0, c, u, bc, ids, zs, m, o, wk, sd, jit, z, lw, xm3,
-                                   T3))
-        under, ess[t], Kc = weigh(lw, W, Wprev, mx)
+        mx = propose_and_draw(pr, u, bc, ids, zs, m, nz, o, zobs, isb, wk, Wm, Wc, sq, sd, jit, z,
+                              lw, xm3, T3)
+        under, ess[t], Kc = weights_and_change(lw, W, Wprev, mx)
         events += int(under)
         estimate_pose(pr.X, W, N, est[t + 1], True)
         si = snapshot(t + 1, pr.X, N, snap_t, snap, snap_n, si, True)
         accepted[t] = np.nan
         resampled[t] = 0
-        if not (o.trigger == 0 or (o.trigger == 1 and ess[t] < o.threshold)
-                or (o.trigger == 2 and Kc > o.threshold)):
+        if not resample_due(o, ess[t], Kc):
             Wprev[:] = W
             continue
         resample(o.scheme, W, 1.0, s, idx)
@@ -671,7 +740,7 @@ def run(model, data, params, particles, state, diag=True, snapshots=()):
     T = data.ctrl.shape[0]
     N = particles
     trig = TRIGGERS[params["resample"]]
-    threshold = {0: 0.0, 1: params["neff_ratio"] * N, 2: params["sigma"] / (N * N)}[trig]
+    threshold = {0: 0.0, 1: ess_threshold(params, N), 2: params["sigma"] / (N * N)}[trig]
     out = {"pose": np.empty((T + 1, 3)), "ess": np.empty(T),
            "resampled": np.zeros(T, dtype=np.int64), "mh_accept": np.empty(T),
            "snapshots": snapshot_arrays(snapshots, N)}

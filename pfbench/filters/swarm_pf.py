@@ -16,8 +16,9 @@ import numpy as np
 from numba import typeof, types
 from .._lazy import kernel
 
-from ..resampling import SCHEME_CODES, SCHEMES, resample, stepwise_ewa_plan
-from ..rng import STATE, normal
+from ..resampling import (SCHEME_CODES, SCHEMES, STEPWISE_EWA, ess_threshold, ewa_mutant, resample,
+                          stepwise_ewa_plan)
+from ..rng import STATE
 from ..schema import Key
 from ..models.scalar import NOISE_GAUSSIAN, ModelFn, add_process_noise
 from ._common import DIAG_DISTINCT, drop_unasked, resampled_step, start, weigh_lanes
@@ -30,7 +31,7 @@ from .types import FilterType
 _F = types.float64[::1]
 _I = types.int64[::1]
 
-EWA = len(SCHEME_CODES)          # the stepwise EWA scheme's code, after the standard ones
+EWA = STEPWISE_EWA
 
 @kernel(types.void(ModelFn, _F, types.float64, types.float64, types.float64, _F, _F, _F),
       cache=True)
@@ -192,13 +193,38 @@ def resample_swarm(x, xn, w, S, lw, idx, mutant, o, s):
         stepwise_ewa_plan(w, o.ewa_beta, o.ewa_printed, idx, mutant)
         for i in range(N):
             v = xn[idx[i]]
-            x[i] = v + v * o.ewa_mu * normal(s) if mutant[i] else v
+            x[i] = ewa_mutant(v, o.ewa_mu, s) if mutant[i] else v
     else:
         resample(o.scheme, w, S, s, idx)
         for i in range(N):
             x[i] = xn[idx[i]]
     for i in range(N):
         lw[i] = 0.0
+
+
+@kernel(types.int64(ModelFn, ModelFn, _F, types.float64, types.float64, _F, types.float64, _F,
+                    SWARM_OPTIONS, _F, WORK, STATE), cache=True)
+def swarm_refine(f, h, theta, tt, yt, noise, xprev_hat, xn, o, p, wk, s):
+    """The swarm's o.iters iterations (``swarm_iteration``) on the predicted particles xn, from
+    their log-likelihood of y_t (into wk.ll, kept up to date); returns the likelihood
+    evaluations of the step."""
+    N = xn.size
+    _loglik(h, theta, tt, yt, 0.5 / noise[3], xn, wk.hx[:N], wk.ll)
+    nev = N
+    for it in range(o.iters):
+        nev += swarm_iteration(f, h, theta, tt, yt, noise, xprev_hat, xn, o, p, wk, it, s)
+    return nev
+
+
+@kernel(types.float64(_F, _F), cache=True)
+def add_loglik(lw, ll):
+    """lw += ll (the log-weights times the likelihood); returns their maximum (NaN skipped)."""
+    mx = -np.inf
+    for i in range(lw.size):
+        l = lw[i] + ll[i]
+        lw[i] = l
+        mx = max(mx, l)
+    return mx
 
 
 SWARM_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64,
@@ -210,12 +236,12 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, p, s, xhat,
                     div_l1, distinct, evals):
     """Run a swarm-optimised PF over y (T+1,) (settings o, see ``SwarmOptions``; the swarm's
     parameters p, swarm.pack); fill the (T+1,) traces and evals, the likelihood evaluations of
-    each step; return the underflow count."""
+    each step; return the underflow count. Each step: predict, refine (the swarm), weigh,
+    estimate, resample."""
     T, N = y.size - 1, o.N
-    half_inv_R = 0.5 / noise[3]
     x = np.empty(N)
     start(s, prior_mean, prior_var, x, xhat, ess, resampled, div_l1, distinct)
-    xn = np.empty(N)
+    xn = np.empty(N)            # the predicted (and refined) particles
     lw = np.zeros(N)
     w = np.empty(N)
     idx = np.empty(N, dtype=np.int64)
@@ -228,16 +254,8 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, p, s, xhat,
         tt, yt = float(t), y[t]
         f(x, tt, theta, xn)
         add_process_noise(s, noise, xn)
-        _loglik(h, theta, tt, yt, half_inv_R, xn, wk.hx[:N], wk.ll)
-        nev = N
-        for it in range(o.iters):
-            nev += swarm_iteration(f, h, theta, tt, yt, noise, xhat[t - 1], xn, o, p, wk, it, s)
-        evals[t] = nev
-        mx = -np.inf
-        for i in range(N):
-            l = lw[i] + wk.ll[i]
-            lw[i] = l
-            mx = max(mx, l)
+        evals[t] = swarm_refine(f, h, theta, tt, yt, noise, xhat[t - 1], xn, o, p, wk, s)
+        mx = add_loglik(lw, wk.ll)
         S, est, under = weigh_lanes(lw, w, xn, mx, t, ess, resampled, div_l1, distinct)
         events += int(under)
         if ess[t] < o.threshold:
@@ -259,8 +277,7 @@ def make_run(kind: str):
                "resampled": np.empty(T1, dtype=np.int64), "div_l1": np.empty(T1),
                "distinct": np.empty(T1)}
         evals = np.empty(T1)
-        threshold = (np.inf if params["resample"] == "always"
-                     else params["neff_ratio"] * particles)
+        threshold = ess_threshold(params, particles)
         scheme = EWA if params["resampling"] == "stepwise_ewa" else SCHEME_CODES[params["resampling"]]
         o = SwarmOptions(
             N=int(particles), algo=ALGORITHMS[kind], iters=int(params["iterations"]),

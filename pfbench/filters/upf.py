@@ -21,7 +21,7 @@ from numba import typeof, types
 from .._lazy import kernel
 
 from ..schema import Key
-from ..resampling import SCHEME_CODES, SCHEMES, resample
+from ..resampling import SCHEME_CODES, SCHEMES, ess_threshold, resample
 from ..rng import STATE, normal, uniform
 from ..models.scalar import ModelFn, process_logpdf
 from ._common import DIAG_DISTINCT, drop_unasked, floored, resampled_step, start, weigh
@@ -301,10 +301,8 @@ def run(model, y, params, particles, state, diag=True):
     q_mean, Qp, Rp = noise_moments(model, params)
     if params["resample"] == "weight_change":
         trigger, threshold = TRIGGER_WEIGHT_CHANGE, params["sigma"] / particles ** 2
-    elif params["resample"] == "neff":
-        trigger, threshold = TRIGGER_ESS, params["neff_ratio"] * particles
-    else:
-        trigger, threshold = TRIGGER_ESS, np.inf
+    else:               # 'neff' or 'always'
+        trigger, threshold = TRIGGER_ESS, ess_threshold(params, particles)
     mh = int(params["mh_steps"])
     o = UpfOptions(
         N=int(particles), q_mean=float(q_mean), Qp=float(Qp), Rp=float(Rp),
