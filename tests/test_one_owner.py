@@ -130,3 +130,161 @@ def test_ewa_mutant_is_v_plus_v_mu_z():
     for v in (0.0, 1.5, -3.25, 1e300):
         a, b = both(s, t, v, 0.01)
         assert a == b or (np.isnan(a) and np.isnan(b))
+
+
+# --- weights: one owner per arithmetic (pfbench/filters/weights.py) ------------------------------
+
+WEIGHTS = "pfbench/filters/weights.py"
+_EXP = {"exp"}
+
+
+def _is_exp(node) -> bool:
+    f = node.func if isinstance(node, ast.Call) else None
+    return (isinstance(f, ast.Attribute) and f.attr in _EXP) or (isinstance(f, ast.Name)
+                                                                 and f.id in _EXP)
+
+
+def _is_max(node) -> bool:
+    """A max: ``max(..)``, ``np.max(..)``, ``a.max()``, ``np.nanmax(..)``."""
+    if not isinstance(node, ast.Call):
+        return False
+    f = node.func
+    name = f.attr if isinstance(f, ast.Attribute) else getattr(f, "id", "")
+    return name in ("max", "amax", "nanmax")
+
+
+def _shifted(expr, assigned: dict, varying: set) -> bool:
+    """Whether ``expr`` holds a subtraction of a shift (a max, or a name the innermost loop does
+    not assign: the same for every term) from something, directly or through a local name assigned
+    such a difference."""
+    for node in ast.walk(expr):
+        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Sub) and (
+                _is_max(node.right) or (isinstance(node.right, ast.Name)
+                                        and node.right.id not in varying)):
+            return True
+        if isinstance(node, ast.Name) and node.id in assigned and \
+                _shifted(assigned[node.id], {}, varying):
+            return True
+    return False
+
+
+def inline_normalisers(source: str) -> list[str]:
+    """The functions of ``source`` that write a max-shifted exponential themselves: in a loop,
+    exp of a difference with a shift the loop leaves unchanged (the per-particle weights or
+    fitness), or anywhere exp of a difference with a max (numpy's ``np.exp(lw - lw.max())``)."""
+    found = []
+    for fn in ast.walk(ast.parse(source)):
+        if not isinstance(fn, ast.FunctionDef):
+            continue
+        assigned = {t.id: n.value for n in ast.walk(fn) if isinstance(n, ast.Assign)
+                    for t in n.targets if isinstance(t, ast.Name)}
+        loops = [n for n in ast.walk(fn) if isinstance(n, (ast.For, ast.While, ast.ListComp,
+                                                           ast.GeneratorExp, ast.SetComp))]
+        for call in (n for n in ast.walk(fn) if _is_exp(n) and n.args):
+            arg = call.args[0]
+            around = [lp for lp in loops if any(c is call for c in ast.walk(lp))]
+            inner = min(around, key=lambda lp: sum(1 for _ in ast.walk(lp)), default=None)
+            varying = {n.id for n in ast.walk(inner) if isinstance(n, ast.Name)
+                       and isinstance(n.ctx, ast.Store)} if inner else set()
+            by_max = any(isinstance(n, ast.BinOp) and isinstance(n.op, ast.Sub)
+                         and _is_max(n.right) for n in ast.walk(arg))
+            if by_max or (around and _shifted(arg, assigned, varying)):
+                found.append(fn.name)
+                break
+    return found
+
+
+def test_no_filter_writes_its_own_normaliser():
+    """The max-shifted exponentials (weights from log-weights, a swarm's fitness) are written in
+    weights.py alone: every filter calls it."""
+    found = {name: inline_normalisers(text) for name, text in _sources().items()
+             if name.startswith("pfbench/filters/") and name != WEIGHTS}
+    assert {k: v for k, v in found.items() if v} == {}
+    assert inline_normalisers(_sources()[WEIGHTS])      # the scan sees the owner's own
+
+
+@pytest.mark.parametrize("body", [
+    "for i in range(n):\n        w[i] = math.exp(lw[i] - mx)",
+    "for i in range(n):\n        l = lw[i] - m\n        w[i] = vm.exp(l)",
+    "w = np.exp(lw - lw.max())",
+    "w = np.exp(lw - np.max(lw))",
+    "for i in range(n):\n        fit[i] = math.exp(ll[i] - M0 - 0.5 * d2)",
+    "w = [math.exp(l - m) for l in lw]",
+    "for k in range(3):\n        M = ll.max()\n        for i in range(n):\n"
+    "            fit[i] = math.exp(ll[i] - M)",
+    "while i < n:\n        w[i] = exp(lw[i] - shift)\n        i += 1",
+])
+def test_the_scan_catches_an_inline_normaliser(body):
+    assert inline_normalisers(f"def weigh_again(lw, w, n, m):\n    {body}\n") == ["weigh_again"]
+
+
+@pytest.mark.parametrize("body", [
+    "for i in range(n):\n        b = math.exp(-gamma * d2[i])",       # a firefly's attraction
+    "for i in range(n):\n        lt, lq = f(i), g(i)\n        la = (lt - lq) - (c[i] - d[i])\n"
+    "        ok = u < math.exp(la)",                                       # an MH acceptance
+    "return hi + math.log1p(math.exp(-abs(l - log_floor)))",          # a floor, no loop
+])
+def test_the_scan_leaves_other_exponentials(body):
+    assert inline_normalisers(f"def other(lw, w, n, m):\n    {body}\n") == []
+
+
+def test_each_weights_variant_is_defined_once():
+    defined: dict[str, list[str]] = {}
+    for name, text in _sources().items():
+        for node in ast.parse(text).body:
+            if isinstance(node, ast.FunctionDef):
+                defined.setdefault(node.name, []).append(name)
+    for fn in ("normalise", "normalise_lanes", "exp_pass", "exp_sum", "lane_sum", "normalised",
+               "shifted_exp", "shifted_exp_less", "divide", "reset_unless_finite"):
+        assert defined.get(fn) == [WEIGHTS], (fn, defined.get(fn))
+
+
+def test_the_weights_variants_keep_their_contracts():
+    """Each variant computes what its docstring says: the C library's exponential exactly where
+    it says so, vecmath's within 2 ulp, sums to rounding, the underflow resets."""
+    import math
+
+    from pfbench.filters import weights as W
+
+    rng = np.random.default_rng(5)
+    lw = np.concatenate([rng.normal(0.0, 30.0, 37), [-np.inf, np.nan, -800.0]])
+    x = rng.normal(size=lw.size)
+    m = float(np.nanmax(lw))
+    exact = np.array([math.exp(v - m) if v == v else 0.0 for v in lw])
+
+    a, wa = lw.copy(), np.empty(lw.size)
+    S, S2, sx, under = W.normalise(a, wa, x, m)
+    assert np.array_equal(wa, exact) and under == 0.0
+    assert S == math.fsum(exact) or abs(S - math.fsum(exact)) <= 1e-15 * S
+    assert abs(sx - math.fsum(exact * x)) <= 1e-12 and abs(S2 - math.fsum(exact ** 2)) <= 1e-12
+    b, wb = lw.copy(), np.empty(lw.size)
+    Sl, S2l, sxl, underl = W.normalise_lanes(b, wb, x, m)
+    big = exact > 1e-300
+    assert np.allclose(wb[big], exact[big], rtol=5e-16, atol=0) and wb[-1] == 0.0
+    assert abs(Sl - S) <= 1e-14 * S and abs(sxl - sx) <= 1e-12 and underl == 0.0
+
+    dead, w = np.full(5, -np.inf), np.empty(5)
+    assert W.normalise(dead, w, np.zeros(5), -np.inf) == (5.0, 5.0, 0.0, 1.0)
+    assert np.array_equal(w, np.ones(5))
+
+    out = np.empty(lw.size)
+    W.exp_pass(lw, m, lw.size - 1, out)
+    assert np.allclose(out[:-1][big[:-1]], exact[:-1][big[:-1]], rtol=5e-16, atol=0)
+    assert W.exp_sum(lw, m, 7, out) == W.lane_sum(out, 7)
+    assert abs(W.lane_sum(out, 7) - math.fsum(out[:7])) <= 1e-15 * math.fsum(out[:7])
+
+    fin = lw[np.isfinite(lw)]
+    Wn = np.empty(fin.size)
+    assert W.normalised(fin.copy(), Wn, float(fin.max())) == 0.0
+    assert abs(Wn.sum() - 1.0) <= 1e-14 and Wn.argmax() == fin.argmax()
+    bad = np.array([0.0, np.inf, 1.0])
+    assert W.normalised(bad, np.empty(3), np.inf) == 1.0 and np.array_equal(bad, np.zeros(3))
+
+    sh, less = np.empty(fin.size), np.full(fin.size, 0.25)
+    W.shifted_exp(fin, 1.5, sh)
+    assert np.array_equal(sh, [math.exp(v - 1.5) for v in fin])
+    W.shifted_exp_less(fin, 1.5, less, less)
+    assert np.array_equal(less, [math.exp(v - 1.5 - 0.25) for v in fin])
+    d = np.empty(3)
+    W.divide(np.array([1.0, 2.0, 5.0]), 8.0, d)
+    assert np.array_equal(d, [0.125, 0.25, 0.625])

@@ -28,14 +28,14 @@ from ..resampling import (SCHEME_CODES, SCHEMES, STEPWISE_EWA, ess_threshold, ew
                           stepwise_ewa_plan)
 from ..rng import STATE, normal
 from ..schema import Key
-from ._common import (DIAG_DISTINCT, DIAG_DIVERSITY, DIAG_MAP_TRACE, drop_unasked,
-                      normalise)
+from ._common import DIAG_DISTINCT, DIAG_DIVERSITY, DIAG_MAP_TRACE, drop_unasked
 from ..diag import flags
 from .keys import ewa_keys, pf_keys
 from .swarm import (AFSA, ALGORITHMS, BA, FA, IFA, NO_SWARM, afsa_centres, afsa_propose,
                     afsa_select, argmax, ba_accept, ba_propose, fa_move, ifa_move, keys, pack,
                     pso_accept, pso_propose)
 from .types import FilterType
+from .weights import divide, normalise, shifted_exp, shifted_exp_less
 
 _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
@@ -679,7 +679,8 @@ def ifa_brightness(P, ll, M0, fit):
         vt += (P[i, 2] - mt) ** 2 / N
     for i in range(N):
         d2 = ((P[i, 0] - mx) ** 2 / vx + (P[i, 1] - my) ** 2 / vy + (P[i, 2] - mt) ** 2 / vt)
-        fit[i] = math.exp(ll[i] - M0 - 0.5 * d2)
+        fit[i] = 0.5 * d2
+    shifted_exp_less(ll, M0, fit, fit)
 
 
 _OBS = (_I, _F2, types.int64)      # a step's observations: ids, zs (n, 2), n
@@ -694,18 +695,16 @@ def afsa_iteration(ps, pc, ids, zs, n, o, sp, wk, s):
     for i in range(N):
         for d in range(3):
             wk.Xs[3 * i + d] = (P[i, d] - wk.mean[d]) / wk.scale[d]
-        wk.fit[i] = math.exp(wk.ll[i] - M0)
+    shifted_exp(wk.ll, M0, wk.fit)
     afsa_centres(wk.Xs, wk.fit, 3, sp[0], wk.Xc, wk.nf)
     _fitness_scaled(wk.Xc, wk.mean, wk.scale, ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb,
                     wk.llc, o.assoc, ps.nl, o.gate_augment, pc)
-    for i in range(N):
-        wk.fitc[i] = math.exp(wk.llc[i] - M0)
+    shifted_exp(wk.llc, M0, wk.fitc)
     afsa_propose(wk.Xs, wk.fit, wk.Xc, wk.fitc, wk.nf, 3, sp[0], sp[1], sp[2], int(sp[3]), s,
                  wk.C3)
     _fitness_scaled(wk.C3, wk.mean, wk.scale, ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb,
                     wk.ll3, o.assoc, ps.nl, o.gate_augment, pc)
-    for r in range(3 * N):
-        wk.fit3[r] = math.exp(wk.ll3[r] - M0)
+    shifted_exp(wk.ll3, M0, wk.fit3)
     afsa_select(wk.Xs, wk.fit, wk.C3, wk.fit3, 3, int(sp[4]))
     for i in range(N):
         for d in range(3):
@@ -729,8 +728,7 @@ def refine_poses(ps, pc, ids, zs, n, o, sp, wk, s):
         if o.refine == FA or o.refine == IFA:
             M0 = wk.ll.max()
             if o.refine == FA:
-                for i in range(N):
-                    wk.fit[i] = math.exp(wk.ll[i] - M0)
+                shifted_exp(wk.ll, M0, wk.fit)
                 fa_move(X, wk.fit, 3, sp[0], sp[1], sp[2], wk.scale, s)
             else:
                 ifa_brightness(P, wk.ll, M0, wk.fit)
@@ -943,13 +941,12 @@ def settle_pose_cov(pc, pcm, o):
 
 @kernel(types.UniTuple(types.float64, 3)(_F, _F, _F, _F2, types.float64), cache=True)
 def map_weights(lw, w, Wn, P, mx):
-    """The particles' weights after their maps' update (``normalise``): w = exp(lw - mx) (lw
+    """The particles' weights after their maps' update (``weights.normalise``): w = exp(lw - mx) (lw
     shifted in place, mx its maximum), Wn = w over their sum. P (N, 3) the poses. Returns (the
     weights' sum, the ESS, 1.0 when every weight underflowed and was reset, else 0.0)."""
     Ssum, S2, sx, under = normalise(lw, w, P[:, 0].copy(), mx)
     ess = Ssum * Ssum / S2
-    for i in range(Wn.size):
-        Wn[i] = w[i] / Ssum
+    divide(w, Ssum, Wn)
     return Ssum, ess, under
 
 

@@ -27,6 +27,7 @@ from .keys import ewa_keys, pf_keys
 from .swarm import (ALGORITHMS, BA, FA, IFA, PSO, afsa_centres, afsa_propose, afsa_select, argmax,
                     ba_accept, ba_propose, fa_move, ifa_move, keys, pack, pso_accept, pso_propose)
 from .types import FilterType
+from .weights import divide, shifted_exp, shifted_exp_less
 
 _F = types.float64[::1]
 _I = types.int64[::1]
@@ -41,12 +42,6 @@ def _loglik(h, theta, tt, yt, half_inv_R, X, hx, ll):
     for i in range(X.size):
         d = yt - hx[i]
         ll[i] = -half_inv_R * d * d
-
-
-@kernel(types.void(_F, types.float64, _F), cache=True)
-def _shifted_exp(ll, M, out):
-    for i in range(ll.size):
-        out[i] = math.exp(ll[i] - M)
 
 
 class SwarmOptions(NamedTuple):
@@ -121,11 +116,14 @@ def ifa_brightness(f, theta, tt, xprev_hat, noise, xn, M, kind, wk):
     wk.one[0] = xprev_hat
     f(wk.one, tt, theta, wk.onef)
     xbar = wk.onef[0] + qmean
-    for i in range(xn.size):
-        e = xn[i] - xbar
-        if kind == 0.0:
-            wk.fit[i] = math.exp(wk.ll[i] - M - 0.5 * e * e / Qv)
-        else:
+    if kind == 0.0:
+        for i in range(xn.size):
+            e = xn[i] - xbar
+            wk.fit[i] = 0.5 * e * e / Qv
+        shifted_exp_less(wk.ll, M, wk.fit, wk.fit)
+    else:
+        for i in range(xn.size):
+            e = xn[i] - xbar
             wk.fit[i] = 1.0 / (1.0 + math.sqrt(-2.0 * wk.ll[i] + e * e / Qv))
 
 
@@ -140,7 +138,7 @@ def swarm_iteration(f, h, theta, tt, yt, noise, xprev_hat, xn, o, p, wk, it, s):
     half_inv_R = 0.5 / R
     M = wk.ll.max()
     if o.algo == FA:                                  # FA: brightness = likelihood
-        _shifted_exp(wk.ll, M, wk.fit)
+        shifted_exp(wk.ll, M, wk.fit)
         fa_move(xn, wk.fit, 1, p[0], p[1], p[2], wk.unit, s)
     elif o.algo == IFA:                               # IFA: distance brightness
         ifa_brightness(f, theta, tt, xprev_hat, noise, xn, M, p[2], wk)
@@ -169,8 +167,8 @@ def swarm_iteration(f, h, theta, tt, yt, noise, xprev_hat, xn, o, p, wk, it, s):
         # one shift for the fish and their centres, so that no fitness overflows (a centre can
         # be far likelier than every fish when the noise is small)
         M = max(M, wk.llc.max())
-        _shifted_exp(wk.ll, M, wk.fit)
-        _shifted_exp(wk.llc, M, wk.fitc)
+        shifted_exp(wk.ll, M, wk.fit)
+        shifted_exp(wk.llc, M, wk.fitc)
         afsa_propose(xn, wk.fit, wk.Xc, wk.fitc, wk.nf, 1, p[0], p[1], p[2], int(p[3]), s, wk.C)
         _loglik(h, theta, tt, yt, half_inv_R, wk.C, wk.hx, wk.llC)
         # the choice only compares fitnesses, so it takes the log-likelihoods: exact where
@@ -188,8 +186,7 @@ def resample_swarm(x, xn, w, S, lw, idx, mutant, o, s):
     mutations, or a standard scheme; the log-weights lw reset."""
     N = x.size
     if o.scheme == EWA:
-        for i in range(N):
-            w[i] /= S
+        divide(w, S, w)
         stepwise_ewa_plan(w, o.ewa_beta, o.ewa_printed, idx, mutant)
         for i in range(N):
             v = xn[idx[i]]
