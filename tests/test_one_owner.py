@@ -288,3 +288,75 @@ def test_the_weights_variants_keep_their_contracts():
     d = np.empty(3)
     W.divide(np.array([1.0, 2.0, 5.0]), 8.0, d)
     assert np.array_equal(d, [0.125, 0.25, 0.625])
+
+
+# --- swarms: one dispatcher (swarm.swarm_move), one scratch record (swarm.SwarmWork) --------------
+
+_MOVES = r"\b(fa_move|ifa_move|ba_propose|ba_accept|pso_propose|pso_accept|afsa_centres|" \
+         r"afsa_propose|afsa_select)\("
+
+
+def test_the_swarm_moves_are_dispatched_in_one_place():
+    """Only swarm.py runs the swarm moves (its ``swarm_move`` dispatches them); the filters
+    evaluate what it asks for."""
+    assert _where(_MOVES) == ["pfbench/filters/swarm.py"]
+
+
+def test_one_swarm_scratch_record():
+    """The swarm's scratch (velocities, bests, loudness, candidates) is one record type."""
+    holders = []
+    for name, text in _sources().items():
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, ast.ClassDef):
+                fields = {b.target.id for b in node.body if isinstance(b, ast.AnnAssign)
+                          and isinstance(b.target, ast.Name)}
+                if fields & {"Pfit", "Pb"} or {"V", "A"} <= fields:
+                    holders.append(f"{name}:{node.name}")
+    assert holders == ["pfbench/filters/swarm.py:SwarmWork"]
+
+
+@pytest.mark.parametrize("algo, afsa", [(0, 0), (1, 0), (2, 0), (3, 0), (4, 0), (4, 1)])
+def test_swarm_move_asks_for_what_it_needs(algo, afsa):
+    """Driven with a fitness of our own (a Gaussian log-likelihood in D = 2), every algorithm's
+    iterations end with the log-likelihoods of where the particles are, after the evaluations its
+    cost says (AFSA 4 N, the others N); both AFSA arithmetics."""
+    from pfbench.filters import swarm as sw
+    from pfbench.rng import state_from_seed
+
+    N, D = 24, 2
+    rng = np.random.default_rng(algo + 10 * afsa)
+    X = rng.normal(0.0, 2.0, N * D)
+    wk = sw.new_swarm_work(N, D)
+
+    def loglik(pts):
+        q = pts.reshape(-1, D)
+        return -0.5 * (q * q).sum(axis=1)
+
+    p = {0: [1.0, 1.0, 0.2], 1: [1.0, 1.0], 2: [0.0, 1.0, 1.0, 0.5, 0.9, 0.9],
+         3: [0.7, 1.5, 1.5], 4: [1.0, 0.5, 0.618, 5.0, 1.0]}[algo]
+    p = np.array(p)
+    s = state_from_seed(np.random.SeedSequence(1))
+    wk.ll[:] = loglik(X)
+    for it in range(3):
+        phase, evals, seen = 0, 0, []
+        request = sw.swarm_move(algo, afsa, phase, X, D, p, 1.0, it, wk, s)
+        while request != sw.DONE:
+            seen.append(request)
+            if request == sw.FIT_X:
+                wk.ll[:] = loglik(X)
+            elif request == sw.FIT_CANDIDATES:
+                wk.llC[:N] = loglik(wk.C[:N * D])
+            elif request == sw.FIT_CENTRES:
+                wk.llc[:] = loglik(wk.Xc)
+            elif request == sw.FIT_BEHAVIOURS:
+                wk.llC[:] = loglik(wk.C)
+            else:
+                assert request == sw.BRIGHTNESS
+                wk.fit[:] = np.exp(wk.ll - wk.ll.max())
+            evals += sw.evaluations(request, N)
+            phase += 1
+            assert phase < 5
+            request = sw.swarm_move(algo, afsa, phase, X, D, p, 1.0, it, wk, s)
+        assert evals == (4 * N if algo == sw.AFSA else N), seen
+        assert np.allclose(wk.ll, loglik(X), rtol=1e-12, atol=1e-12)
+        assert np.all(np.isfinite(X))
