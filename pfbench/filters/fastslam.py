@@ -707,11 +707,12 @@ def refine_poses(ps, pc, ids, zs, n, o, sp, wk, s):
             pose_units(P, wk, True)
         Xm = wk.Xu if afsa else X
         phase = 0
-        request = swarm_move(o.refine, AFSA_FISH_SHIFT, phase, Xm, 3, sp, o.Rr, it, wk, s)
-        while request != DONE:
+        while True:
+            request = swarm_move(o.refine, AFSA_FISH_SHIFT, phase, Xm, 3, sp, o.Rr, it, wk, s)
+            if request == DONE:
+                break
             nev += pose_fitness(request, ps, pc, ids, zs, n, o, wk)
             phase += 1
-            request = swarm_move(o.refine, AFSA_FISH_SHIFT, phase, Xm, 3, sp, o.Rr, it, wk, s)
         if afsa:
             pose_units(P, wk, False)
     for i in range(N):

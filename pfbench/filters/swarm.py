@@ -371,7 +371,8 @@ def evaluations(request, N):
     return N if request != BRIGHTNESS and request != DONE else 0
 
 
-@kernel(types.int64(types.int64, _F, types.int64, _F, SWARM_WORK, STATE), cache=True)
+@kernel(types.int64(types.int64, _F, types.int64, _F, SWARM_WORK, STATE), cache=True,
+        inline="always")
 def afsa_joint_shift(phase, X, D, p, wk, s):
     """AFSA's iteration with one shift for the fish and their centres, the largest of both
     log-likelihoods (a centre can be far likelier than every fish when the noise is small: no
@@ -391,7 +392,8 @@ def afsa_joint_shift(phase, X, D, p, wk, s):
     return DONE
 
 
-@kernel(types.int64(types.int64, _F, types.int64, _F, SWARM_WORK, STATE), cache=True)
+@kernel(types.int64(types.int64, _F, types.int64, _F, SWARM_WORK, STATE), cache=True,
+        inline="always")
 def afsa_fish_shift(phase, X, D, p, wk, s):
     """AFSA's iteration with the fish's largest log-likelihood M0 as the one shift of every
     fitness (fish, centres, candidates) and the choice among the behaviours on those fitnesses;
@@ -414,7 +416,7 @@ def afsa_fish_shift(phase, X, D, p, wk, s):
 
 
 @kernel(types.int64(types.int64, types.int64, types.int64, _F, types.int64, _F, types.float64,
-                    types.int64, SWARM_WORK, STATE), cache=True)
+                    types.int64, SWARM_WORK, STATE), cache=True, inline="always")
 def swarm_move(algo, afsa, phase, X, D, p, R, it, wk, s):
     """Phase ``phase`` (0, 1, ...) of iteration ``it`` of the swarm algorithm ``algo`` (parameters
     p, ``pack``; IFA's R: the measurement variance in its adaptive step) over the particles X
@@ -424,7 +426,11 @@ def swarm_move(algo, afsa, phase, X, D, p, R, it, wk, s):
 
     FA: fitness exp(ll - max ll), move, FIT_X. IFA: BRIGHTNESS, move, FIT_X. BA: propose,
     FIT_CANDIDATES, accept. PSO: propose, FIT_X, keep the bests. AFSA: centres, FIT_CENTRES,
-    propose, FIT_BEHAVIOURS, select."""
+    propose, FIT_BEHAVIOURS, select.
+
+    Inlined into its caller (call it from one place, in a loop over the phases): the moves then
+    see the caller's D as a constant, and their loops over the coordinates compile away (a
+    scalar AFSA-PF ran 1.7 times slower with D a run-time argument)."""
     N = wk.ll.size
     if algo == FA:
         if phase == 0:

@@ -145,12 +145,13 @@ def swarm_refine(f, h, theta, tt, yt, noise, xprev_hat, xn, o, p, wk, hx, pt, s)
     nev = N
     for it in range(o.iters):
         phase = 0
-        request = swarm_move(o.algo, AFSA_JOINT_SHIFT, phase, xn, 1, p, noise[3], it, wk, s)
-        while request != DONE:
+        while True:
+            request = swarm_move(o.algo, AFSA_JOINT_SHIFT, phase, xn, 1, p, noise[3], it, wk, s)
+            if request == DONE:
+                break
             nev += swarm_fitness(f, h, theta, tt, yt, noise, xprev_hat, xn, p, request, wk, hx,
                                  pt)
             phase += 1
-            request = swarm_move(o.algo, AFSA_JOINT_SHIFT, phase, xn, 1, p, noise[3], it, wk, s)
     return nev
 
 
