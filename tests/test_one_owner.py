@@ -68,6 +68,19 @@ def test_the_kernels_steps_do_not_share_names():
     assert not any(re.search(r"\b\w+_core\s*=\s*variant\(", t) for t in _sources().values())
 
 
+def test_the_filters_steps_have_names_of_their_own():
+    """No two filter modules define a function or class of one name (each filter's ``run``, the
+    entry its FilterType names, aside): IFA's brightness of a scalar state and of a pose cloud,
+    the UPF's and the field SSPF's MH moves are different steps."""
+    defined: dict[str, list[str]] = {}
+    for name, text in _sources().items():
+        if name.startswith("pfbench/filters/"):
+            for node in ast.parse(text).body:
+                if isinstance(node, (ast.FunctionDef, ast.ClassDef)):
+                    defined.setdefault(node.name, []).append(name)
+    assert {k: v for k, v in defined.items() if len(v) > 1 and k != "run"} == {}
+
+
 def test_the_ziggurat_step_on_a_local_state_is_normals_draw():
     """rng's ziggurat step on a local state (next_local, _layer, in_layer_rectangle, else
     normal_off_rectangle), the one the kernels' loops write, draws what rng.normal draws and

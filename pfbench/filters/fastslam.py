@@ -622,7 +622,7 @@ def cloud_units(P, wk):
 
 
 @kernel(types.void(_F2, _F, types.float64, _F), cache=True)
-def ifa_brightness(P, ll, M0, fit):
+def cloud_distance_brightness(P, ll, M0, fit):
     """IFA's brightness: the innovations' likelihood and the pose's distance from the predicted
     cloud in units of its spread."""
     N = P.shape[0]
@@ -672,7 +672,7 @@ def pose_fitness(request, ps, pc, ids, zs, n, o, wk):
         _fitness_scaled(wk.C, wk.mean, wk.scale, ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb,
                         wk.llC, o.assoc, ps.nl, o.gate_augment, pc)
     elif request == BRIGHTNESS:
-        ifa_brightness(P, wk.ll, wk.ll.max(), wk.fit)
+        cloud_distance_brightness(P, wk.ll, wk.ll.max(), wk.fit)
     return evaluations(request, N)
 
 

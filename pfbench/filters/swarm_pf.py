@@ -72,7 +72,7 @@ SWARM_OPTIONS = typeof(SwarmOptions(1, 0, 1, 0, 1.0, 0, 0.8, 0.01, 0, 1))
 
 @kernel(types.void(ModelFn, _F, types.float64, types.float64, _F, _F, types.float64,
                    types.float64, SWARM_WORK, _F), cache=True)
-def ifa_brightness(f, theta, tt, xprev_hat, noise, xn, M, kind, wk, pt):
+def predicted_distance_brightness(f, theta, tt, xprev_hat, noise, xn, M, kind, wk, pt):
     """IFA's brightness of the particles xn: d_i, the distance of (h(x_i), x_i) to (y_t,
     f(xhat_{t-1}) + noise mean), each coordinate in units of its noise standard deviation
     (-2 ll = (y - h)^2 / R); kind 0: exp(-d^2/2), scaled by exp(-M) (ratios and order unchanged),
@@ -110,7 +110,8 @@ def swarm_fitness(f, h, theta, tt, yt, noise, xprev_hat, xn, p, request, wk, hx,
     elif request == FIT_BEHAVIOURS:
         _loglik(h, theta, tt, yt, half_inv_R, wk.C, hx, wk.llC)
     elif request == BRIGHTNESS:
-        ifa_brightness(f, theta, tt, xprev_hat, noise, xn, wk.ll.max(), p[2], wk, pt)
+        predicted_distance_brightness(f, theta, tt, xprev_hat, noise, xn, wk.ll.max(), p[2], wk,
+                                      pt)
     return evaluations(request, N)
 
 
