@@ -223,8 +223,8 @@ def test_no_filter_writes_its_own_normaliser():
     "w = np.exp(lw - np.max(lw))",
     "for i in range(n):\n        fit[i] = math.exp(ll[i] - M0 - 0.5 * d2)",
     "w = [math.exp(l - m) for l in lw]",
-    "for k in range(3):\n        M = ll.max()\n        for i in range(n):\n"
-    "            fit[i] = math.exp(ll[i] - M)",
+    ("for k in range(3):\n        M = ll.max()\n        for i in range(n):\n"
+     "            fit[i] = math.exp(ll[i] - M)"),
     "while i < n:\n        w[i] = exp(lw[i] - shift)\n        i += 1",
 ])
 def test_the_scan_catches_an_inline_normaliser(body):
@@ -233,8 +233,8 @@ def test_the_scan_catches_an_inline_normaliser(body):
 
 @pytest.mark.parametrize("body", [
     "for i in range(n):\n        b = math.exp(-gamma * d2[i])",       # a firefly's attraction
-    "for i in range(n):\n        lt, lq = f(i), g(i)\n        la = (lt - lq) - (c[i] - d[i])\n"
-    "        ok = u < math.exp(la)",                                       # an MH acceptance
+    ("for i in range(n):\n        lt, lq = f(i), g(i)\n        la = (lt - lq) - (c[i] - d[i])\n"
+     "        ok = u < math.exp(la)"),                                      # an MH acceptance
     "return hi + math.log1p(math.exp(-abs(l - log_floor)))",          # a floor, no loop
 ])
 def test_the_scan_leaves_other_exponentials(body):
@@ -263,7 +263,7 @@ def test_the_weights_variants_keep_their_contracts():
     lw = np.concatenate([rng.normal(0.0, 30.0, 37), [-np.inf, np.nan, -800.0]])
     x = rng.normal(size=lw.size)
     m = float(np.nanmax(lw))
-    exact = np.array([math.exp(v - m) if v == v else 0.0 for v in lw])
+    exact = np.array([0.0 if math.isnan(v) else math.exp(v - m) for v in lw])
 
     a, wa = lw.copy(), np.empty(lw.size)
     S, S2, sx, under = W.normalise(a, wa, x, m)
@@ -271,7 +271,7 @@ def test_the_weights_variants_keep_their_contracts():
     assert S == math.fsum(exact) or abs(S - math.fsum(exact)) <= 1e-15 * S
     assert abs(sx - math.fsum(exact * x)) <= 1e-12 and abs(S2 - math.fsum(exact ** 2)) <= 1e-12
     b, wb = lw.copy(), np.empty(lw.size)
-    Sl, S2l, sxl, underl = W.normalise_lanes(b, wb, x, m)
+    Sl, _, sxl, underl = W.normalise_lanes(b, wb, x, m)
     big = exact > 1e-300
     assert np.allclose(wb[big], exact[big], rtol=5e-16, atol=0) and wb[-1] == 0.0
     assert abs(Sl - S) <= 1e-14 * S and abs(sxl - sx) <= 1e-12 and underl == 0.0
