@@ -6,6 +6,8 @@ and never call a model: a move either uses the fitness values it is given, or pr
 positions that the caller evaluates before the matching ``*_accept``. So the same moves serve the
 scalar filters here (D = 1, fitness = likelihood of the measurement) and robot poses in FastSLAM.
 Fitness is positive and larger is better (the filters use the max-shifted likelihood in (0, 1]).
+``swarm_move`` is the one dispatcher: it runs an iteration of any algorithm in phases and
+returns, between them, what its caller evaluates (scratch: ``SwarmWork``).
 Distances are Euclidean over the D coordinates (a caller with angles must wrap them itself); the
 random steps take a per-coordinate unit ``scale`` (1 for a scalar state; FastSLAM passes the
 spread of the predicted poses, so a heading is not stepped in metres).

@@ -24,7 +24,9 @@ Which filter uses which:
 - ``normalised``: C library, one running sum, divided; the field SSPF (``weights_and_change``),
   whose weight-change trigger compares normalised weights across steps;
 - ``shifted_exp`` and ``shifted_exp_less``: C library, no sum; the swarms' fitness (FA, AFSA,
-  IFA's brightness) in (0, 1], in the scalar swarm PFs and FastSLAM's refinement.
+  IFA's brightness) in (0, 1], in the scalar swarm PFs and FastSLAM's refinement;
+- ``divide``: weights over their sum, where a filter keeps them normalised (the field SSPF,
+  FastSLAM, the UPF's previous weights, the swarm PFs' stepwise EWA plan).
 
 The shift is the largest log-weight, found by the caller while it computed the log-weights
 (a kernel folds it into its likelihood loop). A set whose log-weights are all -inf or NaN has
