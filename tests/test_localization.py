@@ -472,7 +472,7 @@ def test_a_known_start_tracks_and_plain_mcl_does_not_survive_a_kidnapping():
 
 def test_partial_sums_cover_every_element():
     """MCL's partial sums (four lanes and a tail) add every element once, for every length."""
-    from pfbench.filters.mcl import _lanesum
+    from pfbench.filters.weights import lane_sum as _lanesum
     rng = np.random.default_rng(4)
     for n in range(0, 23):
         a = rng.integers(-50, 50, n + 3).astype(float)      # integers: exact in any order

@@ -1,4 +1,5 @@
-"""Steps shared by the particle-filter kernels: weight normalisation, the MH move, diagnostics."""
+"""Steps shared by the particle-filter kernels: a step's weights (by ``weights``), the MH move,
+diagnostics."""
 from __future__ import annotations
 
 import math
@@ -7,9 +8,9 @@ import numpy as np
 from numba import types
 from .._lazy import kernel
 
-from .. import vecmath as vm
 from ..rng import STATE, fill_normal, uniform
 from ..models.scalar import ModelFn, add_process_noise
+from .weights import normalise, normalise_lanes
 
 _F = types.float64[::1]
 _I = types.int64[::1]
@@ -42,59 +43,6 @@ def floored(l, log_floor):
     return hi + math.log1p(math.exp(-abs(l - log_floor)))
 
 
-@kernel(types.UniTuple(types.float64, 4)(_F, _F, _F, types.float64), cache=True)
-def normalise(lw, w, x, m):
-    """Max-shifted weights from log-weights.
-
-    lw : (N,) log-weights, shifted in place by m (all -inf/NaN: reset to 0)
-    m : max(lw) over the non-NaN entries, as the caller found it while computing lw (kernels fold
-        it into their likelihood loop; ``max(m, l)`` skips NaN)
-    w : (N,) output, exp(lw); a NaN log-weight gives weight 0
-    x : (N,) particles, for the weighted sum
-    Returns (S, S2, sx, underflow): sum of w, sum of w^2, sum of w x, and 1.0 when every
-    log-weight was -inf or NaN (the weights were reset to uniform), else 0.0.
-    """
-    N = lw.size
-    m, underflow = _underflow(lw, m)
-    S = 0.0
-    S2 = 0.0
-    sx = 0.0
-    for i in range(N):
-        l = lw[i] - m
-        lw[i] = l
-        e = math.exp(l)
-        e = e if e == e else 0.0
-        w[i] = e
-        S += e
-        S2 += e * e
-        sx += e * x[i]
-    return S, S2, _finite_sum(w, x, sx), underflow
-
-
-@kernel(types.UniTuple(types.float64, 2)(_F, types.float64), cache=True, inline="always")
-def _underflow(lw, m):
-    """(the shift, underflow): (m, 0.0), or, when every log-weight was -inf or NaN (m is not
-    above -inf), lw reset to 0 and (0.0, 1.0)."""
-    if m > -np.inf:
-        return m, 0.0
-    for i in range(lw.size):
-        lw[i] = 0.0
-    return 0.0, 1.0
-
-
-@kernel(types.float64(_F, _F, types.float64), cache=True, inline="always")
-def _finite_sum(w, x, sx):
-    """sx, the weighted sum of x, unless it is not finite: then the sum over the particles of
-    positive weight only (rare: a zero-weight particle at +-inf or NaN makes 0 * inf)."""
-    if math.isfinite(sx):
-        return sx
-    sx = 0.0
-    for i in range(w.size):
-        if w[i] > 0.0:
-            sx += w[i] * x[i]
-    return sx
-
-
 @kernel(types.UniTuple(types.float64, 3)(types.float64, types.float64, types.float64,
                                        types.float64, types.int64, _F, _I, _F, _F),
         cache=True, inline="always")
@@ -111,54 +59,16 @@ def _record_step(S, S2, sx, under, t, ess, resampled, div_l1, distinct):
 @kernel(types.UniTuple(types.float64, 3)(_F, _F, _F, types.float64, types.int64, _F, _I, _F, _F),
       cache=True)
 def weigh(lw, w, x, m, t, ess, resampled, div_l1, distinct):
-    """One step's weights (see ``normalise``), ESS and weighted mean; the step's resampling
+    """One step's weights (``weights.normalise``), ESS and weighted mean; the step's resampling
     entries start as 'not resampled'. Returns (S, the weighted mean, underflow)."""
     S, S2, sx, under = normalise(lw, w, x, m)
     return _record_step(S, S2, sx, under, t, ess, resampled, div_l1, distinct)
 
 
-@kernel(types.UniTuple(types.float64, 4)(_F, _F, _F, types.float64), cache=True,
-        error_model="numpy")
-def normalise_lanes(lw, w, x, m):
-    """``normalise`` written to vectorise: the exponentials by ``vecmath.exp`` (within 2 ulp of
-    the C library's; 0 below -708, where the library's are subnormal) and the three sums in four
-    partial sums each, added pairwise at the end. Same arguments and results, to rounding."""
-    N = lw.size
-    m, underflow = _underflow(lw, m)
-    for i in range(N):
-        l = lw[i] - m
-        lw[i] = l
-        w[i] = vm.exp(l)            # NaN and -inf give 0
-    a0 = a1 = a2 = a3 = 0.0
-    b0 = b1 = b2 = b3 = 0.0
-    c0 = c1 = c2 = c3 = 0.0
-    top = N - N % 4
-    for i in range(0, top, 4):
-        e0, e1, e2, e3 = w[i], w[i + 1], w[i + 2], w[i + 3]
-        a0 += e0
-        a1 += e1
-        a2 += e2
-        a3 += e3
-        b0 += e0 * e0
-        b1 += e1 * e1
-        b2 += e2 * e2
-        b3 += e3 * e3
-        c0 += e0 * x[i]
-        c1 += e1 * x[i + 1]
-        c2 += e2 * x[i + 2]
-        c3 += e3 * x[i + 3]
-    for i in range(top, N):
-        a0 += w[i]
-        b0 += w[i] * w[i]
-        c0 += w[i] * x[i]
-    sx = (c0 + c1) + (c2 + c3)
-    return (a0 + a1) + (a2 + a3), (b0 + b1) + (b2 + b3), _finite_sum(w, x, sx), underflow
-
-
 @kernel(types.UniTuple(types.float64, 3)(_F, _F, _F, types.float64, types.int64, _F, _I, _F, _F),
         cache=True)
 def weigh_lanes(lw, w, x, m, t, ess, resampled, div_l1, distinct):
-    """``weigh`` by ``normalise_lanes``."""
+    """``weigh`` by ``weights.normalise_lanes``."""
     S, S2, sx, under = normalise_lanes(lw, w, x, m)
     return _record_step(S, S2, sx, under, t, ess, resampled, div_l1, distinct)
 

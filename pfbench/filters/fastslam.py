@@ -28,14 +28,14 @@ from ..resampling import (SCHEME_CODES, SCHEMES, STEPWISE_EWA, ess_threshold, ew
                           stepwise_ewa_plan)
 from ..rng import STATE, normal
 from ..schema import Key
-from ._common import (DIAG_DISTINCT, DIAG_DIVERSITY, DIAG_MAP_TRACE, drop_unasked,
-                      normalise)
+from ._common import DIAG_DISTINCT, DIAG_DIVERSITY, DIAG_MAP_TRACE, drop_unasked
 from ..diag import flags
 from .keys import ewa_keys, pf_keys
-from .swarm import (AFSA, ALGORITHMS, BA, FA, IFA, NO_SWARM, afsa_centres, afsa_propose,
-                    afsa_select, argmax, ba_accept, ba_propose, fa_move, ifa_move, keys, pack,
-                    pso_accept, pso_propose)
+from .swarm import (AFSA, AFSA_FISH_SHIFT, ALGORITHMS, BRIGHTNESS, DONE, FIT_BEHAVIOURS,
+                    FIT_CANDIDATES, FIT_CENTRES, FIT_X, NO_SWARM, SWARM_WORK, afsa_fish_shift,
+                    afsa_joint_shift, evaluations, keys, new_swarm_work, pack, swarm_move)
 from .types import FilterType
+from .weights import divide, normalise, shifted_exp_less
 
 _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
@@ -602,40 +602,6 @@ def predict(P, pc, Vc, Gc, o, s):
                                Vc * dt * cg / L, o.q1 ** 2, 0.0)
 
 
-class SwarmWork(NamedTuple):
-    """Scratch arrays of the swarm refinement (N particles, poses flat: 3 N)."""
-
-    ll: np.ndarray      # (N,) fitness: each pose's log-likelihood under its own map
-    llc: np.ndarray     # (N,) the candidates' fitness
-    fit: np.ndarray     # (N,) brightness / fitness in (0, 1]
-    V: np.ndarray       # (3 N,) BA and PSO velocities
-    Pb: np.ndarray      # (3 N,) PSO: each particle's best pose
-    Pfit: np.ndarray    # (N,) PSO: its fitness
-    A: np.ndarray       # (N,) BA loudness
-    rr: np.ndarray      # (N,) BA pulse rate
-    C: np.ndarray       # (3 N,) BA candidates
-    scale: np.ndarray   # (3,) the predicted cloud's spread per coordinate
-    mean: np.ndarray    # (3,) and its mean
-    Xs: np.ndarray      # (3 N,) AFSA: poses in units of the spread
-    Xc: np.ndarray      # (3 N,) AFSA: neighbourhood centres
-    nf: np.ndarray      # (N,) AFSA: neighbours
-    fitc: np.ndarray    # (N,) AFSA: the centres' fitness
-    C3: np.ndarray      # (9 N,) AFSA: the three behaviours' candidates
-    ll3: np.ndarray     # (3 N,) their log-likelihoods
-    fit3: np.ndarray    # (3 N,) their fitness
-
-
-SWARM_WORK = types.NamedUniTuple(_F, 18, SwarmWork)
-
-
-@kernel(SWARM_WORK(types.int64), cache=True)
-def new_swarm_work(N):
-    return SwarmWork(np.empty(N), np.empty(N), np.empty(N), np.empty(3 * N), np.empty(3 * N),
-                     np.empty(N), np.empty(N), np.empty(N), np.empty(3 * N), np.ones(3),
-                     np.zeros(3), np.empty(3 * N), np.empty(3 * N), np.empty(N), np.empty(N),
-                     np.empty(9 * N), np.empty(3 * N), np.empty(3 * N))
-
-
 @kernel(types.void(_F2, SWARM_WORK), cache=True)
 def cloud_units(P, wk):
     """Headings as continuous values around the cloud's circular mean; the cloud's mean and
@@ -656,7 +622,7 @@ def cloud_units(P, wk):
 
 
 @kernel(types.void(_F2, _F, types.float64, _F), cache=True)
-def ifa_brightness(P, ll, M0, fit):
+def cloud_distance_brightness(P, ll, M0, fit):
     """IFA's brightness: the innovations' likelihood and the pose's distance from the predicted
     cloud in units of its spread."""
     N = P.shape[0]
@@ -679,87 +645,76 @@ def ifa_brightness(P, ll, M0, fit):
         vt += (P[i, 2] - mt) ** 2 / N
     for i in range(N):
         d2 = ((P[i, 0] - mx) ** 2 / vx + (P[i, 1] - my) ** 2 / vy + (P[i, 2] - mt) ** 2 / vt)
-        fit[i] = math.exp(ll[i] - M0 - 0.5 * d2)
+        fit[i] = 0.5 * d2
+    shifted_exp_less(ll, M0, fit, fit)
 
 
 _OBS = (_I, _F2, types.int64)      # a step's observations: ids, zs (n, 2), n
 
 
-@kernel(types.int64(PARTICLES, _F2, *_OBS, OPTIONS, _F, SWARM_WORK, STATE), cache=True)
-def afsa_iteration(ps, pc, ids, zs, n, o, sp, wk, s):
-    """One AFSA iteration over the poses, in units of the predicted cloud's spread (visual and
-    step too); returns the likelihood evaluations."""
+@kernel(types.int64(types.int64, PARTICLES, _F2, *_OBS, OPTIONS, SWARM_WORK), cache=True)
+def pose_fitness(request, ps, pc, ids, zs, n, o, wk):
+    """What ``swarm.swarm_move`` asks (``request``): the log-likelihood of the step's
+    observations at the poses it names, each under its particle's map (AFSA's, given in units of
+    the cloud's spread, ``_fitness_scaled``), or IFA's brightness; returns the likelihood
+    evaluations."""
     P, N = ps.P, ps.P.shape[0]
-    M0 = wk.ll.max()
-    for i in range(N):
+    if request == FIT_X:
+        _fitness(P, ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb, wk.ll, o.assoc, ps.nl,
+                 o.gate_augment, pc)
+    elif request == FIT_CANDIDATES:
+        _fitness(wk.C[:3 * N].reshape((N, 3)), ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb,
+                 wk.llC[:N], o.assoc, ps.nl, o.gate_augment, pc)
+    elif request == FIT_CENTRES:
+        _fitness_scaled(wk.Xc, wk.mean, wk.scale, ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb,
+                        wk.llc, o.assoc, ps.nl, o.gate_augment, pc)
+    elif request == FIT_BEHAVIOURS:
+        _fitness_scaled(wk.C, wk.mean, wk.scale, ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb,
+                        wk.llC, o.assoc, ps.nl, o.gate_augment, pc)
+    elif request == BRIGHTNESS:
+        cloud_distance_brightness(P, wk.ll, wk.ll.max(), wk.fit)
+    return evaluations(request, N)
+
+
+@kernel(types.void(_F2, SWARM_WORK, types.boolean), cache=True)
+def pose_units(P, wk, inward):
+    """The poses P (N, 3) into wk.Xu, in units of the cloud's spread around its mean (inward),
+    or back from them."""
+    for i in range(P.shape[0]):
         for d in range(3):
-            wk.Xs[3 * i + d] = (P[i, d] - wk.mean[d]) / wk.scale[d]
-        wk.fit[i] = math.exp(wk.ll[i] - M0)
-    afsa_centres(wk.Xs, wk.fit, 3, sp[0], wk.Xc, wk.nf)
-    _fitness_scaled(wk.Xc, wk.mean, wk.scale, ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb,
-                    wk.llc, o.assoc, ps.nl, o.gate_augment, pc)
-    for i in range(N):
-        wk.fitc[i] = math.exp(wk.llc[i] - M0)
-    afsa_propose(wk.Xs, wk.fit, wk.Xc, wk.fitc, wk.nf, 3, sp[0], sp[1], sp[2], int(sp[3]), s,
-                 wk.C3)
-    _fitness_scaled(wk.C3, wk.mean, wk.scale, ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb,
-                    wk.ll3, o.assoc, ps.nl, o.gate_augment, pc)
-    for r in range(3 * N):
-        wk.fit3[r] = math.exp(wk.ll3[r] - M0)
-    afsa_select(wk.Xs, wk.fit, wk.C3, wk.fit3, 3, int(sp[4]))
-    for i in range(N):
-        for d in range(3):
-            P[i, d] = wk.mean[d] + wk.scale[d] * wk.Xs[3 * i + d]
-        wk.ll[i] = math.log(wk.fit[i]) + M0 if wk.fit[i] > 0.0 else -np.inf
-    return 4 * N
+            if inward:
+                wk.Xu[3 * i + d] = (P[i, d] - wk.mean[d]) / wk.scale[d]
+            else:
+                P[i, d] = wk.mean[d] + wk.scale[d] * wk.Xu[3 * i + d]
 
 
 @kernel(types.int64(PARTICLES, _F2, *_OBS, OPTIONS, _F, SWARM_WORK, STATE), cache=True)
 def refine_poses(ps, pc, ids, zs, n, o, sp, wk, s):
     """The swarm refinement of the predicted poses (ifa2021, afsa2014): ``o.iters`` iterations of
-    the swarm algorithm ``o.refine`` (parameters sp, swarm.pack), the fitness of a pose its
-    observations' likelihood under the particle's own map; returns the likelihood evaluations."""
+    the swarm algorithm ``o.refine`` (parameters sp, swarm.pack; ``swarm.swarm_move``), the
+    fitness of a pose its observations' likelihood under the particle's own map
+    (``pose_fitness``); AFSA moves the poses in units of the predicted cloud's spread (visual and
+    step too). Returns the likelihood evaluations."""
     P, N = ps.P, ps.P.shape[0]
     cloud_units(P, wk)
     X = P.reshape(3 * N)
     _fitness(P, ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb, wk.ll, o.assoc, ps.nl,
              o.gate_augment, pc)
     nev = N
+    afsa = o.refine == AFSA
     for it in range(o.iters):
-        if o.refine == FA or o.refine == IFA:
-            M0 = wk.ll.max()
-            if o.refine == FA:
-                for i in range(N):
-                    wk.fit[i] = math.exp(wk.ll[i] - M0)
-                fa_move(X, wk.fit, 3, sp[0], sp[1], sp[2], wk.scale, s)
-            else:
-                ifa_brightness(P, wk.ll, M0, wk.fit)
-                ifa_move(X, wk.fit, 3, sp[0], sp[1], o.Rr, wk.scale, s)
-            _fitness(P, ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb, wk.ll, o.assoc, ps.nl,
-                     o.gate_augment, pc)
-            nev += N
-        elif o.refine == BA:
-            if it == 0:
-                wk.V[:] = 0.0
-                wk.A[:] = sp[2]
-                wk.rr[:] = sp[3]
-            ba_propose(X, wk.V, wk.A, wk.rr, wk.C, 3, argmax(wk.ll), sp[0], sp[1], wk.scale, s)
-            _fitness(wk.C.reshape((N, 3)), ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb,
-                     wk.llc, o.assoc, ps.nl, o.gate_augment, pc)
-            nev += N
-            ba_accept(X, wk.ll, wk.C, wk.llc, wk.A, wk.rr, 3, sp[4], sp[5], sp[3], it + 1, s)
-        elif o.refine == AFSA:
-            nev += afsa_iteration(ps, pc, ids, zs, n, o, sp, wk, s)
-        else:   # PSO
-            if it == 0:
-                wk.V[:] = 0.0
-                wk.Pb[:] = X
-                wk.Pfit[:] = wk.ll
-            pso_propose(X, wk.V, wk.Pb, wk.Pfit, 3, argmax(wk.Pfit), sp[0], sp[1], sp[2], s)
-            _fitness(P, ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb, wk.ll, o.assoc, ps.nl,
-                     o.gate_augment, pc)
-            nev += N
-            pso_accept(X, wk.ll, wk.Pb, wk.Pfit, 3)
+        if afsa:
+            pose_units(P, wk, True)
+        Xm = wk.Xu if afsa else X
+        phase = 0
+        while True:
+            request = swarm_move(o.refine, AFSA_FISH_SHIFT, phase, Xm, 3, sp, o.Rr, it, wk, s)
+            if request == DONE:
+                break
+            nev += pose_fitness(request, ps, pc, ids, zs, n, o, wk)
+            phase += 1
+        if afsa:
+            pose_units(P, wk, False)
     for i in range(N):
         P[i, 2] = wrap(P[i, 2])
     return nev
@@ -943,13 +898,12 @@ def settle_pose_cov(pc, pcm, o):
 
 @kernel(types.UniTuple(types.float64, 3)(_F, _F, _F, _F2, types.float64), cache=True)
 def map_weights(lw, w, Wn, P, mx):
-    """The particles' weights after their maps' update (``normalise``): w = exp(lw - mx) (lw
+    """The particles' weights after their maps' update (``weights.normalise``): w = exp(lw - mx) (lw
     shifted in place, mx its maximum), Wn = w over their sum. P (N, 3) the poses. Returns (the
     weights' sum, the ESS, 1.0 when every weight underflowed and was reset, else 0.0)."""
     Ssum, S2, sx, under = normalise(lw, w, P[:, 0].copy(), mx)
     ess = Ssum * Ssum / S2
-    for i in range(Wn.size):
-        Wn[i] = w[i] / Ssum
+    divide(w, Ssum, Wn)
     return Ssum, ess, under
 
 
@@ -992,7 +946,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, o, start, sp, dnoise, lm_true, s
     ps, spare = new_particles(N, M, start), new_particles(N, M, start)
     pc = np.zeros((N, 6))     # pose uncertainty since the last update: [xx, xy, xt, yy, yt, tt]
     pcm = np.zeros(6)         # the cloud's mean of it at the last observation
-    wk = new_swarm_work(N)
+    wk = new_swarm_work(N, 3)
     # directional resampling's bulletin boards: the best particle of the last observation, in
     # use, and of this one, for the next; the weighted estimates xbar_prev and xbar
     board, next_board = new_particles(1, M, start), new_particles(1, M, start)
@@ -1053,7 +1007,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, o, start, sp, dnoise, lm_true, s
 # kernel for every other setting, fastslam_kernel_without_afsa2014, is a variant whose branches for
 # them call stubs it never reaches (run() picks it only then), so an experiment without them does
 # not compile them; its arithmetic is the full kernel's, and its trials are the same bit for bit.
-def _no_afsa(ps, pc, ids, zs, n, o, sp, wk, s):
+def _no_afsa(phase, X, D, p, wk, s):
     return 0
 
 
@@ -1067,8 +1021,10 @@ def _no_board(Wn, ps, board, xbar):
 
 
 _WITHOUT = "_without_afsa2014"
-refine_poses_without_afsa = variant(refine_poses, _WITHOUT,
-                                    afsa_iteration=stub(afsa_iteration, _no_afsa))
+swarm_move_without_afsa = variant(swarm_move, _WITHOUT,
+                                  afsa_joint_shift=stub(afsa_joint_shift, _no_afsa),
+                                  afsa_fish_shift=stub(afsa_fish_shift, _no_afsa))
+refine_poses_without_afsa = variant(refine_poses, _WITHOUT, swarm_move=swarm_move_without_afsa)
 resample_set_without_directional = variant(
     resample_set, _WITHOUT, directional_resample=stub(directional_resample, _no_directional))
 fastslam_kernel_without_afsa2014 = variant(

@@ -56,6 +56,7 @@ from ..models.odometry import _odometry, odometry_with
 from ..models.pose import init_particles, snapshot, snapshot_arrays
 from ..schema import Key
 from .keys import pf_keys
+from .weights import exp_pass, exp_sum, reset_unless_finite
 from .types import FilterType
 
 _F = types.float64[::1]
@@ -65,23 +66,6 @@ _I = types.int64[::1]
 _I2 = types.int64[:, ::1]
 
 RESET = {"none": 0, "srl": 1, "asrl": 2, "augmented": 3}
-
-
-@kernel(types.float64(_F, types.int64), cache=True, error_model="numpy")
-def _lanesum(a, n):
-    """sum a[i] over i < n in four partial sums (lanes the compiler keeps in one vector), added
-    pairwise at the end: a reduction that vectorises (a single running sum does not, as its
-    order is part of its result)."""
-    s0 = s1 = s2 = s3 = 0.0
-    top = n - n % 4
-    for i in range(0, top, 4):
-        s0 += a[i]
-        s1 += a[i + 1]
-        s2 += a[i + 2]
-        s3 += a[i + 3]
-    for i in range(top, n):
-        s0 += a[i]
-    return (s0 + s1) + (s2 + s3)
 
 
 @kernel(types.void(_F2, types.int64, types.int64, _F2), cache=True, error_model="numpy")
@@ -169,23 +153,6 @@ def loglik_pass(X, Y, H, n, bc, m, ids, zs, sensor, sr, sb, cst, ll):
                 v = (z - math.sqrt(dx * dx + dy * dy)) * rr
                 a = (0.0 if first else ll[i]) - 0.5 * v * v
                 ll[i] = a + cst if last else a
-
-
-@kernel(types.void(_F, types.float64, types.int64, _F), cache=True, error_model="numpy")
-def exp_pass(a, shift, n, out):
-    """out[i] = exp(a[i] - shift) for i < n (a, out of at least n; out may be a).
-
-    ``vecmath.exp`` (within 2 ulp of the C library's, 0 below -708, NaN and -inf give 0) in a
-    loop the compiler vectorises: the weights' exponentials after their maximum's shift."""
-    for i in range(n):
-        out[i] = vm.exp(a[i] - shift)
-
-
-@kernel(types.float64(_F, types.float64, types.int64, _F), cache=True, error_model="numpy")
-def _exp_sum(a, shift, n, out):
-    """``exp_pass``, returning their sum (in partial sums, ``_lanesum``)."""
-    exp_pass(a, shift, n, out)
-    return _lanesum(out, n)
 
 
 KLD_COUNT_MAX = 2 ** 62    # kld_count saturates here (any bound past the particles is the same)
@@ -682,12 +649,8 @@ def weigh_observations(P, n, bc, m, ids, zs, o, lw, W, ll, equal_weights):
     if equal_weights and np.isfinite(mx):   # the weights are the likelihood's terms
         exp_pass(ll, lmax, n, W)
         return 0.0, lmax, 0.0, True
-    acc = _exp_sum(ll, lmax, n, W)      # W as scratch
-    under = 0.0
-    if not np.isfinite(mx):
-        under = 1.0
-        lw[:n] = 0.0
-        mx = 0.0
+    acc = exp_sum(ll, lmax, n, W)       # W as scratch
+    mx, under = reset_unless_finite(lw, n, mx)
     exp_pass(lw, mx, n, W)
     return under, lmax, acc, False
 
@@ -717,7 +680,7 @@ def weighted_sums(P, W, n, CS, cum, out):
     weights W, not normalised): the weights' running sums into cum (summed in order, for the
     resampling; cum[n - 1] is their sum S), the estimate into out (``estimate_pose``'s weighted
     mean and circular mean heading) and, returned, the ESS S^2 / sum W^2. The estimate's four
-    sums and the ESS's are each in four partial sums (``_lanesum``'s) of fused multiply-adds
+    sums and the ESS's are each in four partial sums (``weights.lane_sum``'s) of fused multiply-adds
     (``vm.fma``), divided by S once at the end. The running sum waits on each addition before
     the next; the rest is done in that wait."""
     X, Y, C, S = P[0], P[1], CS[0], CS[1]

@@ -51,6 +51,7 @@ from .keys import sigma_check, sigma_keys
 from .types import FilterType
 from .ukf import ut_weights
 from .upf import upf_keys
+from .weights import normalised
 
 _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
@@ -184,22 +185,12 @@ def observation_vector(zs, m, o, zobs, isb):
 
 @kernel(types.UniTuple(types.float64, 3)(_F, _F, _F, types.float64), cache=True)
 def weights_and_change(lw, W, Wprev, mx):
-    """Normalised weights W from the log-weights lw (max mx; all -inf: reset to uniform); returns
+    """Normalised weights W from the log-weights lw (max mx; ``weights.normalised``); returns
     (1 when they underflowed, the ESS, the weight change K = sum W (W - Wprev)^2)."""
-    N = lw.size
-    under = 0.0
-    if not np.isfinite(mx):
-        under = 1.0
-        lw[:] = 0.0
-        mx = 0.0
-    tot = 0.0
-    for i in range(N):
-        W[i] = math.exp(lw[i] - mx) if np.isfinite(lw[i]) else 0.0
-        tot += W[i]
+    under = normalised(lw, W, mx)
     S2 = 0.0
     Kc = 0.0
-    for i in range(N):
-        W[i] /= tot
+    for i in range(lw.size):
         S2 += W[i] * W[i]
         dw = W[i] - Wprev[i]
         Kc += W[i] * dw * dw

@@ -6,6 +6,8 @@ and never call a model: a move either uses the fitness values it is given, or pr
 positions that the caller evaluates before the matching ``*_accept``. So the same moves serve the
 scalar filters here (D = 1, fitness = likelihood of the measurement) and robot poses in FastSLAM.
 Fitness is positive and larger is better (the filters use the max-shifted likelihood in (0, 1]).
+``swarm_move`` is the one dispatcher: it runs an iteration of any algorithm in phases and
+returns, between them, what its caller evaluates (scratch: ``SwarmWork``).
 Distances are Euclidean over the D coordinates (a caller with angles must wrap them itself); the
 random steps take a per-coordinate unit ``scale`` (1 for a scalar state; FastSLAM passes the
 spread of the predicted poses, so a heading is not stepped in metres).
@@ -16,6 +18,7 @@ are O(N) per iteration except AFSA's neighbourhoods, which are O(N^2) as well.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import types
@@ -23,6 +26,7 @@ from .._lazy import kernel
 
 from ..rng import STATE, normal, uniform
 from ..schema import Key
+from .weights import shifted_exp
 
 # The swarm algorithms, one numbering for every kernel that moves particles with them.
 FA, IFA, BA, PSO, AFSA = 0, 1, 2, 3, 4
@@ -308,3 +312,162 @@ def afsa_select(X, fit, C, fitC, D, greedy):
             fit[i] = fitC[k]
             for d in range(D):
                 X[i * D + d] = C[k * D + d]
+
+
+# --- the dispatcher: one swarm iteration, its fitness evaluated by the caller between phases ------
+
+class SwarmWork(NamedTuple):
+    """Scratch of the swarm moves over N particles of D coordinates (flat, as the moves take
+    them), the log-likelihoods kept up to date by the caller (``swarm_move``)."""
+
+    ll: np.ndarray      # (N,) the particles' log-likelihood (their fitness)
+    fit: np.ndarray     # (N,) their fitness or brightness, in (0, 1]
+    V: np.ndarray       # (N D,) BA and PSO velocities
+    P: np.ndarray       # (N D,) PSO: each particle's best position
+    Pfit: np.ndarray    # (N,) PSO: its log-likelihood
+    A: np.ndarray       # (N,) BA loudness
+    r: np.ndarray       # (N,) BA pulse rate
+    C: np.ndarray       # (3 N D,) candidates: BA's N, AFSA's three behaviours' 3 N
+    llC: np.ndarray     # (3 N,) their log-likelihood
+    fitC: np.ndarray    # (3 N,) their fitness (AFSA_FISH_SHIFT)
+    Xc: np.ndarray      # (N D,) AFSA: the neighbourhoods' centres
+    llc: np.ndarray     # (N,) their log-likelihood
+    fitc: np.ndarray    # (N,) their fitness
+    nf: np.ndarray      # (N,) AFSA: neighbours of each fish
+    scale: np.ndarray   # (D,) each coordinate's unit for the random steps (1 for a scalar)
+    mean: np.ndarray    # (D,) the origin of the particles in units of scale
+    Xu: np.ndarray      # (N D,) the particles in those units, mean + scale Xu (a caller's AFSA)
+
+
+SWARM_WORK = types.NamedUniTuple(_F, 17, SwarmWork)
+
+
+@kernel(SWARM_WORK(types.int64, types.int64), cache=True)
+def new_swarm_work(N, D):
+    """The scratch of N particles of D coordinates: unit scale, origin 0."""
+    return SwarmWork(np.empty(N), np.empty(N), np.empty(N * D), np.empty(N * D), np.empty(N),
+                     np.empty(N), np.empty(N), np.empty(3 * N * D), np.empty(3 * N),
+                     np.empty(3 * N), np.empty(N * D), np.empty(N), np.empty(N), np.empty(N),
+                     np.ones(D), np.zeros(D), np.empty(N * D))
+
+
+# What ``swarm_move`` asks its caller to evaluate before it calls it again (the caller's fitness:
+# a model's likelihood of the measurement, a pose's under its particle's map).
+DONE = 0                # the iteration is over
+FIT_X = 1               # the particles X: their log-likelihood into wk.ll
+FIT_CANDIDATES = 2      # BA's N candidates wk.C[:N D]: into wk.llC[:N]
+FIT_CENTRES = 3         # AFSA's centres wk.Xc: into wk.llc
+FIT_BEHAVIOURS = 4      # AFSA's 3 N candidates wk.C: into wk.llC
+BRIGHTNESS = 5          # IFA's brightness of X, into wk.fit from wk.ll (the caller's distance)
+
+# AFSA's two arithmetics of fitness (``afsa_joint_shift``, ``afsa_fish_shift``)
+AFSA_JOINT_SHIFT = 0
+AFSA_FISH_SHIFT = 1
+
+
+@kernel(types.int64(types.int64, types.int64), cache=True)
+def evaluations(request, N):
+    """The likelihood evaluations a request of ``swarm_move`` costs over N particles."""
+    if request == FIT_BEHAVIOURS:
+        return 3 * N
+    return N if request != BRIGHTNESS and request != DONE else 0
+
+
+@kernel(types.int64(types.int64, _F, types.int64, _F, SWARM_WORK, STATE), cache=True,
+        inline="always")
+def afsa_joint_shift(phase, X, D, p, wk, s):
+    """AFSA's iteration with one shift for the fish and their centres, the largest of both
+    log-likelihoods (a centre can be far likelier than every fish when the noise is small: no
+    fitness overflows), and the choice among the behaviours on the log-likelihoods (exact where
+    exp(ll - M) would underflow to a tie at 0): the scalar swarm PFs."""
+    if phase == 0:
+        afsa_centres(X, wk.fit, D, p[0], wk.Xc, wk.nf)
+        return FIT_CENTRES
+    if phase == 1:
+        M = wk.ll.max()
+        M = max(M, wk.llc.max())
+        shifted_exp(wk.ll, M, wk.fit)
+        shifted_exp(wk.llc, M, wk.fitc)
+        afsa_propose(X, wk.fit, wk.Xc, wk.fitc, wk.nf, D, p[0], p[1], p[2], int(p[3]), s, wk.C)
+        return FIT_BEHAVIOURS
+    afsa_select(X, wk.ll, wk.C, wk.llC, D, int(p[4]))
+    return DONE
+
+
+@kernel(types.int64(types.int64, _F, types.int64, _F, SWARM_WORK, STATE), cache=True,
+        inline="always")
+def afsa_fish_shift(phase, X, D, p, wk, s):
+    """AFSA's iteration with the fish's largest log-likelihood M0 as the one shift of every
+    fitness (fish, centres, candidates) and the choice among the behaviours on those fitnesses;
+    the fish's log-likelihoods are then log(fit) + M0 (-inf where it underflowed): FastSLAM's
+    refinement."""
+    M0 = wk.ll.max()
+    if phase == 0:
+        shifted_exp(wk.ll, M0, wk.fit)
+        afsa_centres(X, wk.fit, D, p[0], wk.Xc, wk.nf)
+        return FIT_CENTRES
+    if phase == 1:
+        shifted_exp(wk.llc, M0, wk.fitc)
+        afsa_propose(X, wk.fit, wk.Xc, wk.fitc, wk.nf, D, p[0], p[1], p[2], int(p[3]), s, wk.C)
+        return FIT_BEHAVIOURS
+    shifted_exp(wk.llC, M0, wk.fitC)
+    afsa_select(X, wk.fit, wk.C, wk.fitC, D, int(p[4]))
+    for i in range(wk.ll.size):
+        wk.ll[i] = math.log(wk.fit[i]) + M0 if wk.fit[i] > 0.0 else -np.inf
+    return DONE
+
+
+@kernel(types.int64(types.int64, types.int64, types.int64, _F, types.int64, _F, types.float64,
+                    types.int64, SWARM_WORK, STATE), cache=True, inline="always")
+def swarm_move(algo, afsa, phase, X, D, p, R, it, wk, s):
+    """Phase ``phase`` (0, 1, ...) of iteration ``it`` of the swarm algorithm ``algo`` (parameters
+    p, ``pack``; IFA's R: the measurement variance in its adaptive step) over the particles X
+    (N D,), whose log-likelihoods wk.ll are up to date; ``afsa`` picks AFSA's arithmetic
+    (AFSA_JOINT_SHIFT or AFSA_FISH_SHIFT). Returns what the caller evaluates before it calls
+    phase + 1 (FIT_X, FIT_CANDIDATES, FIT_CENTRES, FIT_BEHAVIOURS, BRIGHTNESS), or DONE.
+
+    FA: fitness exp(ll - max ll), move, FIT_X. IFA: BRIGHTNESS, move, FIT_X. BA: propose,
+    FIT_CANDIDATES, accept. PSO: propose, FIT_X, keep the bests. AFSA: centres, FIT_CENTRES,
+    propose, FIT_BEHAVIOURS, select.
+
+    Inlined into its caller (call it from one place, in a loop over the phases): the moves then
+    see the caller's D as a constant, and their loops over the coordinates compile away (a
+    scalar AFSA-PF ran 1.7 times slower with D a run-time argument)."""
+    N = wk.ll.size
+    if algo == FA:
+        if phase == 0:
+            shifted_exp(wk.ll, wk.ll.max(), wk.fit)
+            fa_move(X, wk.fit, D, p[0], p[1], p[2], wk.scale, s)
+            return FIT_X
+        return DONE
+    if algo == IFA:
+        if phase == 0:
+            return BRIGHTNESS
+        if phase == 1:
+            ifa_move(X, wk.fit, D, p[0], p[1], R, wk.scale, s)
+            return FIT_X
+        return DONE
+    if algo == BA:
+        if phase == 0:
+            if it == 0:
+                wk.V[:] = 0.0
+                wk.A[:] = p[2]
+                wk.r[:] = p[3]
+            ba_propose(X, wk.V, wk.A, wk.r, wk.C[:N * D], D, argmax(wk.ll), p[0], p[1],
+                       wk.scale, s)
+            return FIT_CANDIDATES
+        ba_accept(X, wk.ll, wk.C[:N * D], wk.llC[:N], wk.A, wk.r, D, p[4], p[5], p[3], it + 1, s)
+        return DONE
+    if algo == PSO:
+        if phase == 0:
+            if it == 0:
+                wk.V[:] = 0.0
+                wk.P[:] = X
+                wk.Pfit[:] = wk.ll
+            pso_propose(X, wk.V, wk.P, wk.Pfit, D, argmax(wk.Pfit), p[0], p[1], p[2], s)
+            return FIT_X
+        pso_accept(X, wk.ll, wk.P, wk.Pfit, D)
+        return DONE
+    if afsa == AFSA_JOINT_SHIFT:
+        return afsa_joint_shift(phase, X, D, p, wk, s)
+    return afsa_fish_shift(phase, X, D, p, wk, s)

@@ -24,9 +24,11 @@ from ..models.scalar import NOISE_GAUSSIAN, ModelFn, add_process_noise
 from ._common import DIAG_DISTINCT, drop_unasked, resampled_step, start, weigh_lanes
 from ..diag import flags
 from .keys import ewa_keys, pf_keys
-from .swarm import (ALGORITHMS, BA, FA, IFA, PSO, afsa_centres, afsa_propose, afsa_select, argmax,
-                    ba_accept, ba_propose, fa_move, ifa_move, keys, pack, pso_accept, pso_propose)
+from .swarm import (AFSA_JOINT_SHIFT, ALGORITHMS, BRIGHTNESS, DONE, FIT_BEHAVIOURS,
+                    FIT_CANDIDATES, FIT_CENTRES, FIT_X, SWARM_WORK, evaluations, keys,
+                    new_swarm_work, pack, swarm_move)
 from .types import FilterType
+from .weights import divide, shifted_exp_less
 
 _F = types.float64[::1]
 _I = types.int64[::1]
@@ -41,12 +43,6 @@ def _loglik(h, theta, tt, yt, half_inv_R, X, hx, ll):
     for i in range(X.size):
         d = yt - hx[i]
         ll[i] = -half_inv_R * d * d
-
-
-@kernel(types.void(_F, types.float64, _F), cache=True)
-def _shifted_exp(ll, M, out):
-    for i in range(ll.size):
-        out[i] = math.exp(ll[i] - M)
 
 
 class SwarmOptions(NamedTuple):
@@ -74,111 +70,49 @@ class SwarmOptions(NamedTuple):
 SWARM_OPTIONS = typeof(SwarmOptions(1, 0, 1, 0, 1.0, 0, 0.8, 0.01, 0, 1))
 
 
-class Work(NamedTuple):
-    """Scratch of the swarm moves (N particles): h at up to 3 N points hx; the moved particles'
-    log-likelihood ll and fitness fit; BA and PSO velocities V; PSO's bests P, Pfit; BA's loudness
-    A and pulse rate r; candidates C (3 N) and their log-likelihood llC; AFSA's centres Xc, their
-    llc, fitc, and neighbour counts nf; one, onef, unit: a state, its f, a unit step (1,)."""
-
-    hx: np.ndarray
-    ll: np.ndarray
-    fit: np.ndarray
-    V: np.ndarray
-    P: np.ndarray
-    Pfit: np.ndarray
-    A: np.ndarray
-    r: np.ndarray
-    C: np.ndarray
-    llC: np.ndarray
-    Xc: np.ndarray
-    llc: np.ndarray
-    fitc: np.ndarray
-    nf: np.ndarray
-    one: np.ndarray
-    onef: np.ndarray
-    unit: np.ndarray
-
-
-WORK = types.NamedUniTuple(_F, 17, Work)
-
-
-@kernel(WORK(types.int64), cache=True)
-def new_work(N):
-    return Work(np.empty(3 * N), np.empty(N), np.empty(N), np.empty(N), np.empty(N), np.empty(N),
-                np.empty(N), np.empty(N), np.empty(3 * N), np.empty(3 * N), np.empty(N),
-                np.empty(N), np.empty(N), np.empty(N), np.empty(1), np.empty(1), np.ones(1))
-
-
 @kernel(types.void(ModelFn, _F, types.float64, types.float64, _F, _F, types.float64,
-                 types.float64, WORK), cache=True)
-def ifa_brightness(f, theta, tt, xprev_hat, noise, xn, M, kind, wk):
+                   types.float64, SWARM_WORK, _F), cache=True)
+def predicted_distance_brightness(f, theta, tt, xprev_hat, noise, xn, M, kind, wk, pt):
     """IFA's brightness of the particles xn: d_i, the distance of (h(x_i), x_i) to (y_t,
     f(xhat_{t-1}) + noise mean), each coordinate in units of its noise standard deviation
     (-2 ll = (y - h)^2 / R); kind 0: exp(-d^2/2), scaled by exp(-M) (ratios and order unchanged),
-    1: 1 / (1 + d)."""
+    1: 1 / (1 + d). pt (2,) scratch."""
     Qv = noise[1] if noise[0] == NOISE_GAUSSIAN else noise[1] / (noise[2] * noise[2])
     qmean = 0.0 if noise[0] == NOISE_GAUSSIAN else noise[1] / noise[2]
-    wk.one[0] = xprev_hat
-    f(wk.one, tt, theta, wk.onef)
-    xbar = wk.onef[0] + qmean
-    for i in range(xn.size):
-        e = xn[i] - xbar
-        if kind == 0.0:
-            wk.fit[i] = math.exp(wk.ll[i] - M - 0.5 * e * e / Qv)
-        else:
+    pt[0] = xprev_hat
+    f(pt[:1], tt, theta, pt[1:])
+    xbar = pt[1] + qmean
+    if kind == 0.0:
+        for i in range(xn.size):
+            e = xn[i] - xbar
+            wk.fit[i] = 0.5 * e * e / Qv
+        shifted_exp_less(wk.ll, M, wk.fit, wk.fit)
+    else:
+        for i in range(xn.size):
+            e = xn[i] - xbar
             wk.fit[i] = 1.0 / (1.0 + math.sqrt(-2.0 * wk.ll[i] + e * e / Qv))
 
 
-@kernel(types.int64(ModelFn, ModelFn, _F, types.float64, types.float64, _F, types.float64, _F,
-                  SWARM_OPTIONS, _F, WORK, types.int64, STATE), cache=True)
-def swarm_iteration(f, h, theta, tt, yt, noise, xprev_hat, xn, o, p, wk, it, s):
-    """One iteration of the swarm algorithm o.algo (parameters p, swarm.pack) over the particles
-    xn, the fitness their likelihood (wk.ll, kept up to date); returns the likelihood
-    evaluations."""
+@kernel(types.int64(ModelFn, ModelFn, _F, types.float64, types.float64, _F, types.float64, _F, _F,
+                    types.int64, SWARM_WORK, _F, _F), cache=True)
+def swarm_fitness(f, h, theta, tt, yt, noise, xprev_hat, xn, p, request, wk, hx, pt):
+    """What ``swarm.swarm_move`` asks (``request``), over the particles xn: the log-likelihood of
+    y_t at the points it names (h at up to 3 N points into hx), or IFA's brightness (its kind
+    p[2]); returns the likelihood evaluations."""
     N = xn.size
-    R = noise[3]
-    half_inv_R = 0.5 / R
-    M = wk.ll.max()
-    if o.algo == FA:                                  # FA: brightness = likelihood
-        _shifted_exp(wk.ll, M, wk.fit)
-        fa_move(xn, wk.fit, 1, p[0], p[1], p[2], wk.unit, s)
-    elif o.algo == IFA:                               # IFA: distance brightness
-        ifa_brightness(f, theta, tt, xprev_hat, noise, xn, M, p[2], wk)
-        ifa_move(xn, wk.fit, 1, p[0], p[1], R, wk.unit, s)
-    elif o.algo == BA:
-        if it == 0:
-            wk.V[:] = 0.0
-            wk.A[:] = p[2]
-            wk.r[:] = p[3]
-        ba_propose(xn, wk.V, wk.A, wk.r, wk.C[:N], 1, argmax(wk.ll), p[0], p[1], wk.unit, s)
-        _loglik(h, theta, tt, yt, half_inv_R, wk.C[:N], wk.hx[:N], wk.llC[:N])
-        ba_accept(xn, wk.ll, wk.C[:N], wk.llC[:N], wk.A, wk.r, 1, p[4], p[5], p[3], it + 1, s)
-        return N
-    elif o.algo == PSO:
-        if it == 0:
-            wk.V[:] = 0.0
-            wk.P[:] = xn
-            wk.Pfit[:] = wk.ll
-        pso_propose(xn, wk.V, wk.P, wk.Pfit, 1, argmax(wk.Pfit), p[0], p[1], p[2], s)
-        _loglik(h, theta, tt, yt, half_inv_R, xn, wk.hx[:N], wk.ll)
-        pso_accept(xn, wk.ll, wk.P, wk.Pfit, 1)
-        return N
-    else:                                             # AFSA
-        afsa_centres(xn, wk.fit, 1, p[0], wk.Xc, wk.nf)
-        _loglik(h, theta, tt, yt, half_inv_R, wk.Xc, wk.hx[:N], wk.llc)
-        # one shift for the fish and their centres, so that no fitness overflows (a centre can
-        # be far likelier than every fish when the noise is small)
-        M = max(M, wk.llc.max())
-        _shifted_exp(wk.ll, M, wk.fit)
-        _shifted_exp(wk.llc, M, wk.fitc)
-        afsa_propose(xn, wk.fit, wk.Xc, wk.fitc, wk.nf, 1, p[0], p[1], p[2], int(p[3]), s, wk.C)
-        _loglik(h, theta, tt, yt, half_inv_R, wk.C, wk.hx, wk.llC)
-        # the choice only compares fitnesses, so it takes the log-likelihoods: exact where
-        # exp(ll - M) would underflow to a tie at 0 (or overflow)
-        afsa_select(xn, wk.ll, wk.C, wk.llC, 1, int(p[4]))
-        return 4 * N
-    _loglik(h, theta, tt, yt, half_inv_R, xn, wk.hx[:N], wk.ll)   # FA and IFA moved: re-weigh
-    return N
+    half_inv_R = 0.5 / noise[3]
+    if request == FIT_X:
+        _loglik(h, theta, tt, yt, half_inv_R, xn, hx[:N], wk.ll)
+    elif request == FIT_CANDIDATES:
+        _loglik(h, theta, tt, yt, half_inv_R, wk.C[:N], hx[:N], wk.llC[:N])
+    elif request == FIT_CENTRES:
+        _loglik(h, theta, tt, yt, half_inv_R, wk.Xc, hx[:N], wk.llc)
+    elif request == FIT_BEHAVIOURS:
+        _loglik(h, theta, tt, yt, half_inv_R, wk.C, hx, wk.llC)
+    elif request == BRIGHTNESS:
+        predicted_distance_brightness(f, theta, tt, xprev_hat, noise, xn, wk.ll.max(), p[2], wk,
+                                      pt)
+    return evaluations(request, N)
 
 
 @kernel(types.void(_F, _F, _F, types.float64, _F, _I, types.int8[::1], SWARM_OPTIONS, STATE),
@@ -188,8 +122,7 @@ def resample_swarm(x, xn, w, S, lw, idx, mutant, o, s):
     mutations, or a standard scheme; the log-weights lw reset."""
     N = x.size
     if o.scheme == EWA:
-        for i in range(N):
-            w[i] /= S
+        divide(w, S, w)
         stepwise_ewa_plan(w, o.ewa_beta, o.ewa_printed, idx, mutant)
         for i in range(N):
             v = xn[idx[i]]
@@ -203,16 +136,23 @@ def resample_swarm(x, xn, w, S, lw, idx, mutant, o, s):
 
 
 @kernel(types.int64(ModelFn, ModelFn, _F, types.float64, types.float64, _F, types.float64, _F,
-                    SWARM_OPTIONS, _F, WORK, STATE), cache=True)
-def swarm_refine(f, h, theta, tt, yt, noise, xprev_hat, xn, o, p, wk, s):
-    """The swarm's o.iters iterations (``swarm_iteration``) on the predicted particles xn, from
-    their log-likelihood of y_t (into wk.ll, kept up to date); returns the likelihood
-    evaluations of the step."""
+                    SWARM_OPTIONS, _F, SWARM_WORK, _F, _F, STATE), cache=True)
+def swarm_refine(f, h, theta, tt, yt, noise, xprev_hat, xn, o, p, wk, hx, pt, s):
+    """The swarm's o.iters iterations (``swarm.swarm_move``, its fitness ``swarm_fitness``) on
+    the predicted particles xn, from their log-likelihood of y_t (into wk.ll, kept up to date);
+    returns the likelihood evaluations of the step."""
     N = xn.size
-    _loglik(h, theta, tt, yt, 0.5 / noise[3], xn, wk.hx[:N], wk.ll)
+    _loglik(h, theta, tt, yt, 0.5 / noise[3], xn, hx[:N], wk.ll)
     nev = N
     for it in range(o.iters):
-        nev += swarm_iteration(f, h, theta, tt, yt, noise, xprev_hat, xn, o, p, wk, it, s)
+        phase = 0
+        while True:
+            request = swarm_move(o.algo, AFSA_JOINT_SHIFT, phase, xn, 1, p, noise[3], it, wk, s)
+            if request == DONE:
+                break
+            nev += swarm_fitness(f, h, theta, tt, yt, noise, xprev_hat, xn, p, request, wk, hx,
+                                 pt)
+            phase += 1
     return nev
 
 
@@ -247,14 +187,16 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, p, s, xhat,
     idx = np.empty(N, dtype=np.int64)
     mutant = np.empty(N, dtype=np.int8)
     mark = np.empty(N if o.diag & DIAG_DISTINCT else 0, dtype=np.int8)
-    wk = new_work(N)
+    wk = new_swarm_work(N, 1)
+    hx = np.empty(3 * N)        # h at the points the swarm's fitness evaluates
+    pt = np.empty(2)
     events = 0
     evals[0] = 0.0
     for t in range(1, T + 1):
         tt, yt = float(t), y[t]
         f(x, tt, theta, xn)
         add_process_noise(s, noise, xn)
-        evals[t] = swarm_refine(f, h, theta, tt, yt, noise, xhat[t - 1], xn, o, p, wk, s)
+        evals[t] = swarm_refine(f, h, theta, tt, yt, noise, xhat[t - 1], xn, o, p, wk, hx, pt, s)
         mx = add_loglik(lw, wk.ll)
         S, est, under = weigh_lanes(lw, w, xn, mx, t, ess, resampled, div_l1, distinct)
         events += int(under)

@@ -31,6 +31,7 @@ from .pf import log_floor
 from .keys import floor_key, gaussian_noise_keys, pf_keys, sigma_check, sigma_keys
 from .types import FilterType
 from .ukf import ut_weights
+from .weights import divide
 
 _F = types.float64[::1]
 _I = types.int64[::1]
@@ -199,7 +200,7 @@ def weigh_draws(noise, yt, xn, hx, fprev, pm, pv, lw, o):
 
 @kernel(types.void(ModelFn, _F, types.float64, types.float64, _F, _F, _F, _F, _F, _F, _F, _F,
                  UPF_OPTIONS, STATE), cache=True)
-def mh_moves(h, theta, tt, yt, noise, x, P, am, fa, ha, prop, hprop, o, s):
+def independence_mh_moves(h, theta, tt, yt, noise, x, P, am, fa, ha, prop, hprop, o, s):
     """o.mh_steps independence MH moves per particle x with its ancestor's proposal N(am, P)
     (fa: the ancestor's f(x_prev), ha: h(x)); prop, hprop (N,): scratch."""
     N = x.size
@@ -272,7 +273,7 @@ def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, s, xhat, ess, re
             for i in range(N):
                 x[i] = xn[i]
                 P[i] = pv[i]
-                Wprev[i] = w[i] / Ssum
+            divide(w, Ssum, Wprev)
             xhat[t] = est
             continue
         resample(o.scheme, w, Ssum, s, idx)
@@ -285,7 +286,7 @@ def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, s, xhat, ess, re
             ha[i] = hx[j]
             lw[i] = 0.0
             Wprev[i] = 1.0 / N
-        mh_moves(h, theta, tt, yt, noise, x, P, am, fa, ha, prop, hprop, o, s)
+        independence_mh_moves(h, theta, tt, yt, noise, x, P, am, fa, ha, prop, hprop, o, s)
         xhat[t] = resampled_step(x, xn, idx, mark, t, est, o.estimate_after, o.diag, resampled,
                                  div_l1, distinct)
     return events
