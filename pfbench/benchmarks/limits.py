@@ -35,6 +35,7 @@ from numba import njit, types
 from .. import vecmath as vm
 from .._lazy import kernel
 from ..filters import mcl
+from ..filters.weights import exp_pass
 from ..filters.fastslam import ekf_apply, innovation, nearest_innovation, options
 from ..models.beacons import loglik_const
 from ..resampling import systematic
@@ -202,7 +203,7 @@ def _mcl_likelihood(P, bc, obs_n, obs_id, obs_z, o, ll):
 def _mcl_exps(ll, W, T):
     N = ll.size
     for _ in range(T):
-        mcl.exp_pass(ll, ll.max(), N, W)
+        exp_pass(ll, ll.max(), N, W)
 
 
 @njit(cache=True, error_model="numpy")
