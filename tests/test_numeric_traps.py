@@ -194,10 +194,10 @@ def test_kld_counts_the_bins_of_any_histogram(bm):
     """Bins of 2^-31 m x 5 deg (a grid of 2^72 bins: its index overflowed, and the kernel wrote
     out of bounds) are counted exactly, as ordinary ones are: the draw stops at the bound of the
     bins its particles occupy."""
-    from pfbench.filters.mcl import kld_count
+    from pfbench.filters.mcl import KldParams, kld_count
     br = math.radians(5.0)
     z = 2.33
-    kp = np.array([0.5, z, bm, br, 10.0])
+    kp = KldParams(0.5, z, bm, br, 10.0)
     m, poses = _kld_draw(kp)
     k = _cells(poses, bm, br)
     assert m == max(10, kld_count(k, 0.5, z)) or m == 2000
@@ -209,7 +209,8 @@ def test_kld_counts_the_bins_of_any_histogram(bm):
 def test_kld_with_extreme_bins_runs_to_its_bound(bm, deg):
     """Bins so fine that every drawn particle lies in one of its own take the most particles;
     one bin for the whole field takes kld_min."""
-    kp = np.array([0.05, 2.33, bm, math.radians(deg), 10.0])
+    from pfbench.filters.mcl import KldParams
+    kp = KldParams(0.05, 2.33, bm, math.radians(deg), 10.0)
     m, _ = _kld_draw(kp, nmax=500)
     assert m == (10 if bm > 1 else 500)
 

@@ -19,10 +19,12 @@ def numpy_mcl(model, data, N: int, rng: np.random.Generator) -> np.ndarray:
     poses (T + 1, 3)."""
     T = data.ctrl.shape[0]
     area, bc = model.area, model.beacons
-    sr, sb = model.sense[2], model.sense[3]
+    sr, sb = model.sense.sr, model.sense.sb
     wrap = lambda a: (a + np.pi) % (2 * np.pi) - np.pi
-    if model.init[0]:
-        P = model.init[1:4] + model.init[[4, 4, 5]] * rng.standard_normal((N, 3))
+    init = model.init
+    if init.known:
+        P = (np.array([init.x, init.y, init.heading])
+             + np.array([init.sd_m, init.sd_m, init.sd_rad]) * rng.standard_normal((N, 3)))
         P[:, 2] = wrap(P[:, 2])
     else:
         P = np.column_stack([area[0] * rng.random(N), area[1] * rng.random(N),

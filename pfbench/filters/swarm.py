@@ -24,10 +24,8 @@ from .._lazy import kernel
 from ..rng import STATE, normal, uniform
 from ..schema import Key
 
-# The swarm algorithms, one numbering for every kernel that moves particles with them.
-FA, IFA, BA, PSO, AFSA = 0, 1, 2, 3, 4
-NO_SWARM = -1
-ALGORITHMS = {"fa": FA, "ifa": IFA, "ba": BA, "pso": PSO, "afsa": AFSA}
+# The swarm algorithms, one numbering for every kernel that moves particles with them (codes).
+from ..codes import AFSA, ALGORITHMS, BA, BRIGHTNESS, FA, IFA, NO_SWARM, PSO  # noqa: F401
 
 
 def keys(algo: str, unit: str = "state units", prefix: bool = False) -> dict:
@@ -72,14 +70,14 @@ def keys(algo: str, unit: str = "state units", prefix: bool = False) -> dict:
 def pack(algo: str, params) -> np.ndarray:
     """The parameter array p the kernels read for swarm algorithm ``algo``:
     fa [beta0, gamma, alpha]; ifa [beta0, gamma] and, where the filter has the key, brightness
-    (0: exp(-d^2/2), 1: 1/(1+d)); ba [fmin, fmax, A0, r0, decay, growth]; pso [w, c1, c2];
+    (codes.BRIGHTNESS); ba [fmin, fmax, A0, r0, decay, growth]; pso [w, c1, c2];
     afsa [visual, step, delta, tries, greedy]."""
     if algo == "fa":
         vals = (params["beta0"], params["gamma"], params["alpha"])
     elif algo == "ifa":
         vals = (params["beta0"], params["gamma"])
         if "brightness" in params:
-            vals += (0.0 if params["brightness"] == "gaussian" else 1.0,)
+            vals += (float(BRIGHTNESS[params["brightness"]]),)
     elif algo == "ba":
         vals = (params["freq_min"], params["freq_max"], params["loudness"], params["pulse_rate"],
                 params["loudness_decay"], params["pulse_growth"])

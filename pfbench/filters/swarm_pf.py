@@ -20,6 +20,7 @@ from ..resampling import (SCHEME_CODES, SCHEMES, STEPWISE_EWA, ess_threshold, ew
                           stepwise_ewa_plan)
 from ..rng import STATE
 from ..schema import Key
+from ..codes import BRIGHTNESS, BRIGHTNESS_GAUSSIAN
 from ..models.scalar import NOISE_GAUSSIAN, ModelFn, add_process_noise
 from ._common import DIAG_DISTINCT, drop_unasked, resampled_step, start, weigh_lanes
 from ..diag import flags
@@ -114,8 +115,8 @@ def new_work(N):
 def ifa_brightness(f, theta, tt, xprev_hat, noise, xn, M, kind, wk):
     """IFA's brightness of the particles xn: d_i, the distance of (h(x_i), x_i) to (y_t,
     f(xhat_{t-1}) + noise mean), each coordinate in units of its noise standard deviation
-    (-2 ll = (y - h)^2 / R); kind 0: exp(-d^2/2), scaled by exp(-M) (ratios and order unchanged),
-    1: 1 / (1 + d)."""
+    (-2 ll = (y - h)^2 / R); kind (codes.BRIGHTNESS) gaussian: exp(-d^2/2), scaled by exp(-M)
+    (ratios and order unchanged), inverse: 1 / (1 + d)."""
     Qv = noise[1] if noise[0] == NOISE_GAUSSIAN else noise[1] / (noise[2] * noise[2])
     qmean = 0.0 if noise[0] == NOISE_GAUSSIAN else noise[1] / noise[2]
     wk.one[0] = xprev_hat
@@ -123,7 +124,7 @@ def ifa_brightness(f, theta, tt, xprev_hat, noise, xn, M, kind, wk):
     xbar = wk.onef[0] + qmean
     for i in range(xn.size):
         e = xn[i] - xbar
-        if kind == 0.0:
+        if kind == BRIGHTNESS_GAUSSIAN:
             wk.fit[i] = math.exp(wk.ll[i] - M - 0.5 * e * e / Qv)
         else:
             wk.fit[i] = 1.0 / (1.0 + math.sqrt(-2.0 * wk.ll[i] + e * e / Qv))
@@ -320,7 +321,7 @@ IFA_PF = FilterType(
     swarm_pf_keys("ifa", "stepwise_ewa", brightness=Key(
         "choice", "gaussian", "how the distance d (measurement and predicted state, each in units "
         "of its noise standard deviation) becomes a brightness: 'gaussian' exp(-d^2 / 2) or "
-        "'inverse' 1 / (1 + d); ifa2021 leaves it open", choices=("gaussian", "inverse"))),
+        "'inverse' 1 / (1 + d); ifa2021 leaves it open", choices=tuple(BRIGHTNESS))),
     make_run("ifa"), cost="N^2")
 BA_PF = FilterType(
     "ba", "bat-algorithm PF (BA-PF): frequency-tuned velocities, loudness and pulse rate",

@@ -11,6 +11,7 @@ from __future__ import annotations
 from numba import types
 from .._lazy import kernel
 
+from ..codes import MOTION_ODOMETRY
 from ..rng import STATE, normal
 
 _F = types.float64[::1]
@@ -22,7 +23,7 @@ _ODO = types.UniTuple(types.float64, 3)
 def _odometry(rot1, trans, rot2, motion, mnoise, n1, n2, n3):
     """The odometry [rot1, trans, rot2] with the motion noise made of standard normal draws n1,
     n2 (and n3 for rot-trans-rot) (see the module)."""
-    if motion == 0:
+    if motion == MOTION_ODOMETRY:
         return rot1, trans + mnoise[0] * n1, rot2 + mnoise[1] * n2
     a1, a2, a3, a4 = mnoise[0], mnoise[1], mnoise[2], mnoise[3]
     return (rot1 + (a1 * abs(rot1) + a2 * abs(trans)) * n1,
@@ -36,7 +37,7 @@ def odometry_with(rot1, trans, rot2, motion, mnoise, z, o):
     """The odometry with the noise of the draws z[o], z[o + 1] (and z[o + 2] for
     rot-trans-rot), in order."""
     return _odometry(rot1, trans, rot2, motion, mnoise, z[o], z[o + 1],
-                     z[o + 2] if motion != 0 else 0.0)
+                     z[o + 2] if motion != MOTION_ODOMETRY else 0.0)
 
 
 @kernel(_ODO(types.float64, types.float64, types.float64, types.int64, _F, STATE), cache=True,
@@ -46,4 +47,4 @@ def noisy_odometry(rot1, trans, rot2, motion, mnoise, s):
     n1 = normal(s)
     n2 = normal(s)
     return _odometry(rot1, trans, rot2, motion, mnoise, n1, n2,
-                     normal(s) if motion != 0 else 0.0)
+                     normal(s) if motion != MOTION_ODOMETRY else 0.0)

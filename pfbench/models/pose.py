@@ -3,9 +3,10 @@ filters' initial particles, the weighted mean pose, and snapshots of a particle 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
-from numba import types
+from numba import typeof, types
 from .._lazy import kernel
 
 from ..angles import wrap
@@ -14,22 +15,38 @@ from ..rng import STATE, normal, uniform
 _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
 _F3 = types.float64[:, :, ::1]
+
+
+class InitialBelief(NamedTuple):
+    """The filters' initial belief over the pose: uniform over the field and heading (known 0),
+    or Gaussian around the start (x, y, heading) with spreads sd_m (m) and sd_rad (rad)
+    (known 1)."""
+
+    known: int
+    x: float
+    y: float
+    heading: float
+    sd_m: float
+    sd_rad: float
+
+
+INITIAL_BELIEF = typeof(InitialBelief(0, 0.0, 0.0, 0.0, 1.0, 1.0))
 _I = types.int64[::1]
 
 
-@kernel(types.void(_F2, _F, _F, STATE), cache=True)
+@kernel(types.void(_F2, _F, INITIAL_BELIEF, STATE), cache=True)
 def init_particles(P, area, init, s):
-    """The filters' initial particles P (N, 3): uniform over the field and heading (init[0] = 0),
-    or Gaussian around the start init[1:4] with spreads init[4] (m) and init[5] (rad)."""
+    """The filters' initial particles P (N, 3) drawn from the initial belief ``init``
+    (``InitialBelief``)."""
     for i in range(P.shape[0]):
-        if init[0] == 0.0:
+        if not init.known:
             P[i, 0] = area[0] * uniform(s)
             P[i, 1] = area[1] * uniform(s)
             P[i, 2] = math.pi * (2.0 * uniform(s) - 1.0)
         else:
-            P[i, 0] = init[1] + init[4] * normal(s)
-            P[i, 1] = init[2] + init[4] * normal(s)
-            P[i, 2] = wrap(init[3] + init[5] * normal(s))
+            P[i, 0] = init.x + init.sd_m * normal(s)
+            P[i, 1] = init.y + init.sd_m * normal(s)
+            P[i, 2] = wrap(init.heading + init.sd_rad * normal(s))
 
 
 @kernel(types.void(_F2, _F, types.int64, _F, types.boolean), cache=True)
