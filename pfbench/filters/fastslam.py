@@ -23,9 +23,10 @@ from .._lazy import kernel, stub, variant
 
 from ..angles import wrap
 from .. import vecmath as vm
+from ..models.observations import OBSERVATIONS, observations
 from ..models.pose import estimate_pose
-from ..codes import (AFSA, ALGORITHMS, BA, DIRECTIONAL, FA, IFA, NO_SWARM, SCHEME_CODES, SLAM_STEERED,
-                     SCHEME_SYSTEMATIC, SLAM_ODOMETRY, STEPWISE_EWA)
+from ..codes import (AFSA, ALGORITHMS, BA, DIRECTIONAL, FA, IFA, NO_SWARM, SCHEME_CODES,
+                     SCHEME_SYSTEMATIC, SLAM_ODOMETRY, SLAM_STEERED, STEPWISE_EWA)
 from ..resampling import (SCHEMES, ess_threshold, ewa_mutant, resample,
                           stepwise_ewa_plan)
 from ..rng import STATE, normal
@@ -337,7 +338,8 @@ def _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, out, assoc, nl, gate, pc):
 
 
 @kernel(types.void(_F, _F2, _F3, _F3, _B2, _I, _I2, _F, _F2, _F2, types.int8[::1], types.int64,
-                 _I, _F, DIRECTIONAL_NOISE, types.int64, STATE, _F2, _F3, _F3, _B2, _I, _I2), cache=True)
+                 _I, _F, DIRECTIONAL_NOISE, types.int64, STATE, _F2, _F3, _F3, _B2, _I, _I2),
+        cache=True)
 def directional_resample(W, P, mu, sig, seen, nl, src, bP, bmu, bsig, bseen, bnl, bsrc, shift,
                          noise, scheme, s, P2, mu2, sig2, seen2, nl2, src2):
     """Directional resampling (afsa2014): the lower-weight half of the particles is replaced by
@@ -977,14 +979,15 @@ def resampled_diversity(ps, o, div_k):
 
 
 FASTSLAM_SIG = types.int64(
-    _F2, _I, _I2, _F3, OPTIONS, _F, _F, DIRECTIONAL_NOISE, _F2, STATE, _F2, _F, _I, _F2, _I, _F, _F, _F2, _F)
+    _F2, OBSERVATIONS, OPTIONS, _F, _F, DIRECTIONAL_NOISE, _F2, STATE, _F2, _F, _I, _F2, _I, _F, _F,
+    _F2, _F)
 
 
 @kernel(FASTSLAM_SIG, cache=True)
-def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, o, start, sp, dnoise, lm_true, s, est, ess,
+def fastslam_kernel(ctrl, obs, o, start, sp, dnoise, lm_true, s, est, ess,
                     resampled, lm_est, lm_seen, evals, assoc_stats, div, lm_trace):
-    """Run FastSLAM over one trial (controls ctrl (T, 2), observations obs_* (K, ...) every
-    o.every control steps; settings o, see ``Options``); fill est (T+1, 3) the weighted pose
+    """Run FastSLAM over one trial (controls ctrl (T, 2), K observations obs (``Observations``)
+    every o.every control steps; settings o, see ``Options``); fill est (T+1, 3) the weighted pose
     estimate at every control step, ess / resampled / evals (K,) per observation, lm_est (M, 2)
     and lm_seen (M,) the final map. Returns the number of observation steps whose weights all
     underflowed.
@@ -1001,7 +1004,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, o, start, sp, dnoise, lm_true, s
         distance and the fraction of distinct poses (NaN where it did not resample). Each is
         filled only where o.diag asks for it (NaN otherwise), and so is lm_trace.
     """
-    T, K, N, M = ctrl.shape[0], obs_n.shape[0], o.N, o.M
+    T, K, N, M = ctrl.shape[0], obs.n.shape[0], o.N, o.M
     ps, spare = new_particles(N, M, start), new_particles(N, M, start)
     pc = np.zeros((N, 6))     # pose uncertainty since the last update: [xx, xy, xt, yy, yt, tt]
     pcm = np.zeros(6)         # the cloud's mean of it at the last observation
@@ -1025,7 +1028,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, o, start, sp, dnoise, lm_true, s
     for t in range(T):
         predict(ps.P, pc, ctrl[t, 0], ctrl[t, 1], o, s)
         if (t + 1) % o.every == 0 and k < K:
-            n, ids, zs = obs_n[k], obs_id[k], obs_z[k]
+            n, ids, zs = obs.n[k], obs.ids[k], obs.z[k]
             nev = 0
             if o.refine != NO_SWARM and o.iters > 0:
                 nev += refine_poses(ps, pc, ids, zs, n, o, sp, wk, s)
@@ -1148,7 +1151,7 @@ def run(model, data, params, particles, state, diag=True):
     out["lm_trace"] = np.empty(K)
     full = o.refine == AFSA or o.scheme == DIRECTIONAL
     out["underflow_steps"] = (fastslam_kernel if full else fastslam_kernel_without_afsa2014)(
-        data.ctrl, data.obs_n, data.obs_id, data.obs_z, o, model.start, pack(params["refine"], params),
+        data.ctrl, observations(data), o, model.start, pack(params["refine"], params),
         dnoise, np.ascontiguousarray(model.landmarks, dtype=np.float64), state, out["pose"],
         out["ess"], out["resampled"], out["lm_est"], out["lm_seen"], evals, stats, div,
         out["lm_trace"])

@@ -55,7 +55,8 @@ from ..rng import (STATE, _layer, fill_normal, in_layer_rectangle, load_local, n
 from .. import vecmath as vm
 from ..models.beacons import loglik_const, sensor_pose
 from ..models.odometry import _odometry, odometry_with
-from ..models.pose import INITIAL_BELIEF, init_particles, snapshot, snapshot_arrays
+from ..models.observations import OBSERVATIONS, observations
+from ..models.pose import INITIAL_BELIEF, SNAPSHOTS, init_particles, snapshot, snapshot_arrays
 from ..schema import Key
 from .keys import pf_keys
 from .types import FilterType
@@ -264,8 +265,8 @@ def kld_grid(area, kp):
 @kernel(types.UniTuple(types.int64, 3)(_F, KLD_PARAMS), cache=True, inline="always")
 def kld_cells(area, kp):
     """KLD-sampling's histogram: cells along x, y and the heading (kp.bin_m m x kp.bin_m m x
-    kp.bin_rad rad over the field); each saturates at KLD_COUNT_MAX (only grids of at most KLD_DENSE_BINS bins
-    are indexed by them)."""
+    kp.bin_rad rad over the field); each saturates at KLD_COUNT_MAX (only grids of at most
+    KLD_DENSE_BINS bins are indexed by them)."""
     fx, fy, ft = kld_grid(area, kp)
     lim = float(KLD_COUNT_MAX)
     return (int(min(fx, lim)), int(min(fy, lim)), int(min(ft, lim)))
@@ -819,8 +820,8 @@ def gather_rows(P, CS, P2, CS2, idx, n):
         _copy_particle(P, CS, P2, CS2, i, idx[i])
 
 
-@kernel(types.int64(_F2, _F2, _F, _F2, types.int64, _I, _F2, MCL_OPTIONS, RESET_PARAMS, types.float64,
-                  types.float64, _I, _F, STATE), cache=True, error_model="numpy")
+@kernel(types.int64(_F2, _F2, _F, _F2, types.int64, _I, _F2, MCL_OPTIONS, RESET_PARAMS,
+                    types.float64, types.float64, _I, _F, STATE), cache=True, error_model="numpy")
 def inject(P, CS, area, bc, m, ids, zs, o, rp, pm, prob, perm, pose, s):
     """Replace particles by poses drawn from the sensor model (or the field): augmented MCL each
     with probability prob; SRL srl_fraction of them when pm < srl_threshold; ASRL
@@ -885,7 +886,8 @@ def new_mcl_work(o, area, kp):
     return MclWork(np.empty(N, dtype=np.int64), np.empty(N, dtype=np.int64),
                    np.empty(N, dtype=np.int64), np.empty(3),
                    np.zeros(kld_bins(area, kp) if o.kld else 1, dtype=np.uint8),
-                   np.empty(N, dtype=np.int64), np.empty(N * (2 if o.motion == MOTION_ODOMETRY else 3)))
+                   np.empty(N, dtype=np.int64),
+                   np.empty(N * (2 if o.motion == MOTION_ODOMETRY else 3)))
 
 
 @kernel(types.Tuple((_F2, _F2))(_F, INITIAL_BELIEF, types.int64, STATE), cache=True,
@@ -914,19 +916,20 @@ def kld_step(P, cum, n, u, o, mnoise, area, kp, wk, prob, bc, m, ids, zs, s, out
 
 
 MCL_SIG = types.int64(
-    _F2, _I, _I2, _F3, _F2, _F, MCL_OPTIONS, _F, RESET_PARAMS, KLD_PARAMS, INITIAL_BELIEF, STATE,
-    _F2, _F, _I, _I, _F, _I, _I, _F3, _I)
+    _F2, OBSERVATIONS, _F2, _F, MCL_OPTIONS, _F, RESET_PARAMS, KLD_PARAMS, INITIAL_BELIEF, STATE,
+    _F2, _F, _I, _I, _F, _I, SNAPSHOTS)
 
 
 @kernel(MCL_SIG, cache=True, error_model="numpy")
-def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s, est, ess,
-               resampled, injected, pmean, count, snap_t, snap, snap_n):
+def mcl_kernel(ctrl, obs, bc, area, o, mnoise, rp, kp, init, s, est, ess, resampled, injected,
+               pmean, count, snap):
     """Run MCL over one trial (settings o, see ``MclOptions``); est (T+1, 3) the weighted pose
     estimate (est[0]: of the initial cloud), ess / resampled / injected / pmean / count (T,) per
     step. rp: the injection's parameters (``ResetParams``). o.kld: KLD-sampling
     with kp (``KldParams``), o.N the largest count; init: the initial belief (``InitialBelief``).
-    snap_t: increasing steps at which the particles (after the step's move, before resampling;
-    step 0: the initial cloud) are copied into snap (S, N, 3), their count into snap_n. Returns
+    obs: the observations (``Observations``). snap.steps: increasing steps at which the particles
+    (after the step's move, before resampling; step 0: the initial cloud) are copied into
+    snap.poses (S, N, 3), their count into snap.counts. Returns
     the steps whose weights all underflowed.
 
     Each step: move (sample the motion model), weigh, estimate, resample, inject; KLD-sampling
@@ -941,12 +944,12 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
     equal_weights = True    # the log-weights are all zero (an initial, resampled or drawn set)
     copy_due = False        # the set to move is the last step's resampled by wk.idx, not copied
     weighted_sums(P, W, N, CS, cum, est[0])
-    si = snapshot(0, P, N, snap_t, snap, snap_n, 0, True)
+    si = snapshot(0, P, N, snap, 0, True)
     for t in range(T):
         if o.kld:       # resample (by the running sums in cum) and move, as many as bins ask
             tp = max(t - 1, 0)
             n, injected[t] = kld_step(P, cum, n, ctrl[t], o, mnoise, area, kp, wk, prob, bc,
-                                      obs_n[tp] if t > 0 else 0, obs_id[tp], obs_z[tp], s, P2)
+                                      obs.n[tp] if t > 0 else 0, obs.ids[tp], obs.z[tp], s, P2)
             P, P2 = P2, P
             trig_pass(P, 0, n, CS)
             equal_weights = True
@@ -960,7 +963,7 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
                 fill_normal(s, wk.Z)
             move_particles(P, CS, wk.Z, ctrl[t], o, mnoise)
         count[t] = n
-        m, ids, zs = obs_n[t], obs_id[t], obs_z[t]
+        m, ids, zs = obs.n[t], obs.ids[t], obs.z[t]
         under, lmax, acc, w_is_terms = weigh_observations(P, n, bc, m, ids, zs, o, lw, W, ll,
                                                           equal_weights)
         if equal_weights and under == 0.0:
@@ -970,7 +973,7 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
         ess[t] = weighted_sums(P, W, n, CS, cum, est[t + 1])
         pm = mean_likelihood(lmax, cum[n - 1] if w_is_terms else acc, n)
         pmean[t] = pm
-        si = snapshot(t + 1, P, n, snap_t, snap, snap_n, si, True)
+        si = snapshot(t + 1, P, n, snap, si, True)
         if o.reset == RESET_AUGMENTED and m > 0:
             w_slow, w_fast, prob = likelihood_averages(w_slow, w_fast, pm, m, o, rp)
         if o.kld:
@@ -978,7 +981,7 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
         resampled[t] = 0
         if ess[t] < o.threshold:
             ancestors(W, cum, o, wk.idx, wk.scratch, s)
-            copy_due = o.reset == RESET_NONE     # nothing is injected: the next step's draws copy it
+            copy_due = o.reset == RESET_NONE    # nothing injected: the next step's draws copy it
             if not copy_due:
                 gather_rows(P, CS, P2, CS2, wk.idx, N)
                 P, P2, CS, CS2 = P2, P, CS2, CS
@@ -1026,9 +1029,9 @@ def run(model, data, params, particles, state, diag=True, snapshots=()):
         scheme=SCHEME_CODES[params["resampling"]], reset=RESET[params["reset"]],
         inject_sensor=int(params["inject"] == "sensor"), kld=int(kld))
     out["underflow_steps"] = mcl_kernel(
-        data.ctrl, data.obs_n, data.obs_id, data.obs_z, model.beacons, model.area, o, model.mnoise,
+        data.ctrl, observations(data), model.beacons, model.area, o, model.mnoise,
         rp, kp, model.init, state, out["pose"], out["ess"], out["resampled"], out["injected"],
-        out["pmean"], out["n"], *out["snapshots"])
+        out["pmean"], out["n"], out["snapshots"])
     out["lik_evals_per_step"] = float(np.mean(out["n"]))
     return out
 

@@ -47,7 +47,9 @@ from ..resampling import ess_threshold, resample
 from ..rng import STATE, fill_normal, normal, uniform
 from .. import vecmath as vm
 from ..models.beacons import pose_loglik
-from ..models.pose import INITIAL_BELIEF, estimate_pose, init_particles, snapshot, snapshot_arrays
+from ..models.observations import OBSERVATIONS, observations
+from ..models.pose import (INITIAL_BELIEF, SNAPSHOTS, estimate_pose, init_particles, snapshot,
+                           snapshot_arrays)
 from ..schema import Key
 from .keys import sigma_check, sigma_keys
 from .types import FilterType
@@ -170,7 +172,8 @@ class FieldOptions(NamedTuple):
     motion : the odometry noise model (codes.MOTION_*; mnoise its parameters)
     sensor : codes.SENSOR_RANGE or SENSOR_RANGE_BEARING; sr, sb their noise standard deviations
     N : particles; trigger : resample always (codes.TRIGGER_ALWAYS), when ESS < threshold
-    (TRIGGER_NEFF), when the weight change K > threshold (TRIGGER_WEIGHT_CHANGE); scheme : the resampling code; mh_steps : MH moves per particle after it
+    (TRIGGER_NEFF), when the weight change K > threshold (TRIGGER_WEIGHT_CHANGE); scheme : the
+    resampling code; mh_steps : MH moves per particle after it
     """
 
     motion: int
@@ -228,8 +231,8 @@ def weights_and_change(lw, W, Wprev, mx):
 
 
 SSPF_SIG = types.int64(
-    _F2, _I, _I2, _F3, _F2, _F, FIELD_OPTIONS, _F, SIGMA_PARAMS, POSE_STD, POSE_STD, INITIAL_BELIEF,
-    STATE, _F2, _F, _I, _F, _I, _F3, _I)
+    _F2, OBSERVATIONS, _F2, _F, FIELD_OPTIONS, _F, SIGMA_PARAMS, POSE_STD, POSE_STD, INITIAL_BELIEF,
+    STATE, _F2, _F, _I, _F, SNAPSHOTS)
 
 
 # --- the kernel, in rows -------------------------------------------------------------------------
@@ -694,12 +697,13 @@ def resample_due(o, ess, Kc):
 
 
 @kernel(SSPF_SIG, cache=True, error_model="numpy")
-def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, up, init, jit, start, s,
-                     est, ess, resampled, accepted, snap_t, snap, snap_n):
-    """Run the SSPF over one trial (settings o, see ``FieldOptions``). up: the sigma points' parameters
-    (``SigmaParams``); init: the UKFs' initial standard deviations, jit: the jitter (``PoseStd``);
-    start: the initial belief (``InitialBelief``). Fills est (T+1, 3), ess / resampled / accepted
-    (MH acceptance rate, NaN without a move) (T,); snapshots as mcl_kernel's. Returns the steps
+def sspf_field_kernel(ctrl, obs, bc, area, o, mnoise, up, init, jit, start, s, est, ess, resampled,
+                      accepted, snap):
+    """Run the SSPF over one trial (settings o, see ``FieldOptions``). up: the sigma points'
+    parameters (``SigmaParams``); init: the UKFs' initial standard deviations, jit: the jitter
+    (``PoseStd``); obs: the observations (``Observations``); start: the initial belief
+    (``InitialBelief``). Fills est (T+1, 3), ess / resampled / accepted (MH acceptance rate, NaN
+    without a move) (T,); snapshots as mcl_kernel's. Returns the steps
     whose weights all underflowed. The particles' UKFs run in passes over chunks of SSPF_CHUNK
     particles (see the section's comment)."""
     T, N = ctrl.shape[0], o.N
@@ -726,9 +730,9 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, up, init,
     T3 = np.zeros((5, 3, 3))
     events = 0
     estimate_pose(pr.X, W, N, est[0], True)
-    si = snapshot(0, pr.X, N, snap_t, snap, snap_n, 0, True)
+    si = snapshot(0, pr.X, N, snap, 0, True)
     for t in range(T):
-        u, m, ids, zs = ctrl[t], obs_n[t], obs_id[t], obs_z[t]
+        u, m, ids, zs = ctrl[t], obs.n[t], obs.ids[t], obs.z[t]
         noise_sd(u, o.motion, mnoise, sd)
         nz = observation_vector(zs, m, o, zobs, isb)
         fill_normal(s, z)      # the draws of the particles' proposals, in particle order
@@ -737,7 +741,7 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, up, init,
         under, ess[t], Kc = weights_and_change(lw, W, Wprev, mx)
         events += int(under)
         estimate_pose(pr.X, W, N, est[t + 1], True)
-        si = snapshot(t + 1, pr.X, N, snap_t, snap, snap_n, si, True)
+        si = snapshot(t + 1, pr.X, N, snap, si, True)
         accepted[t] = np.nan
         resampled[t] = 0
         if not resample_due(o, ess[t], Kc):
@@ -779,9 +783,9 @@ def run(model, data, params, particles, state, diag=True, snapshots=()):
         sb=model.sense.sb, N=int(N), trigger=int(trig), threshold=float(threshold),
         scheme=SCHEME_CODES[params["resampling"]], mh_steps=int(params["mh_steps"]))
     out["underflow_steps"] = sspf_field_kernel(
-        data.ctrl, data.obs_n, data.obs_id, data.obs_z, model.beacons, model.area, o,
+        data.ctrl, observations(data), model.beacons, model.area, o,
         model.mnoise, *sspf_params(params), model.init, state,
-        out["pose"], out["ess"], out["resampled"], out["mh_accept"], *out["snapshots"])
+        out["pose"], out["ess"], out["resampled"], out["mh_accept"], out["snapshots"])
     out["n"] = np.full(T, N)
     # the likelihood at the drawn particle, plus the UKF's sigma points, plus the MH proposals
     out["lik_evals_per_step"] = float(N * (1 + 13) + N * params["mh_steps"]

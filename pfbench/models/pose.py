@@ -66,23 +66,36 @@ def estimate_pose(P, W, n, out, rows):
     out[0], out[1], out[2] = ex, ey, math.atan2(es, ec)
 
 
-@kernel(types.int64(types.int64, _F2, types.int64, _I, _F3, _I, types.int64, types.boolean),
+class Snapshots(NamedTuple):
+    """The particles at some steps: steps (S,) increasing, poses (S, N, 3) the particles at
+    each, counts (S,) how many of them there were."""
+
+    steps: np.ndarray
+    poses: np.ndarray
+    counts: np.ndarray
+
+
+SNAPSHOTS = types.NamedTuple((_I, _F3, _I), Snapshots)
+
+
+@kernel(types.int64(types.int64, _F2, types.int64, SNAPSHOTS, types.int64, types.boolean),
       cache=True)
-def snapshot(t, P, n, snap_t, snap, snap_n, si, rows):
+def snapshot(t, P, n, snap, si, rows):
     """Copy the particles P[:n] (P[:, :n] with ``rows``: stored as rows x, y, heading) into
-    snap[si] (N, 3) when step t is the next snapshot step; return the index of the next
+    snap.poses[si] (N, 3) when step t is the next snapshot step; return the index of the next
     snapshot."""
-    if si < snap_t.size and snap_t[si] == t:
+    if si < snap.steps.size and snap.steps[si] == t:
         if rows:
-            snap[si, :n] = P[:, :n].T
+            snap.poses[si, :n] = P[:, :n].T
         else:
-            snap[si, :n] = P[:n]
-        snap_n[si] = n
+            snap.poses[si, :n] = P[:n]
+        snap.counts[si] = n
         return si + 1
     return si
 
 
-def snapshot_arrays(snapshots, particles: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def snapshot_arrays(snapshots, particles: int) -> Snapshots:
     """(steps, particles (S, N, 3), counts (S,)) buffers for the snapshots at ``snapshots``."""
     steps = np.asarray(sorted(set(snapshots)), dtype=np.int64)
-    return steps, np.zeros((steps.size, particles, 3)), np.zeros(steps.size, dtype=np.int64)
+    return Snapshots(steps, np.zeros((steps.size, particles, 3)),
+                     np.zeros(steps.size, dtype=np.int64))
