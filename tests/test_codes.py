@@ -162,3 +162,41 @@ def test_the_kernels_refuse_a_positional_array_for_a_record():
     area = np.array([10.0, 10.0])
     with pytest.raises(TypeError):
         kld_bins(area, np.array([0.05, 2.3, 0.5, 0.17, 40.0]))
+
+
+def test_the_kernels_signatures_name_their_records():
+    """The trial kernels take their parameter groups, observations and snapshots as records:
+    fewer positional arguments, none of them a float array read by slot."""
+    from pfbench.filters import fastslam, mcl, sspf_field
+    from pfbench.models.observations import OBSERVATIONS
+    from pfbench.models.pose import INITIAL_BELIEF, SNAPSHOTS
+
+    wanted = {
+        mcl.MCL_SIG: {OBSERVATIONS, mcl.RESET_PARAMS, mcl.KLD_PARAMS, INITIAL_BELIEF, SNAPSHOTS},
+        sspf_field.SSPF_SIG: {OBSERVATIONS, sspf_field.SIGMA_PARAMS, sspf_field.POSE_STD,
+                              INITIAL_BELIEF, SNAPSHOTS},
+        fastslam.FASTSLAM_SIG: {OBSERVATIONS, fastslam.DIRECTIONAL_NOISE},
+    }
+    for sig, records in wanted.items():
+        assert records <= set(sig.args)
+        assert len(sig.args) <= 17
+
+
+def test_observations_and_snapshots_are_records_of_the_trials_arrays():
+    import numpy as np
+
+    from pfbench.models.observations import Observations, observations
+    from pfbench.models.pose import Snapshots, snapshot_arrays
+
+    class Data:
+        obs_n = np.zeros(3, dtype=np.int64)
+        obs_id = np.zeros((3, 2), dtype=np.int64)
+        obs_z = np.zeros((3, 2, 2))
+
+    obs = observations(Data)
+    assert isinstance(obs, Observations)
+    assert obs.n is Data.obs_n and obs.ids is Data.obs_id and obs.z is Data.obs_z
+    snap = snapshot_arrays([5, 0, 5], 4)
+    assert isinstance(snap, Snapshots)
+    steps, poses, counts = snap         # what a filter's traces hold: (steps, particles, counts)
+    assert steps.tolist() == [0, 5] and poses.shape == (2, 4, 3) and counts.shape == (2,)
