@@ -169,12 +169,14 @@ def test_the_kernels_signatures_name_their_records():
     fewer positional arguments, none of them a float array read by slot."""
     from pfbench.filters import fastslam, mcl, sspf_field
     from pfbench.models.observations import OBSERVATIONS
+    from pfbench.models.odometry import MOTION_NOISE
     from pfbench.models.pose import INITIAL_BELIEF, SNAPSHOTS
 
     wanted = {
-        mcl.MCL_SIG: {OBSERVATIONS, mcl.RESET_PARAMS, mcl.KLD_PARAMS, INITIAL_BELIEF, SNAPSHOTS},
-        sspf_field.SSPF_SIG: {OBSERVATIONS, sspf_field.SIGMA_PARAMS, sspf_field.POSE_STD,
-                              INITIAL_BELIEF, SNAPSHOTS},
+        mcl.MCL_SIG: {OBSERVATIONS, MOTION_NOISE, mcl.RESET_PARAMS, mcl.KLD_PARAMS, INITIAL_BELIEF,
+                      SNAPSHOTS},
+        sspf_field.SSPF_SIG: {OBSERVATIONS, MOTION_NOISE, sspf_field.SIGMA_PARAMS,
+                              sspf_field.POSE_STD, INITIAL_BELIEF, SNAPSHOTS},
         fastslam.FASTSLAM_SIG: {OBSERVATIONS, fastslam.DIRECTIONAL_NOISE},
     }
     for sig, records in wanted.items():
@@ -200,3 +202,29 @@ def test_observations_and_snapshots_are_records_of_the_trials_arrays():
     assert isinstance(snap, Snapshots)
     steps, poses, counts = snap         # what a filter's traces hold: (steps, particles, counts)
     assert steps.tolist() == [0, 5] and poses.shape == (2, 4, 3) and counts.shape == (2,)
+
+
+@pytest.mark.parametrize("motion, sensor, answer, initial", [
+    ("odometry", "range", "random", "unknown"),
+    ("rot_trans_rot", "range_bearing", "nearest", "known"),
+])
+def test_the_beacon_field_builds_its_model_records(motion, sensor, answer, initial):
+    from pfbench.models.beacons import BeaconSensor
+    from pfbench.models.odometry import MotionNoise
+    from pfbench.models.pose import InitialBelief
+    from pfbench.scenarios import beacon_field as bf
+
+    p = {k: v.default for k, v in bf.SCHEMA.items()}
+    p.update(world="worlds/beacon_field.yaml", motion=motion, sensor=sensor, answer=answer,
+             initial=initial)
+    m = bf.build(bf.resolve(p, ROOT / "configs"))
+    assert m.motion == codes.FIELD_MOTIONS[motion] and m.sensor == codes.SENSORS[sensor]
+    assert isinstance(m.mnoise, MotionNoise) and isinstance(m.sense, BeaconSensor)
+    assert isinstance(m.init, InitialBelief)
+    assert m.sense.nearest == (answer == "nearest") and m.init.known == (initial == "known")
+    if motion == "odometry":
+        assert m.mnoise == MotionNoise.additive(p["trans_noise_m"],
+                                                p["turn_noise_deg"] * bf.DEG)
+    else:
+        assert m.mnoise[2:] == tuple(p["alphas"]) and m.mnoise[:2] == (0.0, 0.0)
+    assert m.sense.sr == p["range_noise_m"]

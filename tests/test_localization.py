@@ -117,6 +117,7 @@ def test_beacon_world_errors_name_the_problem(tmp_path):
 
 
 from pfbench.filters.mcl import KldParams, kld_bin, kld_bins, kld_count, kld_sample  # noqa: E402
+from pfbench.models.odometry import MotionNoise  # noqa: E402
 
 
 def _kld_draw(P, kp, seed=0, nmax=100000, noise=0.0):
@@ -125,7 +126,8 @@ def _kld_draw(P, kp, seed=0, nmax=100000, noise=0.0):
     cum = np.cumsum(np.full(n, 1.0 / n))        # the running sums of equal weights
     occ = np.zeros(kld_bins(area, kp), dtype=np.uint8)
     out = np.empty((3, nmax))                  # the kernel keeps particles as rows
-    m, inj = kld_sample(np.ascontiguousarray(P.T), cum, n, np.zeros(3), 0, np.array([noise, 0.0, 0.0, 0.0]), area, kp, nmax,
+    m, inj = kld_sample(np.ascontiguousarray(P.T), cum, n, np.zeros(3), 0,
+                        MotionNoise.additive(noise, 0.0), area, kp, nmax,
                         occ, np.empty(nmax, dtype=np.int64), 0.0, 0, 0, np.zeros((1, 2)), 0,
                         np.zeros(1, dtype=np.int64), np.zeros((1, 2)), 0.1, 0.1,
                         state_from_seed(np.random.SeedSequence(seed)), out)
@@ -208,7 +210,8 @@ def test_kld_sampling_in_passes_is_the_one_at_a_time_loop_bit_for_bit(kld_one_at
                        math.radians(10.0), float(rng.choice([1, 20, 300])))
         nmax = int(rng.choice([5, 50, 700, 6000]))
         motion = int(rng.integers(0, 2))
-        mnoise = np.array([0.05, 0.02, 0.1, 0.05]) if motion else np.array([0.3, 0.05, 0, 0])
+        mnoise = (MotionNoise.rot_trans_rot(0.05, 0.02, 0.1, 0.05) if motion
+                  else MotionNoise.additive(0.3, 0.05))
         u = np.array([0.0 if motion == 0 else 0.2, 0.5, -0.1])
         prob = float(rng.choice([0.0, 0.0, 0.05, 0.6]))
         inj_sensor, sensor = int(rng.integers(0, 2)), int(rng.integers(0, 2))

@@ -159,6 +159,7 @@ def test_kld_quantile_for_any_delta():
 def _kld_draw(kp, nmax=2000, seed=0, noise=0.5):
     """KLD-sampling from 50 poses spread over a 40 m field; returns (count, drawn poses)."""
     from pfbench.filters.mcl import kld_bins, kld_sample
+    from pfbench.models.odometry import MotionNoise
     area = np.array([40.0, 40.0])
     rng = np.random.default_rng(seed)
     P = np.column_stack([rng.uniform(0, 40, 50), rng.uniform(0, 40, 50),
@@ -168,7 +169,7 @@ def _kld_draw(kp, nmax=2000, seed=0, noise=0.5):
     occ = np.zeros(kld_bins(area, kp), dtype=np.uint8)
     out = np.empty((3, nmax))
     m, _ = kld_sample(np.ascontiguousarray(P.T), cum, n, np.zeros(3), 0,
-                      np.array([noise, 0.0, 0.0, 0.0]), area, kp, nmax, occ,
+                      MotionNoise.additive(noise, 0.0), area, kp, nmax, occ,
                       np.empty(nmax, dtype=np.int64), 0.0, 0, 0, np.zeros((1, 2)), 0,
                       np.zeros(1, dtype=np.int64), np.zeros((1, 2)), 0.1, 0.1, _state(seed),
                       out)

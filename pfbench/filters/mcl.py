@@ -54,7 +54,7 @@ from ..rng import (STATE, _layer, fill_normal, in_layer_rectangle, load_local, n
                    normal_off_rectangle, store_local, uniform, unit)
 from .. import vecmath as vm
 from ..models.beacons import loglik_const, sensor_pose
-from ..models.odometry import _odometry, odometry_with
+from ..models.odometry import MOTION_NOISE, _odometry, odometry_with
 from ..models.observations import OBSERVATIONS, observations
 from ..models.pose import INITIAL_BELIEF, SNAPSHOTS, init_particles, snapshot, snapshot_arrays
 from ..schema import Key
@@ -137,8 +137,8 @@ def _advance(X, Y, H, C, S, i, a1, a2, a3, ct, st):
     S[i], C[i] = vm.sincos(h)
 
 
-_MOVE_SIG = types.void(_F, _F, _F, _F, _F, _F, types.float64, types.float64, types.float64, _F,
-                       types.int64)
+_MOVE_SIG = types.void(_F, _F, _F, _F, _F, _F, types.float64, types.float64, types.float64,
+                       MOTION_NOISE, types.int64)
 
 
 @kernel(_MOVE_SIG, cache=True, error_model="numpy")
@@ -399,9 +399,9 @@ def guided_upper_bound(cum, n, guide, ginv, v):
 
 
 @kernel(types.UniTuple(types.int64, 2)(
-    _F2, _F, types.int64, _F, types.int64, _F, _F, KLD_PARAMS, types.int64, types.uint8[::1], _I,
-    types.float64, types.int64, types.int64, _F2, types.int64, _I, _F2, types.float64,
-    types.float64, STATE, _F2), cache=True, error_model="numpy")
+    _F2, _F, types.int64, _F, types.int64, MOTION_NOISE, _F, KLD_PARAMS, types.int64,
+    types.uint8[::1], _I, types.float64, types.int64, types.int64, _F2, types.int64, _I, _F2,
+    types.float64, types.float64, STATE, _F2), cache=True, error_model="numpy")
 def kld_sample(P, cum, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob, inject_sensor,
                sensor, bc, nobs, ids, zs, sr, sb, s, out):
     """KLD-sampling: draw particles from the weighted set (P[:, :n] as rows, cum[:n] the running
@@ -476,8 +476,8 @@ def new_kld_round(CH):
 
 
 @kernel(types.void(KLD_ROUND, types.int64, _F, _F, _F, types.float64, types.float64, _F,
-                   types.int64, _F, _F, types.int64, _F2, types.int64, _I, _F2, types.float64,
-                   types.float64, STATE), cache=True, error_model="numpy")
+                   types.int64, MOTION_NOISE, _F, types.int64, _F2, types.int64, _I, _F2,
+                   types.float64, types.float64, STATE), cache=True, error_model="numpy")
 def kld_draws(rd, c, X, Y, H, acc, prob, u, motion, mnoise, area, sensor, bc, nobs, ids, zs, sr, sb,
               s):
     """The random draws of c particles, in the order of the one-at-a-time loop, the generator's
@@ -595,7 +595,7 @@ def kld_tally(rd, c, X, Y, H, m, k, target, injected, nmin, area, kp, dense, occ
 class MclOptions(NamedTuple):
     """MCL's settings, as the jitted steps read them.
 
-    motion : the odometry noise model (0 additive, 1 rot-trans-rot; mnoise its parameters)
+    motion : the odometry noise model (codes.MOTION_*; mnoise, a ``MotionNoise``, its parameters)
     sensor : 0 ranges, 1 ranges and bearings; sr, sb their noise standard deviations
     N : particles (KLD-sampling: the most); threshold : resample when ESS < threshold; scheme :
     the resampling code; reset : RESET's code of the injection; inject_sensor : augmented MCL
@@ -658,7 +658,8 @@ def draws_copying(s, Z, motion, P, CS, idx, P2, CS2, n):
         _draws_copying(s, Z, 3, P, CS, idx, P2, CS2, n)
 
 
-@kernel(types.void(_F2, _F2, _F, _F, MCL_OPTIONS, _F), cache=True, error_model="numpy")
+@kernel(types.void(_F2, _F2, _F, _F, MCL_OPTIONS, MOTION_NOISE), cache=True,
+        error_model="numpy")
 def move_particles(P, CS, Z, u, o, mnoise):
     """Move every particle (rows P, CS) by the odometry u, particle i with the motion noise of
     its draws in Z (2 or 3 a particle, see ``odometry_with``)."""
@@ -904,7 +905,7 @@ def initial_set(area, init, N, s):
 
 
 @kernel(types.UniTuple(types.int64, 2)(
-    _F2, _F, types.int64, _F, MCL_OPTIONS, _F, _F, KLD_PARAMS, MCL_WORK, types.float64,
+    _F2, _F, types.int64, _F, MCL_OPTIONS, MOTION_NOISE, _F, KLD_PARAMS, MCL_WORK, types.float64,
     _F2, types.int64, _I, _F2, STATE, _F2), cache=True, error_model="numpy")
 def kld_step(P, cum, n, u, o, mnoise, area, kp, wk, prob, bc, m, ids, zs, s, out):
     """KLD-sampling's step: resample the last step's weighted set (P[:, :n], running sums cum)
@@ -916,8 +917,8 @@ def kld_step(P, cum, n, u, o, mnoise, area, kp, wk, prob, bc, m, ids, zs, s, out
 
 
 MCL_SIG = types.int64(
-    _F2, OBSERVATIONS, _F2, _F, MCL_OPTIONS, _F, RESET_PARAMS, KLD_PARAMS, INITIAL_BELIEF, STATE,
-    _F2, _F, _I, _I, _F, _I, SNAPSHOTS)
+    _F2, OBSERVATIONS, _F2, _F, MCL_OPTIONS, MOTION_NOISE, RESET_PARAMS, KLD_PARAMS, INITIAL_BELIEF,
+    STATE, _F2, _F, _I, _I, _F, _I, SNAPSHOTS)
 
 
 @kernel(MCL_SIG, cache=True, error_model="numpy")

@@ -48,6 +48,7 @@ from ..rng import STATE, fill_normal, normal, uniform
 from .. import vecmath as vm
 from ..models.beacons import pose_loglik
 from ..models.observations import OBSERVATIONS, observations
+from ..models.odometry import MOTION_NOISE
 from ..models.pose import (INITIAL_BELIEF, SNAPSHOTS, estimate_pose, init_particles, snapshot,
                            snapshot_arrays)
 from ..schema import Key
@@ -137,13 +138,13 @@ def move(x, y, th, u, w0, w1, w2):
     return x + (u[1] + w1) * math.cos(t1), y + (u[1] + w1) * math.sin(t1), wrap(t1 + u[2] + w2)
 
 
-@kernel(types.void(_F, types.int64, _F, _F), cache=True)
+@kernel(types.void(_F, types.int64, MOTION_NOISE, _F), cache=True)
 def noise_sd(u, motion, mnoise, out):
     """Standard deviations of the three odometry noises at a step with odometry u."""
     if motion == MOTION_ODOMETRY:
-        out[0], out[1], out[2] = 0.0, mnoise[0], mnoise[1]
+        out[0], out[1], out[2] = 0.0, mnoise.trans, mnoise.turn
     else:
-        a1, a2, a3, a4 = mnoise[0], mnoise[1], mnoise[2], mnoise[3]
+        a1, a2, a3, a4 = mnoise.alpha1, mnoise.alpha2, mnoise.alpha3, mnoise.alpha4
         out[0] = a1 * abs(u[0]) + a2 * abs(u[1])
         out[1] = a3 * abs(u[1]) + a4 * (abs(u[0]) + abs(u[2]))
         out[2] = a1 * abs(u[2]) + a2 * abs(u[1])
@@ -169,7 +170,7 @@ def transition_cov(x, y, th, u, sd, jit, Q):
 class FieldOptions(NamedTuple):
     """The SSPF's settings, as the jitted steps read them.
 
-    motion : the odometry noise model (codes.MOTION_*; mnoise its parameters)
+    motion : the odometry noise model (codes.MOTION_*; mnoise, a ``MotionNoise``, its parameters)
     sensor : codes.SENSOR_RANGE or SENSOR_RANGE_BEARING; sr, sb their noise standard deviations
     N : particles; trigger : resample always (codes.TRIGGER_ALWAYS), when ESS < threshold
     (TRIGGER_NEFF), when the weight change K > threshold (TRIGGER_WEIGHT_CHANGE); scheme : the
@@ -231,8 +232,8 @@ def weights_and_change(lw, W, Wprev, mx):
 
 
 SSPF_SIG = types.int64(
-    _F2, OBSERVATIONS, _F2, _F, FIELD_OPTIONS, _F, SIGMA_PARAMS, POSE_STD, POSE_STD, INITIAL_BELIEF,
-    STATE, _F2, _F, _I, _F, SNAPSHOTS)
+    _F2, OBSERVATIONS, _F2, _F, FIELD_OPTIONS, MOTION_NOISE, SIGMA_PARAMS, POSE_STD, POSE_STD,
+    INITIAL_BELIEF, STATE, _F2, _F, _I, _F, SNAPSHOTS)
 
 
 # --- the kernel, in rows -------------------------------------------------------------------------

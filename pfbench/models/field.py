@@ -22,7 +22,7 @@ from ..angles import wrap
 from ..codes import MOTION_ODOMETRY
 from ..rng import STATE, uniform
 from .beacons import BEACON_SENSOR, BeaconSensor, sense_beacons
-from .odometry import noisy_odometry
+from .odometry import MOTION_NOISE, MotionNoise, noisy_odometry
 from .pose import InitialBelief
 from .waypoints import next_waypoint
 
@@ -33,7 +33,7 @@ class FieldModel:
 
     area (2,): the field is [0, area[0]] x [0, area[1]]; beacons (B, 2); waypoints (K, 2);
     start (3,); drive: [step, max_turn, waypoint radius]; motion: 0 odometry, 1 rot_trans_rot;
-    mnoise (4,): [sigma_trans, sigma_turn, 0, 0] or alpha1..alpha4; sensor: 0 range, 1
+    mnoise: the odometry's noise (``MotionNoise``); sensor: 0 range, 1
     range_bearing; sense: the sensor (``BeaconSensor``); kidnaps (k,)
     steps; kidnap_poses (k, 3) (NaN rows: uniform); bound: the convergence bound; init: the
     filters' initial belief (``InitialBelief``); score_from, report_step, hold
@@ -46,7 +46,7 @@ class FieldModel:
     start: np.ndarray
     drive: np.ndarray
     motion: int
-    mnoise: np.ndarray
+    mnoise: MotionNoise
     sensor: int
     sense: BeaconSensor
     steps: int
@@ -80,9 +80,8 @@ _I = types.int64[::1]
 _I2 = types.int64[:, ::1]
 
 
-@kernel(types.void(_F, _F2, _F2, _F, _F, types.int64, _F, types.int64, BEACON_SENSOR, _I, _F2, STATE,
-                   _F2,
-                 _F2, _I, _I2, _F3), cache=True)
+@kernel(types.void(_F, _F2, _F2, _F, _F, types.int64, MOTION_NOISE, types.int64, BEACON_SENSOR, _I,
+                   _F2, STATE, _F2, _F2, _I, _I2, _F3), cache=True)
 def simulate_field(area, bc, wp, start, drive, motion, mnoise, sensor, sense, kid, kpose, s, pose,
                    ctrl, obs_n, obs_id, obs_z):
     step, maxturn, radius = drive[0], drive[1], drive[2]

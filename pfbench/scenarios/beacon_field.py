@@ -43,6 +43,7 @@ import numpy as np
 from ..codes import FIELD_MOTIONS, SENSORS
 from ..models.beacons import BeaconSensor
 from ..models.field import FieldData, FieldModel, simulate  # noqa: F401  (this module's simulate)
+from ..models.odometry import MotionNoise
 from ..models.pose import InitialBelief
 from ..schema import ConfigError, Key
 from .worlds import load_world
@@ -131,9 +132,9 @@ def resolve(params: dict, base_dir) -> dict:
 
 def build(p) -> FieldModel:
     if p["motion"] == "odometry":
-        mnoise = np.array([p["trans_noise_m"], p["turn_noise_deg"] * DEG, 0.0, 0.0])
+        mnoise = MotionNoise.additive(p["trans_noise_m"], p["turn_noise_deg"] * DEG)
     else:
-        mnoise = np.asarray(p["alphas"], dtype=np.float64)
+        mnoise = MotionNoise.rot_trans_rot(*p["alphas"])
     kid = np.asarray(sorted(p["kidnap_steps"]), dtype=np.int64)
     if p["kidnap_poses"]:
         kp = np.asarray(p["kidnap_poses"], dtype=np.float64).reshape(-1, 3)
