@@ -22,6 +22,8 @@ import numpy as np
 from numba import types
 from ._lazy import kernel
 
+from .codes import (SCHEME_CODES, SCHEME_MULTINOMIAL, SCHEME_STRATIFIED, SCHEME_SYSTEMATIC,
+                    STEPWISE_EWA)  # noqa: F401 (STEPWISE_EWA: re-exported)
 from .rng import STATE, normal, uniform
 
 SCHEMES = {
@@ -30,9 +32,7 @@ SCHEMES = {
     "stratified": "one uniform per stratum [i/N, (i+1)/N)",
     "residual": "floor(N w) deterministic copies, the rest multinomial on the residual weights",
 }
-SCHEME_CODES = {name: code for code, name in enumerate(SCHEMES)}
-# the stepwise EWA resampling's code (ifa2021; the swarm PFs and FastSLAM), after the standard ones
-STEPWISE_EWA = len(SCHEME_CODES)
+assert tuple(SCHEME_CODES) == tuple(SCHEMES)     # pfbench.codes numbers them, in this order
 
 
 def ess_threshold(params, particles: int) -> float:
@@ -280,11 +280,11 @@ def residual(w, S, s, idx):
 @kernel(types.void(types.int64, _W, types.float64, STATE, _IDX), cache=True)
 def resample(scheme, w, S, s, idx):
     """Dispatch on ``scheme`` (a value of ``SCHEME_CODES``); ``S`` must equal ``w.sum()``."""
-    if scheme == 0:
+    if scheme == SCHEME_MULTINOMIAL:
         multinomial(w, S, s, idx)
-    elif scheme == 1:
+    elif scheme == SCHEME_SYSTEMATIC:
         systematic(w, S, s, idx)
-    elif scheme == 2:
+    elif scheme == SCHEME_STRATIFIED:
         stratified(w, S, s, idx)
     else:
         residual(w, S, s, idx)

@@ -209,7 +209,7 @@ def test_a_full_map_drops_new_landmarks_instead_of_overflowing():
 
 
 def test_directional_resampling_copies_the_board_into_the_lower_half():
-    from pfbench.filters.fastslam import directional_resample
+    from pfbench.filters.fastslam import DirectionalNoise, directional_resample
     rng = np.random.default_rng(0)
     N, M = 10, 4
     W = rng.gamma(1.0, size=N)
@@ -226,7 +226,7 @@ def test_directional_resampling_copies_the_board_into_the_lower_half():
     bseen = np.ones(M, dtype=np.int8)
     bsrc = np.arange(M)
     shift = np.array([1.0, 2.0, 0.1])
-    noise = np.array([0.01, 0.01, 0.001])
+    noise = DirectionalNoise(0.01, 0.001)
     out = [np.empty_like(a) for a in (P, mu, sig, seen, nl, src)]
     directional_resample(W, P, mu, sig, seen, nl, src, bP, bmu, bsig, bseen, M, bsrc, shift, noise,
                          1, state_from_seed(np.random.SeedSequence(1)), *out)
@@ -236,7 +236,7 @@ def test_directional_resampling_copies_the_board_into_the_lower_half():
     lower_rows = range(N - N // 2, N)
     # the lower half: the board's pose moved by the shift (within the noise), with its map
     for i in lower_rows:
-        assert np.all(np.abs(P2[i] - (bP + shift)) <= 5 * noise)   # 5 standard deviations
+        assert np.all(np.abs(P2[i] - (bP + shift)) <= 5 * np.array([noise.m, noise.m, noise.rad]))   # 5 standard deviations
         assert np.array_equal(mu2[i], bmu) and np.array_equal(sig2[i], bsig)
     # the upper half: particles of the heavier half, maps and all
     for i in range(N - N // 2):

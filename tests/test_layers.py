@@ -20,7 +20,8 @@ LAYERS = {
     "base": ("pfbench.errors", "pfbench.angles", "pfbench._lazy", "pfbench._cache",
              "pfbench.version", "pfbench.fsutil", "pfbench.yamlio", "pfbench.schema",
              "pfbench.seeding", "pfbench.rng", "pfbench.vecmath", "pfbench.progress",
-             "pfbench.figstyle", "pfbench.metrics", "pfbench.diag", "pfbench.protocols"),
+             "pfbench.figstyle", "pfbench.metrics", "pfbench.diag", "pfbench.protocols",
+             "pfbench.codes"),
     "models": ("pfbench.models",),
     "kernels and worlds": ("pfbench.resampling", "pfbench.filters.*", "pfbench.scenarios.*"),
     "registry": ("pfbench.plugins", "pfbench.filters", "pfbench.scenarios"),
@@ -59,7 +60,7 @@ NEVER = (
 # Modules that cost nothing to import once pfbench is (they import no library, or are loaded with
 # the package): importing one inside a function defers nothing, so it is imported at the top.
 LIGHT = ("pfbench.errors", "pfbench.version", "pfbench._cache", "pfbench.fsutil", "pfbench.schema",
-         "pfbench.progress", "pfbench.figstyle", "pfbench.diag", "pfbench.protocols",
+         "pfbench.progress", "pfbench.figstyle", "pfbench.diag", "pfbench.protocols", "pfbench.codes",
          "pfbench.workers")
 # The command line defers even those: ``import pfbench.cli`` loads nothing a command does not
 # need (the startup of every command).

@@ -116,7 +116,8 @@ def test_beacon_world_errors_name_the_problem(tmp_path):
         bf.resolve(p, tmp_path)
 
 
-from pfbench.filters.mcl import kld_bin, kld_bins, kld_count, kld_sample  # noqa: E402
+from pfbench.filters.mcl import KldParams, kld_bin, kld_bins, kld_count, kld_sample  # noqa: E402
+from pfbench.models.odometry import MotionNoise  # noqa: E402
 
 
 def _kld_draw(P, kp, seed=0, nmax=100000, noise=0.0):
@@ -125,7 +126,8 @@ def _kld_draw(P, kp, seed=0, nmax=100000, noise=0.0):
     cum = np.cumsum(np.full(n, 1.0 / n))        # the running sums of equal weights
     occ = np.zeros(kld_bins(area, kp), dtype=np.uint8)
     out = np.empty((3, nmax))                  # the kernel keeps particles as rows
-    m, inj = kld_sample(np.ascontiguousarray(P.T), cum, n, np.zeros(3), 0, np.array([noise, 0.0, 0.0, 0.0]), area, kp, nmax,
+    m, inj = kld_sample(np.ascontiguousarray(P.T), cum, n, np.zeros(3), 0,
+                        MotionNoise.additive(noise, 0.0), area, kp, nmax,
                         occ, np.empty(nmax, dtype=np.int64), 0.0, 0, 0, np.zeros((1, 2)), 0,
                         np.zeros(1, dtype=np.int64), np.zeros((1, 2)), 0.1, 0.1,
                         state_from_seed(np.random.SeedSequence(seed)), out)
@@ -204,11 +206,12 @@ def test_kld_sampling_in_passes_is_the_one_at_a_time_loop_bit_for_bit(kld_one_at
             W[-1] = 1.0
         W /= W.sum()
         cum = np.cumsum(W)                      # the running sums, in order (weighted_sums's)
-        kp = np.array([float(rng.choice([0.02, 0.05, 0.3])), NormalDist().inv_cdf(0.99), 0.5,
-                       math.radians(10.0), float(rng.choice([1, 20, 300]))])
+        kp = KldParams(float(rng.choice([0.02, 0.05, 0.3])), NormalDist().inv_cdf(0.99), 0.5,
+                       math.radians(10.0), float(rng.choice([1, 20, 300])))
         nmax = int(rng.choice([5, 50, 700, 6000]))
         motion = int(rng.integers(0, 2))
-        mnoise = np.array([0.05, 0.02, 0.1, 0.05]) if motion else np.array([0.3, 0.05, 0, 0])
+        mnoise = (MotionNoise.rot_trans_rot(0.05, 0.02, 0.1, 0.05) if motion
+                  else MotionNoise.additive(0.3, 0.05))
         u = np.array([0.0 if motion == 0 else 0.2, 0.5, -0.1])
         prob = float(rng.choice([0.0, 0.0, 0.05, 0.6]))
         inj_sensor, sensor = int(rng.integers(0, 2)), int(rng.integers(0, 2))
@@ -264,7 +267,7 @@ def test_kld_count_is_the_chi_square_quantile():
 
 
 def test_kld_draws_kld_min_from_one_bin_and_more_the_more_bins_are_occupied():
-    kp = np.array([0.05, NormalDist().inv_cdf(0.99), 0.5, math.radians(10.0), 40.0])
+    kp = KldParams(0.05, NormalDist().inv_cdf(0.99), 0.5, math.radians(10.0), 40.0)
     one = np.tile([10.2, 20.3, 0.1], (30, 1))
     m, moved, area = _kld_draw(one, kp)
     assert m == 40                                            # one bin: n_min
@@ -305,7 +308,7 @@ def test_kld_with_sensor_resetting_is_a_config_error(tmp_path):
         load(cfg)
 
 
-from pfbench.filters.sspf_field import chol, chol_solve, lognormal3, transition_cov  # noqa: E402
+from pfbench.filters.sspf_field import PoseStd, chol, chol_solve, lognormal3, transition_cov  # noqa: E402
 
 
 def _ukf_reference(x, P, u, sd, jit, Wm, Wc, sq, bc, ids, zs, sr, sb):
@@ -369,7 +372,7 @@ def test_the_particles_ukfs_in_rows_are_each_particles_augmented_ukf():
     pr.Pc[:, 2] = np.array([[1.0, 2.0, 0.0], [2.0, 1.0, 0.0], [0.0, 0.0, 1.0]]).ravel()
     Wm, Wc = np.empty(13), np.empty(13)
     sq = ut_weights(6, 0.9, 2.0, 0.0, Wm, Wc)
-    u, sd, jit = np.array([0.1, 0.8, -0.05]), np.array([0.02, 0.1, 0.03]), np.array([0.05, 0.02])
+    u, sd, jit = np.array([0.1, 0.8, -0.05]), np.array([0.02, 0.1, 0.03]), sf.PoseStd(0.05, 0.02)
     bc = np.array([[4.0, 20.0], [14.0, 3.0], [30.0, 6.0]])
     ids = np.array([0, 2], dtype=np.int64)
     zs = np.array([[18.0, 0.7], [9.0, -2.5]])
@@ -401,7 +404,7 @@ def test_sspf_linear_algebra_matches_numpy():
     assert not chol(np.array([[1.0, 2.0], [2.0, 1.0]]), 2, np.zeros((2, 2)))
     Q = np.empty((3, 3))
     transition_cov(1.0, 2.0, 0.3, np.array([0.1, 0.5, 0.05]), np.array([0.01, 0.05, 0.03]),
-                   np.array([0.02, 0.01]), Q)
+                   PoseStd(0.02, 0.01), Q)
     L = np.zeros((3, 3))
     assert chol(Q, 3, L)
     d = np.array([0.03, -0.02, 0.01])

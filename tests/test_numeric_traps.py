@@ -159,6 +159,7 @@ def test_kld_quantile_for_any_delta():
 def _kld_draw(kp, nmax=2000, seed=0, noise=0.5):
     """KLD-sampling from 50 poses spread over a 40 m field; returns (count, drawn poses)."""
     from pfbench.filters.mcl import kld_bins, kld_sample
+    from pfbench.models.odometry import MotionNoise
     area = np.array([40.0, 40.0])
     rng = np.random.default_rng(seed)
     P = np.column_stack([rng.uniform(0, 40, 50), rng.uniform(0, 40, 50),
@@ -168,7 +169,7 @@ def _kld_draw(kp, nmax=2000, seed=0, noise=0.5):
     occ = np.zeros(kld_bins(area, kp), dtype=np.uint8)
     out = np.empty((3, nmax))
     m, _ = kld_sample(np.ascontiguousarray(P.T), cum, n, np.zeros(3), 0,
-                      np.array([noise, 0.0, 0.0, 0.0]), area, kp, nmax, occ,
+                      MotionNoise.additive(noise, 0.0), area, kp, nmax, occ,
                       np.empty(nmax, dtype=np.int64), 0.0, 0, 0, np.zeros((1, 2)), 0,
                       np.zeros(1, dtype=np.int64), np.zeros((1, 2)), 0.1, 0.1, _state(seed),
                       out)
@@ -194,10 +195,10 @@ def test_kld_counts_the_bins_of_any_histogram(bm):
     """Bins of 2^-31 m x 5 deg (a grid of 2^72 bins: its index overflowed, and the kernel wrote
     out of bounds) are counted exactly, as ordinary ones are: the draw stops at the bound of the
     bins its particles occupy."""
-    from pfbench.filters.mcl import kld_count
+    from pfbench.filters.mcl import KldParams, kld_count
     br = math.radians(5.0)
     z = 2.33
-    kp = np.array([0.5, z, bm, br, 10.0])
+    kp = KldParams(0.5, z, bm, br, 10.0)
     m, poses = _kld_draw(kp)
     k = _cells(poses, bm, br)
     assert m == max(10, kld_count(k, 0.5, z)) or m == 2000
@@ -209,7 +210,8 @@ def test_kld_counts_the_bins_of_any_histogram(bm):
 def test_kld_with_extreme_bins_runs_to_its_bound(bm, deg):
     """Bins so fine that every drawn particle lies in one of its own take the most particles;
     one bin for the whole field takes kld_min."""
-    kp = np.array([0.05, 2.33, bm, math.radians(deg), 10.0])
+    from pfbench.filters.mcl import KldParams
+    kp = KldParams(0.05, 2.33, bm, math.radians(deg), 10.0)
     m, _ = _kld_draw(kp, nmax=500)
     assert m == (10 if bm > 1 else 500)
 

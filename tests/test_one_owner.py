@@ -44,8 +44,8 @@ def _where(pattern: str) -> list[str]:
     (r"_normal_slow\(", "pfbench/rng.py"),
     # the ESS threshold a filter resamples below: resampling.ess_threshold
     (r"\['neff_ratio'\] \*", "pfbench/resampling.py"),
-    # the stepwise EWA's scheme code after the standard ones: resampling.STEPWISE_EWA
-    (r"len\(SCHEME_CODES\)", "pfbench/resampling.py"),
+    # the stepwise EWA's scheme code after the standard ones: codes.STEPWISE_EWA
+    (r"\bSTEPWISE_EWA = ", "pfbench/codes.py"),
     # the stepwise EWA's mutation v + v mu z: resampling.ewa_mutant
     (r"ewa_mu\s*\*\s*normal\(|\*\s*mu\s*\*\s*normal\(", "pfbench/resampling.py"),
 ])
@@ -364,7 +364,7 @@ def test_swarm_move_asks_for_what_it_needs(algo, afsa):
             elif request == sw.FIT_BEHAVIOURS:
                 wk.llC[:] = loglik(wk.C)
             else:
-                assert request == sw.BRIGHTNESS
+                assert request == sw.FIT_BRIGHTNESS
                 wk.fit[:] = np.exp(wk.ll - wk.ll.max())
             evals += sw.evaluations(request, N)
             phase += 1

@@ -244,7 +244,7 @@ def mcl_limit(N: int, min_time: float, reps: int) -> list[dict]:
     P2, CS2 = np.empty_like(P), np.empty_like(CS)
     idx = np.empty(N, dtype=np.int64)
     o = mcl.MclOptions(motion=int(model.motion), sensor=int(model.sensor),
-                       sr=float(model.sense[2]), sb=float(model.sense[3]), N=N,
+                       sr=model.sense.sr, sb=model.sense.sb, N=N,
                        threshold=np.inf, scheme=SCHEME_SYSTEMATIC, reset=0, inject_sensor=0, kld=0)
     P0, CS0 = P.copy(), CS.copy()
     cum = np.empty(N)

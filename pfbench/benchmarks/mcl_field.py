@@ -19,10 +19,12 @@ def numpy_mcl(model, data, N: int, rng: np.random.Generator) -> np.ndarray:
     poses (T + 1, 3)."""
     T = data.ctrl.shape[0]
     area, bc = model.area, model.beacons
-    sr, sb = model.sense[2], model.sense[3]
+    sr, sb = model.sense.sr, model.sense.sb
     wrap = lambda a: (a + np.pi) % (2 * np.pi) - np.pi
-    if model.init[0]:
-        P = model.init[1:4] + model.init[[4, 4, 5]] * rng.standard_normal((N, 3))
+    init = model.init
+    if init.known:
+        P = (np.array([init.x, init.y, init.heading])
+             + np.array([init.sd_m, init.sd_m, init.sd_rad]) * rng.standard_normal((N, 3)))
         P[:, 2] = wrap(P[:, 2])
     else:
         P = np.column_stack([area[0] * rng.random(N), area[1] * rng.random(N),
@@ -36,10 +38,10 @@ def numpy_mcl(model, data, N: int, rng: np.random.Generator) -> np.ndarray:
     for t in range(T):
         r1, tr, r2 = data.ctrl[t]
         if model.motion == 0:
-            n1, n2, n3 = (np.full(N, r1), tr + model.mnoise[0] * rng.standard_normal(N),
-                          r2 + model.mnoise[1] * rng.standard_normal(N))
+            n1, n2, n3 = (np.full(N, r1), tr + model.mnoise.trans * rng.standard_normal(N),
+                          r2 + model.mnoise.turn * rng.standard_normal(N))
         else:
-            a1, a2, a3, a4 = model.mnoise
+            a1, a2, a3, a4 = model.mnoise[2:]
             n1 = r1 + (a1 * abs(r1) + a2 * abs(tr)) * rng.standard_normal(N)
             n2 = tr + (a3 * abs(tr) + a4 * (abs(r1) + abs(r2))) * rng.standard_normal(N)
             n3 = r2 + (a1 * abs(r2) + a2 * abs(tr)) * rng.standard_normal(N)

@@ -23,15 +23,18 @@ from .._lazy import kernel, stub, variant
 
 from ..angles import wrap
 from .. import vecmath as vm
+from ..models.observations import OBSERVATIONS, observations
 from ..models.pose import estimate_pose
-from ..resampling import (SCHEME_CODES, SCHEMES, STEPWISE_EWA, ess_threshold, ewa_mutant, resample,
+from ..codes import (AFSA, ALGORITHMS, BA, DIRECTIONAL, FA, IFA, NO_SWARM, SCHEME_CODES,
+                     SCHEME_SYSTEMATIC, SLAM_ODOMETRY, SLAM_STEERED, STEPWISE_EWA)
+from ..resampling import (SCHEMES, ess_threshold, ewa_mutant, resample,
                           stepwise_ewa_plan)
 from ..rng import STATE, normal
 from ..schema import Key
 from ._common import DIAG_DISTINCT, DIAG_DIVERSITY, DIAG_MAP_TRACE, drop_unasked
 from ..diag import flags
 from .keys import ewa_keys, pf_keys
-from .swarm import (AFSA, AFSA_FISH_SHIFT, ALGORITHMS, BRIGHTNESS, DONE, FIT_BEHAVIOURS,
+from .swarm import (AFSA, AFSA_FISH_SHIFT, ALGORITHMS, DONE, FIT_BEHAVIOURS, FIT_BRIGHTNESS,
                     FIT_CANDIDATES, FIT_CENTRES, FIT_X, NO_SWARM, SWARM_WORK, afsa_fish_shift,
                     afsa_joint_shift, evaluations, keys, new_swarm_work, pack, swarm_move)
 from .types import FilterType
@@ -45,8 +48,18 @@ _I2 = types.int64[:, ::1]
 _B2 = types.int8[:, ::1]
 
 EWA = STEPWISE_EWA
-DIRECTIONAL = EWA + 1
-_SYSTEMATIC = SCHEME_CODES["systematic"]
+_SYSTEMATIC = SCHEME_SYSTEMATIC
+
+
+class DirectionalNoise(NamedTuple):
+    """The noise of directional resampling's copies (afsa2014): standard deviations m along x
+    and y (key directional_noise_m), rad in the heading (directional_noise_deg)."""
+
+    m: float
+    rad: float
+
+
+DIRECTIONAL_NOISE = typeof(DirectionalNoise(1.0, 1.0))
 LOG_2PI = math.log(2.0 * math.pi)
 
 
@@ -325,13 +338,14 @@ def _fitness(P, mu, sig, seen, ids, zs, n, Rr, Rb, out, assoc, nl, gate, pc):
 
 
 @kernel(types.void(_F, _F2, _F3, _F3, _B2, _I, _I2, _F, _F2, _F2, types.int8[::1], types.int64,
-                 _I, _F, _F, types.int64, STATE, _F2, _F3, _F3, _B2, _I, _I2), cache=True)
+                 _I, _F, DIRECTIONAL_NOISE, types.int64, STATE, _F2, _F3, _F3, _B2, _I, _I2),
+        cache=True)
 def directional_resample(W, P, mu, sig, seen, nl, src, bP, bmu, bsig, bseen, bnl, bsrc, shift,
                          noise, scheme, s, P2, mu2, sig2, seen2, nl2, src2):
     """Directional resampling (afsa2014): the lower-weight half of the particles is replaced by
     copies of the bulletin-board particle (pose bP with its map bmu, bsig, bseen, bnl, bsrc: the
     best particle of the previous observation) moved by ``shift`` (the change of the weighted pose
-    estimate since then) plus Gaussian noise (standard deviations ``noise`` (3,)); the upper half
+    estimate since then) plus Gaussian noise (``noise``, a ``DirectionalNoise``); the upper half
     is resampled by weight (``scheme``) among itself. Writes the new set into the *2 arrays (every
     map a copy, none shared). W (N,) normalised weights."""
     N = W.size
@@ -353,8 +367,9 @@ def directional_resample(W, P, mu, sig, seen, nl, src, bP, bmu, bsig, bseen, bnl
         nl2[i] = nl[j]
         src2[i] = src[j]
     for i in range(n_keep, N):
-        for d in range(3):
-            P2[i, d] = bP[d] + shift[d] + noise[d] * normal(s)
+        P2[i, 0] = bP[0] + shift[0] + noise.m * normal(s)
+        P2[i, 1] = bP[1] + shift[1] + noise.m * normal(s)
+        P2[i, 2] = bP[2] + shift[2] + noise.rad * normal(s)
         P2[i, 2] = wrap(P2[i, 2])
         mu2[i] = bmu
         sig2[i] = bsig
@@ -562,7 +577,7 @@ def predict(P, pc, Vc, Gc, o, s):
     """Move every particle by the controls (Vc, Gc), each with its own draw of the control noise,
     and grow its pose uncertainty pc (N, 6: xx, xy, xt, yy, yt, tt) by the motion's."""
     N = P.shape[0]
-    if o.motion == 1:
+    if o.motion == SLAM_ODOMETRY:
         # the simulator's order: the heading noise turns this step's move
         for i in range(N):
             th = P[i, 2] + Gc
@@ -671,7 +686,7 @@ def pose_fitness(request, ps, pc, ids, zs, n, o, wk):
     elif request == FIT_BEHAVIOURS:
         _fitness_scaled(wk.C, wk.mean, wk.scale, ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb,
                         wk.llC, o.assoc, ps.nl, o.gate_augment, pc)
-    elif request == BRIGHTNESS:
+    elif request == FIT_BRIGHTNESS:
         cloud_distance_brightness(P, wk.ll, wk.ll.max(), wk.fit)
     return evaluations(request, N)
 
@@ -789,7 +804,7 @@ def note_board(Wn, ps, board, xbar):
 
 
 @kernel(types.void(PARTICLES, PARTICLES, _F2, _F, _F, _F, types.float64, OPTIONS, PARTICLES, _F,
-                 _F, _F, _I, types.int8[::1], STATE), cache=True)
+                 _F, DIRECTIONAL_NOISE, _I, types.int8[::1], STATE), cache=True)
 def resample_set(ps, out, pc, pcm, Wn, w, Ssum, o, board, xbar, xbar_prev, dnoise, idx, mutant,
                  s):
     """Draw the new particle set into ``out`` (maps copied with their particles): directional
@@ -811,9 +826,9 @@ def resample_set(ps, out, pc, pcm, Wn, w, Ssum, o, board, xbar, xbar_prev, dnois
             # copy's noise
             for i in range(N - N // 2, N):
                 pc[i] = pcm
-                pc[i, 0] += dnoise[0] ** 2
-                pc[i, 3] += dnoise[1] ** 2
-                pc[i, 5] += dnoise[2] ** 2
+                pc[i, 0] += dnoise.m ** 2
+                pc[i, 3] += dnoise.m ** 2
+                pc[i, 5] += dnoise.rad ** 2
         return
     if o.scheme == EWA:
         stepwise_ewa_plan(Wn, o.ewa_beta, o.ewa_printed, idx, mutant)
@@ -918,20 +933,21 @@ def resampled_diversity(ps, o, div_k):
 
 
 FASTSLAM_SIG = types.int64(
-    _F2, _I, _I2, _F3, OPTIONS, _F, _F, _F, _F2, STATE, _F2, _F, _I, _F2, _I, _F, _F, _F2, _F)
+    _F2, OBSERVATIONS, OPTIONS, _F, _F, DIRECTIONAL_NOISE, _F2, STATE, _F2, _F, _I, _F2, _I, _F, _F,
+    _F2, _F)
 
 
 @kernel(FASTSLAM_SIG, cache=True)
-def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, o, start, sp, dnoise, lm_true, s, est, ess,
+def fastslam_kernel(ctrl, obs, o, start, sp, dnoise, lm_true, s, est, ess,
                     resampled, lm_est, lm_seen, evals, assoc_stats, div, lm_trace):
-    """Run FastSLAM over one trial (controls ctrl (T, 2), observations obs_* (K, ...) every
-    o.every control steps; settings o, see ``Options``); fill est (T+1, 3) the weighted pose
+    """Run FastSLAM over one trial (controls ctrl (T, 2), K observations obs (``Observations``)
+    every o.every control steps; settings o, see ``Options``); fill est (T+1, 3) the weighted pose
     estimate at every control step, ess / resampled / evals (K,) per observation, lm_est (M, 2)
     and lm_seen (M,) the final map. Returns the number of observation steps whose weights all
     underflowed.
 
-    sp : the swarm's parameters (swarm.pack); dnoise (3,) : the noise of directional resampling's
-        copies (see ``directional_resample``)
+    sp : the swarm's parameters (swarm.pack); dnoise : the noise of directional resampling's
+        copies (``DirectionalNoise``) (see ``directional_resample``)
     assoc_stats (5,) : [associations, wrong associations (the slot was started from another true
         landmark), observations dropped, landmarks started] summed over particles and
         observations, and the final map's duplicates (see ``final_map``)
@@ -942,7 +958,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, o, start, sp, dnoise, lm_true, s
         distance and the fraction of distinct poses (NaN where it did not resample). Each is
         filled only where o.diag asks for it (NaN otherwise), and so is lm_trace.
     """
-    T, K, N, M = ctrl.shape[0], obs_n.shape[0], o.N, o.M
+    T, K, N, M = ctrl.shape[0], obs.n.shape[0], o.N, o.M
     ps, spare = new_particles(N, M, start), new_particles(N, M, start)
     pc = np.zeros((N, 6))     # pose uncertainty since the last update: [xx, xy, xt, yy, yt, tt]
     pcm = np.zeros(6)         # the cloud's mean of it at the last observation
@@ -966,7 +982,7 @@ def fastslam_kernel(ctrl, obs_n, obs_id, obs_z, o, start, sp, dnoise, lm_true, s
     for t in range(T):
         predict(ps.P, pc, ctrl[t, 0], ctrl[t, 1], o, s)
         if (t + 1) % o.every == 0 and k < K:
-            n, ids, zs = obs_n[k], obs_id[k], obs_z[k]
+            n, ids, zs = obs.n[k], obs.ids[k], obs.z[k]
             nev = 0
             if o.refine != NO_SWARM and o.iters > 0:
                 nev += refine_poses(ps, pc, ids, zs, n, o, sp, wk, s)
@@ -1043,8 +1059,8 @@ def options(model, params, particles, diag=True) -> Options:
         v = params.get(key)
         return float(default if v is None else v)
 
-    motion = getattr(model, "motion", 0)
-    if motion == 1:     # odometry form: the pose noise of the scenario
+    motion = getattr(model, "motion", SLAM_STEERED)
+    if motion == SLAM_ODOMETRY:     # odometry form: the pose noise of the scenario
         qctrl = np.array([model.noise[0], model.noise[1]])
     else:
         qctrl = np.array([pick("speed_noise_mps", model.noise[0]),
@@ -1066,6 +1082,12 @@ def options(model, params, particles, diag=True) -> Options:
         diag=int(flags(diag)))
 
 
+def directional_noise(params) -> DirectionalNoise:
+    """Directional resampling's noise (``DirectionalNoise``) from a filter run's keys."""
+    return DirectionalNoise(float(params["directional_noise_m"]),
+                            float(params["directional_noise_deg"] * (math.pi / 180.0)))
+
+
 def run(model, data, params, particles, state, diag=True):
     """Run FastSLAM (with the configured refinement) on a course trial; return the traces (the
     diagnostics 'div_l1', 'distinct' and 'lm_trace' where ``diag`` asks for them:
@@ -1075,9 +1097,7 @@ def run(model, data, params, particles, state, diag=True):
     K = data.obs_n.shape[0]
     M_true = model.landmarks.shape[0]
     o = options(model, params, particles, diag)
-    refine, scheme = params["refine"], o.scheme
-    dnoise = np.array([params["directional_noise_m"], params["directional_noise_m"],
-                       params["directional_noise_deg"] * (math.pi / 180.0)])
+    dnoise = directional_noise(params)
     out = {"pose": np.empty((T + 1, 3)), "ess": np.empty(K),
            "resampled": np.zeros(K, dtype=np.int64), "lm_est": np.empty((M_true, 2)),
            "lm_seen": np.zeros(M_true, dtype=np.int64)}
@@ -1085,9 +1105,9 @@ def run(model, data, params, particles, state, diag=True):
     stats = np.zeros(5)
     div = np.empty((K, 2))
     out["lm_trace"] = np.empty(K)
-    full = refine == "afsa" or scheme == DIRECTIONAL
+    full = o.refine == AFSA or o.scheme == DIRECTIONAL
     out["underflow_steps"] = (fastslam_kernel if full else fastslam_kernel_without_afsa2014)(
-        data.ctrl, data.obs_n, data.obs_id, data.obs_z, o, model.start, pack(refine, params),
+        data.ctrl, observations(data), o, model.start, pack(params["refine"], params),
         dnoise, np.ascontiguousarray(model.landmarks, dtype=np.float64), state, out["pose"],
         out["ess"], out["resampled"], out["lm_est"], out["lm_seen"], evals, stats, div,
         out["lm_trace"])

@@ -47,13 +47,16 @@ import numpy as np
 from numba import typeof, types
 from .._lazy import kernel
 
-from ..resampling import SCHEME_CODES, ess_threshold, resample, systematic_from_sums
+from ..codes import (MOTION_ODOMETRY, MOTION_ROT_TRANS_ROT, RESET, RESET_ASRL, RESET_AUGMENTED,
+                     RESET_NONE, RESET_SRL, SCHEME_CODES, SCHEME_SYSTEMATIC, SENSOR_RANGE_BEARING)
+from ..resampling import ess_threshold, resample, systematic_from_sums
 from ..rng import (STATE, _layer, fill_normal, in_layer_rectangle, load_local, next_local,
                    normal_off_rectangle, store_local, uniform, unit)
 from .. import vecmath as vm
 from ..models.beacons import loglik_const, sensor_pose
-from ..models.odometry import _odometry, odometry_with
-from ..models.pose import init_particles, snapshot, snapshot_arrays
+from ..models.odometry import MOTION_NOISE, _odometry, odometry_with
+from ..models.observations import OBSERVATIONS, observations
+from ..models.pose import INITIAL_BELIEF, SNAPSHOTS, init_particles, snapshot, snapshot_arrays
 from ..schema import Key
 from .keys import pf_keys
 from .weights import exp_pass, exp_sum, reset_unless_finite
@@ -65,7 +68,34 @@ _F3 = types.float64[:, :, ::1]
 _I = types.int64[::1]
 _I2 = types.int64[:, ::1]
 
-RESET = {"none": 0, "srl": 1, "asrl": 2, "augmented": 3}
+
+
+class ResetParams(NamedTuple):
+    """The injection's parameters (``reset``), as the config names them: SRL's fraction and
+    threshold, ASRL's mu and p_t, augmented MCL's averaging rates alpha_slow, alpha_fast."""
+
+    srl_fraction: float
+    srl_threshold: float
+    asrl_mu: float
+    asrl_pt: float
+    alpha_slow: float
+    alpha_fast: float
+
+
+class KldParams(NamedTuple):
+    """KLD-sampling's parameters: the bound's epsilon and z_(1-delta) (the standard normal
+    quantile of 1 - kld_delta), the histogram's bin sizes (bin_m m x bin_m m x bin_rad rad), and
+    the least count n_min (kld_min, at most the particles; a float)."""
+
+    epsilon: float
+    z: float
+    bin_m: float
+    bin_rad: float
+    n_min: float
+
+
+RESET_PARAMS = typeof(ResetParams(0.0, 0.0, 1.0, 1.0, 0.0, 0.0))
+KLD_PARAMS = typeof(KldParams(1.0, 1.0, 1.0, 1.0, 1.0))
 
 
 @kernel(types.void(_F2, types.int64, types.int64, _F2), cache=True, error_model="numpy")
@@ -91,8 +121,8 @@ def _advance(X, Y, H, C, S, i, a1, a2, a3, ct, st):
     S[i], C[i] = vm.sincos(h)
 
 
-_MOVE_SIG = types.void(_F, _F, _F, _F, _F, _F, types.float64, types.float64, types.float64, _F,
-                       types.int64)
+_MOVE_SIG = types.void(_F, _F, _F, _F, _F, _F, types.float64, types.float64, types.float64,
+                       MOTION_NOISE, types.int64)
 
 
 @kernel(_MOVE_SIG, cache=True, error_model="numpy")
@@ -102,7 +132,7 @@ def _move_odometry(X, Y, H, C, S, Z, rot1, trans, rot2, mnoise, n):
     (separate rows, a fixed stride, no branch): without a first turn the cached cosines and sines
     give the direction of the move."""
     for i in range(n):
-        a1, a2, a3 = odometry_with(rot1, trans, rot2, 0, mnoise, Z, 2 * i)
+        a1, a2, a3 = odometry_with(rot1, trans, rot2, MOTION_ODOMETRY, mnoise, Z, 2 * i)
         if rot1 == 0.0:
             _advance(X, Y, H, C, S, i, a1, a2, a3, C[i], S[i])
         else:
@@ -114,7 +144,7 @@ def _move_odometry(X, Y, H, C, S, Z, rot1, trans, rot2, mnoise, n):
 def _move_rot_trans_rot(X, Y, H, C, S, Z, rot1, trans, rot2, mnoise, n):
     """_move_odometry for asrl2008's (rot1, trans, rot2) odometry: the draws Z[3 i:3 i + 3]."""
     for i in range(n):
-        a1, a2, a3 = odometry_with(rot1, trans, rot2, 1, mnoise, Z, 3 * i)
+        a1, a2, a3 = odometry_with(rot1, trans, rot2, MOTION_ROT_TRANS_ROT, mnoise, Z, 3 * i)
         st, ct = vm.sincos(H[i] + a1)
         _advance(X, Y, H, C, S, i, a1, a2, a3, ct, st)
 
@@ -139,7 +169,7 @@ def loglik_pass(X, Y, H, n, bc, m, ids, zs, sensor, sr, sb, cst, ll):
     for j in range(m):
         bx, by, z, zb = bc[ids[j], 0], bc[ids[j], 1], zs[j, 0], zs[j, 1]
         first, last = j == 0, j == m - 1
-        if sensor == 1:
+        if sensor == SENSOR_RANGE_BEARING:
             for i in range(n):
                 dx, dy = bx - X[i], by - Y[i]
                 v = (z - math.sqrt(dx * dx + dy * dy)) * rr
@@ -191,19 +221,19 @@ def kld_quantile(delta: float) -> float:
     return max(-NormalDist().inv_cdf(delta), NormalDist().inv_cdf(1.0 - lo))
 
 
-@kernel(types.UniTuple(types.float64, 3)(_F, _F), cache=True, inline="always")
+@kernel(types.UniTuple(types.float64, 3)(_F, KLD_PARAMS), cache=True, inline="always")
 def kld_grid(area, kp):
-    """The histogram's cells along x, y and the heading (kp[2] m x kp[2] m x kp[3] rad over the
-    field), as floats (at least 1; infinite when the quotient overflows)."""
-    return (max(np.ceil(area[0] / kp[2]), 1.0), max(np.ceil(area[1] / kp[2]), 1.0),
-            max(np.ceil(2.0 * math.pi / kp[3]), 1.0))
+    """The histogram's cells along x, y and the heading (kp.bin_m m x kp.bin_m m x kp.bin_rad rad
+    over the field), as floats (at least 1; infinite when the quotient overflows)."""
+    return (max(np.ceil(area[0] / kp.bin_m), 1.0), max(np.ceil(area[1] / kp.bin_m), 1.0),
+            max(np.ceil(2.0 * math.pi / kp.bin_rad), 1.0))
 
 
-@kernel(types.UniTuple(types.int64, 3)(_F, _F), cache=True, inline="always")
+@kernel(types.UniTuple(types.int64, 3)(_F, KLD_PARAMS), cache=True, inline="always")
 def kld_cells(area, kp):
-    """KLD-sampling's histogram: cells along x, y and the heading (kp[2] m x kp[2] m x kp[3] rad
-    over the field); each saturates at KLD_COUNT_MAX (only grids of at most KLD_DENSE_BINS bins
-    are indexed by them)."""
+    """KLD-sampling's histogram: cells along x, y and the heading (kp.bin_m m x kp.bin_m m x
+    kp.bin_rad rad over the field); each saturates at KLD_COUNT_MAX (only grids of at most
+    KLD_DENSE_BINS bins are indexed by them)."""
     fx, fy, ft = kld_grid(area, kp)
     lim = float(KLD_COUNT_MAX)
     return (int(min(fx, lim)), int(min(fy, lim)), int(min(ft, lim)))
@@ -231,15 +261,15 @@ def kld_cell(x, y, th, bm, br, nx, ny, nt):
     return (ix * ny + iy) * nt + it
 
 
-@kernel(types.int64(types.float64, types.float64, types.float64, _F, _F), cache=True)
+@kernel(types.int64(types.float64, types.float64, types.float64, _F, KLD_PARAMS), cache=True)
 def kld_bin(x, y, th, area, kp):
-    """Histogram bin of a pose: cells of kp[2] m x kp[2] m x kp[3] rad over the field (poses
-    outside it fall into the edge cells), on a grid of at most KLD_DENSE_BINS bins."""
+    """Histogram bin of a pose: cells of kp.bin_m m x kp.bin_m m x kp.bin_rad rad over the field
+    (poses outside it fall into the edge cells), on a grid of at most KLD_DENSE_BINS bins."""
     nx, ny, nt = kld_cells(area, kp)
-    return kld_cell(x, y, th, kp[2], kp[3], nx, ny, nt)
+    return kld_cell(x, y, th, kp.bin_m, kp.bin_rad, nx, ny, nt)
 
 
-@kernel(types.int64(_F, _F), cache=True)
+@kernel(types.int64(_F, KLD_PARAMS), cache=True)
 def kld_bins(area, kp):
     """Size of the dense histogram KLD-sampling keeps over the field: its number of bins, or 0
     when there are more than KLD_DENSE_BINS (then it counts the occupied bins in a hash set of
@@ -336,15 +366,15 @@ def guided_upper_bound(cum, n, guide, ginv, v):
 
 
 @kernel(types.UniTuple(types.int64, 2)(
-    _F2, _F, types.int64, _F, types.int64, _F, _F, _F, types.int64, types.uint8[::1], _I,
-    types.float64, types.int64, types.int64, _F2, types.int64, _I, _F2, types.float64,
-    types.float64, STATE, _F2), cache=True, error_model="numpy")
+    _F2, _F, types.int64, _F, types.int64, MOTION_NOISE, _F, KLD_PARAMS, types.int64,
+    types.uint8[::1], _I, types.float64, types.int64, types.int64, _F2, types.int64, _I, _F2,
+    types.float64, types.float64, STATE, _F2), cache=True, error_model="numpy")
 def kld_sample(P, cum, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob, inject_sensor,
                sensor, bc, nobs, ids, zs, sr, sb, s, out):
     """KLD-sampling: draw particles from the weighted set (P[:, :n] as rows, cum[:n] the running
     sums of its weights, added in order: ``weighted_sums``'s) one at a time, move each by the
     odometry u (3,) with its own noise, into out, until their count reaches the bound for
-    the bins they occupy (kp: [eps, z_(1-delta), bin m, bin rad, n_min]) or nmax. With
+    the bins they occupy (kp: ``KldParams``) or nmax. With
     probability ``prob`` a draw is a new pose (uniform, or from the sensor model of the
     observations (ids, zs)[:nobs] when inject_sensor) instead of a copy. occ (``kld_bins``,) must
     be all zero; it is left so (a histogram of more bins, or an occ too small for it, counts the
@@ -354,7 +384,7 @@ def kld_sample(P, cum, n, u, motion, mnoise, area, kp, nmax, occ, touched, prob,
     for): draw (``kld_draws``), copy (``kld_copies``), move and bin (``kld_moves``), count
     (``kld_tally``, which stops at the bound and takes back the draws past it), so that the
     particles, their order and the generator's state are those of one particle at a time."""
-    nmin = int(kp[4])
+    nmin = int(kp.n_min)
     target, k, m, injected = nmin, 0, 0, 0
     rd = new_kld_round(KLD_CHUNK)
     guide = np.empty(n, dtype=np.int64)
@@ -413,8 +443,8 @@ def new_kld_round(CH):
 
 
 @kernel(types.void(KLD_ROUND, types.int64, _F, _F, _F, types.float64, types.float64, _F,
-                   types.int64, _F, _F, types.int64, _F2, types.int64, _I, _F2, types.float64,
-                   types.float64, STATE), cache=True, error_model="numpy")
+                   types.int64, MOTION_NOISE, _F, types.int64, _F2, types.int64, _I, _F2,
+                   types.float64, types.float64, STATE), cache=True, error_model="numpy")
 def kld_draws(rd, c, X, Y, H, acc, prob, u, motion, mnoise, area, sensor, bc, nobs, ids, zs, sr, sb,
               s):
     """The random draws of c particles, in the order of the one-at-a-time loop, the generator's
@@ -439,7 +469,7 @@ def kld_draws(rd, c, X, Y, H, acc, prob, u, motion, mnoise, area, sensor, bc, no
             rd.pos[r] = unit(bits) * acc
             rd.src[r] = 0
         n1 = n2 = n3 = 0.0
-        for d in range(2 if motion == 0 else 3):     # noisy_odometry's normal draws
+        for d in range(2 if motion == MOTION_ODOMETRY else 3):     # noisy_odometry's normal draws
             bits, q = next_local(q)
             layer, rabs, x = _layer(bits)
             if not in_layer_rectangle(layer, rabs):
@@ -469,7 +499,7 @@ def kld_copies(rd, c, X, Y, H, P, cum, n, guide, ginv):
             X[r], Y[r], H[r] = P[0, j], P[1, j], P[2, j]
 
 
-@kernel(types.void(KLD_ROUND, types.int64, _F, _F, _F, _F, _F, types.boolean), cache=True,
+@kernel(types.void(KLD_ROUND, types.int64, _F, _F, _F, _F, KLD_PARAMS, types.boolean), cache=True,
         error_model="numpy")
 def kld_moves(rd, c, X, Y, H, area, kp, dense):
     """The round's particles (X, Y, H)[:c] moved by their odometry rd.odo (vecmath's sine,
@@ -485,13 +515,13 @@ def kld_moves(rd, c, X, Y, H, area, kp, dense):
     if dense:
         nx, ny, nt = kld_cells(area, kp)
         for r in range(c):
-            rd.bins[r] = kld_cell(X[r], Y[r], H[r], kp[2], kp[3], nx, ny, nt)
+            rd.bins[r] = kld_cell(X[r], Y[r], H[r], kp.bin_m, kp.bin_rad, nx, ny, nt)
 
 
 @kernel(types.UniTuple(types.int64, 4)(
     KLD_ROUND, types.int64, _F, _F, _F, types.int64, types.int64, types.int64, types.int64,
-    types.int64, _F, _F, types.boolean, types.uint8[::1], _I, _F2, types.uint8[::1], STATE),
-    cache=True, error_model="numpy")
+    types.int64, _F, KLD_PARAMS, types.boolean, types.uint8[::1], _I, _F2, types.uint8[::1],
+    STATE), cache=True, error_model="numpy")
 def kld_tally(rd, c, X, Y, H, m, k, target, injected, nmin, area, kp, dense, occ, touched, hk,
               hused, s):
     """Count the round's particles one at a time (m drawn so far, k occupied bins, listed in
@@ -510,14 +540,14 @@ def kld_tally(rd, c, X, Y, H, m, k, target, injected, nmin, area, kp, dense, occ
             if new_bin:
                 occ[b] = 1
         else:
-            b = _hash_insert(hk, hused, _cell_key(X[r], kp[2], fx, area[0]),
-                             _cell_key(Y[r], kp[2], fy, area[1]),
-                             _cell_key(H[r] + math.pi, kp[3], ft, 2.0 * math.pi))
+            b = _hash_insert(hk, hused, _cell_key(X[r], kp.bin_m, fx, area[0]),
+                             _cell_key(Y[r], kp.bin_m, fy, area[1]),
+                             _cell_key(H[r] + math.pi, kp.bin_rad, ft, 2.0 * math.pi))
             new_bin = b >= 0
         if new_bin:
             touched[k] = b
             k += 1
-            target = max(nmin, kld_count(k, kp[0], kp[1]))
+            target = max(nmin, kld_count(k, kp.epsilon, kp.z))
         if rd.src[r] < 0:
             injected += 1
         m += 1
@@ -532,7 +562,7 @@ def kld_tally(rd, c, X, Y, H, m, k, target, injected, nmin, area, kp, dense, occ
 class MclOptions(NamedTuple):
     """MCL's settings, as the jitted steps read them.
 
-    motion : the odometry noise model (0 additive, 1 rot-trans-rot; mnoise its parameters)
+    motion : the odometry noise model (codes.MOTION_*; mnoise, a ``MotionNoise``, its parameters)
     sensor : 0 ranges, 1 ranges and bearings; sr, sb their noise standard deviations
     N : particles (KLD-sampling: the most); threshold : resample when ESS < threshold; scheme :
     the resampling code; reset : RESET's code of the injection; inject_sensor : augmented MCL
@@ -589,17 +619,18 @@ def _draws_copying(s, Z, per, P, CS, idx, P2, CS2, n):
 def draws_copying(s, Z, motion, P, CS, idx, P2, CS2, n):
     """``_draws_copying`` with the draws a particle of the motion model (see ``odometry_with``:
     2 for motion 0, else 3), each compiled for its count."""
-    if motion == 0:
+    if motion == MOTION_ODOMETRY:
         _draws_copying(s, Z, 2, P, CS, idx, P2, CS2, n)
     else:
         _draws_copying(s, Z, 3, P, CS, idx, P2, CS2, n)
 
 
-@kernel(types.void(_F2, _F2, _F, _F, MCL_OPTIONS, _F), cache=True, error_model="numpy")
+@kernel(types.void(_F2, _F2, _F, _F, MCL_OPTIONS, MOTION_NOISE), cache=True,
+        error_model="numpy")
 def move_particles(P, CS, Z, u, o, mnoise):
     """Move every particle (rows P, CS) by the odometry u, particle i with the motion noise of
     its draws in Z (2 or 3 a particle, see ``odometry_with``)."""
-    if o.motion == 0:
+    if o.motion == MOTION_ODOMETRY:
         _move_odometry(P[0], P[1], P[2], CS[0], CS[1], Z, u[0], u[1], u[2], mnoise, o.N)
     else:
         _move_rot_trans_rot(P[0], P[1], P[2], CS[0], CS[1], Z, u[0], u[1], u[2], mnoise, o.N)
@@ -718,20 +749,20 @@ def weighted_sums(P, W, n, CS, cum, out):
 
 
 @kernel(types.UniTuple(types.float64, 3)(types.float64, types.float64, types.float64, types.int64,
-                                       MCL_OPTIONS, _F), cache=True, error_model="numpy")
+                                       MCL_OPTIONS, RESET_PARAMS), cache=True, error_model="numpy")
 def likelihood_averages(w_slow, w_fast, pm, m, o, rp):
     """Augmented MCL's long- and short-term averages after a step with m observations and mean
     likelihood pm; returns them with the injection probability max(0, 1 - w_fast / w_slow). The
     averages follow the likelihood per measurement component, pm^(1/c): steps see different
     numbers of beacons, and a product over more of them is not less likely in the sense the
     averages compare."""
-    q = pm ** (1.0 / (m * (2 if o.sensor == 1 else 1)))
+    q = pm ** (1.0 / (m * (2 if o.sensor == SENSOR_RANGE_BEARING else 1)))
     if w_slow == 0.0:
         w_slow = q
         w_fast = q
     else:
-        w_slow += rp[4] * (q - w_slow)
-        w_fast += rp[5] * (q - w_fast)
+        w_slow += rp.alpha_slow * (q - w_slow)
+        w_fast += rp.alpha_fast * (q - w_fast)
     return w_slow, w_fast, max(0.0, 1.0 - w_fast / w_slow) if w_slow > 0.0 else 0.0
 
 
@@ -740,7 +771,7 @@ def ancestors(W, cum, o, idx, scratch, s):
     """The resampled set's ancestors idx of the weights W (cum: their running sums, from
     ``weighted_sums``; their sum cum[-1]) by the scheme of o."""
     S = cum[cum.size - 1]
-    if o.scheme == 1:
+    if o.scheme == SCHEME_SYSTEMATIC:
         systematic_from_sums(W, cum, S, s, idx, scratch)
     else:
         resample(o.scheme, W, S, s, idx)
@@ -753,15 +784,15 @@ def gather_rows(P, CS, P2, CS2, idx, n):
         _copy_particle(P, CS, P2, CS2, i, idx[i])
 
 
-@kernel(types.int64(_F2, _F2, _F, _F2, types.int64, _I, _F2, MCL_OPTIONS, _F, types.float64,
-                  types.float64, _I, _F, STATE), cache=True, error_model="numpy")
+@kernel(types.int64(_F2, _F2, _F, _F2, types.int64, _I, _F2, MCL_OPTIONS, RESET_PARAMS,
+                    types.float64, types.float64, _I, _F, STATE), cache=True, error_model="numpy")
 def inject(P, CS, area, bc, m, ids, zs, o, rp, pm, prob, perm, pose, s):
     """Replace particles by poses drawn from the sensor model (or the field): augmented MCL each
     with probability prob; SRL srl_fraction of them when pm < srl_threshold; ASRL
     n_s = N max(0, 1 - pm / (mu p_t^c)) of them. Returns how many."""
     N = o.N
     k = 0
-    if o.reset == 3:
+    if o.reset == RESET_AUGMENTED:
         drawn_from = m if o.inject_sensor else 0      # no observation: uniform over the field
         for i in range(N):
             if uniform(s) < prob:
@@ -770,13 +801,13 @@ def inject(P, CS, area, bc, m, ids, zs, o, rp, pm, prob, perm, pose, s):
                 trig_pass(P, i, i + 1, CS)
                 k += 1
         return k
-    if m == 0 or not (o.reset == 1 or o.reset == 2):
+    if m == 0 or not (o.reset == RESET_SRL or o.reset == RESET_ASRL):
         return 0
-    if o.reset == 1:
-        k = int(round(rp[0] * N)) if pm < rp[1] else 0
+    if o.reset == RESET_SRL:
+        k = int(round(rp.srl_fraction * N)) if pm < rp.srl_threshold else 0
     else:
-        c = m * (2 if o.sensor == 1 else 1)
-        k = min(int(round(N * max(0.0, 1.0 - pm / (rp[2] * rp[3] ** c)))), N)
+        c = m * (2 if o.sensor == SENSOR_RANGE_BEARING else 1)
+        k = min(int(round(N * max(0.0, 1.0 - pm / (rp.asrl_mu * rp.asrl_pt ** c)))), N)
     # replace k particles chosen at random (a partial Fisher-Yates shuffle: resampling leaves
     # the set ordered by its sources)
     for i in range(N):
@@ -812,17 +843,19 @@ class MclWork(NamedTuple):
 MCL_WORK = types.NamedTuple((_I, _I, _I, _F, types.uint8[::1], _I, _F), MclWork)
 
 
-@kernel(MCL_WORK(MCL_OPTIONS, _F, _F), cache=True, error_model="numpy")
+@kernel(MCL_WORK(MCL_OPTIONS, _F, KLD_PARAMS), cache=True, error_model="numpy")
 def new_mcl_work(o, area, kp):
     """The scratch (``MclWork``) of MCL with settings o on the field ``area`` (KLD: kp)."""
     N = o.N
     return MclWork(np.empty(N, dtype=np.int64), np.empty(N, dtype=np.int64),
                    np.empty(N, dtype=np.int64), np.empty(3),
                    np.zeros(kld_bins(area, kp) if o.kld else 1, dtype=np.uint8),
-                   np.empty(N, dtype=np.int64), np.empty(N * (2 if o.motion == 0 else 3)))
+                   np.empty(N, dtype=np.int64),
+                   np.empty(N * (2 if o.motion == MOTION_ODOMETRY else 3)))
 
 
-@kernel(types.Tuple((_F2, _F2))(_F, _F, types.int64, STATE), cache=True, error_model="numpy")
+@kernel(types.Tuple((_F2, _F2))(_F, INITIAL_BELIEF, types.int64, STATE), cache=True,
+        error_model="numpy")
 def initial_set(area, init, N, s):
     """The initial belief's N particles (``init_particles``) as rows x, y, heading (3, N), so
     that the passes over them vectorise, and their headings' cosines and sines (2, N)."""
@@ -835,7 +868,7 @@ def initial_set(area, init, N, s):
 
 
 @kernel(types.UniTuple(types.int64, 2)(
-    _F2, _F, types.int64, _F, MCL_OPTIONS, _F, _F, _F, MCL_WORK, types.float64,
+    _F2, _F, types.int64, _F, MCL_OPTIONS, MOTION_NOISE, _F, KLD_PARAMS, MCL_WORK, types.float64,
     _F2, types.int64, _I, _F2, STATE, _F2), cache=True, error_model="numpy")
 def kld_step(P, cum, n, u, o, mnoise, area, kp, wk, prob, bc, m, ids, zs, s, out):
     """KLD-sampling's step: resample the last step's weighted set (P[:, :n], running sums cum)
@@ -847,19 +880,20 @@ def kld_step(P, cum, n, u, o, mnoise, area, kp, wk, prob, bc, m, ids, zs, s, out
 
 
 MCL_SIG = types.int64(
-    _F2, _I, _I2, _F3, _F2, _F, MCL_OPTIONS, _F, _F, _F, _F, STATE, _F2, _F, _I, _I, _F, _I, _I,
-    _F3, _I)
+    _F2, OBSERVATIONS, _F2, _F, MCL_OPTIONS, MOTION_NOISE, RESET_PARAMS, KLD_PARAMS, INITIAL_BELIEF,
+    STATE, _F2, _F, _I, _I, _F, _I, SNAPSHOTS)
 
 
 @kernel(MCL_SIG, cache=True, error_model="numpy")
-def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s, est, ess,
-               resampled, injected, pmean, count, snap_t, snap, snap_n):
+def mcl_kernel(ctrl, obs, bc, area, o, mnoise, rp, kp, init, s, est, ess, resampled, injected,
+               pmean, count, snap):
     """Run MCL over one trial (settings o, see ``MclOptions``); est (T+1, 3) the weighted pose
     estimate (est[0]: of the initial cloud), ess / resampled / injected / pmean / count (T,) per
-    step. rp: [srl_fraction, srl_threshold, mu, p_t, alpha_slow, alpha_fast]. o.kld: KLD-sampling
-    with kp (see kld_sample), o.N the largest count; init: the initial belief (init_particles).
-    snap_t: increasing steps at which the particles (after the step's move, before resampling;
-    step 0: the initial cloud) are copied into snap (S, N, 3), their count into snap_n. Returns
+    step. rp: the injection's parameters (``ResetParams``). o.kld: KLD-sampling
+    with kp (``KldParams``), o.N the largest count; init: the initial belief (``InitialBelief``).
+    obs: the observations (``Observations``). snap.steps: increasing steps at which the particles
+    (after the step's move, before resampling; step 0: the initial cloud) are copied into
+    snap.poses (S, N, 3), their count into snap.counts. Returns
     the steps whose weights all underflowed.
 
     Each step: move (sample the motion model), weigh, estimate, resample, inject; KLD-sampling
@@ -874,12 +908,12 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
     equal_weights = True    # the log-weights are all zero (an initial, resampled or drawn set)
     copy_due = False        # the set to move is the last step's resampled by wk.idx, not copied
     weighted_sums(P, W, N, CS, cum, est[0])
-    si = snapshot(0, P, N, snap_t, snap, snap_n, 0, True)
+    si = snapshot(0, P, N, snap, 0, True)
     for t in range(T):
         if o.kld:       # resample (by the running sums in cum) and move, as many as bins ask
             tp = max(t - 1, 0)
             n, injected[t] = kld_step(P, cum, n, ctrl[t], o, mnoise, area, kp, wk, prob, bc,
-                                      obs_n[tp] if t > 0 else 0, obs_id[tp], obs_z[tp], s, P2)
+                                      obs.n[tp] if t > 0 else 0, obs.ids[tp], obs.z[tp], s, P2)
             P, P2 = P2, P
             trig_pass(P, 0, n, CS)
             equal_weights = True
@@ -893,7 +927,7 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
                 fill_normal(s, wk.Z)
             move_particles(P, CS, wk.Z, ctrl[t], o, mnoise)
         count[t] = n
-        m, ids, zs = obs_n[t], obs_id[t], obs_z[t]
+        m, ids, zs = obs.n[t], obs.ids[t], obs.z[t]
         under, lmax, acc, w_is_terms = weigh_observations(P, n, bc, m, ids, zs, o, lw, W, ll,
                                                           equal_weights)
         if equal_weights and under == 0.0:
@@ -903,15 +937,15 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
         ess[t] = weighted_sums(P, W, n, CS, cum, est[t + 1])
         pm = mean_likelihood(lmax, cum[n - 1] if w_is_terms else acc, n)
         pmean[t] = pm
-        si = snapshot(t + 1, P, n, snap_t, snap, snap_n, si, True)
-        if o.reset == 3 and m > 0:
+        si = snapshot(t + 1, P, n, snap, si, True)
+        if o.reset == RESET_AUGMENTED and m > 0:
             w_slow, w_fast, prob = likelihood_averages(w_slow, w_fast, pm, m, o, rp)
         if o.kld:
             continue            # the next step's sampling resamples (and injects)
         resampled[t] = 0
         if ess[t] < o.threshold:
             ancestors(W, cum, o, wk.idx, wk.scratch, s)
-            copy_due = o.reset == 0     # nothing is injected: the next step's draws copy it
+            copy_due = o.reset == RESET_NONE    # nothing injected: the next step's draws copy it
             if not copy_due:
                 gather_rows(P, CS, P2, CS2, wk.idx, N)
                 P, P2, CS, CS2 = P2, P, CS2, CS
@@ -923,31 +957,45 @@ def mcl_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, rp, kp, init, s,
     return events
 
 
+def reset_params(params) -> ResetParams:
+    """The injection's parameters (``ResetParams``) from a filter run's keys."""
+    return ResetParams(
+        srl_fraction=float(params["srl_fraction"]), srl_threshold=float(params["srl_threshold"]),
+        asrl_mu=float(params["asrl_mu"]), asrl_pt=float(params["asrl_pt"]),
+        alpha_slow=float(params["alpha_slow"]), alpha_fast=float(params["alpha_fast"]))
+
+
+def kld_params(params, particles: int) -> KldParams:
+    """KLD-sampling's parameters (``KldParams``) from a filter run's keys, for a set of at most
+    ``particles``."""
+    return KldParams(
+        epsilon=float(params["kld_epsilon"]), z=float(kld_quantile(params["kld_delta"])),
+        bin_m=float(params["kld_bin_m"]), bin_rad=float(math.radians(params["kld_bin_deg"])),
+        n_min=float(min(params["kld_min"], particles)))
+
+
 def run(model, data, params, particles, state, diag=True, snapshots=()):
     """Run MCL (with the configured injection) on a beacon-field trial; return the traces (with
     'snapshots': (steps, particles, counts) of the particles at the steps ``snapshots``)."""
     T = data.ctrl.shape[0]
     threshold = ess_threshold(params, particles)
-    rp = np.array([params["srl_fraction"], params["srl_threshold"], params["asrl_mu"],
-                   params["asrl_pt"], params["alpha_slow"], params["alpha_fast"]])
+    rp = reset_params(params)
     out = {"pose": np.empty((T + 1, 3)), "ess": np.empty(T),
            "resampled": np.zeros(T, dtype=np.int64), "injected": np.zeros(T, dtype=np.int64),
            "pmean": np.empty(T)}
     kld = params["sampling"] == "kld"
-    kp = np.array([params["kld_epsilon"], kld_quantile(params["kld_delta"]),
-                   params["kld_bin_m"], math.radians(params["kld_bin_deg"]),
-                   min(params["kld_min"], particles)])
+    kp = kld_params(params, particles)
     out["n"] = np.empty(T, dtype=np.int64)
     out["snapshots"] = snapshot_arrays(snapshots, particles)
     o = MclOptions(
-        motion=int(model.motion), sensor=int(model.sensor), sr=float(model.sense[2]),
-        sb=float(model.sense[3]), N=int(particles), threshold=float(threshold),
+        motion=int(model.motion), sensor=int(model.sensor), sr=model.sense.sr,
+        sb=model.sense.sb, N=int(particles), threshold=float(threshold),
         scheme=SCHEME_CODES[params["resampling"]], reset=RESET[params["reset"]],
         inject_sensor=int(params["inject"] == "sensor"), kld=int(kld))
     out["underflow_steps"] = mcl_kernel(
-        data.ctrl, data.obs_n, data.obs_id, data.obs_z, model.beacons, model.area, o, model.mnoise,
+        data.ctrl, observations(data), model.beacons, model.area, o, model.mnoise,
         rp, kp, model.init, state, out["pose"], out["ess"], out["resampled"], out["injected"],
-        out["pmean"], out["n"], *out["snapshots"])
+        out["pmean"], out["n"], out["snapshots"])
     out["lik_evals_per_step"] = float(np.mean(out["n"]))
     return out
 

@@ -41,11 +41,16 @@ from numba import typeof, types
 from .._lazy import kernel
 
 from ..angles import wrap
-from ..resampling import SCHEME_CODES, ess_threshold, resample
+from ..codes import (MOTION_ODOMETRY, SCHEME_CODES, SENSOR_RANGE_BEARING, TRIGGER_ALWAYS,
+                     TRIGGER_NEFF, TRIGGER_WEIGHT_CHANGE, TRIGGERS)
+from ..resampling import ess_threshold, resample
 from ..rng import STATE, fill_normal, normal, uniform
 from .. import vecmath as vm
 from ..models.beacons import pose_loglik
-from ..models.pose import estimate_pose, init_particles, snapshot, snapshot_arrays
+from ..models.observations import OBSERVATIONS, observations
+from ..models.odometry import MOTION_NOISE
+from ..models.pose import (INITIAL_BELIEF, SNAPSHOTS, estimate_pose, init_particles, snapshot,
+                           snapshot_arrays)
 from ..schema import Key
 from .keys import sigma_check, sigma_keys
 from .types import FilterType
@@ -59,7 +64,26 @@ _F3 = types.float64[:, :, ::1]
 _I = types.int64[::1]
 _I2 = types.int64[:, ::1]
 LOG_2PI = math.log(2.0 * math.pi)
-TRIGGERS = {"always": 0, "neff": 1, "weight_change": 2}
+
+
+class SigmaParams(NamedTuple):
+    """The unscented transform's parameters of every particle's UKF (keys alpha, beta, kappa)."""
+
+    alpha: float
+    beta: float
+    kappa: float
+
+
+class PoseStd(NamedTuple):
+    """A pose's standard deviations: m along x and y, rad in the heading (the UKFs' initial
+    covariance, keys init_std_m and init_std_deg; the jitter, jitter_m and jitter_deg)."""
+
+    m: float
+    rad: float
+
+
+SIGMA_PARAMS = typeof(SigmaParams(1.0, 2.0, 0.0))
+POSE_STD = typeof(PoseStd(1.0, 1.0))
 
 
 @kernel(types.boolean(_F2, types.int64, _F2), cache=True)
@@ -115,19 +139,19 @@ def move(x, y, th, u, w0, w1, w2):
     return x + (u[1] + w1) * math.cos(t1), y + (u[1] + w1) * math.sin(t1), wrap(t1 + u[2] + w2)
 
 
-@kernel(types.void(_F, types.int64, _F, _F), cache=True)
+@kernel(types.void(_F, types.int64, MOTION_NOISE, _F), cache=True)
 def noise_sd(u, motion, mnoise, out):
     """Standard deviations of the three odometry noises at a step with odometry u."""
-    if motion == 0:
-        out[0], out[1], out[2] = 0.0, mnoise[0], mnoise[1]
+    if motion == MOTION_ODOMETRY:
+        out[0], out[1], out[2] = 0.0, mnoise.trans, mnoise.turn
     else:
-        a1, a2, a3, a4 = mnoise[0], mnoise[1], mnoise[2], mnoise[3]
+        a1, a2, a3, a4 = mnoise.alpha1, mnoise.alpha2, mnoise.alpha3, mnoise.alpha4
         out[0] = a1 * abs(u[0]) + a2 * abs(u[1])
         out[1] = a3 * abs(u[1]) + a4 * (abs(u[0]) + abs(u[2]))
         out[2] = a1 * abs(u[2]) + a2 * abs(u[1])
 
 
-@kernel(types.void(types.float64, types.float64, types.float64, _F, _F, _F, _F2), cache=True)
+@kernel(types.void(types.float64, types.float64, types.float64, _F, _F, POSE_STD, _F2), cache=True)
 def transition_cov(x, y, th, u, sd, jit, Q):
     """G M G^T + J: the motion's noise covariance linearised at a pose, plus the jitter."""
     t1 = th + u[0]
@@ -139,18 +163,19 @@ def transition_cov(x, y, th, u, sd, jit, Q):
             for k in range(3):
                 v += sd[k] * sd[k] * g[k][a] * g[k][b]
             Q[a, b] = v
-    Q[0, 0] += jit[0] * jit[0]
-    Q[1, 1] += jit[0] * jit[0]
-    Q[2, 2] += jit[1] * jit[1]
+    Q[0, 0] += jit.m * jit.m
+    Q[1, 1] += jit.m * jit.m
+    Q[2, 2] += jit.rad * jit.rad
 
 
 class FieldOptions(NamedTuple):
     """The SSPF's settings, as the jitted steps read them.
 
-    motion : the odometry noise model (0 additive, 1 rot-trans-rot; mnoise its parameters)
-    sensor : 0 ranges, 1 ranges and bearings; sr, sb their noise standard deviations
-    N : particles; trigger : resample 0 always, 1 when ESS < threshold, 2 when the weight change
-    K > threshold; scheme : the resampling code; mh_steps : MH moves per particle after it
+    motion : the odometry noise model (codes.MOTION_*; mnoise, a ``MotionNoise``, its parameters)
+    sensor : codes.SENSOR_RANGE or SENSOR_RANGE_BEARING; sr, sb their noise standard deviations
+    N : particles; trigger : resample always (codes.TRIGGER_ALWAYS), when ESS < threshold
+    (TRIGGER_NEFF), when the weight change K > threshold (TRIGGER_WEIGHT_CHANGE); scheme : the
+    resampling code; mh_steps : MH moves per particle after it
     """
 
     motion: int
@@ -176,7 +201,7 @@ def observation_vector(zs, m, o, zobs, isb):
         zobs[r] = zs[j, 0]
         isb[r] = 0
         r += 1
-        if o.sensor == 1:
+        if o.sensor == SENSOR_RANGE_BEARING:
             zobs[r] = zs[j, 1]
             isb[r] = 1
             r += 1
@@ -198,8 +223,8 @@ def weights_and_change(lw, W, Wprev, mx):
 
 
 SSPF_SIG = types.int64(
-    _F2, _I, _I2, _F3, _F2, _F, FIELD_OPTIONS, _F, _F, _F, _F, _F, STATE, _F2, _F, _I, _F, _I, _F3,
-    _I)
+    _F2, OBSERVATIONS, _F2, _F, FIELD_OPTIONS, MOTION_NOISE, SIGMA_PARAMS, POSE_STD, POSE_STD,
+    INITIAL_BELIEF, STATE, _F2, _F, _I, _F, SNAPSHOTS)
 
 
 # --- the kernel, in rows -------------------------------------------------------------------------
@@ -299,13 +324,13 @@ def chol_rows(A, n, c, L, ok):
                 L[n * i + j, p] = 0.0
 
 
-@kernel(types.void(FIELD_ROWS, types.int64, types.int64, _F, types.float64, _F, _F, CHUNK_WORK,
-                   _F, _F), cache=True, error_model="numpy")
+@kernel(types.void(FIELD_ROWS, types.int64, types.int64, _F, types.float64, _F, POSE_STD,
+                   CHUNK_WORK, _F, _F), cache=True, error_model="numpy")
 def predict_moments(pr, i0, c, u, sq, sd, jit, wk, Wm, Wc):
     """For the particles i0 .. i0 + c (pose pr.X, covariance pr.Pc; where it is not positive
     definite, the jitter's): the sigma points of [pose, odometry noise] (the noises' deviations
     sd; scaled by sq, weights Wm, Wc) through the motion u into wk.Y, their mean wk.xm
-    (circular for the heading) and covariance wk.Pm (plus the jitter jit [m, rad])."""
+    (circular for the heading) and covariance wk.Pm (plus the jitter jit, a ``PoseStd``)."""
     X, L3, Y, ok = pr.X, wk.L3, wk.Y, wk.ok
     # Pc's rows are columns i0 .. i0 + c of the particles' rows: copy them into Pm as scratch
     for a in range(9):
@@ -316,8 +341,8 @@ def predict_moments(pr, i0, c, u, sq, sd, jit, wk, Wm, Wc):
         if not ok[p]:
             for a in range(9):
                 L3[a, p] = 0.0
-            L3[0, p] = L3[4, p] = jit[0]
-            L3[8, p] = jit[1]
+            L3[0, p] = L3[4, p] = jit.m
+            L3[8, p] = jit.rad
     for j in range(13):
         k = (j - 1) % 6 if j > 0 else -1
         sgn = 1.0 if j <= 6 else -1.0
@@ -370,9 +395,9 @@ def predict_moments(pr, i0, c, u, sq, sd, jit, wk, Wm, Wc):
             Pm[7, p] += Wc[j] * d2 * d1
             Pm[8, p] += Wc[j] * d2 * d2
     for p in range(c):
-        Pm[0, p] += jit[0] * jit[0]
-        Pm[4, p] += jit[0] * jit[0]
-        Pm[8, p] += jit[1] * jit[1]
+        Pm[0, p] += jit.m * jit.m
+        Pm[4, p] += jit.m * jit.m
+        Pm[8, p] += jit.rad * jit.rad
 
 
 @kernel(types.void(_F2, _I, _F2, types.int64, types.int64, FIELD_OPTIONS, _F, _I, CHUNK_WORK, _F,
@@ -408,7 +433,7 @@ def sigma_observations(bc, ids, m, nz, o, wk, c):
                 dy = by - Y[3 * j + 1, p]
                 Z[nz * j + r, p] = math.sqrt(dx * dx + dy * dy)
             r += 1
-            if o.sensor == 1:
+            if o.sensor == SENSOR_RANGE_BEARING:
                 for p in range(c):
                     dx = bx - Y[3 * j, p]
                     dy = by - Y[3 * j + 1, p]
@@ -540,7 +565,7 @@ def update_covariance(nz, wk, c):
 
 
 @kernel(types.float64(FIELD_ROWS, types.int64, types.int64, _F, _F2, _I, _F2, types.int64,
-                      FIELD_OPTIONS, CHUNK_WORK, _F, _F, _F, _F, _F, _F3), cache=True,
+                      FIELD_OPTIONS, CHUNK_WORK, _F, POSE_STD, _F, _F, _F, _F3), cache=True,
         error_model="numpy")
 def draw_particles(pr, i0, c, u, bc, ids, zs, m, o, wk, sd, jit, z, lw, xm, T3):
     """For a chunk's c particles, one at a time (each particle's factor, densities and
@@ -633,7 +658,7 @@ def mh_moves(pr, bc, ids, zs, m, o, s, T3):
 
 
 @kernel(types.float64(FIELD_ROWS, _F, _F2, _I, _F2, types.int64, types.int64, FIELD_OPTIONS, _F, _I,
-                      CHUNK_WORK, _F, _F, types.float64, _F, _F, _F, _F, _F, _F3), cache=True,
+                      CHUNK_WORK, _F, _F, types.float64, _F, POSE_STD, _F, _F, _F, _F3), cache=True,
         error_model="numpy")
 def propose_and_draw(pr, u, bc, ids, zs, m, nz, o, zobs, isb, wk, Wm, Wc, sq, sd, jit, z, lw, xm3,
                      T3):
@@ -657,25 +682,26 @@ def propose_and_draw(pr, u, bc, ids, zs, m, nz, o, zobs, isb, wk, Wm, Wc, sq, sd
 
 @kernel(types.boolean(FIELD_OPTIONS, types.float64, types.float64), cache=True)
 def resample_due(o, ess, Kc):
-    """Whether the step resamples (o.trigger, ``TRIGGERS``): every step (0), the ESS below
-    o.threshold (1), or sspf2008's weight change K above it (2)."""
-    return (o.trigger == 0 or (o.trigger == 1 and ess < o.threshold)
-            or (o.trigger == 2 and Kc > o.threshold))
+    """Whether the step resamples (o.trigger, ``TRIGGERS``): every step, the ESS below
+    o.threshold, or sspf2008's weight change K above it."""
+    return (o.trigger == TRIGGER_ALWAYS or (o.trigger == TRIGGER_NEFF and ess < o.threshold)
+            or (o.trigger == TRIGGER_WEIGHT_CHANGE and Kc > o.threshold))
 
 
 @kernel(SSPF_SIG, cache=True, error_model="numpy")
-def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, up, init, jit, start, s,
-                     est, ess, resampled, accepted, snap_t, snap, snap_n):
-    """Run the SSPF over one trial (settings o, see ``FieldOptions``). up: [alpha, beta, kappa] of
-    the sigma points; init: initial standard deviations [m, rad]; jit: the jitter [m, rad];
-    start: the initial belief (init_particles). Fills est (T+1, 3), ess / resampled / accepted
-    (MH acceptance rate, NaN without a move) (T,); snapshots as mcl_kernel's. Returns the steps
+def sspf_field_kernel(ctrl, obs, bc, area, o, mnoise, up, init, jit, start, s, est, ess, resampled,
+                      accepted, snap):
+    """Run the SSPF over one trial (settings o, see ``FieldOptions``). up: the sigma points'
+    parameters (``SigmaParams``); init: the UKFs' initial standard deviations, jit: the jitter
+    (``PoseStd``); obs: the observations (``Observations``); start: the initial belief
+    (``InitialBelief``). Fills est (T+1, 3), ess / resampled / accepted (MH acceptance rate, NaN
+    without a move) (T,); snapshots as mcl_kernel's. Returns the steps
     whose weights all underflowed. The particles' UKFs run in passes over chunks of SSPF_CHUNK
     particles (see the section's comment)."""
     T, N = ctrl.shape[0], o.N
     nzmax = 2 * bc.shape[0]
     Wm, Wc = np.empty(13), np.empty(13)
-    sq = ut_weights(6, up[0], up[1], up[2], Wm, Wc)
+    sq = ut_weights(6, up.alpha, up.beta, up.kappa, Wm, Wc)
     CH = min(SSPF_CHUNK, N)
     wk = new_chunk_work(CH, nzmax)
     zobs, isb, sd = np.empty(nzmax), np.zeros(nzmax, dtype=np.int64), np.empty(3)
@@ -684,9 +710,9 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, up, init,
     init_particles(P0, area, start, s)
     for i in range(N):
         pr.X[0, i], pr.X[1, i], pr.X[2, i] = P0[i, 0], P0[i, 1], P0[i, 2]
-        pr.Pc[0, i] = init[0] * init[0]
-        pr.Pc[4, i] = init[0] * init[0]
-        pr.Pc[8, i] = init[1] * init[1]
+        pr.Pc[0, i] = init.m * init.m
+        pr.Pc[4, i] = init.m * init.m
+        pr.Pc[8, i] = init.rad * init.rad
     lw = np.zeros(N)
     W = np.full(N, 1.0 / N)
     Wprev = np.full(N, 1.0 / N)
@@ -696,9 +722,9 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, up, init,
     T3 = np.zeros((5, 3, 3))
     events = 0
     estimate_pose(pr.X, W, N, est[0], True)
-    si = snapshot(0, pr.X, N, snap_t, snap, snap_n, 0, True)
+    si = snapshot(0, pr.X, N, snap, 0, True)
     for t in range(T):
-        u, m, ids, zs = ctrl[t], obs_n[t], obs_id[t], obs_z[t]
+        u, m, ids, zs = ctrl[t], obs.n[t], obs.ids[t], obs.z[t]
         noise_sd(u, o.motion, mnoise, sd)
         nz = observation_vector(zs, m, o, zobs, isb)
         fill_normal(s, z)      # the draws of the particles' proposals, in particle order
@@ -707,7 +733,7 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, up, init,
         under, ess[t], Kc = weights_and_change(lw, W, Wprev, mx)
         events += int(under)
         estimate_pose(pr.X, W, N, est[t + 1], True)
-        si = snapshot(t + 1, pr.X, N, snap_t, snap, snap_n, si, True)
+        si = snapshot(t + 1, pr.X, N, snap, si, True)
         accepted[t] = np.nan
         resampled[t] = 0
         if not resample_due(o, ess[t], Kc):
@@ -726,25 +752,32 @@ def sspf_field_kernel(ctrl, obs_n, obs_id, obs_z, bc, area, o, mnoise, up, init,
     return events
 
 
+def sspf_params(params) -> tuple[SigmaParams, PoseStd, PoseStd]:
+    """The SSPF's parameter records from a filter run's keys: the sigma points', the UKFs'
+    initial standard deviations, the jitter."""
+    return (SigmaParams(float(params["alpha"]), float(params["beta"]), float(params["kappa"])),
+            PoseStd(float(params["init_std_m"]), float(math.radians(params["init_std_deg"]))),
+            PoseStd(float(params["jitter_m"]), float(math.radians(params["jitter_deg"]))))
+
+
 def run(model, data, params, particles, state, diag=True, snapshots=()):
     """Run the SSPF on a beacon-field trial; return the traces (snapshots as mcl.run's)."""
     T = data.ctrl.shape[0]
     N = particles
     trig = TRIGGERS[params["resample"]]
-    threshold = {0: 0.0, 1: ess_threshold(params, N), 2: params["sigma"] / (N * N)}[trig]
+    threshold = {TRIGGER_ALWAYS: 0.0, TRIGGER_NEFF: ess_threshold(params, N),
+                 TRIGGER_WEIGHT_CHANGE: params["sigma"] / (N * N)}[trig]
     out = {"pose": np.empty((T + 1, 3)), "ess": np.empty(T),
            "resampled": np.zeros(T, dtype=np.int64), "mh_accept": np.empty(T),
            "snapshots": snapshot_arrays(snapshots, N)}
     o = FieldOptions(
-        motion=int(model.motion), sensor=int(model.sensor), sr=float(model.sense[2]),
-        sb=float(model.sense[3]), N=int(N), trigger=int(trig), threshold=float(threshold),
+        motion=int(model.motion), sensor=int(model.sensor), sr=model.sense.sr,
+        sb=model.sense.sb, N=int(N), trigger=int(trig), threshold=float(threshold),
         scheme=SCHEME_CODES[params["resampling"]], mh_steps=int(params["mh_steps"]))
     out["underflow_steps"] = sspf_field_kernel(
-        data.ctrl, data.obs_n, data.obs_id, data.obs_z, model.beacons, model.area, o,
-        model.mnoise, np.array([params["alpha"], params["beta"], params["kappa"]]),
-        np.array([params["init_std_m"], math.radians(params["init_std_deg"])]),
-        np.array([params["jitter_m"], math.radians(params["jitter_deg"])]), model.init, state,
-        out["pose"], out["ess"], out["resampled"], out["mh_accept"], *out["snapshots"])
+        data.ctrl, observations(data), model.beacons, model.area, o,
+        model.mnoise, *sspf_params(params), model.init, state,
+        out["pose"], out["ess"], out["resampled"], out["mh_accept"], out["snapshots"])
     out["n"] = np.full(T, N)
     # the likelihood at the drawn particle, plus the UKF's sigma points, plus the MH proposals
     out["lik_evals_per_step"] = float(N * (1 + 13) + N * params["mh_steps"]

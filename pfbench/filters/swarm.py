@@ -28,10 +28,8 @@ from ..rng import STATE, normal, uniform
 from ..schema import Key
 from .weights import shifted_exp
 
-# The swarm algorithms, one numbering for every kernel that moves particles with them.
-FA, IFA, BA, PSO, AFSA = 0, 1, 2, 3, 4
-NO_SWARM = -1
-ALGORITHMS = {"fa": FA, "ifa": IFA, "ba": BA, "pso": PSO, "afsa": AFSA}
+# The swarm algorithms, one numbering for every kernel that moves particles with them (codes).
+from ..codes import AFSA, ALGORITHMS, BA, BRIGHTNESS, FA, IFA, NO_SWARM, PSO  # noqa: F401
 
 
 def keys(algo: str, unit: str = "state units", prefix: bool = False) -> dict:
@@ -76,14 +74,14 @@ def keys(algo: str, unit: str = "state units", prefix: bool = False) -> dict:
 def pack(algo: str, params) -> np.ndarray:
     """The parameter array p the kernels read for swarm algorithm ``algo``:
     fa [beta0, gamma, alpha]; ifa [beta0, gamma] and, where the filter has the key, brightness
-    (0: exp(-d^2/2), 1: 1/(1+d)); ba [fmin, fmax, A0, r0, decay, growth]; pso [w, c1, c2];
+    (codes.BRIGHTNESS); ba [fmin, fmax, A0, r0, decay, growth]; pso [w, c1, c2];
     afsa [visual, step, delta, tries, greedy]."""
     if algo == "fa":
         vals = (params["beta0"], params["gamma"], params["alpha"])
     elif algo == "ifa":
         vals = (params["beta0"], params["gamma"])
         if "brightness" in params:
-            vals += (0.0 if params["brightness"] == "gaussian" else 1.0,)
+            vals += (float(BRIGHTNESS[params["brightness"]]),)
     elif algo == "ba":
         vals = (params["freq_min"], params["freq_max"], params["loudness"], params["pulse_rate"],
                 params["loudness_decay"], params["pulse_growth"])
@@ -358,7 +356,7 @@ FIT_X = 1               # the particles X: their log-likelihood into wk.ll
 FIT_CANDIDATES = 2      # BA's N candidates wk.C[:N D]: into wk.llC[:N]
 FIT_CENTRES = 3         # AFSA's centres wk.Xc: into wk.llc
 FIT_BEHAVIOURS = 4      # AFSA's 3 N candidates wk.C: into wk.llC
-BRIGHTNESS = 5          # IFA's brightness of X, into wk.fit from wk.ll (the caller's distance)
+FIT_BRIGHTNESS = 5      # IFA's brightness of X, into wk.fit from wk.ll (the caller's distance)
 
 # AFSA's two arithmetics of fitness (``afsa_joint_shift``, ``afsa_fish_shift``)
 AFSA_JOINT_SHIFT = 0
@@ -370,7 +368,7 @@ def evaluations(request, N):
     """The likelihood evaluations a request of ``swarm_move`` costs over N particles."""
     if request == FIT_BEHAVIOURS:
         return 3 * N
-    return N if request != BRIGHTNESS and request != DONE else 0
+    return N if request != FIT_BRIGHTNESS and request != DONE else 0
 
 
 @kernel(types.int64(types.int64, _F, types.int64, _F, SWARM_WORK, STATE), cache=True,
@@ -424,9 +422,9 @@ def swarm_move(algo, afsa, phase, X, D, p, R, it, wk, s):
     p, ``pack``; IFA's R: the measurement variance in its adaptive step) over the particles X
     (N D,), whose log-likelihoods wk.ll are up to date; ``afsa`` picks AFSA's arithmetic
     (AFSA_JOINT_SHIFT or AFSA_FISH_SHIFT). Returns what the caller evaluates before it calls
-    phase + 1 (FIT_X, FIT_CANDIDATES, FIT_CENTRES, FIT_BEHAVIOURS, BRIGHTNESS), or DONE.
+    phase + 1 (FIT_X, FIT_CANDIDATES, FIT_CENTRES, FIT_BEHAVIOURS, FIT_BRIGHTNESS), or DONE.
 
-    FA: fitness exp(ll - max ll), move, FIT_X. IFA: BRIGHTNESS, move, FIT_X. BA: propose,
+    FA: fitness exp(ll - max ll), move, FIT_X. IFA: FIT_BRIGHTNESS, move, FIT_X. BA: propose,
     FIT_CANDIDATES, accept. PSO: propose, FIT_X, keep the bests. AFSA: centres, FIT_CENTRES,
     propose, FIT_BEHAVIOURS, select.
 
@@ -442,7 +440,7 @@ def swarm_move(algo, afsa, phase, X, D, p, R, it, wk, s):
         return DONE
     if algo == IFA:
         if phase == 0:
-            return BRIGHTNESS
+            return FIT_BRIGHTNESS
         if phase == 1:
             ifa_move(X, wk.fit, D, p[0], p[1], R, wk.scale, s)
             return FIT_X

@@ -20,11 +20,12 @@ from ..resampling import (SCHEME_CODES, SCHEMES, STEPWISE_EWA, ess_threshold, ew
                           stepwise_ewa_plan)
 from ..rng import STATE
 from ..schema import Key
+from ..codes import BRIGHTNESS, BRIGHTNESS_GAUSSIAN
 from ..models.scalar import NOISE_GAUSSIAN, ModelFn, add_process_noise
 from ._common import DIAG_DISTINCT, drop_unasked, resampled_step, start, weigh_lanes
 from ..diag import flags
 from .keys import ewa_keys, pf_keys
-from .swarm import (AFSA_JOINT_SHIFT, ALGORITHMS, BRIGHTNESS, DONE, FIT_BEHAVIOURS,
+from .swarm import (AFSA_JOINT_SHIFT, ALGORITHMS, DONE, FIT_BEHAVIOURS, FIT_BRIGHTNESS,
                     FIT_CANDIDATES, FIT_CENTRES, FIT_X, SWARM_WORK, evaluations, keys,
                     new_swarm_work, pack, swarm_move)
 from .types import FilterType
@@ -75,14 +76,14 @@ SWARM_OPTIONS = typeof(SwarmOptions(1, 0, 1, 0, 1.0, 0, 0.8, 0.01, 0, 1))
 def predicted_distance_brightness(f, theta, tt, xprev_hat, noise, xn, M, kind, wk, pt):
     """IFA's brightness of the particles xn: d_i, the distance of (h(x_i), x_i) to (y_t,
     f(xhat_{t-1}) + noise mean), each coordinate in units of its noise standard deviation
-    (-2 ll = (y - h)^2 / R); kind 0: exp(-d^2/2), scaled by exp(-M) (ratios and order unchanged),
-    1: 1 / (1 + d). pt (2,) scratch."""
+    (-2 ll = (y - h)^2 / R); kind (codes.BRIGHTNESS) gaussian: exp(-d^2/2), scaled by exp(-M)
+    (ratios and order unchanged), inverse: 1 / (1 + d). pt (2,) scratch."""
     Qv = noise[1] if noise[0] == NOISE_GAUSSIAN else noise[1] / (noise[2] * noise[2])
     qmean = 0.0 if noise[0] == NOISE_GAUSSIAN else noise[1] / noise[2]
     pt[0] = xprev_hat
     f(pt[:1], tt, theta, pt[1:])
     xbar = pt[1] + qmean
-    if kind == 0.0:
+    if kind == BRIGHTNESS_GAUSSIAN:
         for i in range(xn.size):
             e = xn[i] - xbar
             wk.fit[i] = 0.5 * e * e / Qv
@@ -109,7 +110,7 @@ def swarm_fitness(f, h, theta, tt, yt, noise, xprev_hat, xn, p, request, wk, hx,
         _loglik(h, theta, tt, yt, half_inv_R, wk.Xc, hx[:N], wk.llc)
     elif request == FIT_BEHAVIOURS:
         _loglik(h, theta, tt, yt, half_inv_R, wk.C, hx, wk.llC)
-    elif request == BRIGHTNESS:
+    elif request == FIT_BRIGHTNESS:
         predicted_distance_brightness(f, theta, tt, xprev_hat, noise, xn, wk.ll.max(), p[2], wk,
                                       pt)
     return evaluations(request, N)
@@ -262,7 +263,7 @@ IFA_PF = FilterType(
     swarm_pf_keys("ifa", "stepwise_ewa", brightness=Key(
         "choice", "gaussian", "how the distance d (measurement and predicted state, each in units "
         "of its noise standard deviation) becomes a brightness: 'gaussian' exp(-d^2 / 2) or "
-        "'inverse' 1 / (1 + d); ifa2021 leaves it open", choices=("gaussian", "inverse"))),
+        "'inverse' 1 / (1 + d); ifa2021 leaves it open", choices=tuple(BRIGHTNESS))),
     make_run("ifa"), cost="N^2")
 BA_PF = FilterType(
     "ba", "bat-algorithm PF (BA-PF): frequency-tuned velocities, loudness and pulse rate",

@@ -23,6 +23,7 @@ from .._lazy import kernel
 from ..schema import Key
 from ..resampling import SCHEME_CODES, SCHEMES, ess_threshold, resample
 from ..rng import STATE, normal, uniform
+from ..codes import NOISE_GAUSSIAN
 from ..models.scalar import ModelFn, process_logpdf
 from ._common import DIAG_DISTINCT, drop_unasked, floored, resampled_step, start, weigh
 from ..diag import flags
@@ -52,7 +53,7 @@ def increment_logprior(noise, w):
     w^(a-1) exp(-b w) for Gamma noise, evaluated for every real w as MATLAB does for the benchmark's
     even power a - 1 = 2 (so a decrease of the state is not impossible there); the Gaussian
     density for Gaussian noise. A transcription of that code, not a density of the model."""
-    if noise[0] == 0:
+    if noise[0] == NOISE_GAUSSIAN:
         return process_logpdf(noise, w)
     if w == 0.0:
         return -np.inf

@@ -6,27 +6,46 @@ observations (``pose_loglik``) and draws poses consistent with them (``sensor_po
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
-from numba import types
+from numba import typeof, types
 from .._lazy import kernel
 
 from ..angles import wrap
+from ..codes import SENSOR_RANGE, SENSOR_RANGE_BEARING
 from ..rng import STATE, normal, uniform
 
 _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
 _F3 = types.float64[:, :, ::1]
+
+
+class BeaconSensor(NamedTuple):
+    """What the robot's sensor sees of the beacons: those within max_range (m) and half_fov
+    (rad) of its heading, with Gaussian noise of standard deviations sr (range, m) and sb
+    (bearing, rad); a range sensor's one answer is the nearest beacon in range when ``nearest``
+    is 1, else one of them at random."""
+
+    max_range: float
+    half_fov: float
+    sr: float
+    sb: float
+    nearest: int
+
+
+BEACON_SENSOR = typeof(BeaconSensor(1.0, 1.0, 1.0, 1.0, 0))
 _I = types.int64[::1]
 
 LOG_2PI = math.log(2.0 * math.pi)
 
 
-@kernel(types.int64(_F2, types.float64, types.float64, types.float64, types.int64, _F, STATE, _I,
-                  _F2), cache=True)
+@kernel(types.int64(_F2, types.float64, types.float64, types.float64, types.int64, BEACON_SENSOR,
+                    STATE, _I, _F2), cache=True)
 def sense_beacons(bc, x, y, th, sensor, sense, s, ids, zs):
     """Fill the observations seen from (x, y, th) into ids / zs; return how many."""
-    rmax, half_fov, sr, sb, nearest = sense[0], sense[1], sense[2], sense[3], sense[4]
+    rmax, half_fov, sr, sb, nearest = (sense.max_range, sense.half_fov, sense.sr, sense.sb,
+                                       sense.nearest)
     n = 0
     best = -1
     bd = np.inf
@@ -36,9 +55,9 @@ def sense_beacons(bc, x, y, th, sensor, sense, s, ids, zs):
         r = math.hypot(dx, dy)
         if r > rmax:
             continue
-        if sensor == 0:
+        if sensor == SENSOR_RANGE:
             # one answer: the nearest, or uniformly among those in range (reservoir sampling)
-            if nearest > 0.5:
+            if nearest:
                 if r < bd:
                     bd = r
                     best = b
@@ -54,7 +73,7 @@ def sense_beacons(bc, x, y, th, sensor, sense, s, ids, zs):
         zs[n, 0] = r + sr * normal(s)
         zs[n, 1] = wrap(brg + sb * normal(s))
         n += 1
-    if sensor == 0 and best >= 0:
+    if sensor == SENSOR_RANGE and best >= 0:
         ids[0] = best
         zs[0, 0] = math.hypot(bc[best, 0] - x, bc[best, 1] - y) + sr * normal(s)
         zs[0, 1] = 0.0
@@ -73,7 +92,7 @@ def pose_quad(x, y, th, bc, n, ids, zs, sensor, sr, sb):
         dx, dy = bc[b, 0] - x, bc[b, 1] - y
         v = (zs[j, 0] - math.sqrt(dx * dx + dy * dy)) / sr
         acc -= 0.5 * v * v
-        if sensor == 1:
+        if sensor == SENSOR_RANGE_BEARING:
             u = wrap(zs[j, 1] - (math.atan2(dy, dx) - th)) / sb
             acc -= 0.5 * u * u
     return acc
@@ -83,7 +102,7 @@ def pose_quad(x, y, th, bc, n, ids, zs, sensor, sr, sb):
 def loglik_const(n, sensor, sr, sb):
     """The Gaussian normalisation of n observations' log-likelihood."""
     c = -math.log(sr) - 0.5 * LOG_2PI
-    if sensor == 1:
+    if sensor == SENSOR_RANGE_BEARING:
         c += -math.log(sb) - 0.5 * LOG_2PI
     return n * c
 
@@ -111,7 +130,7 @@ def sensor_pose(area, sensor, bc, n, ids, zs, sr, sb, out, s):
     a = math.pi * (2.0 * uniform(s) - 1.0)        # direction from the robot to the beacon
     out[0] = bc[b, 0] - r * math.cos(a)
     out[1] = bc[b, 1] - r * math.sin(a)
-    if sensor == 1:
+    if sensor == SENSOR_RANGE_BEARING:
         out[2] = wrap(a - (zs[j, 1] + sb * normal(s)))
     else:
         out[2] = math.pi * (2.0 * uniform(s) - 1.0)

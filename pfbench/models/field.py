@@ -19,9 +19,11 @@ from numba import types
 from .._lazy import kernel
 
 from ..angles import wrap
+from ..codes import MOTION_ODOMETRY
 from ..rng import STATE, uniform
-from .beacons import sense_beacons
-from .odometry import noisy_odometry
+from .beacons import BEACON_SENSOR, BeaconSensor, sense_beacons
+from .odometry import MOTION_NOISE, MotionNoise, noisy_odometry
+from .pose import InitialBelief
 from .waypoints import next_waypoint
 
 
@@ -31,10 +33,10 @@ class FieldModel:
 
     area (2,): the field is [0, area[0]] x [0, area[1]]; beacons (B, 2); waypoints (K, 2);
     start (3,); drive: [step, max_turn, waypoint radius]; motion: 0 odometry, 1 rot_trans_rot;
-    mnoise (4,): [sigma_trans, sigma_turn, 0, 0] or alpha1..alpha4; sensor: 0 range, 1
-    range_bearing; sense: [max_range, half_fov, sigma_r, sigma_b, nearest (0/1)]; kidnaps (k,)
+    mnoise: the odometry's noise (``MotionNoise``); sensor: 0 range, 1
+    range_bearing; sense: the sensor (``BeaconSensor``); kidnaps (k,)
     steps; kidnap_poses (k, 3) (NaN rows: uniform); bound: the convergence bound; init: the
-    filters' initial belief (see init_particles); score_from, report_step, hold
+    filters' initial belief (``InitialBelief``); score_from, report_step, hold
     (converge_hold_steps): see the keys.
     """
 
@@ -44,14 +46,14 @@ class FieldModel:
     start: np.ndarray
     drive: np.ndarray
     motion: int
-    mnoise: np.ndarray
+    mnoise: MotionNoise
     sensor: int
-    sense: np.ndarray
+    sense: BeaconSensor
     steps: int
     kidnaps: np.ndarray
     kidnap_poses: np.ndarray
     bound: float
-    init: np.ndarray        # [known (0/1), x, y, heading, sd_xy, sd_heading]
+    init: InitialBelief
     score_from: int = 1
     report_step: int = 0
     hold: int = 10          # converge_hold_steps
@@ -78,8 +80,8 @@ _I = types.int64[::1]
 _I2 = types.int64[:, ::1]
 
 
-@kernel(types.void(_F, _F2, _F2, _F, _F, types.int64, _F, types.int64, _F, _I, _F2, STATE, _F2,
-                 _F2, _I, _I2, _F3), cache=True)
+@kernel(types.void(_F, _F2, _F2, _F, _F, types.int64, MOTION_NOISE, types.int64, BEACON_SENSOR, _I,
+                   _F2, STATE, _F2, _F2, _I, _I2, _F3), cache=True)
 def simulate_field(area, bc, wp, start, drive, motion, mnoise, sensor, sense, kid, kpose, s, pose,
                    ctrl, obs_n, obs_id, obs_z):
     step, maxturn, radius = drive[0], drive[1], drive[2]
@@ -92,7 +94,7 @@ def simulate_field(area, bc, wp, start, drive, motion, mnoise, sensor, sense, ki
         iw, lap = next_waypoint(wp, iw, lap, x, y, radius)
         want = wrap(math.atan2(wp[iw, 1] - y, wp[iw, 0] - x) - th)
         turn = max(-maxturn, min(maxturn, want))
-        if motion == 0:           # (T, dtheta): move, then turn
+        if motion == MOTION_ODOMETRY:     # (T, dtheta): move, then turn
             r1, tr, r2 = 0.0, step, turn
         else:                     # turn, move
             r1, tr, r2 = turn, step, 0.0

@@ -23,6 +23,7 @@ from numba.core.types.function_type import CompileResultWAP
 from numba.core.typing.typeof import typeof_impl
 
 from .._lazy import LazyKernel, kernel
+from ..codes import NOISE_GAMMA, NOISE_GAUSSIAN  # noqa: F401 (NOISE_GAMMA: re-exported)
 from ..rng import STATE, add_normal, normal, standard_gamma
 
 MODEL_SIG = types.void(types.float64[::1], types.float64, types.float64[::1], types.float64[::1])
@@ -60,8 +61,6 @@ def model_function(fn):
     None stays None."""
     return fn if fn is None or isinstance(fn, ModelFunction) else ModelFunction(fn)
 
-NOISE_GAUSSIAN = 0
-NOISE_GAMMA = 1
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,7 @@ from numba import types
 from .._lazy import kernel
 
 from ..angles import wrap
+from ..codes import SLAM_ODOMETRY, SLAM_STEERED
 from ..rng import STATE, normal
 from .waypoints import next_waypoint
 
@@ -49,7 +50,7 @@ class SlamModel:
     noise: np.ndarray
     sensor: np.ndarray
     steps: int
-    motion: int = 0
+    motion: int = SLAM_STEERED     # codes.SLAM_STEERED or SLAM_ODOMETRY
 
 
 
@@ -178,7 +179,7 @@ def simulate_odometry(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, o
 def simulate(model: SlamModel, state: np.ndarray) -> tuple[CourseData, CourseData]:
     """Simulate one trial with the model's vehicle; returns (truth, data), the same object
     (filters use only ctrl and the observations; metrics use pose and the landmarks)."""
-    return run_simulator(simulate_odometry if model.motion == 1 else simulate_course, model, state)
+    return run_simulator(simulate_odometry if model.motion == SLAM_ODOMETRY else simulate_course, model, state)
 
 
 def run_simulator(simulator, model: SlamModel, state: np.ndarray) -> tuple[CourseData, CourseData]:

@@ -40,7 +40,11 @@ from pathlib import Path
 
 import numpy as np
 
+from ..codes import FIELD_MOTIONS, SENSORS
+from ..models.beacons import BeaconSensor
 from ..models.field import FieldData, FieldModel, simulate  # noqa: F401  (this module's simulate)
+from ..models.odometry import MotionNoise
+from ..models.pose import InitialBelief
 from ..schema import ConfigError, Key
 from .worlds import load_world
 
@@ -128,9 +132,9 @@ def resolve(params: dict, base_dir) -> dict:
 
 def build(p) -> FieldModel:
     if p["motion"] == "odometry":
-        mnoise = np.array([p["trans_noise_m"], p["turn_noise_deg"] * DEG, 0.0, 0.0])
+        mnoise = MotionNoise.additive(p["trans_noise_m"], p["turn_noise_deg"] * DEG)
     else:
-        mnoise = np.asarray(p["alphas"], dtype=np.float64)
+        mnoise = MotionNoise.rot_trans_rot(*p["alphas"])
     kid = np.asarray(sorted(p["kidnap_steps"]), dtype=np.int64)
     if p["kidnap_poses"]:
         kp = np.asarray(p["kidnap_poses"], dtype=np.float64).reshape(-1, 3)
@@ -142,13 +146,15 @@ def build(p) -> FieldModel:
         np.asarray(p["waypoints"], dtype=np.float64),
         np.asarray(p["start"], dtype=np.float64) * np.array([1.0, 1.0, DEG]),
         np.array([p["step_m"], p["max_turn_deg"] * DEG, p["waypoint_radius_m"]]),
-        0 if p["motion"] == "odometry" else 1, mnoise,
-        0 if p["sensor"] == "range" else 1,
-        np.array([p["max_range_m"], 0.5 * p["field_of_view_deg"] * DEG, p["range_noise_m"],
-                  p["bearing_noise_deg"] * DEG, 1.0 if p["answer"] == "nearest" else 0.0]),
+        FIELD_MOTIONS[p["motion"]], mnoise, SENSORS[p["sensor"]],
+        BeaconSensor(max_range=float(p["max_range_m"]),
+                     half_fov=float(0.5 * p["field_of_view_deg"] * DEG),
+                     sr=float(p["range_noise_m"]), sb=float(p["bearing_noise_deg"] * DEG),
+                     nearest=int(p["answer"] == "nearest")),
         int(p["steps"]), kid, kp, float(p["converge_bound_m"]),
-        np.array([1.0 if p["initial"] == "known" else 0.0, p["start"][0], p["start"][1],
-                  p["start"][2] * DEG, p["initial_std_m"], p["initial_std_deg"] * DEG]),
+        InitialBelief(known=int(p["initial"] == "known"), x=float(p["start"][0]),
+                      y=float(p["start"][1]), heading=float(p["start"][2] * DEG),
+                      sd_m=float(p["initial_std_m"]), sd_rad=float(p["initial_std_deg"] * DEG)),
         int(p["score_from"]),
         int(p["report_step"]), int(p["converge_hold_steps"]))
 

@@ -16,6 +16,7 @@ import math
 
 import numpy as np
 
+from ..codes import SLAM_ODOMETRY
 from ..models.slam import CourseData, SlamModel, simulate  # noqa: F401  (this module's simulate)
 from ..schema import Key
 from .worlds import resolve_course
@@ -76,7 +77,7 @@ def build(p) -> SlamModel:
         np.array([p["speed_mps"], p["dt_s"], 1.0, p["max_turn_dps"] * deg, 0.0,
                   p["waypoint_radius_m"], float(p["laps"])]),
         noise, np.array([p["max_range_m"], 0.5 * p["field_of_view_deg"] * deg,
-                         float(p["obs_every"])]), int(p["steps"]), motion=1)
+                         float(p["obs_every"])]), int(p["steps"]), motion=SLAM_ODOMETRY)
 
 
 

@@ -1,0 +1,60 @@
+"""The numeric codes of pfbench's categorical choices, each defined once: the kernels compare with
+these names (``o.reset == RESET_AUGMENTED``, never ``o.reset == 3``), and the mappings from a
+config's names to codes (``RESET``, ``SCHEME_CODES``, ...) are built from them. The numbers are
+what the jitted kernels branch on; numba reads these module globals as compile-time constants.
+"""
+from __future__ import annotations
+
+# Resampling schemes (pfbench.resampling.SCHEMES), then the stepwise EWA (ifa2021; the swarm PFs
+# and FastSLAM) and FastSLAM's directional resampling (afsa2014), which extend the numbering.
+SCHEME_MULTINOMIAL = 0
+SCHEME_SYSTEMATIC = 1
+SCHEME_STRATIFIED = 2
+SCHEME_RESIDUAL = 3
+STEPWISE_EWA = 4
+DIRECTIONAL = 5
+SCHEME_CODES = {"multinomial": SCHEME_MULTINOMIAL, "systematic": SCHEME_SYSTEMATIC,
+                "stratified": SCHEME_STRATIFIED, "residual": SCHEME_RESIDUAL}
+
+# MCL's particle injection (key ``reset``).
+RESET_NONE = 0
+RESET_SRL = 1
+RESET_ASRL = 2
+RESET_AUGMENTED = 3
+RESET = {"none": RESET_NONE, "srl": RESET_SRL, "asrl": RESET_ASRL, "augmented": RESET_AUGMENTED}
+
+# The field SSPF's resampling trigger (key ``resample``).
+TRIGGER_ALWAYS = 0
+TRIGGER_NEFF = 1
+TRIGGER_WEIGHT_CHANGE = 2
+TRIGGERS = {"always": TRIGGER_ALWAYS, "neff": TRIGGER_NEFF, "weight_change": TRIGGER_WEIGHT_CHANGE}
+
+# The swarm algorithms, one numbering for every kernel that moves particles with them.
+FA = 0
+IFA = 1
+BA = 2
+PSO = 3
+AFSA = 4
+NO_SWARM = -1
+ALGORITHMS = {"fa": FA, "ifa": IFA, "ba": BA, "pso": PSO, "afsa": AFSA}
+
+# The beacon field's motion model (scenario key ``motion``) and sensor (``sensor``).
+MOTION_ODOMETRY = 0         # sspf2008's (T, dtheta) with additive Gaussian noise
+MOTION_ROT_TRANS_ROT = 1    # asrl2008's rot-trans-rot, noise growing with the motion
+FIELD_MOTIONS = {"odometry": MOTION_ODOMETRY, "rot_trans_rot": MOTION_ROT_TRANS_ROT}
+SENSOR_RANGE = 0
+SENSOR_RANGE_BEARING = 1
+SENSORS = {"range": SENSOR_RANGE, "range_bearing": SENSOR_RANGE_BEARING}
+
+# A SLAM model's vehicle: the steered vehicle of the waypoint course, or odometry.
+SLAM_STEERED = 0
+SLAM_ODOMETRY = 1
+
+# A scalar model's process noise (ScalarModel.noise[0]).
+NOISE_GAUSSIAN = 0
+NOISE_GAMMA = 1
+
+# IFA's brightness of a particle from its distance d (swarm PFs' key ``brightness``).
+BRIGHTNESS_GAUSSIAN = 0     # exp(-d^2 / 2)
+BRIGHTNESS_INVERSE = 1      # 1 / (1 + d)
+BRIGHTNESS = {"gaussian": BRIGHTNESS_GAUSSIAN, "inverse": BRIGHTNESS_INVERSE}

@@ -1,0 +1,230 @@
+"""Categorical choices are named constants defined once (pfbench.codes), and the kernels compare
+with those names, never with a bare number; the localization and SLAM kernels take their
+parameter groups as named records, built in one place from a filter run's keys."""
+from __future__ import annotations
+
+import ast
+import math
+from pathlib import Path
+from statistics import NormalDist
+
+import pytest
+
+from pfbench import codes
+
+from .conftest import ROOT
+
+# Names a kernel gives a categorical code it branches on (a function's argument or a local).
+CATEGORICAL = {"motion", "sensor", "scheme", "reset", "refine", "trigger", "kind", "algo", "assoc"}
+ARRAY_FIELDS = {"shape", "ndim", "size"}     # an array's, not a code
+SCANNED = ("pfbench/filters", "pfbench/models", "pfbench/resampling.py")
+
+
+def _files(where: str) -> list[Path]:
+    path = ROOT / where
+    return sorted(path.rglob("*.py")) if path.is_dir() else [path]
+
+
+def _is_number(node) -> bool:
+    return (isinstance(node, ast.Constant) and isinstance(node.value, (int, float))
+            and not isinstance(node.value, bool))
+
+
+def _is_code(node) -> bool:
+    """An options field (``o.reset``, ``model.motion``: an attribute of a name) or a name that
+    holds a categorical code."""
+    if isinstance(node, ast.Subscript) and _is_number(node.slice):     # noise[0], a slot
+        return isinstance(node.value, ast.Name)
+    return ((isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
+             and node.attr not in ARRAY_FIELDS)
+            or (isinstance(node, ast.Name) and node.id in CATEGORICAL))
+
+
+def bare_code_comparisons(text: str, name: str = "<source>") -> list[str]:
+    """'file:line: comparison' for each ==, != or ``in`` of an options field (or a categorical
+    code's name) with a bare number, or a subscript of one (``noise[0] == 0``)."""
+    found = []
+    for node in ast.walk(ast.parse(text)):
+        if not isinstance(node, ast.Compare):
+            continue
+        sides = [node.left, *node.comparators]
+        for op, left, right in zip(node.ops, sides, sides[1:]):
+            if not isinstance(op, (ast.Eq, ast.NotEq, ast.In, ast.NotIn)):
+                continue
+            for a, b in ((left, right), (right, left)):
+                numbers = b.elts if isinstance(b, (ast.Tuple, ast.List, ast.Set)) else [b]
+                if _is_code(a) and any(_is_number(x) for x in numbers):
+                    found.append(f"{name}:{node.lineno}: {ast.unparse(node)}")
+    return found
+
+
+def test_no_kernel_compares_a_code_with_a_bare_number():
+    found = []
+    for where in SCANNED:
+        for path in _files(where):
+            found += bare_code_comparisons(path.read_text(encoding="utf-8"),
+                                           path.relative_to(ROOT).as_posix())
+    assert not found, "compare with a constant of pfbench.codes:\n" + "\n".join(found)
+
+
+@pytest.mark.parametrize("source, flagged", [
+    ("if o.reset == 3:\n    pass", 1),
+    ("x = 1 if o.scheme != 1 else 0", 1),
+    ("ok = 0 == o.trigger or (o.trigger == 1 and e < t)", 2),
+    ("if motion == 0:\n    pass", 1),
+    ("if sensor in (0, 1):\n    pass", 1),
+    ("if o.reset == RESET_AUGMENTED and m > 0:\n    pass", 0),
+    ("if o.iters > 0 and n == 0:\n    pass", 0),       # a count, not a code
+    ("if motion == MOTION_ODOMETRY:\n    pass", 0),
+    ("if noise[0] == 0:\n    pass", 1),
+    ("if w.size == 0 or first[t] == 0:\n    pass", 0),
+])
+def test_the_scan_finds_bare_codes(source, flagged):
+    assert len(bare_code_comparisons(source)) == flagged
+
+
+def _groups():
+    return [v for k, v in vars(codes).items() if k.isupper() and isinstance(v, dict)]
+
+
+def test_each_mapping_is_made_of_the_named_constants_and_codes_differ():
+    named = {v for k, v in vars(codes).items() if k.isupper() and isinstance(v, int)}
+    for mapping in _groups():
+        assert set(mapping.values()) <= named
+        assert len(set(mapping.values())) == len(mapping)
+    schemes = [codes.SCHEME_MULTINOMIAL, codes.SCHEME_SYSTEMATIC, codes.SCHEME_STRATIFIED,
+               codes.SCHEME_RESIDUAL, codes.STEPWISE_EWA, codes.DIRECTIONAL]
+    assert len(set(schemes)) == len(schemes)
+    assert codes.NO_SWARM not in codes.ALGORITHMS.values()
+
+
+def test_the_modules_use_the_one_definition_and_the_config_names_it():
+    from pfbench import resampling
+    from pfbench.filters import mcl, sspf_field, swarm
+    from pfbench.models import scalar
+    from pfbench.scenarios import beacon_field
+
+    assert resampling.SCHEME_CODES is codes.SCHEME_CODES
+    assert tuple(codes.SCHEME_CODES) == tuple(resampling.SCHEMES)
+    assert resampling.STEPWISE_EWA is codes.STEPWISE_EWA
+    assert mcl.RESET is codes.RESET
+    assert sspf_field.TRIGGERS is codes.TRIGGERS
+    assert swarm.ALGORITHMS is codes.ALGORITHMS
+    assert scalar.NOISE_GAUSSIAN == codes.NOISE_GAUSSIAN
+    # every choice a config can make has its code, and no code lacks a choice
+    assert set(mcl.mcl_keys()["reset"].choices) == set(codes.RESET)
+    assert set(sspf_field.sspf_field_keys()["resample"].choices) == set(codes.TRIGGERS)
+    keys = beacon_field.SCHEMA
+    assert set(keys["motion"].choices) == set(codes.FIELD_MOTIONS)
+    assert set(keys["sensor"].choices) == set(codes.SENSORS)
+
+
+MCL_KEYS = {"srl_fraction": 0.1, "srl_threshold": 0.02, "asrl_mu": 0.8, "asrl_pt": 0.3,
+            "alpha_slow": 0.01, "alpha_fast": 0.2, "kld_epsilon": 0.05, "kld_delta": 0.01,
+            "kld_bin_m": 0.5, "kld_bin_deg": 10.0, "kld_min": 40}
+
+
+def test_mcl_parameters_are_named_records_built_from_the_keys():
+    from pfbench.filters.mcl import KldParams, ResetParams, kld_params, reset_params
+
+    rp = reset_params(MCL_KEYS)
+    assert isinstance(rp, ResetParams)
+    assert rp._asdict() == {k: MCL_KEYS[k] for k in ResetParams._fields}
+    assert all(type(v) is float for v in rp)
+    kp = kld_params(MCL_KEYS, 30)
+    assert isinstance(kp, KldParams) and all(type(v) is float for v in kp)
+    assert kp.epsilon == 0.05 and kp.z == NormalDist().inv_cdf(0.99)
+    assert kp.bin_m == 0.5 and kp.bin_rad == math.radians(10.0)
+    assert kp.n_min == 30.0         # kld_min, at most the particles
+    assert kld_params(MCL_KEYS, 100).n_min == 40.0
+
+
+def test_sspf_and_fastslam_parameters_are_named_records():
+    from pfbench.filters.fastslam import DirectionalNoise, directional_noise
+    from pfbench.filters.sspf_field import PoseStd, SigmaParams, sspf_params
+
+    up, init, jit = sspf_params({"alpha": 0.5, "beta": 2.0, "kappa": 1.0, "init_std_m": 1.5,
+                                 "init_std_deg": 30.0, "jitter_m": 0.05, "jitter_deg": 1.0})
+    assert up == SigmaParams(alpha=0.5, beta=2.0, kappa=1.0)
+    assert init == PoseStd(m=1.5, rad=math.radians(30.0))
+    assert jit == PoseStd(m=0.05, rad=math.radians(1.0))
+    dn = directional_noise({"directional_noise_m": 0.2, "directional_noise_deg": 3.0})
+    assert dn == DirectionalNoise(m=0.2, rad=3.0 * (math.pi / 180.0))
+
+
+def test_the_kernels_refuse_a_positional_array_for_a_record():
+    """The records' types are in the kernels' signatures: a positional float array in their
+    place is a typing error, not a silent misreading of its slots."""
+    import numpy as np
+
+    from pfbench.filters.mcl import kld_bins
+
+    area = np.array([10.0, 10.0])
+    with pytest.raises(TypeError):
+        kld_bins(area, np.array([0.05, 2.3, 0.5, 0.17, 40.0]))
+
+
+def test_the_kernels_signatures_name_their_records():
+    """The trial kernels take their parameter groups, observations and snapshots as records:
+    fewer positional arguments, none of them a float array read by slot."""
+    from pfbench.filters import fastslam, mcl, sspf_field
+    from pfbench.models.observations import OBSERVATIONS
+    from pfbench.models.odometry import MOTION_NOISE
+    from pfbench.models.pose import INITIAL_BELIEF, SNAPSHOTS
+
+    wanted = {
+        mcl.MCL_SIG: {OBSERVATIONS, MOTION_NOISE, mcl.RESET_PARAMS, mcl.KLD_PARAMS, INITIAL_BELIEF,
+                      SNAPSHOTS},
+        sspf_field.SSPF_SIG: {OBSERVATIONS, MOTION_NOISE, sspf_field.SIGMA_PARAMS,
+                              sspf_field.POSE_STD, INITIAL_BELIEF, SNAPSHOTS},
+        fastslam.FASTSLAM_SIG: {OBSERVATIONS, fastslam.DIRECTIONAL_NOISE},
+    }
+    for sig, records in wanted.items():
+        assert records <= set(sig.args)
+        assert len(sig.args) <= 17
+
+
+def test_observations_and_snapshots_are_records_of_the_trials_arrays():
+    import numpy as np
+
+    from pfbench.models.observations import Observations, observations
+    from pfbench.models.pose import Snapshots, snapshot_arrays
+
+    class Data:
+        obs_n = np.zeros(3, dtype=np.int64)
+        obs_id = np.zeros((3, 2), dtype=np.int64)
+        obs_z = np.zeros((3, 2, 2))
+
+    obs = observations(Data)
+    assert isinstance(obs, Observations)
+    assert obs.n is Data.obs_n and obs.ids is Data.obs_id and obs.z is Data.obs_z
+    snap = snapshot_arrays([5, 0, 5], 4)
+    assert isinstance(snap, Snapshots)
+    steps, poses, counts = snap         # what a filter's traces hold: (steps, particles, counts)
+    assert steps.tolist() == [0, 5] and poses.shape == (2, 4, 3) and counts.shape == (2,)
+
+
+@pytest.mark.parametrize("motion, sensor, answer, initial", [
+    ("odometry", "range", "random", "unknown"),
+    ("rot_trans_rot", "range_bearing", "nearest", "known"),
+])
+def test_the_beacon_field_builds_its_model_records(motion, sensor, answer, initial):
+    from pfbench.models.beacons import BeaconSensor
+    from pfbench.models.odometry import MotionNoise
+    from pfbench.models.pose import InitialBelief
+    from pfbench.scenarios import beacon_field as bf
+
+    p = {k: v.default for k, v in bf.SCHEMA.items()}
+    p.update(world="worlds/beacon_field.yaml", motion=motion, sensor=sensor, answer=answer,
+             initial=initial)
+    m = bf.build(bf.resolve(p, ROOT / "configs"))
+    assert m.motion == codes.FIELD_MOTIONS[motion] and m.sensor == codes.SENSORS[sensor]
+    assert isinstance(m.mnoise, MotionNoise) and isinstance(m.sense, BeaconSensor)
+    assert isinstance(m.init, InitialBelief)
+    assert m.sense.nearest == (answer == "nearest") and m.init.known == (initial == "known")
+    if motion == "odometry":
+        assert m.mnoise == MotionNoise.additive(p["trans_noise_m"],
+                                                p["turn_noise_deg"] * bf.DEG)
+    else:
+        assert m.mnoise[2:] == tuple(p["alphas"]) and m.mnoise[:2] == (0.0, 0.0)
+    assert m.sense.sr == p["range_noise_m"]
