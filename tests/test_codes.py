@@ -228,3 +228,101 @@ def test_the_beacon_field_builds_its_model_records(motion, sensor, answer, initi
     else:
         assert m.mnoise[2:] == tuple(p["alphas"]) and m.mnoise[:2] == (0.0, 0.0)
     assert m.sense.sr == p["range_noise_m"]
+
+
+SWARM_KEYS = {"beta0": 1.5, "gamma": 0.25, "alpha": 0.2, "brightness": "inverse",
+              "freq_min": 0.1, "freq_max": 2.0, "loudness": 0.8, "pulse_rate": 0.4,
+              "loudness_decay": 0.95, "pulse_growth": 0.7, "inertia": 0.6, "c1": 1.25,
+              "c2": 1.75, "visual": 2.5, "step": 0.3, "crowding": 0.618, "tries": 4,
+              "greedy": False}
+
+
+@pytest.mark.parametrize("algo, read", [
+    ("fa", {"beta0", "gamma", "alpha"}),
+    ("ifa", {"beta0", "gamma", "brightness"}),
+    ("ba", {"freq_min", "freq_max", "loudness", "pulse_rate", "loudness_decay", "pulse_growth"}),
+    ("pso", {"inertia", "c1", "c2"}),
+    ("afsa", {"visual", "step", "crowding", "tries", "greedy"}),
+    ("none", set()),
+])
+def test_swarm_parameters_are_one_named_record_built_from_the_keys(algo, read):
+    """Each algorithm's keys land in the field of the same name, as floats; the fields it does
+    not read are 0.0."""
+    from pfbench.filters.swarm import SWARM_PARAMS, SwarmParams, swarm_params
+
+    sp = swarm_params(algo, SWARM_KEYS)
+    assert isinstance(sp, SwarmParams) and all(type(v) is float for v in sp)
+    want = {k: 0.0 for k in SwarmParams._fields}
+    want.update({k: float(SWARM_KEYS[k]) for k in read - {"brightness"}})
+    if "brightness" in read:
+        want["brightness"] = float(codes.BRIGHTNESS_INVERSE)
+    assert sp._asdict() == want
+    assert SWARM_PARAMS.count == len(SwarmParams._fields)
+    # a filter without IFA's brightness key (FastSLAM's IFA) keeps the field's 0.0
+    no_brightness = {k: v for k, v in SWARM_KEYS.items() if k != "brightness"}
+    assert swarm_params("ifa", no_brightness).brightness == 0.0
+
+
+def index_reads(text: str, names: set[str], name: str = "<source>") -> list[str]:
+    """'file:line: read' for each subscript of a name in ``names`` with a number (``p[2]``)."""
+    return [f"{name}:{node.lineno}: {ast.unparse(node)}" for node in ast.walk(ast.parse(text))
+            if isinstance(node, ast.Subscript) and isinstance(node.value, ast.Name)
+            and node.value.id in names and _is_number(node.slice)]
+
+
+SWARM_ARGS = {"p", "sp"}        # the swarm parameters' argument in the swarm kernels
+
+
+def test_no_kernel_reads_a_swarm_parameter_by_slot():
+    """The swarm's parameters (``p`` in the swarm moves and the scalar swarm PFs, ``sp`` in
+    FastSLAM) are read by name: ``p.visual``, never ``p[0]``."""
+    found = []
+    for name in ("swarm.py", "swarm_pf.py", "fastslam.py"):
+        path = ROOT / "pfbench/filters" / name
+        found += index_reads(path.read_text(encoding="utf-8"), SWARM_ARGS,
+                             path.relative_to(ROOT).as_posix())
+    assert not found, "read the SwarmParams field by name:\n" + "\n".join(found)
+
+
+@pytest.mark.parametrize("source, flagged", [
+    ("x = p[2] + sp[0] * q[1]", 2),
+    ("afsa_select(X, wk.ll, wk.C, wk.llC, D, int(p[4]))", 1),
+    ("wk.A[:] = p.loudness", 0),
+    ("y = p[i]", 0),            # an index that is a variable: not a slot of a record
+])
+def test_the_scan_finds_slot_reads(source, flagged):
+    assert len(index_reads(source, SWARM_ARGS)) == flagged
+
+
+def _declared(fn) -> list:
+    sigs = fn._sigs
+    return list(sigs) if isinstance(sigs, (list, tuple)) else [sigs]
+
+
+def test_the_swarm_kernels_take_the_record_and_refuse_an_array():
+    """The swarm record's type is in the declared signatures of the dispatcher, the moves'
+    callers and both swarm trial kernels, at the argument that carries it; a positional float
+    array in its place is a typing error."""
+    import inspect
+
+    import numpy as np
+
+    from pfbench.filters import fastslam, swarm, swarm_pf
+    from pfbench.rng import state_from_seed
+
+    assert swarm.SWARM_PARAMS in swarm_pf.SWARM_SIG.args
+    assert swarm.SWARM_PARAMS in fastslam.FASTSLAM_SIG.args
+    for fn in (swarm.swarm_move, swarm.afsa_joint_shift, swarm.afsa_fish_shift,
+               swarm_pf.swarm_refine, swarm_pf.swarm_fitness, swarm_pf.swarm_pf_kernel,
+               fastslam.refine_poses, fastslam.fastslam_kernel):
+        names = list(inspect.signature(fn).parameters)
+        slots = [i for i, n in enumerate(names) if n in SWARM_ARGS]
+        assert len(slots) == 1, fn.__name__
+        for sig in _declared(fn):
+            assert sig.args[slots[0]] == swarm.SWARM_PARAMS, fn.__name__
+    N, D = 4, 1
+    wk = swarm.new_swarm_work(N, D)
+    s = state_from_seed(np.random.SeedSequence(1))
+    with pytest.raises(TypeError):
+        swarm.swarm_move(swarm.FA, 0, 0, np.zeros(N * D), D, np.array([1.0, 1.0, 0.2]), 1.0, 0,
+                         wk, s)

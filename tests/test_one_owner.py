@@ -345,9 +345,8 @@ def test_swarm_move_asks_for_what_it_needs(algo, afsa):
         q = pts.reshape(-1, D)
         return -0.5 * (q * q).sum(axis=1)
 
-    p = {0: [1.0, 1.0, 0.2], 1: [1.0, 1.0], 2: [0.0, 1.0, 1.0, 0.5, 0.9, 0.9],
-         3: [0.7, 1.5, 1.5], 4: [1.0, 0.5, 0.618, 5.0, 1.0]}[algo]
-    p = np.array(p)
+    name = {v: k for k, v in sw.ALGORITHMS.items()}[algo]
+    p = sw.swarm_params(name, {k: key.default for k, key in sw.keys(name).items()})
     s = state_from_seed(np.random.SeedSequence(1))
     wk.ll[:] = loglik(X)
     for it in range(3):

@@ -35,8 +35,9 @@ from ._common import DIAG_DISTINCT, DIAG_DIVERSITY, DIAG_MAP_TRACE, drop_unasked
 from ..diag import flags
 from .keys import ewa_keys, pf_keys
 from .swarm import (AFSA, AFSA_FISH_SHIFT, ALGORITHMS, DONE, FIT_BEHAVIOURS, FIT_BRIGHTNESS,
-                    FIT_CANDIDATES, FIT_CENTRES, FIT_X, NO_SWARM, SWARM_WORK, afsa_fish_shift,
-                    afsa_joint_shift, evaluations, keys, new_swarm_work, pack, swarm_move)
+                    FIT_CANDIDATES, FIT_CENTRES, FIT_X, NO_SWARM, SWARM_PARAMS, SWARM_WORK,
+                    afsa_fish_shift, afsa_joint_shift, evaluations, keys, new_swarm_work,
+                    swarm_move, swarm_params)
 from .types import FilterType
 from .weights import divide, normalise, shifted_exp_less
 
@@ -703,10 +704,10 @@ def pose_units(P, wk, inward):
                 P[i, d] = wk.mean[d] + wk.scale[d] * wk.Xu[3 * i + d]
 
 
-@kernel(types.int64(PARTICLES, _F2, *_OBS, OPTIONS, _F, SWARM_WORK, STATE), cache=True)
+@kernel(types.int64(PARTICLES, _F2, *_OBS, OPTIONS, SWARM_PARAMS, SWARM_WORK, STATE), cache=True)
 def refine_poses(ps, pc, ids, zs, n, o, sp, wk, s):
     """The swarm refinement of the predicted poses (ifa2021, afsa2014): ``o.iters`` iterations of
-    the swarm algorithm ``o.refine`` (parameters sp, swarm.pack; ``swarm.swarm_move``), the
+    the swarm algorithm ``o.refine`` (parameters sp, a swarm.SwarmParams; ``swarm.swarm_move``), the
     fitness of a pose its observations' likelihood under the particle's own map
     (``pose_fitness``); AFSA moves the poses in units of the predicted cloud's spread (visual and
     step too). Returns the likelihood evaluations."""
@@ -933,8 +934,8 @@ def resampled_diversity(ps, o, div_k):
 
 
 FASTSLAM_SIG = types.int64(
-    _F2, OBSERVATIONS, OPTIONS, _F, _F, DIRECTIONAL_NOISE, _F2, STATE, _F2, _F, _I, _F2, _I, _F, _F,
-    _F2, _F)
+    _F2, OBSERVATIONS, OPTIONS, _F, SWARM_PARAMS, DIRECTIONAL_NOISE, _F2, STATE, _F2, _F, _I, _F2,
+    _I, _F, _F, _F2, _F)
 
 
 @kernel(FASTSLAM_SIG, cache=True)
@@ -946,8 +947,8 @@ def fastslam_kernel(ctrl, obs, o, start, sp, dnoise, lm_true, s, est, ess,
     and lm_seen (M,) the final map. Returns the number of observation steps whose weights all
     underflowed.
 
-    sp : the swarm's parameters (swarm.pack); dnoise : the noise of directional resampling's
-        copies (``DirectionalNoise``) (see ``directional_resample``)
+    sp : the swarm's parameters (``swarm.SwarmParams``); dnoise : the noise of directional
+        resampling's copies (``DirectionalNoise``) (see ``directional_resample``)
     assoc_stats (5,) : [associations, wrong associations (the slot was started from another true
         landmark), observations dropped, landmarks started] summed over particles and
         observations, and the final map's duplicates (see ``final_map``)
@@ -1107,7 +1108,7 @@ def run(model, data, params, particles, state, diag=True):
     out["lm_trace"] = np.empty(K)
     full = o.refine == AFSA or o.scheme == DIRECTIONAL
     out["underflow_steps"] = (fastslam_kernel if full else fastslam_kernel_without_afsa2014)(
-        data.ctrl, observations(data), o, model.start, pack(params["refine"], params),
+        data.ctrl, observations(data), o, model.start, swarm_params(params["refine"], params),
         dnoise, np.ascontiguousarray(model.landmarks, dtype=np.float64), state, out["pose"],
         out["ess"], out["resampled"], out["lm_est"], out["lm_seen"], evals, stats, div,
         out["lm_trace"])

@@ -71,28 +71,54 @@ def keys(algo: str, unit: str = "state units", prefix: bool = False) -> dict:
     return out
 
 
-def pack(algo: str, params) -> np.ndarray:
-    """The parameter array p the kernels read for swarm algorithm ``algo``:
-    fa [beta0, gamma, alpha]; ifa [beta0, gamma] and, where the filter has the key, brightness
-    (codes.BRIGHTNESS); ba [fmin, fmax, A0, r0, decay, growth]; pso [w, c1, c2];
-    afsa [visual, step, delta, tries, greedy]."""
-    if algo == "fa":
-        vals = (params["beta0"], params["gamma"], params["alpha"])
-    elif algo == "ifa":
-        vals = (params["beta0"], params["gamma"])
-        if "brightness" in params:
-            vals += (float(BRIGHTNESS[params["brightness"]]),)
-    elif algo == "ba":
-        vals = (params["freq_min"], params["freq_max"], params["loudness"], params["pulse_rate"],
-                params["loudness_decay"], params["pulse_growth"])
-    elif algo == "pso":
-        vals = (params["inertia"], params["c1"], params["c2"])
-    elif algo == "afsa":
-        vals = (params["visual"], params["step"], params["crowding"], float(params["tries"]),
-                float(params["greedy"]))
-    else:
-        vals = (0.0,)
-    return np.array(vals, dtype=np.float64)
+class SwarmParams(NamedTuple):
+    """The swarm algorithms' parameters, one field per config key (``keys``); the fields of the
+    algorithms a filter does not run are 0.0. FA: beta0, gamma, alpha; IFA: beta0, gamma and
+    brightness (its kind, a code of codes.BRIGHTNESS, as a float); BA: freq_min, freq_max,
+    loudness (A0), pulse_rate (r0), loudness_decay, pulse_growth; PSO: inertia (w), c1, c2; AFSA:
+    visual, step, crowding (delta), tries and greedy (0 or 1), the last two as floats."""
+
+    beta0: float
+    gamma: float
+    alpha: float
+    brightness: float
+    freq_min: float
+    freq_max: float
+    loudness: float
+    pulse_rate: float
+    loudness_decay: float
+    pulse_growth: float
+    inertia: float
+    c1: float
+    c2: float
+    visual: float
+    step: float
+    crowding: float
+    tries: float
+    greedy: float
+
+
+SWARM_PARAMS = types.NamedUniTuple(types.float64, len(SwarmParams._fields), SwarmParams)
+
+# The config keys each algorithm reads into its fields (IFA's brightness where the filter has it).
+_READS = {"fa": ("beta0", "gamma", "alpha"), "ifa": ("beta0", "gamma"),
+          "ba": ("freq_min", "freq_max", "loudness", "pulse_rate", "loudness_decay",
+                 "pulse_growth"),
+          "pso": ("inertia", "c1", "c2"),
+          "afsa": ("visual", "step", "crowding", "tries", "greedy")}
+
+
+def swarm_params(algo: str, params) -> SwarmParams:
+    """The parameters (``SwarmParams``) the kernels read for swarm algorithm ``algo`` from a
+    filter run's keys ``params``; every field ``algo`` does not read is 0.0 (all of them for an
+    algorithm that is not a swarm's, e.g. FastSLAM's ``refine: none``)."""
+    vals = dict.fromkeys(SwarmParams._fields, 0.0)
+    for key in _READS.get(algo, ()):
+        vals[key] = float(params[key])
+    if algo == "ifa" and "brightness" in params:
+        vals["brightness"] = float(BRIGHTNESS[params["brightness"]])
+    return SwarmParams(**vals)
+
 
 _F = types.float64[::1]
 _I = types.int64[::1]
@@ -371,7 +397,7 @@ def evaluations(request, N):
     return N if request != FIT_BRIGHTNESS and request != DONE else 0
 
 
-@kernel(types.int64(types.int64, _F, types.int64, _F, SWARM_WORK, STATE), cache=True,
+@kernel(types.int64(types.int64, _F, types.int64, SWARM_PARAMS, SWARM_WORK, STATE), cache=True,
         inline="always")
 def afsa_joint_shift(phase, X, D, p, wk, s):
     """AFSA's iteration with one shift for the fish and their centres, the largest of both
@@ -379,20 +405,21 @@ def afsa_joint_shift(phase, X, D, p, wk, s):
     fitness overflows), and the choice among the behaviours on the log-likelihoods (exact where
     exp(ll - M) would underflow to a tie at 0): the scalar swarm PFs."""
     if phase == 0:
-        afsa_centres(X, wk.fit, D, p[0], wk.Xc, wk.nf)
+        afsa_centres(X, wk.fit, D, p.visual, wk.Xc, wk.nf)
         return FIT_CENTRES
     if phase == 1:
         M = wk.ll.max()
         M = max(M, wk.llc.max())
         shifted_exp(wk.ll, M, wk.fit)
         shifted_exp(wk.llc, M, wk.fitc)
-        afsa_propose(X, wk.fit, wk.Xc, wk.fitc, wk.nf, D, p[0], p[1], p[2], int(p[3]), s, wk.C)
+        afsa_propose(X, wk.fit, wk.Xc, wk.fitc, wk.nf, D, p.visual, p.step, p.crowding,
+                     int(p.tries), s, wk.C)
         return FIT_BEHAVIOURS
-    afsa_select(X, wk.ll, wk.C, wk.llC, D, int(p[4]))
+    afsa_select(X, wk.ll, wk.C, wk.llC, D, int(p.greedy))
     return DONE
 
 
-@kernel(types.int64(types.int64, _F, types.int64, _F, SWARM_WORK, STATE), cache=True,
+@kernel(types.int64(types.int64, _F, types.int64, SWARM_PARAMS, SWARM_WORK, STATE), cache=True,
         inline="always")
 def afsa_fish_shift(phase, X, D, p, wk, s):
     """AFSA's iteration with the fish's largest log-likelihood M0 as the one shift of every
@@ -402,25 +429,26 @@ def afsa_fish_shift(phase, X, D, p, wk, s):
     M0 = wk.ll.max()
     if phase == 0:
         shifted_exp(wk.ll, M0, wk.fit)
-        afsa_centres(X, wk.fit, D, p[0], wk.Xc, wk.nf)
+        afsa_centres(X, wk.fit, D, p.visual, wk.Xc, wk.nf)
         return FIT_CENTRES
     if phase == 1:
         shifted_exp(wk.llc, M0, wk.fitc)
-        afsa_propose(X, wk.fit, wk.Xc, wk.fitc, wk.nf, D, p[0], p[1], p[2], int(p[3]), s, wk.C)
+        afsa_propose(X, wk.fit, wk.Xc, wk.fitc, wk.nf, D, p.visual, p.step, p.crowding,
+                     int(p.tries), s, wk.C)
         return FIT_BEHAVIOURS
     shifted_exp(wk.llC, M0, wk.fitC)
-    afsa_select(X, wk.fit, wk.C, wk.fitC, D, int(p[4]))
+    afsa_select(X, wk.fit, wk.C, wk.fitC, D, int(p.greedy))
     for i in range(wk.ll.size):
         wk.ll[i] = math.log(wk.fit[i]) + M0 if wk.fit[i] > 0.0 else -np.inf
     return DONE
 
 
-@kernel(types.int64(types.int64, types.int64, types.int64, _F, types.int64, _F, types.float64,
-                    types.int64, SWARM_WORK, STATE), cache=True, inline="always")
+@kernel(types.int64(types.int64, types.int64, types.int64, _F, types.int64, SWARM_PARAMS,
+                    types.float64, types.int64, SWARM_WORK, STATE), cache=True, inline="always")
 def swarm_move(algo, afsa, phase, X, D, p, R, it, wk, s):
     """Phase ``phase`` (0, 1, ...) of iteration ``it`` of the swarm algorithm ``algo`` (parameters
-    p, ``pack``; IFA's R: the measurement variance in its adaptive step) over the particles X
-    (N D,), whose log-likelihoods wk.ll are up to date; ``afsa`` picks AFSA's arithmetic
+    p, a ``SwarmParams``; IFA's R: the measurement variance in its adaptive step) over the
+    particles X (N D,), whose log-likelihoods wk.ll are up to date; ``afsa`` picks AFSA's arithmetic
     (AFSA_JOINT_SHIFT or AFSA_FISH_SHIFT). Returns what the caller evaluates before it calls
     phase + 1 (FIT_X, FIT_CANDIDATES, FIT_CENTRES, FIT_BEHAVIOURS, FIT_BRIGHTNESS), or DONE.
 
@@ -435,26 +463,27 @@ def swarm_move(algo, afsa, phase, X, D, p, R, it, wk, s):
     if algo == FA:
         if phase == 0:
             shifted_exp(wk.ll, wk.ll.max(), wk.fit)
-            fa_move(X, wk.fit, D, p[0], p[1], p[2], wk.scale, s)
+            fa_move(X, wk.fit, D, p.beta0, p.gamma, p.alpha, wk.scale, s)
             return FIT_X
         return DONE
     if algo == IFA:
         if phase == 0:
             return FIT_BRIGHTNESS
         if phase == 1:
-            ifa_move(X, wk.fit, D, p[0], p[1], R, wk.scale, s)
+            ifa_move(X, wk.fit, D, p.beta0, p.gamma, R, wk.scale, s)
             return FIT_X
         return DONE
     if algo == BA:
         if phase == 0:
             if it == 0:
                 wk.V[:] = 0.0
-                wk.A[:] = p[2]
-                wk.r[:] = p[3]
-            ba_propose(X, wk.V, wk.A, wk.r, wk.C[:N * D], D, argmax(wk.ll), p[0], p[1],
-                       wk.scale, s)
+                wk.A[:] = p.loudness
+                wk.r[:] = p.pulse_rate
+            ba_propose(X, wk.V, wk.A, wk.r, wk.C[:N * D], D, argmax(wk.ll), p.freq_min,
+                       p.freq_max, wk.scale, s)
             return FIT_CANDIDATES
-        ba_accept(X, wk.ll, wk.C[:N * D], wk.llC[:N], wk.A, wk.r, D, p[4], p[5], p[3], it + 1, s)
+        ba_accept(X, wk.ll, wk.C[:N * D], wk.llC[:N], wk.A, wk.r, D, p.loudness_decay,
+                  p.pulse_growth, p.pulse_rate, it + 1, s)
         return DONE
     if algo == PSO:
         if phase == 0:
@@ -462,7 +491,7 @@ def swarm_move(algo, afsa, phase, X, D, p, R, it, wk, s):
                 wk.V[:] = 0.0
                 wk.P[:] = X
                 wk.Pfit[:] = wk.ll
-            pso_propose(X, wk.V, wk.P, wk.Pfit, D, argmax(wk.Pfit), p[0], p[1], p[2], s)
+            pso_propose(X, wk.V, wk.P, wk.Pfit, D, argmax(wk.Pfit), p.inertia, p.c1, p.c2, s)
             return FIT_X
         pso_accept(X, wk.ll, wk.P, wk.Pfit, D)
         return DONE

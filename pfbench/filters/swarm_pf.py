@@ -26,8 +26,8 @@ from ._common import DIAG_DISTINCT, drop_unasked, resampled_step, start, weigh_l
 from ..diag import flags
 from .keys import ewa_keys, pf_keys
 from .swarm import (AFSA_JOINT_SHIFT, ALGORITHMS, DONE, FIT_BEHAVIOURS, FIT_BRIGHTNESS,
-                    FIT_CANDIDATES, FIT_CENTRES, FIT_X, SWARM_WORK, evaluations, keys,
-                    new_swarm_work, pack, swarm_move)
+                    FIT_CANDIDATES, FIT_CENTRES, FIT_X, SWARM_PARAMS, SWARM_WORK, evaluations,
+                    keys, new_swarm_work, swarm_move, swarm_params)
 from .types import FilterType
 from .weights import divide, shifted_exp_less
 
@@ -94,12 +94,12 @@ def predicted_distance_brightness(f, theta, tt, xprev_hat, noise, xn, M, kind, w
             wk.fit[i] = 1.0 / (1.0 + math.sqrt(-2.0 * wk.ll[i] + e * e / Qv))
 
 
-@kernel(types.int64(ModelFn, ModelFn, _F, types.float64, types.float64, _F, types.float64, _F, _F,
-                    types.int64, SWARM_WORK, _F, _F), cache=True)
+@kernel(types.int64(ModelFn, ModelFn, _F, types.float64, types.float64, _F, types.float64, _F,
+                    SWARM_PARAMS, types.int64, SWARM_WORK, _F, _F), cache=True)
 def swarm_fitness(f, h, theta, tt, yt, noise, xprev_hat, xn, p, request, wk, hx, pt):
     """What ``swarm.swarm_move`` asks (``request``), over the particles xn: the log-likelihood of
     y_t at the points it names (h at up to 3 N points into hx), or IFA's brightness (its kind
-    p[2]); returns the likelihood evaluations."""
+    p.brightness); returns the likelihood evaluations."""
     N = xn.size
     half_inv_R = 0.5 / noise[3]
     if request == FIT_X:
@@ -111,8 +111,8 @@ def swarm_fitness(f, h, theta, tt, yt, noise, xprev_hat, xn, p, request, wk, hx,
     elif request == FIT_BEHAVIOURS:
         _loglik(h, theta, tt, yt, half_inv_R, wk.C, hx, wk.llC)
     elif request == FIT_BRIGHTNESS:
-        predicted_distance_brightness(f, theta, tt, xprev_hat, noise, xn, wk.ll.max(), p[2], wk,
-                                      pt)
+        predicted_distance_brightness(f, theta, tt, xprev_hat, noise, xn, wk.ll.max(),
+                                      p.brightness, wk, pt)
     return evaluations(request, N)
 
 
@@ -137,7 +137,7 @@ def resample_swarm(x, xn, w, S, lw, idx, mutant, o, s):
 
 
 @kernel(types.int64(ModelFn, ModelFn, _F, types.float64, types.float64, _F, types.float64, _F,
-                    SWARM_OPTIONS, _F, SWARM_WORK, _F, _F, STATE), cache=True)
+                    SWARM_OPTIONS, SWARM_PARAMS, SWARM_WORK, _F, _F, STATE), cache=True)
 def swarm_refine(f, h, theta, tt, yt, noise, xprev_hat, xn, o, p, wk, hx, pt, s):
     """The swarm's o.iters iterations (``swarm.swarm_move``, its fitness ``swarm_fitness``) on
     the predicted particles xn, from their log-likelihood of y_t (into wk.ll, kept up to date);
@@ -169,16 +169,16 @@ def add_loglik(lw, ll):
 
 
 SWARM_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64,
-                        SWARM_OPTIONS, _F, STATE, _F, _F, _I, _F, _F, _F)
+                        SWARM_OPTIONS, SWARM_PARAMS, STATE, _F, _F, _I, _F, _F, _F)
 
 
 @kernel(SWARM_SIG, cache=True)
 def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, p, s, xhat, ess, resampled,
                     div_l1, distinct, evals):
     """Run a swarm-optimised PF over y (T+1,) (settings o, see ``SwarmOptions``; the swarm's
-    parameters p, swarm.pack); fill the (T+1,) traces and evals, the likelihood evaluations of
-    each step; return the underflow count. Each step: predict, refine (the swarm), weigh,
-    estimate, resample."""
+    parameters p, a ``swarm.SwarmParams``); fill the (T+1,) traces and evals, the likelihood
+    evaluations of each step; return the underflow count. Each step: predict, refine (the
+    swarm), weigh, estimate, resample."""
     T, N = y.size - 1, o.N
     x = np.empty(N)
     start(s, prior_mean, prior_var, x, xhat, ess, resampled, div_l1, distinct)
@@ -230,7 +230,7 @@ def make_run(kind: str):
             ewa_printed=int(params["ewa_correction"] == "as_printed"), diag=diag)
         out["underflow_steps"] = swarm_pf_kernel(
             model.transition, model.observe, model.theta, model.noise, y, model.prior_mean,
-            model.prior_var, o, pack(kind, params), state, out["xhat"], out["ess"],
+            model.prior_var, o, swarm_params(kind, params), state, out["xhat"], out["ess"],
             out["resampled"], out["div_l1"], out["distinct"], evals)
         out["lik_evals_per_step"] = float(np.mean(evals[1:]))
         return drop_unasked(out, diag)
