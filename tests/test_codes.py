@@ -263,11 +263,17 @@ def test_swarm_parameters_are_one_named_record_built_from_the_keys(algo, read):
     assert swarm_params("ifa", no_brightness).brightness == 0.0
 
 
+def _named(node, names: set[str]) -> bool:
+    return ((isinstance(node, ast.Name) and node.id in names)
+            or (isinstance(node, ast.Attribute) and node.attr in names))
+
+
 def index_reads(text: str, names: set[str], name: str = "<source>") -> list[str]:
-    """'file:line: read' for each subscript of a name in ``names`` with a number (``p[2]``)."""
+    """'file:line: read' for each subscript with a number of a name in ``names`` (``p[2]``) or
+    of an attribute so named (``model.noise[0]``)."""
     return [f"{name}:{node.lineno}: {ast.unparse(node)}" for node in ast.walk(ast.parse(text))
-            if isinstance(node, ast.Subscript) and isinstance(node.value, ast.Name)
-            and node.value.id in names and _is_number(node.slice)]
+            if isinstance(node, ast.Subscript) and _named(node.value, names)
+            and _is_number(node.slice)]
 
 
 SWARM_ARGS = {"p", "sp"}        # the swarm parameters' argument in the swarm kernels
@@ -289,6 +295,7 @@ def test_no_kernel_reads_a_swarm_parameter_by_slot():
     ("afsa_select(X, wk.ll, wk.C, wk.llC, D, int(p[4]))", 1),
     ("wk.A[:] = p.loudness", 0),
     ("y = p[i]", 0),            # an index that is a variable: not a slot of a record
+    ("dt = float(model.sp[1])", 1),
 ])
 def test_the_scan_finds_slot_reads(source, flagged):
     assert len(index_reads(source, SWARM_ARGS)) == flagged
@@ -326,3 +333,61 @@ def test_the_swarm_kernels_take_the_record_and_refuse_an_array():
     with pytest.raises(TypeError):
         swarm.swarm_move(swarm.FA, 0, 0, np.zeros(N * D), D, np.array([1.0, 1.0, 0.2]), 1.0, 0,
                          wk, s)
+
+
+# The SLAM model's records and the names their arguments take in the simulators and FastSLAM.
+SLAM_ARGS = {"noise", "veh", "vehicle", "sensor"}
+SLAM_READERS = ("pfbench/models/slam.py", "pfbench/filters/fastslam.py",
+                "pfbench/benchmarks/fastslam_course.py")
+
+
+def test_no_one_reads_the_slam_model_by_slot():
+    """A SLAM model's vehicle, noise and sensor are read by name (``model.noise.range``,
+    ``veh.wheelbase``), never by slot (``model.noise[2]``)."""
+    found = []
+    for where in SLAM_READERS:
+        path = ROOT / where
+        found += index_reads(path.read_text(encoding="utf-8"), SLAM_ARGS, where)
+    assert not found, "read the SLAM model's record by name:\n" + "\n".join(found)
+
+
+@pytest.mark.parametrize("scenario", ["waypoint_course", "landmark_world"])
+def test_the_slam_model_holds_named_records(scenario):
+    """Each SLAM scenario's model holds a Vehicle, a SlamNoise and a SlamSensor of floats, and a
+    model given sequences (a plug-in's, or ``dataclasses.replace``) gets the records too."""
+    import importlib
+    from dataclasses import replace
+
+    import numpy as np
+
+    from pfbench.models.slam import SlamNoise, SlamSensor, Vehicle
+
+    mod = importlib.import_module(f"pfbench.scenarios.{scenario}")
+    p = {k: v.default for k, v in mod.SCHEMA.items()}
+    p["world"] = {"waypoint_course": "worlds/ifa_course.yaml",
+                  "landmark_world": "worlds/afsa_world.yaml"}[scenario]
+    p = mod.resolve(p, ROOT / "configs")
+    m = mod.build(p)
+    for field, kind in (("vehicle", Vehicle), ("noise", SlamNoise), ("sensor", SlamSensor)):
+        rec = getattr(m, field)
+        assert type(rec) is kind and all(type(v) is float for v in rec), field
+    deg = math.pi / 180.0
+    assert m.sensor == SlamSensor(p["max_range_m"], 0.5 * p["field_of_view_deg"] * deg,
+                                  float(p["obs_every"]))
+    assert m.vehicle.speed == p["speed_mps"] and m.vehicle.dt == p["dt_s"]
+    assert m.noise.range == (p["range_noise_m"] if p.get("noise_values") != "variance"
+                             else math.sqrt(p["range_noise_m"]))
+    m2 = replace(m, sensor=np.array([1e-3, math.pi, 8.0]), noise=[0.1, 0.2, 0.3, 0.4])
+    assert m2.sensor == SlamSensor(1e-3, math.pi, 8.0) and m2.noise.bearing == 0.4
+    with pytest.raises(TypeError):
+        replace(m, vehicle=[1.0, 2.0])          # a record's fields are all given
+
+
+def test_the_slam_simulators_take_the_records():
+    from pfbench.models import slam
+
+    for fn in (slam.simulate_course, slam.simulate_odometry):
+        (sig,) = _declared(fn)
+        assert sig.args[3:6] == (slam.VEHICLE, slam.SLAM_NOISE, slam.SLAM_SENSOR)
+    (sig,) = _declared(slam.sense_landmarks)
+    assert slam.SLAM_NOISE in sig.args

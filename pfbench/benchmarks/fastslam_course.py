@@ -16,11 +16,11 @@ def numpy_fastslam(model, data, N: int, steps: int, rng: np.random.Generator) ->
     """FastSLAM 1.0 written the straightforward way: vectorised prediction, then a Python loop over
     particles and observations with 2 x 2 numpy matrices, systematic resampling when ESS < N / 2.
     Returns the weighted position estimates (steps + 1, 2)."""
-    dt, L = model.vehicle[1], model.vehicle[2]
-    sV, sG = model.noise[0], model.noise[1]
-    R = np.diag([model.noise[2] ** 2, model.noise[3] ** 2])
+    dt, L = model.vehicle.dt, model.vehicle.wheelbase
+    sV, sG = model.noise.drive, model.noise.turn
+    R = np.diag([model.noise.range ** 2, model.noise.bearing ** 2])
     M = model.landmarks.shape[0]
-    every = int(model.sensor[2])
+    every = int(model.sensor.every)
     P = np.tile(model.start, (N, 1))
     mu = np.zeros((N, M, 2))
     sig = np.zeros((N, M, 2, 2))

@@ -1062,17 +1062,17 @@ def options(model, params, particles, diag=True) -> Options:
 
     motion = getattr(model, "motion", SLAM_STEERED)
     if motion == SLAM_ODOMETRY:     # odometry form: the pose noise of the scenario
-        qctrl = np.array([model.noise[0], model.noise[1]])
+        qctrl = np.array([model.noise.drive, model.noise.turn])
     else:
-        qctrl = np.array([pick("speed_noise_mps", model.noise[0]),
-                          pick("steer_noise_deg", model.noise[1] / deg) * deg])
-    R = np.array([pick("range_noise_m", model.noise[2]) ** 2,
-                  (pick("bearing_noise_deg", model.noise[3] / deg) * deg) ** 2])
+        qctrl = np.array([pick("speed_noise_mps", model.noise.drive),
+                          pick("steer_noise_deg", model.noise.turn / deg) * deg])
+    R = np.array([pick("range_noise_m", model.noise.range) ** 2,
+                  (pick("bearing_noise_deg", model.noise.bearing / deg) * deg) ** 2])
     scheme = {"stepwise_ewa": EWA, "directional": DIRECTIONAL, **SCHEME_CODES}[params["resampling"]]
     threshold = ess_threshold(params, particles)
     return Options(
-        every=int(model.sensor[2]), N=int(particles), M=int(M), dt=float(model.vehicle[1]),
-        L=float(model.vehicle[2]), motion=int(motion), q0=float(qctrl[0]), q1=float(qctrl[1]),
+        every=int(model.sensor.every), N=int(particles), M=int(M), dt=float(model.vehicle.dt),
+        L=float(model.vehicle.wheelbase), motion=int(motion), q0=float(qctrl[0]), q1=float(qctrl[1]),
         predict_noise=int(params["predict_noise"]), Rr=float(R[0]), Rb=float(R[1]),
         joseph=int(params["update"] == "joseph"), assoc=int(nearest),
         gate_reject=float(params["gate_reject"]), gate_augment=float(params["gate_augment"]),

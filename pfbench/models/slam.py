@@ -19,9 +19,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
-from numba import types
+from numba import typeof, types
 from .._lazy import kernel
 
 from ..angles import wrap
@@ -30,17 +31,62 @@ from ..rng import STATE, normal
 from .waypoints import next_waypoint
 
 
+class Vehicle(NamedTuple):
+    """A SLAM model's vehicle: speed V (m/s), control step dt (s), wheelbase L (m; the steered
+    vehicle's), the largest steering angle (rad; the odometry form's largest turn rate, rad/s),
+    the steered vehicle's largest steering rate (rad/s), the radius within which a waypoint
+    counts as reached (m), and the laps to drive (0: until the steps run out), all floats."""
+
+    speed: float
+    dt: float
+    wheelbase: float
+    max_steer: float
+    max_rate: float
+    wp_radius: float
+    laps: float
+
+
+class SlamNoise(NamedTuple):
+    """A SLAM model's noise standard deviations (what the data carry): the drive's (the steered
+    vehicle's speed, m/s; the odometry form's x and y, m) and the turn's (the steering angle, or
+    the heading, rad), then the sensor's range (m) and bearing (rad)."""
+
+    drive: float
+    turn: float
+    range: float
+    bearing: float
+
+
+class SlamSensor(NamedTuple):
+    """A SLAM model's range-bearing sensor: its range (m), half its field of view (rad) and the
+    control steps between observations (a float)."""
+
+    max_range: float
+    half_fov: float
+    every: float
+
+
+VEHICLE = typeof(Vehicle(1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.0))
+SLAM_NOISE = typeof(SlamNoise(0.0, 0.0, 0.0, 0.0))
+SLAM_SENSOR = typeof(SlamSensor(1.0, 1.0, 1.0))
+
+
+def _record(kind, values):
+    """``values`` as record ``kind`` of floats (a record, or a sequence in its fields' order)."""
+    return kind(*(float(v) for v in values))
+
+
 @dataclass(frozen=True)
 class SlamModel:
     """Everything a SLAM trial on a waypoint course needs (arrays in SI units and radians).
 
     waypoints (K, 2), landmarks (M, 2), start (3,): the world
-    vehicle : [V, dt, L, max_steer, max_rate, wp_radius, laps]
-    noise : [sigma_V, sigma_G, sigma_r, sigma_b]  (what the data carry)
-    sensor : [max_range, half_fov, obs_every]
+    vehicle : a ``Vehicle``; noise : a ``SlamNoise`` (what the data carry); sensor : a
+        ``SlamSensor`` (each also given as a sequence in the record's field order, made the
+        record here)
     steps : control steps
-    motion : 0 = the steered vehicle (noise [sigma_V, sigma_G, ...]); 1 = odometry form (noise
-        [sigma_xy, sigma_theta, ...], see simulate_odometry)
+    motion : SLAM_STEERED, the steered vehicle (noise drive, turn: sigma_V, sigma_G), or
+        SLAM_ODOMETRY, the odometry form (sigma_xy, sigma_theta; see simulate_odometry)
     """
 
     waypoints: np.ndarray
@@ -51,6 +97,10 @@ class SlamModel:
     sensor: np.ndarray
     steps: int
     motion: int = SLAM_STEERED     # codes.SLAM_STEERED or SLAM_ODOMETRY
+
+    def __post_init__(self):
+        for name, kind in (("vehicle", Vehicle), ("noise", SlamNoise), ("sensor", SlamSensor)):
+            object.__setattr__(self, name, _record(kind, getattr(self, name)))
 
 
 
@@ -76,7 +126,7 @@ _I2 = types.int64[:, ::1]
 
 
 @kernel(types.int64(_F2, types.float64, types.float64, types.float64, types.float64, types.float64,
-                  _F, STATE, _I, _F2), cache=True)
+                  SLAM_NOISE, STATE, _I, _F2), cache=True)
 def sense_landmarks(lm, x, y, th, rmax, half_fov, noise, s, ids, zs):
     """Observe every landmark of lm within rmax and the field of view from pose (x, y, th): fill
     ids (M,) and zs (M, 2) with their indices and noisy [range, bearing]; return how many."""
@@ -87,15 +137,15 @@ def sense_landmarks(lm, x, y, th, rmax, half_fov, noise, s, ids, zs):
         b = wrap(math.atan2(ey, ex) - th)
         if r <= rmax and abs(b) <= half_fov:
             ids[n] = j
-            zs[n, 0] = r + noise[2] * normal(s)
-            zs[n, 1] = wrap(b + noise[3] * normal(s))
+            zs[n, 0] = r + noise.range * normal(s)
+            zs[n, 1] = wrap(b + noise.bearing * normal(s))
             n += 1
     return n
 
 
 
-@kernel(types.int64(_F2, _F2, _F, _F, _F, _F, types.int64, STATE, _F2, _F2, _I, _I2, _F3, _I),
-      cache=True)
+@kernel(types.int64(_F2, _F2, _F, VEHICLE, SLAM_NOISE, SLAM_SENSOR, types.int64, STATE, _F2, _F2,
+                    _I, _I2, _F3, _I), cache=True)
 def simulate_course(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, obs_n, obs_id, obs_z,
                     wp_idx):
     """Drive the course and sense the landmarks.
@@ -106,8 +156,9 @@ def simulate_course(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, obs
     driven to. Returns the number of control steps driven (fewer than ``steps`` when ``laps`` ends
     the run).
     """
-    V, dt, L, maxG, rate, radius, laps = veh[0], veh[1], veh[2], veh[3], veh[4], veh[5], veh[6]
-    rmax, half_fov, every = sensor[0], sensor[1], int(sensor[2])
+    V, dt, L, maxG, rate = veh.speed, veh.dt, veh.wheelbase, veh.max_steer, veh.max_rate
+    radius, laps = veh.wp_radius, veh.laps
+    rmax, half_fov, every = sensor.max_range, sensor.half_fov, int(sensor.every)
     x, y, th = start[0], start[1], start[2]
     pose[0, 0], pose[0, 1], pose[0, 2] = x, y, th
     G = 0.0
@@ -130,8 +181,8 @@ def simulate_course(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, obs
         th = wrap(th + V * dt * math.sin(G) / L)
         pose[t + 1, 0], pose[t + 1, 1], pose[t + 1, 2] = x, y, th
         wp_idx[t + 1] = iw
-        ctrl[t, 0] = V + noise[0] * normal(s)
-        ctrl[t, 1] = G + noise[1] * normal(s)
+        ctrl[t, 0] = V + noise.drive * normal(s)
+        ctrl[t, 1] = G + noise.turn * normal(s)
         if (t + 1) % every == 0:
             obs_n[k] = sense_landmarks(lm, x, y, th, rmax, half_fov, noise, s, obs_id[k], obs_z[k])
             k += 1
@@ -139,14 +190,14 @@ def simulate_course(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, obs
 
 
 
-@kernel(types.int64(_F2, _F2, _F, _F, _F, _F, types.int64, STATE, _F2, _F2, _I, _I2, _F3, _I),
-      cache=True)
+@kernel(types.int64(_F2, _F2, _F, VEHICLE, SLAM_NOISE, SLAM_SENSOR, types.int64, STATE, _F2, _F2,
+                    _I, _I2, _F3, _I), cache=True)
 def simulate_odometry(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, obs_n, obs_id,
                       obs_z, wp_idx):
     """Drive the closed path; fill the true poses, the odometry [ds, dtheta] and the observations
     (as simulate_course); return the steps driven."""
-    V, dt, maxturn, radius, laps = veh[0], veh[1], veh[3], veh[5], veh[6]
-    rmax, half_fov, every = sensor[0], sensor[1], int(sensor[2])
+    V, dt, maxturn, radius, laps = veh.speed, veh.dt, veh.max_steer, veh.wp_radius, veh.laps
+    rmax, half_fov, every = sensor.max_range, sensor.half_fov, int(sensor.every)
     x, y, th = start[0], start[1], start[2]
     pose[0, 0], pose[0, 1], pose[0, 2] = x, y, th
     iw = 0
@@ -163,9 +214,9 @@ def simulate_odometry(wp, lm, start, veh, noise, sensor, steps, s, pose, ctrl, o
         ds = V * dt
         ctrl[t, 0] = ds
         ctrl[t, 1] = dth
-        th = th + dth + noise[1] * normal(s)
-        x += ds * math.cos(th) + noise[0] * normal(s)
-        y += ds * math.sin(th) + noise[0] * normal(s)
+        th = th + dth + noise.turn * normal(s)
+        x += ds * math.cos(th) + noise.drive * normal(s)
+        y += ds * math.sin(th) + noise.drive * normal(s)
         th = wrap(th)
         pose[t + 1, 0], pose[t + 1, 1], pose[t + 1, 2] = x, y, th
         wp_idx[t + 1] = iw
@@ -186,7 +237,7 @@ def run_simulator(simulator, model: SlamModel, state: np.ndarray) -> tuple[Cours
     """Allocate a trial's arrays, run a numba ``simulator`` with simulate_course's signature, and
     trim them to the steps driven."""
     T = model.steps
-    every = int(model.sensor[2])
+    every = int(model.sensor.every)
     K = T // every
     M = model.landmarks.shape[0]
     pose = np.zeros((T + 1, 3))
