@@ -89,18 +89,20 @@ def compile_ahead(exp, trial: Callable, processes: int | None = None) -> int:
     settle()                    # no fork while a thread of this process imports
     with Workers(processes, partial(_group, exp, trial), setup=quiet_worker) as pool:
         left = list(todo)
-        held = [0] * processes
+        held = [0] * processes          # groups a worker holds (one at a time)
+
+        def give(slot: int) -> None:
+            if left:
+                pool.send(slot, left.pop(0))
+                held[slot] += 1
+
         try:
             for slot in range(processes):
-                if left:
-                    pool.send(slot, left.pop(0))
-                    held[slot] += 1
+                give(slot)
             while any(held):
                 for slot, _, _ in pool.results(timeout=0.25):
                     held[slot] -= 1
-                    if left:
-                        pool.send(slot, left.pop(0))
-                        held[slot] += 1
+                    give(slot)
         except WorkerDied:
             return 0            # the run meets (and names) what killed it
         pool.close()

@@ -410,17 +410,14 @@ def _running_text(exp: Experiment, marks) -> str:
 
 # ---------------------------------------------------------------- executors
 
-def _worker_init(now=None, pids=None, slot: int = 0):
-    """A worker process leaves Ctrl-C to the parent, which stops it, and closes the parent's
-    folder locks (the parent keeps them). ``now``: two entries per slot, what the worker of that
-    slot runs (_NOW), which the parent reads to say what was running; ``pids``: the worker's
-    process id per slot; ``slot``: this worker's."""
+def _worker_init(now, slot: int):
+    """A worker process's setup (workers.quiet_worker), then where it says what it runs: ``now``
+    holds two entries per slot (_NOW), which the parent reads to say what was running; ``slot``:
+    this worker's."""
     global _NOW
     quiet_worker()
-    if now is not None:
-        pids[slot] = os.getpid()
-        _NOW = (now, 2 * slot)
-        _mark(-1, -1)
+    _NOW = (now, 2 * slot)
+    _mark(-1, -1)
 
 
 def _signal_name(code: int | None) -> str:
@@ -471,9 +468,13 @@ class Units:
         self.guess = trial_seconds(exp)
         self.seen: list[float] = []             # seconds a trial, of the latest units
 
+    def _per_trial(self) -> float:
+        """Seconds a trial takes: the median of the latest units', else the doubted guess."""
+        return sorted(self.seen)[len(self.seen) // 2] if self.seen else self.guess * GUESS_DOUBT
+
     def size(self) -> int:
         """Trials in the next unit."""
-        per = sorted(self.seen)[len(self.seen) // 2] if self.seen else self.guess * GUESS_DOUBT
+        per = self._per_trial()
         n = int(UNIT_SECONDS / per) if per > 0 else MAX_UNIT
         if self.left >= 0:
             n = min(n, math.ceil(self.left / (4 * self.workers)))
@@ -490,8 +491,7 @@ class Units:
         """How many units a worker holds at once: two while a unit takes well under a second (the
         next is there when one ends, whatever this process is doing), else one (a worker never
         waits behind another's unit at the end of a run while one of the others is idle)."""
-        per = sorted(self.seen)[len(self.seen) // 2] if self.seen else self.guess * GUESS_DOUBT
-        return 2 if self.size() * per < 1.0 else 1
+        return 2 if self.size() * self._per_trial() < 1.0 else 1
 
     def measured(self, trials: int, seconds: float) -> None:
         """A unit of ``trials`` trials took ``seconds`` on its worker."""
@@ -532,13 +532,13 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
     compile_ahead(exp, trial_result)
     _preload()
     import multiprocessing as mp
-    now, pids = mp.RawArray("q", [-1] * (2 * workers)), mp.RawArray("q", [0] * workers)
+    now = mp.RawArray("q", [-1] * (2 * workers))
     if running is not None:
         running.append(lambda: [tuple(now[i:i + 2]) for i in range(0, len(now), 2)])
     from .tablecache import import_ahead, settle
     settle()                        # no fork while a thread of this process imports
     with Workers(workers, partial(_run_chunk_in_worker, exp, traces=traces),
-                 setup=_worker_init, setup_args=(now, pids)) as pool:
+                 setup=_worker_init, setup_args=(now,)) as pool:
         import_ahead()              # the table's modules, while the workers run the trials
         sizes: list[list[int]] = [[] for _ in range(workers)]   # units each worker holds
 
@@ -565,11 +565,11 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
                     hand_out(slot)  # before this process writes what arrived
                     yield chunk
         except WorkerDied as dead:
-            raise _died(exp, dead, now, pids) from None
+            raise _died(exp, dead, now) from None
         pool.close()
 
 
-def _died(exp: Experiment, dead, now, pids) -> UserError:
+def _died(exp: Experiment, dead, now) -> UserError:
     """The error of a worker process that died (a crash in a kernel, a filter that ended its
     process), naming what it was running (``dead``: workers.WorkerDied)."""
     slot = dead.slot
