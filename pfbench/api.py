@@ -17,9 +17,7 @@ import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable, Mapping
-
-import pandas as pd
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping
 
 from .errors import UserError
 from .fsutil import FolderLock, recover_aside, require_regular
@@ -27,6 +25,9 @@ from .outputs import anytime_of, check_figure_format  # noqa: F401  (this module
 from .outputs import write_experiment
 from .progress import shown
 from .schema import ConfigError, describe
+
+if TYPE_CHECKING:     # pandas loads after a run's workers start (tablecache.import_ahead)
+    import pandas as pd
 
 __all__ = ["Result", "load_results", "run_experiment", "run_until_decided"]
 
@@ -203,6 +204,7 @@ def _missing_figures(exp, res, folder: Path, fmt: str) -> bool:
 
 def _frame(rows: list[dict], columns: Iterable[str]) -> pd.DataFrame:
     cols = [c for c in columns if c not in ("crc", "wall_s")] + ["wall_s"]
+    import pandas as pd
     df = pd.DataFrame([{c: r.get(c) for c in cols} for r in rows], columns=cols)
     return df.assign(wall_s=pd.to_numeric(df["wall_s"], errors="coerce"))
 
@@ -257,7 +259,6 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
 
 def _run(exp, workers, out, resume, figures, executor, progress, warn, force,
          figure_format) -> Result:
-    from .compare import compare
     from .runner import run_experiment as run_into, versions
     from .store import trial_columns
     if out is not None:
@@ -290,6 +291,7 @@ def _run(exp, workers, out, resume, figures, executor, progress, warn, force,
             "versions": versions()}
     run = {"trials_run_now": exp.trials, "workers": workers, "executor": executor.describe(),
            "wall_s": round(time.perf_counter() - t0, 3)}
+    from .compare import compare        # (pandas: imported while the trials ran)
     cmp = compare(exp, rows)
     return Result(_frame(rows, trial_columns(exp)), cmp.table, meta, exp, None, cmp, run=run)
 
@@ -452,6 +454,7 @@ def load_results(folder: str | Path) -> Result:
         table = cmp.table
     elif table_path.is_file():
         require_regular(table_path)
+        import pandas as pd
         table = pd.read_csv(table_path)
     else:
         raise UserError(f"{folder}: no table.csv, and its config is gone or changed")

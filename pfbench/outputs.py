@@ -5,12 +5,14 @@ figures of an experiment, the summary and figures of a sweep. ``pfbench run`` (p
 from __future__ import annotations
 
 from pathlib import Path
-
-import pandas as pd
+from typing import TYPE_CHECKING
 
 from .errors import UserError
 from .figstyle import FORMATS, prune
 from .fsutil import own_folder
+
+if TYPE_CHECKING:     # pandas loads with the tables, after a run's workers start
+    import pandas as pd
 
 
 def check_figure_format(fmt, what: str = "figure_format") -> str:

@@ -125,3 +125,31 @@ def test_a_run_without_figures_imports_only_what_it_uses(tmp_path):
         res = subprocess.run(cmd, capture_output=True, text=True, check=True, cwd=tmp_path)
         assert res.stdout.strip().splitlines()[-1] == "[]", res.stdout + res.stderr
         assert ("up to date" in res.stderr) == up_to_date
+
+
+_AT_FORK = """
+import sys
+from pfbench import workers
+from pfbench.cli import main
+seen = []
+start = workers.Workers.__init__
+def at_fork(self, *args, **kwargs):
+    seen.append(sorted(m for m in ("pandas", "scipy.special", "pfbench.compare") if m in sys.modules))
+    start(self, *args, **kwargs)
+workers.Workers.__init__ = at_fork
+sys.argv = ["pfbench"] + sys.argv[1:]
+try:
+    main()
+except SystemExit:
+    pass
+print(seen)
+"""
+
+
+def test_the_workers_start_before_the_tables_modules_import(tmp_path):
+    """A run forks its workers before it imports pandas and the comparison (a quarter of a
+    second on 2 cores): those import in this process while the workers run the trials."""
+    cmd = [sys.executable, "-c", _AT_FORK, "run", str(CONFIG), "--trials", "2", "--out",
+           str(tmp_path / "r"), "--no-figures"]
+    res = subprocess.run(cmd, capture_output=True, text=True, check=True, cwd=tmp_path)
+    assert res.stdout.strip().splitlines()[-1] == "[[]]", res.stdout + res.stderr
