@@ -12,12 +12,15 @@ dispatchers there.
 """
 from __future__ import annotations
 
+import contextlib
 import functools
 import threading
+import types as pytypes
 
 import numba
 
 _LOCK = threading.RLock()
+_RECORD = threading.local()     # .calls: the kernels called from Python while recording
 
 
 class LazyKernel:
@@ -49,6 +52,10 @@ class LazyKernel:
         return self._disp is not None
 
     def __call__(self, *args, **kwargs):
+        calls = getattr(_RECORD, "calls", None)
+        if calls is not None:               # recording(): noted, not run
+            calls.append(self)
+            return blank(self)
         return self.dispatcher(*args, **kwargs)
 
     def __getattr__(self, name):
@@ -60,6 +67,85 @@ class LazyKernel:
 
     def __repr__(self) -> str:
         return f"<kernel {self.__qualname__} ({'built' if self.built else 'not built yet'})>"
+
+
+@contextlib.contextmanager
+def recording():
+    """Within it, a kernel called from Python (in this thread) is not built nor run: it is
+    appended to the list this yields and returns ``blank(kernel)``. What the Python around the
+    kernels does with their outputs then runs on arrays they never filled: for finding which
+    kernels a filter run calls (pfbench.precompile), never for numbers."""
+    calls: list = []
+    before = getattr(_RECORD, "calls", None)
+    _RECORD.calls = calls
+    try:
+        yield calls
+    finally:
+        _RECORD.calls = before
+
+
+def blank(kern: LazyKernel):
+    """A value of the return type of ``kern``'s first signature: 0 for a number, a tuple of such
+    for a tuple, None otherwise."""
+    sigs = kern._sigs if isinstance(kern._sigs, (list, tuple)) else [kern._sigs]
+    return _blank(getattr(sigs[0], "return_type", None)) if sigs else None
+
+
+def _blank(t):
+    from numba.core import types
+    if isinstance(t, types.Boolean):
+        return False
+    if isinstance(t, types.Integer):
+        return 0
+    if isinstance(t, types.Float):
+        return 0.0
+    if isinstance(t, types.BaseTuple) and not isinstance(t, (types.NamedTuple,
+                                                             types.NamedUniTuple)):
+        return tuple(_blank(e) for e in t.types)
+    return None
+
+
+def _codes(code: pytypes.CodeType):
+    yield code
+    for c in code.co_consts:
+        if isinstance(c, pytypes.CodeType):
+            yield from _codes(c)
+
+
+def named(func) -> list:
+    """The objects a Python function's code names: its globals (and the attributes of a module
+    it names), its closure's cells; in the order first named (a kernel's: what numba builds when
+    it compiles the kernel)."""
+    glb = getattr(func, "__globals__", {})
+    names = [n for code in _codes(func.__code__) for n in code.co_names]
+    values = [glb.get(n) for n in names]
+    for v in list(values):
+        if isinstance(v, pytypes.ModuleType):
+            values += [getattr(v, n, None) for n in names]
+    for cell in func.__closure__ or ():
+        try:
+            values.append(cell.cell_contents)
+        except ValueError:              # an empty cell
+            pass
+    out: dict[int, object] = {}
+    for v in values:
+        if v is not None:
+            out.setdefault(id(v), v)
+    return list(out.values())
+
+
+def callees(kern: LazyKernel) -> list[LazyKernel]:
+    """The kernels ``kern``'s body names: those numba builds when it compiles ``kern``."""
+    return [v for v in named(kern._func) if isinstance(v, LazyKernel) and v is not kern]
+
+
+def size(kern: LazyKernel) -> int:
+    """A measure of what compiling ``kern`` alone costs (its bytecode's length, that of the
+    kernels it inlines, times its signatures); only for ordering compilations."""
+    sigs = kern._sigs if isinstance(kern._sigs, (list, tuple)) else [kern._sigs]
+    own = sum(len(c.co_code) for c in _codes(kern._func.__code__))
+    inlined = sum(size(k) for k in callees(kern) if k._options.get("inline") == "always")
+    return max(1, len(sigs)) * own + inlined
 
 
 @functools.lru_cache(maxsize=1)

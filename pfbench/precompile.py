@@ -1,28 +1,40 @@
 """Kernels compiled on every core before a run's first trial.
 
 numba compiles a kernel in the process that first calls it, one kernel after another: a run whose
-filters' kernels are not cached yet would compile them all in its first trial, on one core, and a
-run on several workers would compile them in every worker at once. ``compile_ahead`` instead
-splits the experiment's filter runs into groups that compile different kernels (one per module
-of filter types), and runs one trial of each group, on the experiment's own first trial's data,
-in one worker process per core (at most one per group): each kernel compiles once, into the
-numba cache, while the others compile beside it. The run then loads them all from the cache.
+kernels are not cached yet would compile them all in its first trial, on one core, and a run on
+several workers would compile them in every worker at once. ``compile_ahead`` instead compiles
+them by their declared signatures (pfbench._lazy), without running anything, in one worker
+process per core, into the numba cache, which the run then loads them from:
 
-Only pfbench's own kernels are compiled so (``uncompiled``); a plug-in's compile in its
-first trial as before. Nothing of these trials is kept: what they compute is the first trial's,
-which the run computes again, bit for bit (numba's code does not depend on which process
-compiled it). A group that fails is left to the run, which reports the failure as usual; a
-worker that dies ends the compiling, not the run.
+1. Which kernels: a trial of each filter run with its kernels recorded, not run
+   (``_lazy.recording``: the scenario's simulate kernel and the filter's kernel are named, the
+   Python around them runs on arrays nobody filled, and nothing is simulated). The model
+   functions the model is built with compile here (they are small, and the run's workers
+   inherit them). A filter run that names none is read from its code instead (``_named``).
+2. Their callees, from the kernels' code (``_lazy.callees``): every kernel the cache lacks is a
+   job that waits for the kernels it calls, so that each compiles in one process only, once,
+   and the others load it from the cache when a caller compiles.
+3. The jobs go out longest chain first (``_plan``: a kernel's own cost, estimated from its
+   code, plus the longest chain of callers that wait for it), to as many processes as there are
+   cores and as fit the memory (check_fits, as for as many workers).
+
+Only pfbench's own kernels are compiled so; a plug-in's compile in its first trial as before,
+and a plug-in scenario's filters are read from their code. A kernel that fails to compile is
+left to the run, which reports the failure as usual; a worker that dies ends the compiling, not
+the run.
 """
 from __future__ import annotations
 
 import os
-from dataclasses import replace
+import types as pytypes
+import warnings
+from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
 from typing import Callable
 
 from . import _cache
+from ._lazy import LazyKernel, callees, named, recording, size
 from .errors import UserError
 from .filters import FILTERS
 from .resources import check_fits
@@ -30,15 +42,13 @@ from .scenarios import SCENARIOS
 from .version import CACHE_DIR
 from .workers import WorkerDied, Workers, in_worker, quiet_worker
 
+# a callee's code costs this fraction of its own again in each caller that links it (numba
+# links a caller's callees into its module and optimises them there)
+LINKED = 0.15
 
-def groups(exp) -> list[tuple[str, ...]]:
-    """The keys of the experiment's filter runs grouped by the module of their filter type: the
-    runs of one module share its kernels (pf and pfmh one kernel, the swarm filters another),
-    which would compile in every group that ran them."""
-    by: dict[str, list[str]] = {}
-    for f in exp.filters:
-        by.setdefault(getattr(FILTERS[f.type].run, "__module__", f.type), []).append(f.key)
-    return [tuple(keys) for keys in by.values()]
+
+def _own(obj) -> bool:
+    return (getattr(obj, "__module__", "") or "").startswith("pfbench.")
 
 
 def _cores() -> int:
@@ -49,8 +59,8 @@ def _cores() -> int:
 
 
 def _fits(exp, processes: int) -> bool:
-    """Whether ``processes`` trials of ``exp`` at once fit this machine's memory (each group runs
-    a part of a trial, so that many whole trials bound it)."""
+    """Whether ``processes`` processes fit this machine's memory as ``processes`` workers of a
+    run of ``exp`` would (a compiling process holds numba and LLVM, not a trial: an upper bound)."""
     try:
         check_fits(exp, processes)
     except UserError:
@@ -58,55 +68,194 @@ def _fits(exp, processes: int) -> bool:
     return True
 
 
-def _compile(exp, keys: tuple[str, ...], trial: Callable) -> None:
-    """One trial of the filter runs ``keys`` of ``exp`` (their kernels build): ``trial(exp, 0)``
-    (the runner's trial_result); errors are the run's to report."""
+# ---------------------------------------------------------------- which kernels
+
+def _named(func, depth: int = 3) -> list[LazyKernel]:
+    """The pfbench kernels a Python function ``func`` names, and those of the pfbench functions
+    it names (``depth`` levels down): every kernel a filter's ``run`` may call, the settings it
+    is run with unknown (more than the run calls where it picks one of several kernels)."""
+    out: dict[int, LazyKernel] = {}
+    seen: set[int] = set()
+
+    def visit(f, d):
+        if id(f) in seen or not _own(f):
+            return
+        seen.add(id(f))
+        for v in named(f):
+            if isinstance(v, LazyKernel):
+                out.setdefault(id(v), v)
+            elif d > 0 and isinstance(v, pytypes.FunctionType):
+                visit(v, d - 1)
+    visit(func, depth)
+    return list(out.values())
+
+
+def roots(exp, trial: Callable) -> list[LazyKernel]:
+    """The pfbench kernels a trial of ``exp`` calls from Python (its scenario's and its filter
+    runs'), found without running one: each filter run's trial, ``trial(experiment, 0)`` (the
+    runner's trial_result), with its kernels recorded instead of run (see the module). A
+    plug-in's filter runs are left out, and with a plug-in scenario (whose simulation would run)
+    the filter runs' kernels are read from their code."""
+    found: dict[int, LazyKernel] = {}
+    own_scenario = _own(getattr(SCENARIOS[exp.scenario], "simulate", None))
+    for f in exp.filters:
+        run = FILTERS[f.type].run
+        if not _own(run):
+            continue
+        calls: list = []
+        if own_scenario:
+            with recording() as calls, warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                import numpy as np
+                with np.errstate(all="ignore"):
+                    try:
+                        trial(replace(exp, filters=(f,)), 0)
+                    except Exception:   # what ran on unfilled arrays: the kernels came before
+                        pass
+        mine = [k for k in calls if _own(k)]
+        if not any(k in _named(run) for k in mine):     # the run named none of its own
+            mine += _named(run)
+        for k in mine:
+            found.setdefault(id(k), k)
+    return list(found.values())
+
+
+def _cached(kern: LazyKernel) -> bool:
+    """Whether ``kern`` is built in this process or has an entry in the numba cache."""
+    if kern.built:
+        return True
     try:
-        trial(replace(exp, filters=tuple(f for f in exp.filters if f.key in keys)), 0)
+        from numba.core.caching import FunctionCache
+        return os.path.exists(FunctionCache(kern._func)._cache_file._index_path)
     except Exception:
-        pass
+        return False
 
 
-def _group(exp, trial: Callable, keys: tuple[str, ...]) -> None:
-    """What a pool worker runs: _compile, looked up in the worker (which the tests replace)."""
-    _compile(exp, keys, trial)
+@dataclass
+class Job:
+    """A kernel to compile: the jobs of the kernels it calls (``needs``, indices) come first."""
+    kernel: LazyKernel
+    cost: float
+    needs: set[int] = field(default_factory=set)
+    callers: set[int] = field(default_factory=set)
+    rank: float = 0.0           # its cost plus the longest chain of callers waiting for it
+
+
+def _below(kern: LazyKernel) -> list[LazyKernel]:
+    """Every pfbench kernel ``kern`` calls, its callees' callees included (what numba links into
+    its module)."""
+    out: dict[int, LazyKernel] = {}
+    todo = [kern]
+    while todo:
+        for c in callees(todo.pop()):
+            if _own(c) and id(c) not in out and c is not kern:
+                out[id(c)] = c
+                todo.append(c)
+    return list(out.values())
+
+
+def _plan(kernels: list[LazyKernel]) -> list[Job]:
+    """The jobs of ``kernels`` and of every kernel they call that is not cached yet (a cached
+    kernel's callees are in its cache entry), ranked (see Job)."""
+    jobs: list[Job] = []
+    index: dict[int, int] = {}
+    todo = [k for k in kernels if not _cached(k)]
+    for k in todo:
+        index.setdefault(id(k), len(index))
+    links = {}
+    while len(jobs) < len(index):
+        k = todo[len(jobs)]
+        below = [c for c in callees(k) if _own(c)]
+        for c in below:
+            if not _cached(c) and id(c) not in index:
+                index[id(c)] = len(index)
+                todo.append(c)
+        links[id(k)] = [index[id(c)] for c in below if id(c) in index]
+        jobs.append(Job(k, size(k) + LINKED * sum(size(c) for c in _below(k))))
+    for i, job in enumerate(jobs):
+        job.needs = {j for j in links[id(job.kernel)] if j != i}
+        for j in job.needs:
+            jobs[j].callers.add(i)
+    # rank: from the callers down (a caller's rank is known before its callees'), cycles cut
+    done: dict[int, float] = {}
+
+    def rank(i: int, path: frozenset) -> float:
+        if i in done:
+            return done[i]
+        up = [rank(c, path | {i}) for c in jobs[i].callers if c not in path]
+        done[i] = jobs[i].cost + max(up, default=0.0)
+        return done[i]
+    for i, job in enumerate(jobs):
+        job.rank = rank(i, frozenset())
+    return jobs
+
+
+# ---------------------------------------------------------------- compiling them
+
+def _build(kernels: list[LazyKernel], i: int) -> bool:
+    """What a pool worker runs: build kernel ``i`` (compile its declared signatures, its callees
+    loaded from the cache); False when it fails (the run reports it)."""
+    try:
+        kernels[i].dispatcher
+    except Exception:
+        return False
+    return True
+
+
+def uncompiled_kernels(exp, trial: Callable) -> list[Job]:
+    """The jobs (see Job) of compiling ahead the kernels a trial of ``exp`` calls that the
+    numba cache does not hold yet."""
+    return _plan(roots(exp, trial))
 
 
 def compile_ahead(exp, trial: Callable, processes: int | None = None) -> int:
-    """Compile the kernels the numba cache lacks for ``exp`` in ``processes`` processes (default:
-    the cores this process may use), one group of filter runs each (see the module), each
-    running ``trial(experiment, 0)`` (the runner's trial_result, handed down: the runner calls
-    this module); returns the groups compiled (0: nothing to do, or too little to split)."""
-    if not uncompiled(exp) or in_worker():
+    """Compile the kernels the numba cache lacks for ``exp`` (see the module) in ``processes``
+    processes (default: the cores this process may use); ``trial`` is the runner's trial_result,
+    handed down (the runner calls this module), which finds them. Returns the kernels compiled
+    (0: nothing to do, or too little to split)."""
+    if not _cache.ENABLED or not uncompiled(exp) or in_worker():
         return 0
-    todo = groups(exp)
-    processes = min(len(todo), processes or _cores())
+    processes = processes or _cores()
     while processes >= 2 and not _fits(exp, processes):
-        processes -= 1          # never more trials at once than the memory holds
+        processes -= 1          # never more processes than as many workers would fit
+    if processes < 2:
+        return 0
+    jobs = uncompiled_kernels(exp, trial)
+    processes = min(processes, len(jobs))
     if processes < 2:
         return 0
     from .tablecache import settle
     settle()                    # no fork while a thread of this process imports
-    with Workers(processes, partial(_group, exp, trial), setup=quiet_worker) as pool:
-        left = list(todo)
-        held = [0] * processes          # groups a worker holds (one at a time)
+    kernels = [job.kernel for job in jobs]
+    with Workers(processes, partial(_build, kernels), setup=quiet_worker) as pool:
+        waiting = set(range(len(jobs)))
+        finished: set[int] = set()
+        held: list[int | None] = [None] * processes     # the job a worker compiles
 
         def give(slot: int) -> None:
-            if left:
-                pool.send(slot, left.pop(0))
-                held[slot] += 1
+            ready = [i for i in waiting if jobs[i].needs <= finished]
+            if not ready and not any(h is not None for h in held):
+                ready = list(waiting)       # a cycle among the rest: one compiles its callees
+            if ready:
+                i = max(ready, key=lambda i: (jobs[i].rank, -i))
+                waiting.discard(i)
+                pool.send(slot, i)
+                held[slot] = i
 
         try:
             for slot in range(processes):
                 give(slot)
-            while any(held):
+            while any(h is not None for h in held):
                 for slot, _, _ in pool.results(timeout=0.25):
-                    held[slot] -= 1
-                    give(slot)
+                    finished.add(held[slot])
+                    held[slot] = None
+                    for other in [slot] + [s for s in range(processes) if held[s] is None]:
+                        if held[other] is None:
+                            give(other)
         except WorkerDied:
             return 0            # the run meets (and names) what killed it
         pool.close()
-    return len(todo)
+    return len(jobs)
 
 
 def uncompiled(exp) -> list[str]:
