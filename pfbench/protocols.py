@@ -14,7 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from .schema import Key
+from .schema import Key, check_section
 
 # The scenario kinds, in the order pfbench lists them (pfbench.kinds defines what each scores).
 KIND_NAMES = ("scalar", "slam", "localization")
@@ -170,7 +170,6 @@ def default_params(module) -> dict | None:
     """A scenario's keys at their defaults (validated), or None when one is required or its
     ``resolve`` (files it names) is needed: the model ``provided`` builds when no config gives
     the keys."""
-    from .schema import check_section
     if getattr(module, "resolve", None) is not None:
         return None
     try:
