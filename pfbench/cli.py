@@ -822,14 +822,14 @@ def compatibility_lines(filters: dict, scenarios: dict, width: int = 100) -> lis
     """The compatibility matrix as text lines of at most ``width`` columns: for each kind, a row
     per scenario and a column per filter type, each cell 'ok' or the letters of what the scenario
     lacks of what the filter needs; a legend below."""
-    from .protocols import NEEDS, NOT_NAMED, compatibility
+    from .protocols import NEEDS, NOT_NAMED, UNKNOWN, compatibility
     letters = need_letters(NEEDS)
     lines = ["compatibility (a row per scenario, a column per filter type of its kind: 'ok', or "
              "what it lacks):"]
     blocks = compatibility(filters, scenarios)
     for kind, (scens, filts, cells) in blocks.items():
-        text = {k: "ok" if not v else "x" if v == (NOT_NAMED,) else
-                "".join(letters[n] for n in v) for k, v in cells.items()}
+        text = {k: "ok" if not v else "x" if v == (NOT_NAMED,) else "?" if v == (UNKNOWN,)
+                else "".join(letters[n] for n in v) for k, v in cells.items()}
         label = max([len(kind), *map(len, scens)]) + 2
         cols = {f: max([len(f), *(len(text[s, f]) for s in scens)]) + 1 for f in filts}
         chunk: list[str] = []
@@ -847,8 +847,12 @@ def compatibility_lines(filters: dict, scenarios: dict, width: int = 100) -> lis
             lines += [f"  {s:<{label}}" + "".join(f"{text[s, f]:<{cols[f]}}"
                                                   for f in chunk).rstrip() for s in scens]
     legend = [f"{c} {n}" for n, c in letters.items()]
-    if any(v == (NOT_NAMED,) for _, _, cells in blocks.values() for v in cells.values()):
+    seen = {v for _, _, cells in blocks.values() for v in cells.values()}
+    if (NOT_NAMED,) in seen:
         legend.append("x: the filter runs only on scenarios it names")
+    if (UNKNOWN,) in seen:
+        legend.append("?: its model, asked what it provides, cannot be built from its keys' "
+                      "defaults (a config's keys decide)")
     line = " "
     for item in legend:
         item += "," if item is not legend[-1] else ""

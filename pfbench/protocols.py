@@ -193,8 +193,18 @@ def _build(module, params):
             return None
     try:
         return module.build(params)
-    except Exception:       # a model that cannot be built provides nothing
+    except (Exception, SystemExit):     # a model that cannot be built provides nothing
         return None
+
+
+def _asked(module, needs) -> list:
+    """The needs of ``needs`` that the scenario ``module`` does not declare either way, and that
+    its model is asked for (see ``provided``)."""
+    if not hasattr(module, "PROVIDES"):
+        return list(needs)
+    if set(declared(module)) & set(MEASUREMENT):
+        return []
+    return [n for n in needs if n in MEASUREMENT]
 
 
 def provided(module, params, needs=()) -> set:
@@ -202,11 +212,8 @@ def provided(module, params, needs=()) -> set:
     it does not declare is read from its model, built from ``params`` (its validated keys; None:
     its keys' defaults): every need for a module without ``PROVIDES`` (a plug-in written before
     it), the measurement's (``MEASUREMENT``) for one whose ``PROVIDES`` names neither."""
-    if hasattr(module, "PROVIDES"):
-        have = set(declared(module))
-        ask = [] if have & set(MEASUREMENT) else [n for n in needs if n in MEASUREMENT]
-    else:
-        have, ask = set(), list(needs)
+    have = set(declared(module))
+    ask = _asked(module, needs)
     if ask:
         model = _build(module, params)
         if model is not None:
@@ -240,18 +247,20 @@ def false_claims(module, params, needs=()) -> list[str]:
     return [n for n in checkable if _model_lacks(n, model)]
 
 
-# A cell of ``compatibility`` where a filter type names the scenarios it runs on (``scenarios``),
-# and this is not one of them.
+# Cells of ``compatibility``: a filter type names the scenarios it runs on (``scenarios``), and
+# this is not one of them; the scenario's model, to be asked what it provides, cannot be built
+# from its keys' defaults (a required key, a file its ``resolve`` reads: a config says).
 NOT_NAMED = "not named"
+UNKNOWN = "unknown"
 
 
 def compatibility(filters: dict, scenarios: dict) -> dict:
     """The compatibility matrix of filter types (name -> FilterType) and scenarios (name ->
     module), kind by kind: kind -> (scenario names, filter names, {(scenario, filter): what the
     scenario lacks}), where what it lacks is () when the filter runs on it, the names of ``NEEDS``
-    it lacks, or (``NOT_NAMED``,) when the filter names the scenarios it runs on and not this
-    one. A scenario without ``PROVIDES`` is asked by building its model from its keys' defaults
-    (see ``provided``); a filter and a scenario of different kinds are not paired."""
+    it lacks, (``NOT_NAMED``,) when the filter names the scenarios it runs on and not this one,
+    or (``UNKNOWN``,) when the scenario's model would be asked (see ``provided``) and cannot be
+    built from its keys' defaults; a filter and a scenario of different kinds are not paired."""
     out = {}
     for kind in KIND_NAMES:
         scens = [s for s, m in scenarios.items() if getattr(m, "KIND", None) == kind]
@@ -261,12 +270,19 @@ def compatibility(filters: dict, scenarios: dict) -> dict:
         wanted = tuple(dict.fromkeys(n for f in filts for n in filters[f].needs))
         cells = {}
         for s in scens:
-            have = provided(scenarios[s], None, wanted)
+            mod = scenarios[s]
+            have = provided(mod, None, wanted)
+            unknown = set(_asked(mod, wanted)) - have
+            if unknown and _build(mod, None) is not None:
+                unknown = set()
             for f in filts:
                 ft = filters[f]
+                lacking = tuple(n for n in ft.needs if n not in have)
                 if ft.scenarios is not None and s not in ft.scenarios:
                     cells[s, f] = (NOT_NAMED,)
+                elif unknown & set(lacking):
+                    cells[s, f] = (UNKNOWN,)
                 else:
-                    cells[s, f] = tuple(n for n in ft.needs if n not in have)
+                    cells[s, f] = lacking
         out[kind] = (scens, filts, cells)
     return out

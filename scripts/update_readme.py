@@ -397,7 +397,7 @@ def compatibility_block() -> str:
     """What each need means, and pfbench's own filters against its own scenarios, kind by kind:
     'yes', or what the scenario lacks (pfbench.protocols)."""
     from pfbench.filters import BUILTIN as FILTER_BUILTIN
-    from pfbench.protocols import NEEDS, NOT_NAMED, compatibility
+    from pfbench.protocols import NEEDS, NOT_NAMED, UNKNOWN, compatibility
     from pfbench.scenarios import BUILTIN as SCENARIO_BUILTIN
     out = ["", "*Generated from the filters' `needs` and the scenarios' `PROVIDES` by "
            "`python scripts/update_readme.py --write`.*", "", "| need | what it is |",
@@ -412,7 +412,8 @@ def compatibility_block() -> str:
                 "| --- | --- |" + " --- |" * len(filts)]
         for sc in scens:
             row = ["yes" if not cells[sc, f] else "no" if cells[sc, f] == (NOT_NAMED,) else
-                   "lacks " + ", ".join(cells[sc, f]) for f in filts]
+                   "?" if cells[sc, f] == (UNKNOWN,) else "lacks " + ", ".join(cells[sc, f])
+                   for f in filts]
             given = ", ".join(f"`{n}`" for n in SCENARIO_BUILTIN[sc].PROVIDES) or "-"
             out.append(f"| `{sc}` | {given} | " + " | ".join(row) + " |")
     return "\n".join(out + [""])

@@ -351,3 +351,24 @@ def test_the_matrix_wraps_its_columns_to_100_with_many_plugin_filters(plugins, m
     assert "x: the filter runs only on scenarios it names" in text
     row = [l for l in lines if l.split()[:1] == ["likonly"]]
     assert any("G" in l.split() for l in row)
+
+
+def test_a_plugin_model_that_cannot_be_asked_is_unknown_in_the_matrix(monkeypatch):
+    """Keys without defaults, or a build that raises (even SystemExit): '?' in the matrix, no
+    traceback; a config's keys decide at validation."""
+    def leaves(p):
+        raise SystemExit("bye")
+    required = _scenario("needskeys", schema={**ungm.SCHEMA,
+                                               "beta": Key("float", REQUIRED, "scale")},
+                         build=lambda p: ungm.build({k: v for k, v in p.items() if k != "beta"}))
+    monkeypatch.setitem(SCENARIOS, "needskeys", required)
+    monkeypatch.setitem(SCENARIOS, "leaves", _scenario("leaves", build=leaves))
+    res = CliRunner().invoke(app, ["list"])
+    assert res.exit_code == 0 and "Traceback" not in res.output, res.output
+    m = _matrix(res.output)
+    assert m["needskeys", "pf"] == "?" and m["leaves", "ekf"] == "?"
+    assert "?: its model" in res.output
+    # the config's keys build it: it provides what its model shows
+    validate(_raw("needskeys", "pf", "ekf", beta=2.0))
+    with pytest.raises(ConfigError, match="scenario 'leaves' does not provide"):
+        validate(_raw("leaves", "pf"))
