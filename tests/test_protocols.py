@@ -101,10 +101,16 @@ def test_every_builtin_filter_and_scenario_declares_in_the_vocabulary():
         assert "gaussian_measurement" in BUILTIN_FILTERS[f].needs
     assert "jacobians" in BUILTIN_FILTERS["ekf"].needs and "linear" in BUILTIN_FILTERS["kf"].needs
     assert BUILTIN_FILTERS["kf"].scenarios is None       # a need, not a list of scenarios
-    # every built-in scalar scenario's measurement is the additive Gaussian one
+    # the additive Gaussian measurement, with its derivatives
+    for name in ("ungm", "upf_gamma", "linear_gaussian"):
+        assert {"gaussian_measurement", "likelihood", "jacobians"} <= set(
+            BUILTIN_SCENARIOS[name].PROVIDES)
+    # every scalar scenario gives its filters a likelihood; the other kinds need nothing
     for name, mod in BUILTIN_SCENARIOS.items():
         if mod.KIND == "scalar":
-            assert {"gaussian_measurement", "likelihood", "jacobians"} <= set(mod.PROVIDES)
+            assert "likelihood" in mod.PROVIDES
+        else:
+            assert mod.PROVIDES == ()
     assert "linear" in BUILTIN_SCENARIOS["linear_gaussian"].PROVIDES
     assert "linear" not in BUILTIN_SCENARIOS["ungm"].PROVIDES
 
