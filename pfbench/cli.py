@@ -763,7 +763,8 @@ def list_(configs: Path = typer.Option(Path("configs"), "--configs",
                                               "each probe may take, its kernels' first "
                                               "compilation included, before it is stopped and "
                                               "reported as a problem naming its filter.")):
-    """List scenarios, filters, resampling schemes and configs, one line each."""
+    """List scenarios, filters (with which filter runs on which scenario), resampling schemes and
+    configs."""
     import math
     if not math.isfinite(probe_timeout) or probe_timeout <= 0:
         with _guard():
