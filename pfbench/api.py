@@ -145,10 +145,11 @@ def _overrides(fn: str, overrides) -> tuple[str, ...]:
 
 
 def _experiment(config, trials, seed, overrides):
-    from .config import Experiment, apply_override, load, validate
+    from .config import Experiment, apply_override, load, refuse_incompatible, validate
     if isinstance(config, Experiment):          # validated already (the CLI's)
         if trials is not None or seed is not None or tuple(overrides):
             raise UserError("trials, seed and overrides go with a config file or mapping")
+        refuse_incompatible(config)         # one built or changed by hand: its pairs checked
         return config
     if isinstance(config, (str, Path)):
         return load(config, {"trials": trials, "seed": seed}, tuple(overrides))

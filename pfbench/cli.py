@@ -763,7 +763,8 @@ def list_(configs: Path = typer.Option(Path("configs"), "--configs",
                                               "each probe may take, its kernels' first "
                                               "compilation included, before it is stopped and "
                                               "reported as a problem naming its filter.")):
-    """List scenarios, filters, resampling schemes and configs, one line each."""
+    """List scenarios, filters (with which filter runs on which scenario), resampling schemes and
+    configs."""
     import math
     if not math.isfinite(probe_timeout) or probe_timeout <= 0:
         with _guard():
@@ -787,6 +788,7 @@ def list_(configs: Path = typer.Option(Path("configs"), "--configs",
     for name, f in FILTERS.items():
         out.print(f"  {name:<18} {f.description}{origin(plugins.FILTER_GROUP, name)}",
                   markup=False)
+    _print_compatibility(FILTERS, SCENARIOS)
     out.print("resampling:", style="bold")
     for name, text in SCHEMES.items():
         out.print(f"  {name:<18} {text}", markup=False)
@@ -805,6 +807,69 @@ def list_(configs: Path = typer.Option(Path("configs"), "--configs",
     if check:
         with _guard():
             _check_contract(configs, executor, workers, scheduler, probe_timeout)
+
+
+def need_letters(needs) -> dict[str, str]:
+    """A capital letter for each name of ``needs``: its first letter not taken by an earlier one
+    (jacobians J, gaussian_measurement G, likelihood L, linear I)."""
+    letters: dict[str, str] = {}
+    for name in needs:
+        free = [c.upper() for c in name if c.isalpha() and c.upper() not in letters.values()]
+        letters[name] = free[0] if free else "?"
+    return letters
+
+
+def compatibility_lines(filters: dict, scenarios: dict, width: int = 100) -> list[str]:
+    """The compatibility matrix as text lines of at most ``width`` columns: for each kind, a row
+    per scenario and a column per filter type, each cell 'ok' or the letters of what the scenario
+    lacks of what the filter needs; a legend below."""
+    from .protocols import NEEDS, NOT_NAMED, UNKNOWN, compatibility
+    letters = need_letters(NEEDS)
+    lines = ["compatibility (a row per scenario, a column per filter type of its kind: 'ok', or "
+             "what it lacks):"]
+    blocks = compatibility(filters, scenarios)
+    for kind, (scens, filts, cells) in blocks.items():
+        text = {k: "ok" if not v else "x" if v == (NOT_NAMED,) else "?" if v == (UNKNOWN,)
+                else "".join(letters[n] for n in v) for k, v in cells.items()}
+        label = max([len(kind), *map(len, scens)]) + 2
+        cols = {f: max([len(f), *(len(text[s, f]) for s in scens)]) + 1 for f in filts}
+        chunk: list[str] = []
+        chunks = [chunk]
+        for f in filts:            # as many columns as fit in width
+            if chunk and 2 + label + sum(cols[g] for g in chunk) + cols[f] > width:
+                chunk = []
+                chunks.append(chunk)
+            chunk.append(f)
+        for chunk in chunks:
+            if not chunk:
+                lines.append(f"  {kind:<{label}}(no filter type)")
+                continue
+            lines.append(f"  {kind:<{label}}" + "".join(f"{f:<{cols[f]}}" for f in chunk).rstrip())
+            lines += [f"  {s:<{label}}" + "".join(f"{text[s, f]:<{cols[f]}}"
+                                                  for f in chunk).rstrip() for s in scens]
+    legend = [f"{c} {n}" for n, c in letters.items()]
+    seen = {v for _, _, cells in blocks.values() for v in cells.values()}
+    if (NOT_NAMED,) in seen:
+        legend.append("x: the filter runs only on scenarios it names")
+    if (UNKNOWN,) in seen:
+        legend.append("?: its model, asked what it provides, cannot be built from its keys' "
+                      "defaults (a config's keys decide)")
+    line = " "
+    for item in legend:
+        item += "," if item is not legend[-1] else ""
+        if len(line) + 1 + len(item) > width:
+            lines.append(line)
+            line = " "
+        line += " " + item
+    lines.append(line)
+    return lines
+
+
+def _print_compatibility(filters: dict, scenarios: dict) -> None:
+    lines = compatibility_lines(filters, scenarios)
+    out.print(lines[0], style="bold", markup=False)
+    for line in lines[1:]:
+        out.print(line, markup=False, soft_wrap=True)
 
 
 def _check_contract(configs: Path, executor: str, workers: int, scheduler: str | None,

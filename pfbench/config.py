@@ -306,6 +306,25 @@ def _validate_filters(raw: Any, scenario: str | None, scen_params: dict | None,
     return tuple(runs)
 
 
+def refuse_incompatible(exp: "Experiment") -> None:
+    """Raise a one-line ConfigError when a filter run of ``exp`` cannot run on its scenario (what
+    it needs that the scenario does not provide): the check ``validate`` makes, made again on an
+    Experiment handed to the API as it is (built or changed by hand), before anything runs."""
+    mod = SCENARIOS.get(exp.scenario)
+    if mod is None:
+        raise ConfigError("scenario.name", f"unknown scenario '{exp.scenario}'; valid "
+                          f"scenarios: {', '.join(SCENARIOS)}", source=exp.source)
+    for run in exp.filters:
+        ftype = FILTERS.get(run.type)
+        path = f"filters.{run.name}"
+        if ftype is None:
+            raise ConfigError(path, f"unknown filter type '{run.type}'; valid types: "
+                              f"{', '.join(FILTERS)}", source=exp.source)
+        why = ftype.cannot_run_on(exp.scenario, mod.KIND, mod, dict(exp.scenario_params))
+        if why:
+            raise ConfigError(path, f"filter type '{run.type}' {why}", source=exp.source)
+
+
 def validate(raw: Any, source: str = "config") -> Experiment:
     """Validate the raw mapping of a config file into an :class:`Experiment`.
 

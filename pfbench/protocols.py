@@ -14,7 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from .schema import Key
+from .schema import Key, check_section
 
 # The scenario kinds, in the order pfbench lists them (pfbench.kinds defines what each scores).
 KIND_NAMES = ("scalar", "slam", "localization")
@@ -58,8 +58,10 @@ class FilterType:
         steps, for the figures
     check_scenario : (params, scenario params) -> (key, message) of a broken rule that needs the
         scenario's keys too (a histogram over its field), or None
-    needs : what it needs of a scenario beyond its kind, names of ``NEEDS`` ('jacobians'); a
-        config that pairs it with a scenario that does not provide one is refused at validation
+    needs : what it needs of a scenario beyond its kind, names of ``NEEDS`` ('jacobians',
+        'gaussian_measurement', 'likelihood', 'linear'); a config, a sweep's cell or an API call
+        that pairs it with a scenario that does not provide one is refused at validation, in one
+        line naming what is missing
     """
 
     name: str
@@ -85,26 +87,56 @@ class FilterType:
 
     def cannot_run_on(self, scenario: str, kind: str, module=None, params=None) -> str | None:
         """Why it cannot run on the scenario ``scenario`` (kind ``kind``, its ``module`` when
-        known, its validated ``params`` when known), or None when it can."""
+        known, its validated ``params`` when known), or None when it can: one clause naming what
+        the scenario lacks."""
         if self.kind != kind:
             return f"runs on {self.kind} scenarios, and '{scenario}' is a {kind} scenario"
         if self.scenarios is not None and scenario not in self.scenarios:
             return f"runs only on scenario {', '.join(self.scenarios)}"
-        if module is not None:
+        if module is not None and self.needs:
             have = provided(module, params, self.needs)
             lacking = [n for n in self.needs if n not in have]
             if lacking:
-                return (f"needs {NEEDS[lacking[0]]}, which scenario '{scenario}' does not "
-                        f"provide (its PROVIDES: {', '.join(declared(module)) or 'nothing'})")
+                says = ("its PROVIDES: " + (", ".join(declared(module)) or "nothing")
+                        if hasattr(module, "PROVIDES") else
+                        "it declares no PROVIDES; its model provides: "
+                        + (", ".join(sorted(have)) or "none of them"))
+                return (f"needs {need_text(lacking)}, which scenario '{scenario}' does not "
+                        f"provide ({says})")
+            lying = false_claims(module, params, self.needs)
+            if lying:
+                return (f"needs {need_text(lying)}, which scenario '{scenario}' declares in its "
+                        "PROVIDES but its model lacks")
         return None
 
 
 # What a filter type may need of a scenario beyond its kind (``FilterType.needs``), which a
-# scenario declares it provides (``PROVIDES = ("jacobians",)`` in its module).
+# scenario declares it provides (``PROVIDES = ("jacobians", ...)`` in its module). The scalar kind
+# is the only one whose scenarios differ in these: a localization or SLAM scenario builds the
+# kind's own record (pfbench.models.field.FieldModel, pfbench.models.slam.SlamModel), which fixes
+# the motion and the sensor (range, bearing, Gaussian noise) its filters read, so they need
+# nothing beyond the kind.
 NEEDS = {
-    "jacobians": "the Jacobians of its model (df/dx and dh/dx: ScalarModel's transition_jac and "
+    "jacobians": "the Jacobians of its model (df/dx, dh/dx: ScalarModel's transition_jac, "
                  "observe_jac)",
+    "gaussian_measurement": "a Gaussian measurement (y = h(x) + v, v ~ N(0, R), R known: "
+                            "ScalarModel's observe, noise[3])",
+    "likelihood": "the log-likelihood of a measurement at any set of states (its model's own, "
+                  "or its Gaussian measurement's)",
+    "linear": "a linear model with Gaussian process noise (x_t = a x_{t-1} + w_t, "
+              "y_t = c x_t + v_t, theta = [a, c])",
 }
+
+# The field of a scalar model that holds its own log-likelihood of a measurement (a model without
+# one has the additive Gaussian measurement of ScalarModel's docstring).
+OWN_LIKELIHOOD = ("loglik",)
+
+
+def need_text(needs) -> str:
+    """``needs`` (names of ``NEEDS``) in words, each with its name: "the Jacobians of its model
+    (...) ['jacobians'] and a Gaussian measurement (...) ['gaussian_measurement']"."""
+    words = [f"{NEEDS[n]} ['{n}']" for n in needs]
+    return " and ".join([", ".join(words[:-1]), words[-1]] if len(words) > 1 else words)
 
 
 def declared(module) -> tuple:
@@ -113,23 +145,144 @@ def declared(module) -> tuple:
     return tuple(got) if isinstance(got, (tuple, list, set, frozenset)) else ()
 
 
+def own_likelihood(model) -> bool:
+    """Whether the scalar ``model`` brings its own log-likelihood of a measurement."""
+    return any(getattr(model, name, None) is not None for name in OWN_LIKELIHOOD)
+
+
 def _model_has(need: str, model) -> bool:
+    """Whether ``model`` (a scenario's built model) shows that it provides ``need``: what a
+    scenario without ``PROVIDES`` is credited with. A linear model is never inferred (the model's
+    functions do not say it); a scenario that has one declares it."""
     if need == "jacobians":
         return (getattr(model, "transition_jac", None) is not None
                 and getattr(model, "observe_jac", None) is not None)
+    gaussian = (getattr(model, "observe", None) is not None
+                and getattr(model, "noise", None) is not None and not own_likelihood(model))
+    if need == "gaussian_measurement":
+        return gaussian
+    if need == "likelihood":
+        return gaussian or own_likelihood(model)
     return False
 
 
-def provided(module, params, needs=()) -> set:
-    """What the scenario ``module`` provides of ``needs``: what its ``PROVIDES`` declares; a
-    module that declares nothing (a plug-in written before ``PROVIDES``) is asked by building its
-    model from ``params`` (its validated keys) and looking."""
-    if hasattr(module, "PROVIDES"):
-        return set(declared(module))
-    if not needs or params is None:
-        return set()
+def default_params(module) -> dict | None:
+    """A scenario's keys at their defaults (validated), or None when one is required or its
+    ``resolve`` (files it names) is needed: the model ``provided`` builds when no config gives
+    the keys."""
+    if getattr(module, "resolve", None) is not None:
+        return None
     try:
-        model = module.build(params)
-    except Exception:       # a model that cannot be built provides nothing (the run says why)
-        return set()
-    return {n for n in needs if _model_has(n, model)}
+        return check_section({}, module.SCHEMA, "scenario")
+    except Exception:       # a required key, a broken schema: no model to ask
+        return None
+
+
+# What a scalar model gives of its measurement: a scenario whose PROVIDES names neither (one
+# written when the scalar kind assumed the additive Gaussian measurement) has these read from its
+# model, as a scenario without PROVIDES has every need.
+MEASUREMENT = ("gaussian_measurement", "likelihood")
+
+
+def _build(module, params):
+    """The model of scenario ``module`` from ``params`` (None: its keys' defaults), or None when
+    it cannot be built (the run says why)."""
+    if params is None:
+        params = default_params(module)
+        if params is None:
+            return None
+    try:
+        return module.build(params)
+    except (Exception, SystemExit):     # a model that cannot be built provides nothing
+        return None
+
+
+def _asked(module, needs) -> list:
+    """The needs of ``needs`` that the scenario ``module`` does not declare either way, and that
+    its model is asked for (see ``provided``)."""
+    if not hasattr(module, "PROVIDES"):
+        return list(needs)
+    if set(declared(module)) & set(MEASUREMENT):
+        return []
+    return [n for n in needs if n in MEASUREMENT]
+
+
+def provided(module, params, needs=()) -> set:
+    """What the scenario ``module`` provides of ``needs``: what its ``PROVIDES`` declares. What
+    it does not declare is read from its model, built from ``params`` (its validated keys; None:
+    its keys' defaults): every need for a module without ``PROVIDES`` (a plug-in written before
+    it), the measurement's (``MEASUREMENT``) for one whose ``PROVIDES`` names neither."""
+    have = set(declared(module))
+    ask = _asked(module, needs)
+    if ask:
+        model = _build(module, params)
+        if model is not None:
+            have |= {n for n in ask if _model_has(n, model)}
+    return have
+
+
+def _model_lacks(need: str, model) -> bool:
+    """Whether ``model`` shows it lacks ``need`` (only what a model shows: its Jacobians, the
+    observe function and noise of a Gaussian measurement)."""
+    if need == "jacobians":
+        return not _model_has("jacobians", model)
+    if need == "gaussian_measurement":
+        return getattr(model, "observe", None) is None or getattr(model, "noise", None) is None
+    return False
+
+
+def false_claims(module, params, needs=()) -> list[str]:
+    """The needs of ``needs`` that the scenario ``module`` declares in its ``PROVIDES`` but its
+    model, built from ``params``, shows it lacks (its Jacobians, a Gaussian measurement's observe
+    and noise): a plug-in's claim checked before a run relies on it. pfbench's own scenarios are
+    not built here (their claims are tested)."""
+    checkable = [n for n in needs if n in ("jacobians", "gaussian_measurement")
+                 and n in declared(module)]
+    if (not checkable or params is None
+            or getattr(module, "__name__", "").startswith("pfbench.scenarios.")):
+        return []
+    model = _build(module, params)
+    if model is None:
+        return []
+    return [n for n in checkable if _model_lacks(n, model)]
+
+
+# Cells of ``compatibility``: a filter type names the scenarios it runs on (``scenarios``), and
+# this is not one of them; the scenario's model, to be asked what it provides, cannot be built
+# from its keys' defaults (a required key, a file its ``resolve`` reads: a config says).
+NOT_NAMED = "not named"
+UNKNOWN = "unknown"
+
+
+def compatibility(filters: dict, scenarios: dict) -> dict:
+    """The compatibility matrix of filter types (name -> FilterType) and scenarios (name ->
+    module), kind by kind: kind -> (scenario names, filter names, {(scenario, filter): what the
+    scenario lacks}), where what it lacks is () when the filter runs on it, the names of ``NEEDS``
+    it lacks, (``NOT_NAMED``,) when the filter names the scenarios it runs on and not this one,
+    or (``UNKNOWN``,) when the scenario's model would be asked (see ``provided``) and cannot be
+    built from its keys' defaults; a filter and a scenario of different kinds are not paired."""
+    out = {}
+    for kind in KIND_NAMES:
+        scens = [s for s, m in scenarios.items() if getattr(m, "KIND", None) == kind]
+        filts = [f for f, ft in filters.items() if ft.kind == kind]
+        if not scens and not filts:
+            continue
+        wanted = tuple(dict.fromkeys(n for f in filts for n in filters[f].needs))
+        cells = {}
+        for s in scens:
+            mod = scenarios[s]
+            have = provided(mod, None, wanted)
+            unknown = set(_asked(mod, wanted)) - have
+            if unknown and _build(mod, None) is not None:
+                unknown = set()
+            for f in filts:
+                ft = filters[f]
+                lacking = tuple(n for n in ft.needs if n not in have)
+                if ft.scenarios is not None and s not in ft.scenarios:
+                    cells[s, f] = (NOT_NAMED,)
+                elif unknown & set(lacking):
+                    cells[s, f] = (UNKNOWN,)
+                else:
+                    cells[s, f] = lacking
+        out[kind] = (scens, filts, cells)
+    return out

@@ -393,11 +393,37 @@ def modules_block() -> str:
     return "\n".join(out + [""])
 
 
-BLOCKS = {"config-keys": keys_block, "metrics": metrics_block, "example": example_block,
+def compatibility_block() -> str:
+    """What each need means, and pfbench's own filters against its own scenarios, kind by kind:
+    'yes', or what the scenario lacks (pfbench.protocols)."""
+    from pfbench.filters import BUILTIN as FILTER_BUILTIN
+    from pfbench.protocols import NEEDS, NOT_NAMED, UNKNOWN, compatibility
+    from pfbench.scenarios import BUILTIN as SCENARIO_BUILTIN
+    out = ["", "*Generated from the filters' `needs` and the scenarios' `PROVIDES` by "
+           "`python scripts/update_readme.py --write`.*", "", "| need | what it is |",
+           "| --- | --- |"]
+    out += [f"| `{n}` | {_esc(text)} |" for n, text in NEEDS.items()]
+    out += ["", "| filter | needs |", "| --- | --- |"]
+    out += [f"| `{f}` | {', '.join(f'`{n}`' for n in ft.needs) or 'nothing beyond its kind'} |"
+            for f, ft in FILTER_BUILTIN.items()]
+    for kind, (scens, filts, cells) in compatibility(FILTER_BUILTIN, SCENARIO_BUILTIN).items():
+        out += ["", f"**{kind}** scenarios", "", "| scenario | provides | "
+                + " | ".join(f"`{f}`" for f in filts) + " |",
+                "| --- | --- |" + " --- |" * len(filts)]
+        for sc in scens:
+            row = ["yes" if not cells[sc, f] else "no" if cells[sc, f] == (NOT_NAMED,) else
+                   "?" if cells[sc, f] == (UNKNOWN,) else "lacks " + ", ".join(cells[sc, f])
+                   for f in filts]
+            given = ", ".join(f"`{n}`" for n in SCENARIO_BUILTIN[sc].PROVIDES) or "-"
+            out.append(f"| `{sc}` | {given} | " + " | ".join(row) + " |")
+    return "\n".join(out + [""])
+
+
+BLOCKS = {"compatibility": compatibility_block, "config-keys": keys_block, "metrics": metrics_block, "example": example_block,
           "bench": bench_block, "summary": summary_block, "modules": modules_block}
 PARAMETRISED = {"findings": findings_block, "choices": choices_block}
 # the blocks that must appear somewhere: a generated table never vanishes from the docs unseen
-REQUIRED_BLOCKS = ("config-keys", "metrics", "example", "bench", "summary", "modules")
+REQUIRED_BLOCKS = ("compatibility", "config-keys", "metrics", "example", "bench", "summary", "modules")
 PAGES = {"reference/cli.md": cli_page, "reference/api.md": api_page}
 MARK = re.compile(r"<!-- ([\w-]+(?::[\w-]+)?):begin -->")
 

@@ -81,4 +81,4 @@ def run(model, y, params, particles, state, diag=True):
 
 EKF = FilterType("ekf", "extended Kalman filter (on scenarios that provide their model's "
                  "Jacobians)", gaussian_noise_keys("the EKF"), run, particles=False, cost="1",
-                 needs=("jacobians",))
+                 needs=("jacobians", "gaussian_measurement"))

@@ -1178,4 +1178,5 @@ def fastslam_keys() -> dict:
 
 
 FASTSLAM = FilterType("fastslam", "FastSLAM 1.0 with per-landmark EKFs, optional swarm pose "
-                      "refinement (FA, IFA, BA, PSO, AFSA)", fastslam_keys(), run, kind="slam")
+                      "refinement (FA, IFA, BA, PSO, AFSA)", fastslam_keys(), run, kind="slam",
+                      needs=())

@@ -1,4 +1,5 @@
-"""Exact Kalman filter for the scalar linear-Gaussian scenario (theta = [a, c]): the reference."""
+"""Exact Kalman filter for a scalar linear-Gaussian model (theta = [a, c], a scenario that
+provides 'linear': linear_gaussian): the reference."""
 from __future__ import annotations
 
 import numpy as np
@@ -29,7 +30,7 @@ def kalman_kernel(y, a, c, Q, R, prior_mean, prior_var, xhat, pvar):
 
 
 def run(model, y, params, particles, state, diag=True):
-    """Run the exact Kalman filter (linear_gaussian scenario only)."""
+    """Run the exact Kalman filter (on a linear model: theta = [a, c])."""
     out = {"xhat": np.empty(y.size), "pvar": np.empty(y.size)}
     a, c = float(model.theta[0]), float(model.theta[1])
     kalman_kernel(y, a, c, model.process_var, model.measurement_var, model.prior_mean,
@@ -38,5 +39,6 @@ def run(model, y, params, particles, state, diag=True):
     return out
 
 
-KF = FilterType("kf", "exact Kalman filter (linear_gaussian scenario only)", {}, run,
-                particles=False, scenarios=("linear_gaussian",), cost="1")
+KF = FilterType("kf", "exact Kalman filter (on scenarios that provide a linear model: "
+                "linear_gaussian)", {}, run, particles=False, cost="1",
+                needs=("linear", "gaussian_measurement"))

@@ -1087,4 +1087,4 @@ def mcl_scenario_check(params, scenario: dict) -> tuple[str, str] | None:
 MCL = FilterType("mcl", "Monte Carlo localization, optionally with sensor resetting (SRL, ASRL) "
                  "or augmented-MCL injection, or KLD-sampling", mcl_keys(), run,
                  kind="localization", check=mcl_check, snapshots=True,
-                 check_scenario=mcl_scenario_check)
+                 check_scenario=mcl_scenario_check, needs=())

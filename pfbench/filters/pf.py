@@ -131,8 +131,9 @@ def run(model, y, params, particles, state, diag=True):
     return out
 
 
-PF = FilterType("pf", "bootstrap particle filter (SIR)", pf_keys(), run)
+PF = FilterType("pf", "bootstrap particle filter (SIR)", pf_keys(), run, needs=("likelihood",))
 PFMH = FilterType(
     "pfmh", "bootstrap PF with Metropolis-Hastings moves after resampling (PF+MH)",
     {**pf_keys(), "mh_steps": Key("int", 1, "MH moves per particle after each resampling "
-                                  "(proposal: the transition prior)", min=1)}, run)
+                                  "(proposal: the transition prior)", min=1)}, run,
+    needs=("likelihood",))

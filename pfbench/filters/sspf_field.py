@@ -807,4 +807,4 @@ SSPF_FIELD = FilterType(
     "sspf_field", "SSPF for localization (sspf2008): a UKF proposal per particle (pose and "
     "odometry noise), weight-change-triggered residual resampling, MH move; 'type: sspf' on a "
     "localization scenario", sspf_field_keys(), run, kind="localization", check=sigma_check,
-    snapshots=True)
+    snapshots=True, needs=())

@@ -256,7 +256,8 @@ def swarm_pf_keys(algo: str, resampling: str = "systematic", **own) -> dict:
 
 FA_PF = FilterType(
     "fa", "firefly-algorithm PF (FA-PF): fireflies toward brighter (likelier) particles; O(N^2) "
-    "per iteration", swarm_pf_keys("fa"), make_run("fa"), cost="N^2")
+    "per iteration", swarm_pf_keys("fa"), make_run("fa"), cost="N^2",
+    needs=("likelihood",))
 IFA_PF = FilterType(
     "ifa", "improved firefly PF (IFA-PF, ifa2021): distance brightness, adaptive step, stepwise "
     "EWA resampling; O(N^2) per iteration",
@@ -264,13 +265,14 @@ IFA_PF = FilterType(
         "choice", "gaussian", "how the distance d (measurement and predicted state, each in units "
         "of its noise standard deviation) becomes a brightness: 'gaussian' exp(-d^2 / 2) or "
         "'inverse' 1 / (1 + d); ifa2021 leaves it open", choices=tuple(BRIGHTNESS))),
-    make_run("ifa"), cost="N^2")
+    make_run("ifa"), cost="N^2", needs=("likelihood",))
 BA_PF = FilterType(
     "ba", "bat-algorithm PF (BA-PF): frequency-tuned velocities, loudness and pulse rate",
-    swarm_pf_keys("ba"), make_run("ba"))
+    swarm_pf_keys("ba"), make_run("ba"), needs=("likelihood",))
 PSO_PF = FilterType(
     "pso", "particle-swarm PF (PSO-PF): moves toward personal and global best likelihood",
-    swarm_pf_keys("pso"), make_run("pso"))
+    swarm_pf_keys("pso"), make_run("pso"), needs=("likelihood",))
 AFSA_PF = FilterType(
     "afsa", "artificial-fish-swarm PF (AFSA-PF): prey, swarm and follow behaviours; O(N^2) per "
-    "iteration", swarm_pf_keys("afsa"), make_run("afsa"), cost="N^2")
+    "iteration", swarm_pf_keys("afsa"), make_run("afsa"), cost="N^2",
+    needs=("likelihood",))

@@ -141,4 +141,4 @@ UKF = FilterType(
     {**sigma_keys(),
      "augmented": Key("bool", True, "augment the state with the process and measurement noise"),
      **gaussian_noise_keys("the UKF")},
-    run, particles=False, cost="1", check=sigma_check)
+    run, particles=False, cost="1", check=sigma_check, needs=("gaussian_measurement",))

@@ -348,6 +348,7 @@ def upf_keys(resample: str, mh_steps: int) -> dict:
 
 
 UPF = FilterType("upf", "unscented particle filter (a UKF per particle as the proposal)",
-                 upf_keys("always", 0), run, check=sigma_check)
+                 upf_keys("always", 0), run, check=sigma_check, needs=("gaussian_measurement",))
 SSPF = FilterType("sspf", "SSPF (sspf2008): UPF + weight-change-triggered residual resampling + "
-                  "MH move", upf_keys("weight_change", 1), run, check=sigma_check)
+                  "MH move", upf_keys("weight_change", 1), run, check=sigma_check,
+                  needs=("gaussian_measurement",))

@@ -50,6 +50,7 @@ from .worlds import load_world
 
 NAME = "beacon_field"
 KIND = "localization"
+PROVIDES = ()    # the kind's record fixes what its filters read: they need nothing more
 DESCRIPTION = "robot localization among 6 beacons in a 40 m x 40 m field (sspf2008, asrl2008)"
 
 DEG = math.pi / 180.0

@@ -23,6 +23,7 @@ from .worlds import resolve_course
 
 NAME = "landmark_world"
 KIND = "slam"
+PROVIDES = ()    # the kind's record fixes what its filters read: they need nothing more
 DESCRIPTION = "odometry-driven robot in a 50 m x 60 m landmark world (afsa2014)"
 
 SCHEMA = {

@@ -14,7 +14,8 @@ from ..models.scalar import MODEL_SIG, simulate, NOISE_GAUSSIAN, ScalarModel
 
 NAME = "linear_gaussian"
 KIND = "scalar"
-PROVIDES = ("jacobians",)    # its model's df/dx and dh/dx, which the EKF needs
+# what its model gives the filters beyond the kind (pfbench.protocols.NEEDS)
+PROVIDES = ("jacobians", "gaussian_measurement", "likelihood", "linear")
 DESCRIPTION = "scalar linear-Gaussian model; the exact Kalman filter ('kf') is the reference"
 
 SCHEMA = {

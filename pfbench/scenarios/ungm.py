@@ -19,7 +19,8 @@ from ..models.scalar import MODEL_SIG, simulate, NOISE_GAUSSIAN, ScalarModel
 
 NAME = "ungm"
 KIND = "scalar"
-PROVIDES = ("jacobians",)    # its model's df/dx and dh/dx, which the EKF needs
+# what its model gives the filters beyond the kind (pfbench.protocols.NEEDS)
+PROVIDES = ("jacobians", "gaussian_measurement", "likelihood")
 DESCRIPTION = "univariate nonlinear growth model (ifa2021, sspf2008 Table 1)"
 
 SCHEMA = {

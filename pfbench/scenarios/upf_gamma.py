@@ -20,7 +20,8 @@ from ..models.scalar import MODEL_SIG, simulate, NOISE_GAMMA, ScalarModel
 
 NAME = "upf_gamma"
 KIND = "scalar"
-PROVIDES = ("jacobians",)    # its model's df/dx and dh/dx, which the EKF needs
+# what its model gives the filters beyond the kind (pfbench.protocols.NEEDS)
+PROVIDES = ("jacobians", "gaussian_measurement", "likelihood")
 DESCRIPTION = "van der Merwe et al. (2000) Gamma-noise benchmark (sspf2008 Table 1's source)"
 
 SCHEMA = {
