@@ -176,6 +176,7 @@ def test_a_plugin_kernel_calls_every_kernel():
 
     theta = np.array([3.0])
     assert through_model(k.model_function(scale), theta, s.copy()) == 0.0
+    assert through_model(scale, theta, s.copy()) == 0.0     # a plain dispatcher works too
 
 
 def test_log_sum_exp_edges():

@@ -96,7 +96,7 @@ def test_a_plugins_keys_and_a_plugin_left_out(tmp_path):
     eps = tomllib.loads((example / "pyproject.toml").read_text())["project"]["entry-points"]
     text = "".join(f"[{group}]\n" + "".join(f"{k} = {v}\n" for k, v in items.items())
                    for group, items in eps.items())
-    text += "[pfbench.filters]\nbadkind = badkind_mod:F\n"
+    text += "[pfbench.filters]\nbadkind = badkind_mod:F\nkernpf = kern_mod:F\n"
     info = site / "pfbench_example-0.1.dist-info"
     info.mkdir()
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: pfbench-example\nVersion: 0.1\n")
@@ -104,6 +104,11 @@ def test_a_plugins_keys_and_a_plugin_left_out(tmp_path):
     (site / "badkind_mod.py").write_text(
         "from pfbench.filters import FilterType\nfrom pfbench.schema import Key\n"
         "F = FilterType('badkind', 'x', {'n': Key('integer', 1, 'a count')}, lambda *a: {})\n")
+    (site / "kern_mod.py").write_text(      # a plug-in of the kernel API, found by discovery
+        "from pfbench.kernels import STATE, normal, resample\n"
+        "from pfbench.filters import FilterType\nfrom pfbench.schema import Key\n"
+        "F = FilterType('kernpf', 'x', {'n': Key('int', 2, 'a count', min=1)}, "
+        "lambda *a: {})\n")
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(site), str(ROOT)]), COLUMNS="200")
 
     def pfbench(*args):
@@ -118,6 +123,9 @@ def test_a_plugins_keys_and_a_plugin_left_out(tmp_path):
     assert got.returncode == 0, got.stderr
     assert "scenario bearings_road (plug-in: pfbench-example)" in got.stdout
     assert "  dt_s (float, default 1): a number > 0" in got.stdout
+    got = pfbench("list", "--keys", "kernpf")
+    assert got.returncode == 0, got.stderr
+    assert "  n (int, default 2): an integer >= 1" in got.stdout
     got = pfbench("list", "--keys", "badkind")
     assert got.returncode == 2 and got.stdout == ""
     lines = got.stderr.strip().splitlines()
