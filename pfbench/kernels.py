@@ -5,7 +5,7 @@ Each name is re-exported from the module that owns it, never copied: pfbench's o
 the very same functions. ``__all__`` lists them; docs/reference/kernels.md documents each with
 its numba signature (a test holds the two to each other and to the compiled signatures).
 
-In a kernel (``@njit``, with or without an explicit signature, ``cache=True`` recommended):
+In a kernel (``numba.njit``, with or without an explicit signature; ``cache=True`` recommended):
 
 - random draws (pfbench.rng), every one from the generator state ``s``, a ``uint64[::1]`` of 4
   (``STATE`` is its numba type), advanced in place:
@@ -23,25 +23,30 @@ In a kernel (``@njit``, with or without an explicit signature, ``cache=True`` re
   ``SCHEME_SYSTEMATIC``, ``SCHEME_STRATIFIED``, ``SCHEME_RESIDUAL`` (``SCHEME_CODES[name]``);
   or a scheme's own kernel, ``multinomial``, ``systematic``, ``stratified``, ``residual``, of
   the same arguments without the code;
-- weights (pfbench.filters.weights): ``normalise(lw, w, x, m) -> (S, S2, sx, underflow)``
-  (max-shifted weights from log-weights, their sums), ``normalised(lw, W, mx) -> underflow``,
-  ``divide(w, S, out)``, ``ess(S, S2) -> float64``, ``log_sum_exp(lw) -> float64``;
+- weights (pfbench.filters.weights): ``normalise(lw: float64[::1], w: float64[::1],
+  x: float64[::1], m: float64) -> (S, S2, sx, underflow)``, four float64 (max-shifted weights
+  from log-weights, their sums), ``normalised(lw: float64[::1], W: float64[::1], mx: float64)
+  -> float64`` (underflow), ``divide(w: float64[::1], S: float64, out: float64[::1])``,
+  ``ess(S: float64, S2: float64) -> float64``, ``log_sum_exp(lw: float64[::1]) -> float64``;
 - angles (pfbench.angles): ``wrap(a: float64) -> float64``, to [-pi, pi);
 - the model functions of a scalar model (``model.transition``, ``model.observe``,
   ``model.transition_jac``, ``model.observe_jac``): a kernel declares them ``ModelFn``, the
   numba type of a function of signature ``MODEL_SIG``, ``(x: float64[::1], t: float64,
   theta: float64[::1], out: float64[::1]) -> none``.
 
-From Python: ``state_from_seed(seed_sequence)`` makes a state; ``ancestors(weights, scheme,
-state)`` resamples with every argument checked; ``SCHEMES`` (name -> description) and
-``SCHEME_CODES`` (name -> code); ``ess_threshold(params, N)``; ``ModelFunction`` is what a
+``signature_text(name)`` gives a kernel's compiled signature with its arguments' names (what
+docs/reference/kernels.md shows). From Python: ``state_from_seed(seed_sequence)`` makes a
+state; ``ancestors(weights, scheme, state)`` resamples with every argument checked;
+``SCHEMES`` (name -> description) and ``SCHEME_CODES`` (name -> code);
+``ess_threshold(params, N)``; ``ModelFunction`` is what a
 ``ScalarModel`` holds its model functions as (the compiled entry of a ``MODEL_SIG`` function,
 whose numba type is ``ModelFn``), and ``model_function(fn)`` makes one.
 
 ``ModelFn`` against ``ModelFunction``: ``ModelFn`` is a numba *type*, for a kernel's signature
 (``types.void(ModelFn, ...)``); ``ModelFunction`` is the Python *value* handed to that
-argument. A scenario writes plain ``@njit(MODEL_SIG)`` functions; ``ScalarModel`` wraps them
-as ``ModelFunction`` itself, so a filter passes ``model.transition`` to its kernel as it is.
+argument. A scenario writes plain ``numba.njit(MODEL_SIG)`` functions; ``ScalarModel`` wraps
+them as ``ModelFunction`` itself, so a filter passes ``model.transition`` to its kernel as it
+is.
 
 The generator state: a filter's ``run`` receives ``state``, a fresh ``uint64`` array of 4 for
 this trial and this filter run (from a ``numpy.random.SeedSequence`` of the experiment's seed,

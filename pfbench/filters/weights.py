@@ -226,7 +226,8 @@ def shifted_exp_less(a, shift, q, out):
 def ess(S, S2):
     """The effective sample size (sum w)^2 / sum w^2 of weights w whose sum is S and sum of
     squares S2 (as ``normalise`` returns them; normalised weights: S = 1, 1 / S2). The one
-    place the ESS is computed from the sums (the scalar PFs' traces, FastSLAM's weights)."""
+    place the ESS is computed from the sums (the scalar PFs' traces, FastSLAM's weights, MCL's
+    and the field SSPF's)."""
     return S * S / S2
 
 
