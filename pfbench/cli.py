@@ -762,13 +762,25 @@ def list_(configs: Path = typer.Option(Path("configs"), "--configs",
           probe_timeout: float = typer.Option(600.0, "--probe-timeout", help="--check: seconds "
                                               "each probe may take, its kernels' first "
                                               "compilation included, before it is stopped and "
-                                              "reported as a problem naming its filter.")):
+                                              "reported as a problem naming its filter."),
+          keys: Optional[str] = typer.Option(None, "--keys", metavar="NAME", help="Print the "
+                                             "keys of the filter type or scenario NAME (plug-ins "
+                                             "too): each key's kind, default, bounds and doc, "
+                                             "instead of the lists.")):
     """List scenarios, filters (with which filter runs on which scenario), resampling schemes and
-    configs."""
+    configs; with --keys NAME, the keys of the filter type or scenario NAME."""
     import math
     if not math.isfinite(probe_timeout) or probe_timeout <= 0:
         with _guard():
             raise UserError(f"--probe-timeout: expected a finite number > 0, got {probe_timeout}")
+    if keys is not None:
+        with _guard():
+            if check:
+                raise UserError("--keys prints one filter's or scenario's keys; run --check "
+                                "on its own")
+            _load_kernels()
+            _print_keys(keys)
+        return
     _load_kernels()
     from . import plugins
     from .config import read_yaml
@@ -869,6 +881,76 @@ def _print_compatibility(filters: dict, scenarios: dict) -> None:
     lines = compatibility_lines(filters, scenarios)
     out.print(lines[0], style="bold", markup=False)
     for line in lines[1:]:
+        out.print(line, markup=False, soft_wrap=True)
+
+
+def _key_lines(schema: dict, note: str = "") -> list[str]:
+    """Two lines per key of ``schema``: its name, kind, default and what it accepts (its
+    bounds); then its doc."""
+    lines = []
+    for name, key in schema.items():
+        try:
+            null = ", or null" if key.nullable else ""
+            head = f"({key.kind}, default {key.default_text()}): {key.expected()}{null}"
+            doc = " ".join(str(key.doc).split()) or "(no doc)"
+        except Exception as exc:    # a plug-in's key that cannot describe itself
+            head, doc = f"(cannot be described: {type(exc).__name__}: {exc})", ""
+        lines.append(f"  {name} {head}")
+        lines.append(f"      {doc}{note}")
+    return lines or ["  (no keys of its own)"]
+
+
+def _print_keys(name: str) -> None:
+    """``pfbench list --keys NAME``: the keys of the filter type or scenario NAME, or a
+    UserError naming the close names."""
+    import difflib
+    from . import plugins
+    from .filters import FILTERS, KIND_TYPES
+    from .protocols import FILTER_COMMON, declared
+    from .scenarios import SCENARIOS
+    from .schema import printable
+
+    def origin(group, what):
+        pkg = plugins.ORIGIN.get((group, what), "pfbench")
+        return "" if pkg == "pfbench" else f" (plug-in: {pkg})"
+
+    lines = []
+    if name in FILTERS:
+        f = FILTERS[name]
+        extra = [f"runs on {f.kind} scenarios"
+                 + (f" ({', '.join(f.scenarios)} only)" if f.scenarios else "")]
+        if f.needs:
+            extra.append(f"needs {', '.join(f.needs)}")
+        if not f.particles:
+            extra.append("no particles")
+        lines.append(f"filter type {name}{origin(plugins.FILTER_GROUP, name)}: {f.description} "
+                     f"({'; '.join(extra)})")
+        lines.append("keys every filter has (filters.<key>.):")
+        lines += _key_lines(FILTER_COMMON)
+        lines.append(f"keys of {name}:")
+        lines += _key_lines(f.schema)
+        lines += [f"  (a config's 'type: {name}' runs {t} on {k} scenarios)"
+                  for (n, k), t in KIND_TYPES.items() if n == name]
+    if name in SCENARIOS:
+        mod = SCENARIOS[name]
+        gives = declared(mod)
+        lines.append(f"scenario {name}{origin(plugins.SCENARIO_GROUP, name)}: "
+                     f"{mod.DESCRIPTION} (kind {mod.KIND}"
+                     + (f"; provides {', '.join(gives)}" if gives else "") + ")")
+        lines.append(f"keys of scenario {name} (scenario.<key>):")
+        lines += _key_lines(mod.SCHEMA)
+    if not lines:
+        shown = printable(name)
+        left = (plugins.problem_for(plugins.FILTER_GROUP, name)
+                or plugins.problem_for(plugins.SCENARIO_GROUP, name))
+        if left:
+            raise UserError(f"--keys '{shown}': {left}; left out")
+        names = [*FILTERS, *SCENARIOS]
+        close = difflib.get_close_matches(name, names, n=3, cutoff=0.5)
+        hint = (f"did you mean {', '.join(repr(c) for c in close)}?" if close else
+                f"filters: {', '.join(FILTERS)}; scenarios: {', '.join(SCENARIOS)}")
+        raise UserError(f"--keys '{shown}': no filter type or scenario of that name; {hint}")
+    for line in lines:
         out.print(line, markup=False, soft_wrap=True)
 
 

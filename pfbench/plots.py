@@ -239,8 +239,10 @@ def localization_error_figure(exp: Experiment, traces: Traces, path: Path,
     trials = sorted(traces.trials)
     by_trial = [runs_in(traces.trials[k]) for k in trials]
     err = {r.key: np.asarray([tr[r.key]["error"] for tr in by_trial], dtype=float) for r in runs}
-    count = {r.key: np.asarray([tr[r.key]["n"] for tr in by_trial]) for r in runs
-             if "n" in by_trial[0][r.key]}
+    # a particle count over the trials that report one (an optional output, given or not in
+    # each trial on its own)
+    count = {r.key: np.asarray([tr[r.key]["n"] for tr in by_trial if "n" in tr[r.key]])
+             for r in runs if any("n" in tr[r.key] for tr in by_trial)}
     adaptive = [r for r in runs if r.key in count and np.ptp(count[r.key]) > 0]
     fig, axes = fs.pyplot().subplots(2 if adaptive else 1, 1, figsize=(8.6, 6.6 if adaptive else 4.4),
                              sharex=True, squeeze=False)

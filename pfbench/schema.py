@@ -191,20 +191,52 @@ def _looks_numeric(text: str) -> bool:
     return True
 
 
+# Every kind of key, with what a config may give for it (``Key.kind``).
+KEY_KINDS = {
+    "int": "a whole number within int64 (1e3 and 2.0 count: they are whole), within min/max",
+    "float": "a finite number (an integer is taken as a float), within min/max (min_exclusive: "
+             "strictly above min)",
+    "str": "a non-empty string of UTF-8 text",
+    "bool": "true or false (not 0/1, not 'yes')",
+    "choice": "one of the strings in choices",
+    "ints": "an integer, or a list of distinct integers (each within min/max); an empty list "
+            "only with empty_ok",
+    "floats": "a number, or a list of numbers (each finite, within min/max); an empty list only "
+              "with empty_ok",
+    "names": "one of the words in words, or a list of distinct names from choices (empty "
+             "allowed)",
+}
+
+
 @dataclass(frozen=True)
 class Key:
-    """One config key.
+    """One config key: of a filter type's or a scenario's schema, or of pfbench's own sections.
+    ``pfbench list --keys NAME`` prints the keys of the filter or scenario NAME (plug-ins too)
+    with their kinds, defaults, bounds and docs; docs/reference/config.md lists every key.
 
-    kind : 'int', 'float', 'str', 'bool', 'choice', 'ints' (an int or a list of distinct ints),
-        'names' (one of ``words``, or a list of distinct names of ``choices``, empty allowed)
+    kind : one of ``KEY_KINDS``, what a config may give:
+
+        - 'int': a whole number within int64 (1e3 and 2.0 count), within min/max
+        - 'float': a finite number, within min/max (``min_exclusive``: strictly above min)
+        - 'str': a non-empty string of UTF-8 text
+        - 'bool': true or false
+        - 'choice': one of ``choices`` (strings)
+        - 'ints': an integer or a list of distinct integers, each within min/max
+        - 'floats': a number or a list of numbers, each finite and within min/max
+        - 'names': one of ``words``, or a list of distinct names of ``choices`` (empty allowed)
+
+        A list of 'ints' or 'floats' is validated to a tuple; an empty one only with
+        ``empty_ok``. Any kind may also be null with ``nullable``.
     default : value used when the key is absent; ``REQUIRED`` if it must be given
-    doc : one line for the key reference, docs/reference/config.md (scripts/update_readme.py) and for the error
-        that names the key
+    doc : one line for the key reference (docs/reference/config.md, from
+        ``python scripts/update_readme.py --write``), for ``pfbench list --keys`` and for the
+        error that names the key
     min, max : bounds for numbers (``min_exclusive``: strictly greater than min)
     choices : allowed values for 'choice', the names a 'names' list may hold
     words : 'names': the words it may be instead of a list
     nullable : null (None) is allowed
     check : extra validator returning an error message or None
+    empty_ok : 'ints' / 'floats': an empty list is allowed
     """
 
     kind: str
@@ -218,6 +250,26 @@ class Key:
     check: Callable[[Any], str | None] | None = None
     empty_ok: bool = False      # ints / floats: an empty list is allowed
     words: tuple = ()
+
+    def __post_init__(self):
+        if self.kind not in KEY_KINDS:
+            raise ValueError(f"Key kind {self.kind!r} is none of {', '.join(KEY_KINDS)}"
+                             + did_you_mean(self.kind, KEY_KINDS))
+
+    def default_text(self) -> str:
+        """The default as a config would write it: 'required', 'null', 'true', 0.5, [1, 2]."""
+        d = self.default
+        if d is REQUIRED:
+            return "required"
+        if d is None:
+            return "null"
+        if isinstance(d, bool):
+            return str(d).lower()
+        if isinstance(d, (tuple, list)):
+            return "[" + ", ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in d) + "]"
+        if isinstance(d, float):
+            return f"{d:g}"
+        return str(d)
 
     def expected(self) -> str:
         if self.kind == "choice":

@@ -24,7 +24,7 @@ LAYERS = {
              "pfbench.codes"),
     "models": ("pfbench.models",),
     "kernels and worlds": ("pfbench.resampling", "pfbench.filters.*", "pfbench.scenarios.*"),
-    "registry": ("pfbench.plugins", "pfbench.filters", "pfbench.scenarios"),
+    "registry": ("pfbench.plugins", "pfbench.filters", "pfbench.scenarios", "pfbench.kernels"),
     "experiment": ("pfbench.kinds", "pfbench.traces", "pfbench.diagnostics", "pfbench.resources",
                    "pfbench.papers", "pfbench.verdicts", "pfbench.compare", "pfbench.config"),
     "running": ("pfbench.workers", "pfbench.store", "pfbench.runner", "pfbench.precompile",

@@ -42,6 +42,8 @@ def _where(pattern: str) -> list[str]:
     # the tail and wedge test on a local state is rng.normal_off_rectangle
     (r"_ZKI\[", "pfbench/rng.py"),
     (r"_normal_slow\(", "pfbench/rng.py"),
+    # the ESS from the weights' sums, S^2 / S2: weights.ess
+    (r"(\w+) \* \1 / (S2\b|\(\(q0)|1\.0 / S2\b", "pfbench/filters/weights.py"),
     # the ESS threshold a filter resamples below: resampling.ess_threshold
     (r"\['neff_ratio'\] \*", "pfbench/resampling.py"),
     # the stepwise EWA's scheme code after the standard ones: codes.STEPWISE_EWA

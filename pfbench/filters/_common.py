@@ -10,7 +10,7 @@ from .._lazy import kernel
 
 from ..rng import STATE, fill_normal, uniform
 from ..models.scalar import ModelFn, add_process_noise
-from .weights import normalise, normalise_lanes
+from .weights import ess as ess_of, normalise, normalise_lanes
 
 _F = types.float64[::1]
 _I = types.int64[::1]
@@ -49,7 +49,7 @@ def floored(l, log_floor):
 def _record_step(S, S2, sx, under, t, ess, resampled, div_l1, distinct):
     """Step t's ESS from the sums, its resampling entries as 'not resampled'; returns (S, the
     weighted mean, underflow)."""
-    ess[t] = S * S / S2
+    ess[t] = ess_of(S, S2)
     resampled[t] = 0
     div_l1[t] = np.nan
     distinct[t] = np.nan

@@ -39,7 +39,7 @@ from .swarm import (AFSA, AFSA_FISH_SHIFT, ALGORITHMS, DONE, FIT_BEHAVIOURS, FIT
                     afsa_fish_shift, afsa_joint_shift, evaluations, keys, new_swarm_work,
                     swarm_move, swarm_params)
 from .types import FilterType
-from .weights import divide, normalise, shifted_exp_less
+from .weights import divide, ess as ess_of, normalise, shifted_exp_less
 
 _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
@@ -918,7 +918,7 @@ def map_weights(lw, w, Wn, P, mx):
     shifted in place, mx its maximum), Wn = w over their sum. P (N, 3) the poses. Returns (the
     weights' sum, the ESS, 1.0 when every weight underflowed and was reset, else 0.0)."""
     Ssum, S2, sx, under = normalise(lw, w, P[:, 0].copy(), mx)
-    ess = Ssum * Ssum / S2
+    ess = ess_of(Ssum, S2)
     divide(w, Ssum, Wn)
     return Ssum, ess, under
 

@@ -59,7 +59,7 @@ from ..models.observations import OBSERVATIONS, observations
 from ..models.pose import INITIAL_BELIEF, SNAPSHOTS, init_particles, snapshot, snapshot_arrays
 from ..schema import Key
 from .keys import pf_keys
-from .weights import exp_pass, exp_sum, reset_unless_finite
+from .weights import ess as ess_of, exp_pass, exp_sum, reset_unless_finite
 from .types import FilterType
 
 _F = types.float64[::1]
@@ -745,7 +745,7 @@ def weighted_sums(P, W, n, CS, cum, out):
         q0 = vm.fma(W[i], W[i], q0)
     out[0], out[1] = ((x0 + x1) + (x2 + x3)) / acc, ((y0 + y1) + (y2 + y3)) / acc
     out[2] = math.atan2((s0 + s1) + (s2 + s3), (c0 + c1) + (c2 + c3))
-    return acc * acc / ((q0 + q1) + (q2 + q3))
+    return ess_of(acc, (q0 + q1) + (q2 + q3))
 
 
 @kernel(types.UniTuple(types.float64, 3)(types.float64, types.float64, types.float64, types.int64,

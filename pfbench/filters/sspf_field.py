@@ -56,7 +56,7 @@ from .keys import sigma_check, sigma_keys
 from .types import FilterType
 from .ukf import ut_weights
 from .upf import upf_keys
-from .weights import normalised
+from .weights import ess as ess_of, normalised
 
 _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
@@ -219,7 +219,7 @@ def weights_and_change(lw, W, Wprev, mx):
         S2 += W[i] * W[i]
         dw = W[i] - Wprev[i]
         Kc += W[i] * dw * dw
-    return under, 1.0 / S2, Kc
+    return under, ess_of(1.0, S2), Kc     # 1 / S2 (normalised weights), exactly
 
 
 SSPF_SIG = types.int64(

@@ -220,3 +220,32 @@ def shifted_exp_less(a, shift, q, out):
     may be q."""
     for i in range(a.size):
         out[i] = math.exp(a[i] - shift - q[i])
+
+
+@kernel(types.float64(types.float64, types.float64), cache=True, inline="always")
+def ess(S, S2):
+    """The effective sample size (sum w)^2 / sum w^2 of weights w whose sum is S and sum of
+    squares S2 (as ``normalise`` returns them; normalised weights: S = 1, 1 / S2). The one
+    place the ESS is computed from the sums (the scalar PFs' traces, FastSLAM's weights, MCL's
+    and the field SSPF's)."""
+    return S * S / S2
+
+
+@kernel(types.float64(_F), cache=True)
+def log_sum_exp(lw):
+    """log(sum exp(lw)) over the entries of lw that are not NaN, max-shifted so that no
+    exponential overflows or underflows to nothing: m + log(sum exp(lw - m)), m the largest.
+    -inf when there is no entry above -inf (an empty array, every entry -inf or NaN), +inf when
+    one is +inf. The log of a set's total weight (the log of a marginal-likelihood factor:
+    log_sum_exp(lw) - log(N))."""
+    m = -np.inf
+    for i in range(lw.size):
+        if lw[i] > m:
+            m = lw[i]
+    if not np.isfinite(m):
+        return m
+    S = 0.0
+    for i in range(lw.size):
+        if lw[i] == lw[i]:
+            S += math.exp(lw[i] - m)
+    return m + math.log(S)
