@@ -19,7 +19,7 @@ not applicable (one line saying why: a filter without particles has no weights t
   headline metrics and no underflow step counted (the weights are normalised from their largest,
   never 0 / 0).
 - ``resample-every-ess-never``: on linear_gaussian, resampling every step, when the ESS falls
-  below N / 2, and never, each against the Kalman filter (``kf``) on the same data: each mode's
+  below N / 5, and never, each against the Kalman filter (``kf``) on the same data: each mode's
   RMSE within Monte Carlo error of the Kalman filter's (weights overwritten instead of multiplied
   between resamplings fail this).
 - ``rotated-world``: (localization and SLAM kinds) the generated world (pfbench.contract.world)
@@ -339,9 +339,9 @@ def trap_far_below(name: str) -> Finding:
 # ---------------------------------------------------------------- resampling modes against the KF
 
 MODES = {"every step": {"resample": "always"},
-         "ESS-gated": {"resample": "neff", "neff_ratio": 0.5},
+         "ESS-gated": {"resample": "neff", "neff_ratio": 0.2},
          "never": {"resample": "neff", "neff_ratio": 1e-12}}
-KF_TRIALS, KF_PARTICLES, KF_STEPS = 24, 1000, 10
+KF_TRIALS, KF_PARTICLES, KF_STEPS = 40, 1000, 12
 Z = 4.0             # Monte Carlo error allowed, in standard errors of the paired difference
 SLACK = 0.05        # and the particle filter's own excess over the optimum, relative
 
@@ -420,8 +420,13 @@ def trap_rotated_world(name: str) -> Finding:
     if origin is None:
         return Finding(trap, name, NOT_APPLICABLE, f"scenario {scen} does not take the "
                        "generated world (pfbench.contract.world)")
+    # a scenario that can start the filters at the known pose does (global localization's
+    # spread would hide a bias behind Monte Carlo error)
+    ini = SCENARIOS[scen].SCHEMA.get("initial")
+    known = ({"initial": "known"} if ini is not None and ini.kind == "choice"
+             and "known" in (ini.choices or ()) else {})
     exps = [_experiment(name, scen, spec=spec, trials=ROT_TRIALS,
-                        scen={"world": str(world_file(origin, rotated))})
+                        scen={**known, "world": str(world_file(origin, rotated))})
             for rotated in (False, True)]
     from .kinds import kind_of
     metrics = kind_of(scen).headline
