@@ -259,12 +259,26 @@ def _probe_child(conn, probe: Probe, configs: Path | None) -> None:
     """check_probe in a child process: its problems and rows go back through ``conn``."""
     try:
         problems, _, rows = check_probe(probe, configs)
-        conn.send((problems, rows))
+        conn.send((problems, rows, _built()))
     except BaseException as exc:    # noqa: BLE001 (a plug-in's exit or interrupt is a problem too)
         conn.send(([f"{' and '.join(probe.subjects)}: {probe.filter} on {probe.scenario} raised "
-                    f"{type(exc).__name__}: {' '.join(str(exc).split())}"], []))
+                    f"{type(exc).__name__}: {' '.join(str(exc).split())}"], [], set()))
     finally:
         conn.close()
+
+
+def _built() -> set:
+    """The kernels of pfbench's modules built (compiled or loaded) in this process."""
+    from .runner import _kernels
+    return {name for name, k in _kernels() if k.built}
+
+
+def _load(built: set) -> None:
+    """Load here, from the disk cache a probe's process saved them to, the kernels it built: the
+    probes forked after it, and the worker pools, start with them (as the runner's workers)."""
+    from . import runner
+    runner._CHILD_KERNELS.update(built)
+    runner._preload()
 
 
 def run_probe(probe: Probe, configs: Path | None = None, timeout: float | None = PROBE_SECONDS
@@ -289,7 +303,8 @@ def run_probe(probe: Probe, configs: Path | None = None, timeout: float | None =
     try:
         if mine.poll(timeout):
             try:
-                problems, rows = mine.recv()
+                problems, rows, built = mine.recv()
+                _load(built)
                 return problems, exp, rows
             except (EOFError, OSError):
                 pass
