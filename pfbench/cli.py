@@ -874,15 +874,15 @@ def _check_contract(configs: Path | None, executor: str, workers: int, scheduler
     err.print(f"contract: {n} probes cover every filter and scenario{where}: "
               + (f"{len(problems)} problem(s)" if problems else "all kept")
               + f" ({time.perf_counter() - t0:.0f} s)", markup=False)
-    broken = _check_traps(only) if traps else 0
+    broken = _check_traps(only, timeout) if traps else 0
     if problems or broken:
         raise typer.Exit(1)
 
 
-def _check_traps(only: str | None) -> int:
+def _check_traps(only: str | None, timeout: float | None = None) -> int:
     """The trap suite on every filter (or ``only``): a line per broken trap, a line per trap
     naming the filters that kept it and those it does not apply to (and why); the number
-    broken."""
+    broken. ``timeout``: seconds each filter's traps may take."""
     import time
     from .filters import FILTERS
     from .traps import BROKEN, KEPT, NOT_APPLICABLE, TRAPS, run_traps
@@ -890,7 +890,8 @@ def _check_traps(only: str | None) -> int:
     t0 = time.perf_counter()
     with _bar() as bar:
         task = bar.add_task("traps", total=len(names))
-        found = run_traps(names, progress=lambda done, total: bar.update(task, completed=done))
+        found = run_traps(names, progress=lambda done, total: bar.update(task, completed=done),
+                          timeout=timeout)
     for f in found:
         if f.status == BROKEN:
             err.print(f"pfbench: contract: {f.line()}", markup=False, soft_wrap=True)

@@ -1,7 +1,7 @@
 """The trap suite: the known traps of particle-filter code, each a named check run on every
 registered filter, plug-ins and pfbench's own alike (``pfbench check``).
 
-Each trap gives each filter one ``Finding``: kept, broken (one line saying what went wrong), or
+Each trap gives each filter one ``TrapResult``: kept, broken (one line saying what went wrong), or
 not applicable (one line saying why: a filter without particles has no weights to underflow).
 
 - ``resampling-ulp``: weights that sum to 1 +- k ulp (k = 1 .. 64) into every scheme of
@@ -39,13 +39,14 @@ from typing import Callable
 
 import numpy as np
 
+from .codes import SCHEME_CODES
 from .errors import UserError
 
 KEPT, BROKEN, NOT_APPLICABLE = "kept", "broken", "n/a"
 
 
 @dataclass
-class Finding:
+class TrapResult:
     """What a trap found on a filter: ``status`` KEPT, BROKEN or NOT_APPLICABLE, ``detail`` one
     line (what broke, why it does not apply, or a note on how it was kept)."""
 
@@ -139,7 +140,6 @@ def _schemes(name: str) -> tuple[list[str], str]:
 
 def _ancestors(scheme: str, w: np.ndarray, S: float, state) -> np.ndarray:
     from . import resampling
-    from .codes import SCHEME_CODES
     idx = np.full(w.size, -1, dtype=np.int64)
     resampling.resample(SCHEME_CODES[scheme], w, S, state, idx)
     return idx
@@ -158,11 +158,11 @@ def _check_ancestors(idx, w, what: str) -> None:
                       " of weight 0")
 
 
-def trap_resampling_ulp(name: str) -> Finding:
+def trap_resampling_ulp(name: str) -> TrapResult:
     from .rng import state_from_seed
     schemes, why = _schemes(name)
     if not schemes:
-        return Finding("resampling-ulp", name, NOT_APPLICABLE, why)
+        return TrapResult("resampling-ulp", name, NOT_APPLICABLE, why)
     rng = np.random.default_rng(33)
     eps = np.finfo(float).eps
     for scheme in schemes:
@@ -184,14 +184,14 @@ def trap_resampling_ulp(name: str) -> Finding:
                         except Exception as exc:
                             raise _Broken(f"{what}: raised {_one_line(exc)}") from None
                         _check_ancestors(idx, w, what)
-    return Finding("resampling-ulp", name, KEPT, f"schemes {', '.join(schemes)}")
+    return TrapResult("resampling-ulp", name, KEPT, f"schemes {', '.join(schemes)}")
 
 
-def trap_resampling_one_hot(name: str) -> Finding:
+def trap_resampling_one_hot(name: str) -> TrapResult:
     from .rng import state_from_seed
     schemes, why = _schemes(name)
     if not schemes:
-        return Finding("resampling-one-hot", name, NOT_APPLICABLE, why)
+        return TrapResult("resampling-one-hot", name, NOT_APPLICABLE, why)
     for scheme in schemes:
         for N in SIZES:
             for j in sorted({0, N // 2, N - 1}):
@@ -206,18 +206,18 @@ def trap_resampling_one_hot(name: str) -> Finding:
                 if (idx != j).any():
                     raise _Broken(f"{what}: ancestors {sorted(set(idx.tolist()))[:5]}, "
                                   f"expected all {j}")
-    return Finding("resampling-one-hot", name, KEPT, f"schemes {', '.join(schemes)}")
+    return TrapResult("resampling-one-hot", name, KEPT, f"schemes {', '.join(schemes)}")
 
 
 # ---------------------------------------------------------------- particle counts
 
-def trap_particles_1_2(name: str) -> Finding:
+def trap_particles_1_2(name: str) -> TrapResult:
     from .filters import FILTERS
     if not FILTERS[name].particles:
-        return Finding("particles-1-2", name, NOT_APPLICABLE, "a filter without particles")
+        return TrapResult("particles-1-2", name, NOT_APPLICABLE, "a filter without particles")
     scen = scenario_for(name)
     if scen is None:
-        return Finding("particles-1-2", name, NOT_APPLICABLE, "no registered scenario it runs on")
+        return TrapResult("particles-1-2", name, NOT_APPLICABLE, "no registered scenario it runs on")
     notes = []
     for n in (1, 2):
         try:
@@ -232,7 +232,7 @@ def trap_particles_1_2(name: str) -> Finding:
         row = _run_guarded(exp, 0, None, f"N = {n} on {scen}")[0]
         _headline(exp, row, f"N = {n} on {scen}")
         notes.append(f"N = {n} runs")
-    return Finding("particles-1-2", name, KEPT, f"on {scen}: {'; '.join(notes)}")
+    return TrapResult("particles-1-2", name, KEPT, f"on {scen}: {'; '.join(notes)}")
 
 
 def _run_guarded(exp, trial, mutate, what: str) -> list[dict]:
@@ -287,16 +287,16 @@ def _weights_scenario(name: str, trap: str):
     from .filters import FILTERS
     from .kinds import kind_of
     if not FILTERS[name].particles:
-        return None, None, Finding(trap, name, NOT_APPLICABLE, "a filter without particles "
+        return None, None, TrapResult(trap, name, NOT_APPLICABLE, "a filter without particles "
                                    "has no log-weights")
     scen = scenario_for(name)
     if scen is None:
-        return None, None, Finding(trap, name, NOT_APPLICABLE, "no registered scenario it runs "
+        return None, None, TrapResult(trap, name, NOT_APPLICABLE, "no registered scenario it runs "
                                    "on")
     return scen, kind_of(scen).name, None
 
 
-def trap_all_inf(name: str) -> Finding:
+def trap_all_inf(name: str) -> TrapResult:
     trap = "log-weights-all-inf"
     scen, kind, na = _weights_scenario(name, trap)
     if na:
@@ -308,17 +308,17 @@ def trap_all_inf(name: str) -> Finding:
     u = row.get("underflow_steps", 0)
     if kind == "slam":
         # a SLAM filter may take a far observation for a new landmark: finite is the contract
-        return Finding(trap, name, KEPT, f"{what}: finite; {u:g} underflow step(s) counted (a "
+        return TrapResult(trap, name, KEPT, f"{what}: finite; {u:g} underflow step(s) counted (a "
                        "SLAM filter may take the far observation for a new landmark)")
     if not u >= 1:
         raise _Broken(f"{what}: finite, but no underflow step counted (underflow_steps {u!r})")
-    return Finding(trap, name, KEPT, f"{what}: finite, {u:g} underflow step(s) counted")
+    return TrapResult(trap, name, KEPT, f"{what}: finite, {u:g} underflow step(s) counted")
 
 
 FAR = (45.0, 100.0, 1000.0)     # how far (in the measurement's units) the measurement moves
 
 
-def trap_far_below(name: str) -> Finding:
+def trap_far_below(name: str) -> TrapResult:
     trap = "log-weights-far-below-0"
     scen, kind, na = _weights_scenario(name, trap)
     if na:
@@ -332,7 +332,7 @@ def trap_far_below(name: str) -> Finding:
         if u and kind != "slam":
             raise _Broken(f"{what}: {u:g} underflow step(s) counted for finite log-weights "
                           "(weights not normalised from the largest?)")
-    return Finding(trap, name, KEPT, f"on {scen}, one measurement moved by "
+    return TrapResult(trap, name, KEPT, f"on {scen}, one measurement moved by "
                    f"{', '.join(f'{d:g}' for d in FAR)}: finite, no underflow")
 
 
@@ -346,21 +346,21 @@ Z = 4.0             # Monte Carlo error allowed, in standard errors of the paire
 SLACK = 0.05        # and the particle filter's own excess over the optimum, relative
 
 
-def trap_resample_modes(name: str) -> Finding:
+def trap_resample_modes(name: str) -> TrapResult:
     from .filters import FILTERS
     from .scenarios import SCENARIOS
     trap = "resample-every-ess-never"
     ft = FILTERS[name]
     if not {"always", "neff"} <= set(_choices(name, "resample")) or "neff_ratio" not in ft.schema:
-        return Finding(trap, name, NOT_APPLICABLE, "no 'resample' key with 'always' and 'neff' "
+        return TrapResult(trap, name, NOT_APPLICABLE, "no 'resample' key with 'always' and 'neff' "
                        "and a 'neff_ratio'")
     if "linear_gaussian" not in SCENARIOS or "kf" not in FILTERS:
-        return Finding(trap, name, NOT_APPLICABLE, "needs the scenario linear_gaussian and the "
+        return TrapResult(trap, name, NOT_APPLICABLE, "needs the scenario linear_gaussian and the "
                        "filter kf")
     mod = SCENARIOS["linear_gaussian"]
     why = ft.cannot_run_on("linear_gaussian", mod.KIND, mod)
     if why:
-        return Finding(trap, name, NOT_APPLICABLE, f"does not run on linear_gaussian: {why}")
+        return TrapResult(trap, name, NOT_APPLICABLE, f"does not run on linear_gaussian: {why}")
     # a filter whose cost grows as N^2 (the swarm PFs) gets fewer particles
     n = KF_PARTICLES if ft.cost == "N" else KF_PARTICLES // 5
     excess = {}
@@ -393,7 +393,7 @@ def trap_resample_modes(name: str) -> Finding:
     own = (f"; resampling every step is {base.mean():.3f} above the Kalman filter, beyond Monte "
            "Carlo error (the filter itself is not exact on a linear Gaussian model)"
            if base.mean() > Z * se + SLACK * kf.mean() else "")
-    return Finding(trap, name, KEPT, f"RMSE over the Kalman filter's {kf.mean():.3f}: "
+    return TrapResult(trap, name, KEPT, f"RMSE over the Kalman filter's {kf.mean():.3f}: "
                    f"{', '.join(notes)} ({KF_TRIALS} trials, {n} particles){own}")
 
 
@@ -402,23 +402,23 @@ def trap_resample_modes(name: str) -> Finding:
 ROT_TRIALS, ROT_PARTICLES = 8, 200
 
 
-def trap_rotated_world(name: str) -> Finding:
+def trap_rotated_world(name: str) -> TrapResult:
     from .contract import world_file, world_origin
     from .scenarios import SCENARIOS
     trap = "rotated-world"
     scen = scenario_for(name, ("localization", "slam"))
     if scen is None:
-        return Finding(trap, name, NOT_APPLICABLE, "a filter of no localization or SLAM "
+        return TrapResult(trap, name, NOT_APPLICABLE, "a filter of no localization or SLAM "
                        "scenario")
     key = SCENARIOS[scen].SCHEMA.get("world")
     if key is None or key.kind != "str":
-        return Finding(trap, name, NOT_APPLICABLE, f"scenario {scen} reads no world file to "
+        return TrapResult(trap, name, NOT_APPLICABLE, f"scenario {scen} reads no world file to "
                        "rotate")
     from .filters import FILTERS
     spec = {"particles": ROT_PARTICLES} if FILTERS[name].particles else {}
     origin = world_origin(scen)
     if origin is None:
-        return Finding(trap, name, NOT_APPLICABLE, f"scenario {scen} does not take the "
+        return TrapResult(trap, name, NOT_APPLICABLE, f"scenario {scen} does not take the "
                        "generated world (pfbench.contract.world)")
     # a scenario that can start the filters at the known pose does (global localization's
     # spread would hide a bias behind Monte Carlo error)
@@ -440,7 +440,7 @@ def trap_rotated_world(name: str) -> Finding:
         got.append(np.array(rows, dtype=float))
     a, b = got
     if np.array_equal(a, b):
-        return Finding(trap, name, KEPT, f"on {scen}: the same {', '.join(metrics)}, bit for bit")
+        return TrapResult(trap, name, KEPT, f"on {scen}: the same {', '.join(metrics)}, bit for bit")
     for j, m in enumerate(metrics):
         diff = a[:, j] - b[:, j]
         se = diff.std(ddof=1) / math.sqrt(len(diff))
@@ -450,7 +450,7 @@ def trap_rotated_world(name: str) -> Finding:
                           f"{b[:, j].mean():.4g} in the world turned by pi (difference "
                           f"{diff.mean():.3g}, allowed {tol:.3g}): headings or bearings not "
                           "wrapped across +-pi?")
-    return Finding(trap, name, KEPT, f"on {scen}: {', '.join(metrics)} agree within Monte "
+    return TrapResult(trap, name, KEPT, f"on {scen}: {', '.join(metrics)} agree within Monte "
                    f"Carlo error over {ROT_TRIALS} trials (not bit for bit)")
 
 
@@ -465,10 +465,10 @@ def kld_closed_form(k: int, eps: float, z: float) -> float:
     return d / (2.0 * eps) * (1.0 - 2.0 / (9.0 * d) + math.sqrt(2.0 / (9.0 * d)) * z) ** 3
 
 
-def trap_kld_bound(name: str) -> Finding:
+def trap_kld_bound(name: str) -> TrapResult:
     trap = "kld-bound"
     if "kld" not in _choices(name, "sampling"):
-        return Finding(trap, name, NOT_APPLICABLE, "no 'sampling' key offering 'kld'")
+        return TrapResult(trap, name, NOT_APPLICABLE, "no 'sampling' key offering 'kld'")
     from scipy.stats import chi2
     from .filters.mcl import kld_count, kld_quantile
     for eps in (0.01, 0.05, 0.2):
@@ -489,7 +489,7 @@ def trap_kld_bound(name: str) -> Finding:
     from .filters import FILTERS
     scen = scenario_for(name)
     if scen is None:
-        return Finding(trap, name, NOT_APPLICABLE, "no registered scenario it runs on")
+        return TrapResult(trap, name, NOT_APPLICABLE, "no registered scenario it runs on")
     notes = []
     for what, keys in (("one bin (k = 1)", {"kld_bin_m": 1e6, "kld_bin_deg": 360.0,
                                             "kld_min": 1}),
@@ -504,13 +504,13 @@ def trap_kld_bound(name: str) -> Finding:
         row = _run_guarded(exp, 0, None, f"sampling kld on {scen}, {what}")[0]
         _headline(exp, row, f"sampling kld on {scen}, {what}")
         notes.append(what)
-    return Finding(trap, name, KEPT, f"the bound against its closed form at k = 1 .. 10^6; runs "
+    return TrapResult(trap, name, KEPT, f"the bound against its closed form at k = 1 .. 10^6; runs "
                    f"on {scen} with {' and '.join(notes)}")
 
 
 # ---------------------------------------------------------------- the suite
 
-TRAPS: dict[str, Callable[[str], Finding]] = {
+TRAPS: dict[str, Callable[[str], TrapResult]] = {
     "resampling-ulp": trap_resampling_ulp,
     "resampling-one-hot": trap_resampling_one_hot,
     "particles-1-2": trap_particles_1_2,
@@ -522,7 +522,7 @@ TRAPS: dict[str, Callable[[str], Finding]] = {
 }
 
 
-def run_trap(trap: str, name: str) -> Finding:
+def run_trap(trap: str, name: str) -> TrapResult:
     """Trap ``trap`` on filter ``name``: its finding (an exception of the filter is BROKEN)."""
     import warnings
     try:
@@ -530,20 +530,62 @@ def run_trap(trap: str, name: str) -> Finding:
             warnings.simplefilter("ignore")     # a NaN or an overflow is the finding itself
             return TRAPS[trap](name)
     except _Broken as exc:
-        return Finding(trap, name, BROKEN, str(exc))
+        return TrapResult(trap, name, BROKEN, str(exc))
     except Exception as exc:        # a plug-in's error is a finding, not a crash of the check
-        return Finding(trap, name, BROKEN, f"raised {_one_line(exc)}")
+        return TrapResult(trap, name, BROKEN, f"raised {_one_line(exc)}")
 
 
-def run_traps(filters=None, traps=None, progress=None) -> list[Finding]:
-    """Every trap (or ``traps``) on every registered filter (or ``filters``)."""
+def _traps_child(conn, name: str, chosen: list) -> None:
+    try:
+        conn.send([run_trap(t, name) for t in chosen])
+    except BaseException as exc:    # noqa: BLE001 (a plug-in's exit or interrupt is a finding too)
+        conn.send([TrapResult(chosen[0], name, BROKEN, f"raised {_one_line(exc)}")])
+    finally:
+        conn.close()
+
+
+def filter_traps(name: str, chosen=None, timeout: float | None = None) -> list[TrapResult]:
+    """The traps ``chosen`` (default: every one) on filter ``name``; with ``timeout``, in a child
+    process stopped after that many seconds (a filter that never returns, or ends the
+    interpreter, is one broken finding naming it), where this platform can fork one."""
+    import multiprocessing as mp
+    chosen = list(TRAPS) if chosen is None else list(chosen)
+    if timeout is None or "fork" not in mp.get_all_start_methods() or mp.current_process().daemon:
+        return [run_trap(t, name) for t in chosen]
+    ctx = mp.get_context("fork")
+    mine, theirs = ctx.Pipe(duplex=False)
+    child = ctx.Process(target=_traps_child, args=(theirs, name, chosen), daemon=True)
+    child.start()
+    theirs.close()
+    try:
+        if mine.poll(timeout):
+            try:
+                return mine.recv()
+            except (EOFError, OSError):
+                child.join(5)
+                return [TrapResult(chosen[0], name, BROKEN, "ended the process that ran its traps "
+                                f"(exit code {child.exitcode})")]
+        return [TrapResult(chosen[0], name, BROKEN, f"its traps did not finish within {timeout:g} s "
+                        "(--probe-timeout); stopped")]
+    finally:
+        mine.close()
+        if child.is_alive():
+            child.terminate()
+            child.join(5)
+            if child.is_alive():
+                child.kill()
+                child.join()
+
+
+def run_traps(filters=None, traps=None, progress=None, timeout: float | None = None
+              ) -> list[TrapResult]:
+    """Every trap (or ``traps``) on every registered filter (or ``filters``); ``timeout``: the
+    seconds each filter's traps may take (``filter_traps``)."""
     from .filters import FILTERS
     names = list(FILTERS) if filters is None else list(filters)
-    chosen = list(TRAPS) if traps is None else list(traps)
     out = []
     for i, name in enumerate(names):
-        for trap in chosen:
-            out.append(run_trap(trap, name))
+        out += filter_traps(name, traps, timeout)
         if progress:
             progress(i + 1, len(names))
     return out

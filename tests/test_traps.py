@@ -209,3 +209,27 @@ def test_check_refuses_an_unknown_only_in_one_line():
     from .conftest import one_line_exit_2
     line = one_line_exit_2(CliRunner().invoke(app, ["check", "--only", "nosuch"]))
     assert "--only" in line and "nosuch" in line
+
+
+def test_a_filter_that_never_returns_is_stopped_and_named(monkeypatch):
+    import time
+
+    def run(model, y, params, particles, state, diag=True):
+        time.sleep(3600)
+    name = _register(monkeypatch, "sleeper", run)
+    found = traps.filter_traps(name, ["particles-1-2"], timeout=3.0)
+    assert [f.status for f in found] == [BROKEN]
+    assert "did not finish within 3 s" in found[0].detail, found[0].line()
+
+
+def test_list_check_is_the_same_check_from_a_folder_with_no_configs(tmp_path, monkeypatch):
+    from pfbench import contract
+    monkeypatch.chdir(tmp_path)        # 'list' defaults --configs to configs/, which is not here
+    monkeypatch.setattr(contract, "probes", lambda: ([contract.Probe(
+        "kf", "linear_gaussian", ["filter kf on scenario linear_gaussian"])], []))
+    monkeypatch.setattr(traps, "TRAPS", {"particles-1-2": traps.trap_particles_1_2})
+    res = CliRunner().invoke(app, ["list", "--check"])
+    assert res.exit_code == 0, res.output
+    assert "contract: 1 probes cover every filter and scenario: all kept" in res.output
+    assert "trap particles-1-2: kept by pf" in res.output
+    assert list(tmp_path.iterdir()) == []
