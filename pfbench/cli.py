@@ -871,7 +871,8 @@ def _check_contract(configs: Path | None, executor: str, workers: int, scheduler
         where = f", and under {ex.describe()}" if ex is not None else ""
     for p in problems:
         err.print(f"pfbench: contract: {p}", markup=False, soft_wrap=True)
-    err.print(f"contract: {n} probes cover every filter and scenario{where}: "
+    what = "cover every filter and scenario" if only is None else f"of {only}"
+    err.print(f"contract: {n} probes {what}{where}: "
               + (f"{len(problems)} problem(s)" if problems else "all kept")
               + f" ({time.perf_counter() - t0:.0f} s)", markup=False)
     broken = _check_traps(only, timeout) if traps else 0
