@@ -747,12 +747,12 @@ def validate(config: Path = typer.Argument(..., help="Experiment YAML file."),
 
 @app.command("list")
 def list_(configs: Path = typer.Option(Path("configs"), "--configs",
-                                       help="Folder of experiment files to list (and where the "
-                                       "contract's scenarios find their world files)."),
-          check: bool = typer.Option(False, "--check", help="Run the contract over every "
-                                     "registered filter and scenario, plug-ins included: "
-                                     "documented, deterministic from the seed, finite; exit 1 "
-                                     "when one breaks it."),
+                                       help="Folder of experiment files to list (and, with "
+                                       "--check, where the files a scenario names resolve)."),
+          check: bool = typer.Option(False, "--check", help="Run the contract (as 'pfbench "
+                                     "check'): every registered filter on every scenario it runs "
+                                     "on, plug-ins included, and the trap suite; exit 1 when "
+                                     "one breaks it."),
           executor: str = typer.Option("local", "--executor", help="--check: also run the "
                                        "contract's trials on this executor ('dask') and compare."),
           workers: int = typer.Option(1, "--workers", "-w", min=1, help="--check with "
@@ -818,7 +818,8 @@ def list_(configs: Path = typer.Option(Path("configs"), "--configs",
         _warn(f"{problem}; left out")
     if check:
         with _guard():
-            _check_contract(configs, executor, workers, scheduler, probe_timeout)
+            _check_contract(configs if configs.is_dir() else None, executor, workers, scheduler,
+                            probe_timeout)
 
 
 def need_letters(needs) -> dict[str, str]:
@@ -954,13 +955,52 @@ def _print_keys(name: str) -> None:
         out.print(line, markup=False, soft_wrap=True)
 
 
-def _check_contract(configs: Path, executor: str, workers: int, scheduler: str | None,
-                    timeout: float = 600.0) -> None:
+@app.command("check")
+def check_(executor: str = typer.Option("local", "--executor", help="Also run the contract's "
+                                        "trials on this executor ('dask') and compare."),
+           workers: int = typer.Option(1, "--workers", "-w", min=1, help="With --executor "
+                                       "dask: workers of the local cluster."),
+           scheduler: Optional[str] = typer.Option(None, "--scheduler", help="With --executor "
+                                                   "dask: a scheduler tcp://HOST:PORT."),
+           probe_timeout: float = typer.Option(600.0, "--probe-timeout", help="Seconds each "
+                                               "probe may take, its kernels' first compilation "
+                                               "included, before it is stopped and reported as "
+                                               "a problem naming its filter."),
+           only: Optional[str] = typer.Option(None, "--only", help="Only the probes and traps "
+                                              "of this filter (or the probes of this "
+                                              "scenario)."),
+           traps: bool = typer.Option(True, "--traps/--no-traps", help="Run the trap suite on "
+                                      "every filter after the probes."),
+           configs: Optional[Path] = typer.Option(None, "--configs", help="Folder the files a "
+                                                  "scenario names resolve from (default: "
+                                                  "generated ones; no folder is needed).")):
+    """The contract, from any folder: every registered filter on every scenario it runs on
+    (plug-ins included) on small generated experiments, deterministic from the seed, across
+    worker counts and executors, finite; then the trap suite on every filter. Exit 1 when one
+    breaks it, with one line per problem."""
+    import math
+    with _guard():
+        if not math.isfinite(probe_timeout) or probe_timeout <= 0:
+            raise UserError(f"--probe-timeout: expected a finite number > 0, got {probe_timeout}")
+        _load_kernels()
+        from . import plugins
+        from .filters import FILTERS
+        from .scenarios import SCENARIOS
+        if only is not None and only not in FILTERS and only not in SCENARIOS:
+            raise UserError(f"--only: no filter or scenario '{only}' (filters: "
+                            f"{', '.join(FILTERS)}; scenarios: {', '.join(SCENARIOS)})")
+        for problem in plugins.PROBLEMS:
+            _warn(f"{problem}; left out")
+        _check_contract(configs, executor, workers, scheduler, probe_timeout, only=only,
+                        traps=traps)
+
+
+def _check_contract(configs: Path | None, executor: str, workers: int, scheduler: str | None,
+                    timeout: float = 600.0, only: str | None = None, traps: bool = True) -> None:
     import time
     from .contract import ProbeInterrupted, check_all
-    if not configs.is_dir():
-        raise UserError(f"--configs {configs}: no such folder (the contract's scenarios read "
-                        "their world files from it, as configs/ of pfbench's repository)")
+    if configs is not None and not configs.is_dir():
+        raise UserError(f"--configs {configs}: no such folder")
     t0 = time.perf_counter()
     ex_cm = _executor(executor, workers, scheduler)     # checks the name
     if executor == "local":      # the in-process run is the reference: nothing to compare
@@ -970,19 +1010,58 @@ def _check_contract(configs: Path, executor: str, workers: int, scheduler: str |
             task = bar.add_task("contract", total=None)
             try:
                 n, problems = check_all(configs, ex, lambda done, total: bar.update(
-                    task, completed=done, total=total), timeout)
+                    task, completed=done, total=total), timeout, only=only)
             except ProbeInterrupted as exc:
                 bar.stop()
                 err.print(f"pfbench: {exc}", markup=False, soft_wrap=True)
                 raise typer.Exit(130) from None
         where = f", and under {ex.describe()}" if ex is not None else ""
     for p in problems:
-        err.print(f"pfbench: contract: {p}", markup=False)
-    err.print(f"contract: {n} probes cover every filter and scenario{where}: "
+        err.print(f"pfbench: contract: {p}", markup=False, soft_wrap=True)
+    what = "cover every filter and scenario" if only is None else f"of {only}"
+    err.print(f"contract: {n} probes {what}{where}: "
               + (f"{len(problems)} problem(s)" if problems else "all kept")
               + f" ({time.perf_counter() - t0:.0f} s)", markup=False)
-    if problems:
+    broken = _check_traps(only, timeout) if traps else 0
+    if problems or broken:
         raise typer.Exit(1)
+
+
+def _check_traps(only: str | None, timeout: float | None = None) -> int:
+    """The trap suite on every filter (or ``only``): a line per broken trap, a line per trap
+    naming the filters that kept it and those it does not apply to (and why); the number
+    broken. ``timeout``: seconds each filter's traps may take."""
+    import time
+    from .filters import FILTERS
+    from .traps import BROKEN, KEPT, NOT_APPLICABLE, TRAPS, run_traps
+    names = [f for f in FILTERS if only is None or only == f]
+    t0 = time.perf_counter()
+    with _bar() as bar:
+        task = bar.add_task("traps", total=len(names))
+        found = run_traps(names, progress=lambda done, total: bar.update(task, completed=done),
+                          timeout=timeout)
+    for f in found:
+        if f.status == BROKEN:
+            err.print(f"pfbench: contract: {f.line()}", markup=False, soft_wrap=True)
+    for trap in TRAPS:
+        mine = [f for f in found if f.trap == trap]
+        kept = [f.filter for f in mine if f.status == KEPT]
+        broke = [f.filter for f in mine if f.status == BROKEN]
+        why: dict[str, list[str]] = {}
+        for f in mine:
+            if f.status == NOT_APPLICABLE:
+                why.setdefault(f.detail, []).append(f.filter)
+        na = [f"{', '.join(fs)} ({detail})" for detail, fs in why.items()]
+        parts = ([f"broken by {', '.join(broke)}"] if broke else []) + (
+            [f"kept by {', '.join(kept)}"] if kept else []) + (
+            [f"does not apply to {'; '.join(na)}"] if na else [])
+        err.print(f"trap {trap}: {'; '.join(parts) or 'no filter'}", markup=False,
+                  soft_wrap=True)
+    n = sum(f.status == BROKEN for f in found)
+    err.print(f"traps: {len(TRAPS)} traps on {len(names)} filter(s): "
+              + (f"{n} broken" if n else "all kept where they apply")
+              + f" ({time.perf_counter() - t0:.0f} s)", markup=False)
+    return n
 
 
 @app.command()

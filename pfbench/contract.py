@@ -1,17 +1,20 @@
 """The contract every registered filter and scenario keeps, plug-ins included.
 
-``pfbench list --check`` runs it (``--executor dask``: under Dask too); the test suite runs it
-over pfbench's own. For each filter type, a small experiment on the first registered scenario of
-its kind; for each scenario, one with the first registered filter that runs on it. Each probe:
+``pfbench check`` (alias ``pfbench list --check``) runs it from any folder, a pip install with no
+repository included: every registered filter on every registered scenario it can run on
+(``FilterType.cannot_run_on``), each pair a small generated experiment (``experiment``: a few
+steps and particles, a generated world for a scenario that reads a world file). Then the trap
+suite (pfbench.traps) on every filter. Each probe:
 
 - schema: every key documented, and the defaults pass the schema;
 - deterministic from the seed: the same trial run twice gives the same numbers, bit for bit;
 - finite on its kind: the kind's headline metrics (``pfbench.kinds``) are finite numbers;
 - the scenario's truth and data are the same for the same seed;
 - what its kind keeps of a trial for the figures (pfbench.traces) is kept without an error;
-- under an executor (Dask): the rows are the in-process rows, bit for bit;
+- across worker counts (a pool of 2 worker processes, ``WORKERS``) and under an executor (Dask,
+  ``--executor dask``): the rows are the in-process rows, bit for bit;
 - in time: a probe that has not finished after ``timeout`` seconds (PROBE_SECONDS by default,
-  ``pfbench list --check --probe-timeout``) is stopped and reported, and the check goes on. Each
+  ``pfbench check --probe-timeout``) is stopped and reported, and the check goes on. Each
   probe runs in a child process for that (where this platform can fork one), so a filter that never
   returns, or crashes the interpreter, is named like any other problem.
 """
@@ -56,48 +59,129 @@ def _schema_problems(what: str, schema: dict) -> list[str]:
 
 
 def probes() -> tuple[list[Probe], list[str]]:
-    """The probe experiments that cover every registered filter and scenario, and the problems
-    found before running anything (schemas, a filter with no scenario of its kind)."""
+    """The probe experiments: every registered filter on every registered scenario it can run on
+    (``FilterType.cannot_run_on``), plug-ins and pfbench's own alike; and the problems found
+    before running anything (schemas, a filter or scenario that no pair covers)."""
     from .filters import FILTERS
     from .scenarios import SCENARIOS
     problems: list[str] = []
-    found: dict[tuple[str, str], Probe] = {}
-
-    def add(f: str, s: str, subject: str) -> None:
-        found.setdefault((f, s), Probe(f, s)).subjects.append(subject)
-
-    for name, ft in FILTERS.items():
-        problems += _schema_problems(f"filter {name}", ft.schema)
-        fits = [s for s, mod in SCENARIOS.items() if ft.runs_on(s, mod.KIND)]
-        if not fits:
-            problems.append(f"filter {name}: no registered scenario of kind '{ft.kind}' it runs on")
-            continue
-        add(name, fits[0], f"filter {name}")
+    found: list[Probe] = []
     for name, mod in SCENARIOS.items():
         problems += _schema_problems(f"scenario {name}", mod.SCHEMA)
-        fits = [f for f, ft in FILTERS.items() if ft.runs_on(name, mod.KIND)]
+    for name, ft in FILTERS.items():
+        problems += _schema_problems(f"filter {name}", ft.schema)
+        fits = [s for s, mod in SCENARIOS.items()
+                if ft.cannot_run_on(s, mod.KIND, mod) is None]
         if not fits:
-            problems.append(f"scenario {name}: no registered filter runs on it")
-            continue
-        add(fits[0], name, f"scenario {name}")
-    return list(found.values()), problems
+            problems.append(f"filter {name}: no registered scenario of kind '{ft.kind}' it runs on")
+        found += [Probe(name, s, [f"filter {name} on scenario {s}"]) for s in fits]
+    covered = {p.scenario for p in found}
+    problems += [f"scenario {name}: no registered filter runs on it" for name in SCENARIOS
+                 if name not in covered]
+    return found, problems
 
 
-def experiment(probe: Probe, configs: Path):
-    """The probe as a validated experiment (files a scenario names resolve from ``configs``)."""
-    from .config import validate
+# The world a probe gives a scenario with a 'world' key (a world file: pfbench.scenarios.worlds),
+# so that the contract needs no file of pfbench's repository: a 30 m x 30 m square path around
+# the area's centre, a ring of point features around it (landmarks or beacons: the file has both
+# keys), in an area of 40 m x 40 m; 'centre' (the area centred on the origin) or 'corner'
+# ([0, 40] x [0, 40]), whichever the scenario reads.
+WORLD_AREA = 40.0
+
+
+def world(origin: str = "centre", rotated: bool = False) -> dict:
+    """The generated world (see WORLD_AREA); ``rotated``: the same world turned by pi about the
+    area's centre (every point mirrored through it, the start heading plus 180 degrees)."""
+    import numpy as np
+    ring = [[13.0 * math.cos(a), 13.0 * math.sin(a)]
+            for a in np.linspace(0.0, 2 * math.pi, 12, endpoint=False)]
+    points = ring + [[0.0, 0.0], [4.0, -3.0]]
+    path = [[-8.0, -8.0], [8.0, -8.0], [8.0, 8.0], [-8.0, 8.0]]
+    start = [-8.0, -8.0, 0.0]
+    sign, shift = (-1.0 if rotated else 1.0), (WORLD_AREA / 2 if origin == "corner" else 0.0)
+
+    def place(pts):
+        return [[sign * x + shift, sign * y + shift] for x, y in pts]
+    return {"area": [WORLD_AREA, WORLD_AREA], "start": place([start[:2]])[0]
+            + [180.0 if rotated else 0.0], "waypoints": place(path),
+            "landmarks": place(points), "beacons": place(points)}
+
+
+_SCRATCH: list = []
+
+
+def scratch() -> Path:
+    """A folder of this process for the generated world files (removed at exit)."""
+    if not _SCRATCH:
+        import tempfile
+        _SCRATCH.append(tempfile.TemporaryDirectory(prefix="pfbench-contract-"))
+    return Path(_SCRATCH[0].name)
+
+
+def world_file(origin: str = "centre", rotated: bool = False) -> Path:
+    """The generated world (``world``) as a file in ``scratch()``."""
+    import json
+    path = scratch() / f"world-{origin}{'-rotated' if rotated else ''}.yaml"
+    if not path.exists():
+        path.write_text(json.dumps(world(origin, rotated)))   # JSON is YAML
+    return path
+
+
+_ORIGINS: dict = {}
+
+
+def world_origin(scenario: str) -> str | None:
+    """Which generated world scenario ``scenario`` takes ('centre' or 'corner', see ``world``):
+    the first its ``resolve`` accepts with its other keys at their defaults; None when it reads
+    no world file or takes neither."""
+    from .scenarios import SCENARIOS
+    if scenario in _ORIGINS:
+        return _ORIGINS[scenario]
+    mod = SCENARIOS[scenario]
+    key = mod.SCHEMA.get("world")
+    found = None
+    if key is not None and key.kind == "str" and hasattr(mod, "resolve"):
+        params = {k: list(v.default) if isinstance(v.default, tuple) else v.default
+                  for k, v in mod.SCHEMA.items() if v.default is not REQUIRED}
+        for origin in ("centre", "corner"):
+            try:
+                mod.resolve({**params, "world": str(world_file(origin))}, scratch())
+            except Exception:       # noqa: BLE001 (any refusal: not this origin)
+                continue
+            found = origin
+            break
+    _ORIGINS[scenario] = found
+    return found
+
+
+def experiment(probe: Probe, configs: Path | None = None, scenario: dict | None = None,
+               spec: dict | None = None, trials: int | None = None,
+               others: dict | None = None):
+    """The probe as a validated experiment: ``STEPS`` steps, ``PARTICLES`` particles, a generated
+    world (``world``) for a scenario that reads one; ``scenario`` and ``spec``: keys of the
+    scenario and the filter that replace those; ``others``: more filter runs (key -> keys, the
+    key its type by default). Files a scenario names resolve from ``configs``
+    (default: a folder of generated files)."""
     from .filters import FILTERS
     from .scenarios import SCENARIOS
     scen = {"name": probe.scenario}
-    steps = SCENARIOS[probe.scenario].SCHEMA.get("steps")
+    schema = SCENARIOS[probe.scenario].SCHEMA
+    steps = schema.get("steps")
     if steps is not None and steps.kind == "int" and isinstance(steps.default, int):
         scen["steps"] = min(steps.default, STEPS)
-    spec = {"type": probe.filter}
+    origin = world_origin(probe.scenario)
+    if origin is not None:
+        scen["world"] = str(world_file(origin))
+    scen.update(scenario or {})
+    run = {"type": probe.filter}
     if FILTERS[probe.filter].particles:
-        spec["particles"] = PARTICLES
+        run["particles"] = PARTICLES
+    run.update(spec or {})
     raw = {"name": f"contract-{probe.filter}-{probe.scenario}", "seed": SEED,
-           "trials": len(TRIALS), "scenario": scen, "filters": {"probe": spec}}
-    return validate(raw, str(Path(configs) / "contract.yaml"))
+           "trials": len(TRIALS) if trials is None else trials, "scenario": scen,
+           "filters": {"probe": run, **{k: {"type": k, **v} for k, v in (others or {}).items()}}}
+    from .config import validate
+    return validate(raw, str(Path(scratch() if configs is None else configs) / "contract.yaml"))
 
 
 def _numbers(rows: list[dict]) -> list[dict]:
@@ -120,7 +204,7 @@ def _same(a: list[dict], b: list[dict]) -> bool:
         r.keys() == s.keys() and all(_equal(r[k], s[k]) for k in r) for r, s in zip(a, b))
 
 
-def check_probe(probe: Probe, configs: Path) -> tuple[list[str], object, list[dict]]:
+def check_probe(probe: Probe, configs: Path | None = None) -> tuple[list[str], object, list[dict]]:
     """Run one probe in this process: (problems, experiment, its rows)."""
     from .kinds import kind_of
     from .rng import state_from_seed
@@ -171,19 +255,33 @@ class ProbeInterrupted(Exception):
     """Ctrl-C during the contract: which probe was running."""
 
 
-def _probe_child(conn, probe: Probe, configs: Path) -> None:
+def _probe_child(conn, probe: Probe, configs: Path | None) -> None:
     """check_probe in a child process: its problems and rows go back through ``conn``."""
     try:
         problems, _, rows = check_probe(probe, configs)
-        conn.send((problems, rows))
+        conn.send((problems, rows, _built()))
     except BaseException as exc:    # noqa: BLE001 (a plug-in's exit or interrupt is a problem too)
         conn.send(([f"{' and '.join(probe.subjects)}: {probe.filter} on {probe.scenario} raised "
-                    f"{type(exc).__name__}: {' '.join(str(exc).split())}"], []))
+                    f"{type(exc).__name__}: {' '.join(str(exc).split())}"], [], set()))
     finally:
         conn.close()
 
 
-def run_probe(probe: Probe, configs: Path, timeout: float | None = PROBE_SECONDS
+def _built() -> set:
+    """The kernels of pfbench's modules built (compiled or loaded) in this process."""
+    from .runner import _kernels
+    return {name for name, k in _kernels() if k.built}
+
+
+def _load(built: set) -> None:
+    """Load here, from the disk cache a probe's process saved them to, the kernels it built: the
+    probes forked after it, and the worker pools, start with them (as the runner's workers)."""
+    from . import runner
+    runner._CHILD_KERNELS.update(built)
+    runner._preload()
+
+
+def run_probe(probe: Probe, configs: Path | None = None, timeout: float | None = PROBE_SECONDS
               ) -> tuple[list[str], object, list[dict]]:
     """check_probe with a time limit: in a child process stopped after ``timeout`` seconds (a
     problem naming the probe's filter and scenario). ``timeout`` None, or a platform that cannot
@@ -205,7 +303,8 @@ def run_probe(probe: Probe, configs: Path, timeout: float | None = PROBE_SECONDS
     try:
         if mine.poll(timeout):
             try:
-                problems, rows = mine.recv()
+                problems, rows, built = mine.recv()
+                _load(built)
                 return problems, exp, rows
             except (EOFError, OSError):
                 pass
@@ -224,12 +323,42 @@ def run_probe(probe: Probe, configs: Path, timeout: float | None = PROBE_SECONDS
                 child.join()
 
 
-def check_all(configs: Path = Path("configs"), executor=None, progress=None,
-              timeout: float | None = PROBE_SECONDS) -> tuple[int, list[str]]:
-    """Run the contract over every registered filter and scenario: (probes run, problems).
-    ``executor`` (a runner executor, such as Dask's): the probes' trials are run there too and
-    compared with this process's rows. ``timeout``: seconds each probe may take (run_probe)."""
+def _compare_under(executor, done: list, problems: list[str]) -> None:
+    """Run the probes ``done`` ((probe, experiment, rows) each) on ``executor`` and add a problem
+    for each whose rows are not the in-process rows, number for number."""
+    for probe, exp, rows in done:
+        who = " and ".join(probe.subjects)
+        try:
+            chunks = [t for chunk in executor.run(exp, list(TRIALS)) for t in chunk]
+            theirs = sorted((row for trial in chunks for row in trial.rows),
+                            key=lambda r: r["trial"])
+        except Exception as exc:
+            problems.append(f"{who}: under {executor.describe()}: {type(exc).__name__}: "
+                            f"{' '.join(str(exc).split())}")
+            continue
+        if not _same(_numbers(theirs), rows):
+            problems.append(f"{who}: {probe.filter} on {probe.scenario} gave other numbers under "
+                            f"{executor.describe()} than in this process")
+
+
+# The worker counts the contract compares with the in-process run (pfbench.runner's pool).
+WORKERS = (2,)
+
+
+def check_all(configs: Path | None = None, executor=None, progress=None,
+              timeout: float | None = PROBE_SECONDS, workers=WORKERS,
+              only: str | None = None) -> tuple[int, list[str]]:
+    """Run the contract over every registered filter on every scenario it runs on: (probes run,
+    problems). Each probe's trials are also run in a pool of each of ``workers`` worker processes
+    and, with ``executor`` (a runner executor, such as Dask's), there too, and compared with this
+    process's rows. ``timeout``: seconds each probe may take (run_probe). ``configs``: where the
+    files a scenario names resolve (default: generated ones). ``only``: the probes of this filter
+    or scenario alone."""
+    from .runner import LocalExecutor
+    scratch()       # made here, before a probe forks, so that this process removes it
     found, problems = probes()
+    if only is not None:
+        found = [p for p in found if only in (p.filter, p.scenario)]
     done: list[tuple[Probe, object, list[dict]]] = []
     for i, probe in enumerate(found):
         try:
@@ -243,18 +372,9 @@ def check_all(configs: Path = Path("configs"), executor=None, progress=None,
             done.append((probe, exp, rows))
         if progress:
             progress(i + 1, len(found))
+    for n in workers:
+        with LocalExecutor(n) as ex:
+            _compare_under(ex, done, problems)
     if executor is not None:
-        for probe, exp, rows in done:
-            try:
-                chunks = [t for chunk in executor.run(exp, list(TRIALS)) for t in chunk]
-                theirs = sorted((row for trial in chunks for row in trial.rows),
-                                key=lambda r: r["trial"])
-            except Exception as exc:
-                problems.append(f"{' and '.join(probe.subjects)}: under {executor.describe()}: "
-                                f"{type(exc).__name__}: {' '.join(str(exc).split())}")
-                continue
-            if not _same(_numbers(theirs), rows):
-                problems.append(f"{' and '.join(probe.subjects)}: {probe.filter} on "
-                                f"{probe.scenario} gave other numbers under "
-                                f"{executor.describe()} than in this process")
+        _compare_under(executor, done, problems)
     return len(found), problems

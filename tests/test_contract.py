@@ -17,10 +17,34 @@ CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 PROBES, EARLY = contract.probes()
 
 
-def test_every_filter_and_scenario_has_a_probe():
-    covered = {s for p in PROBES for s in p.subjects}
-    assert covered == {f"filter {f}" for f in FILTERS} | {f"scenario {s}" for s in SCENARIOS}
+def test_every_filter_has_a_probe_on_every_scenario_it_runs_on():
+    pairs = {(p.filter, p.scenario) for p in PROBES}
+    assert pairs == {(f, s) for f, ft in FILTERS.items() for s, mod in SCENARIOS.items()
+                     if ft.cannot_run_on(s, mod.KIND, mod) is None}
+    assert {f for f, _ in pairs} == set(FILTERS) and {s for _, s in pairs} == set(SCENARIOS)
     assert EARLY == []
+
+
+def test_the_probes_need_no_file_of_the_repository(tmp_path, monkeypatch):
+    # the scenarios that read a world file get a generated one: no configs/ anywhere
+    monkeypatch.chdir(tmp_path)
+    for p in PROBES:
+        if "world" in SCENARIOS[p.scenario].SCHEMA:
+            exp = contract.experiment(p)
+            assert Path(exp.scenario_params["world"]).parent == contract.scratch()
+
+
+def test_a_filter_that_differs_across_worker_counts_breaks_the_contract(monkeypatch):
+    import os
+    main = os.getpid()
+    bad = FilterType("pidful", "depends on its process", {}, _mean_run(
+        lambda state: float(os.getpid() != main)), particles=False)
+    monkeypatch.setitem(FILTERS, "pidful", bad)
+    monkeypatch.setattr(contract, "probes", lambda: ([contract.Probe(
+        "pidful", "ungm", ["filter pidful on scenario ungm"])], []))
+    n, problems = contract.check_all(timeout=None)
+    assert n == 1 and problems == ["filter pidful on scenario ungm: pidful on ungm gave other "
+                                   "numbers under 2 worker(s) than in this process"], problems
 
 
 @pytest.mark.parametrize("probe", PROBES, ids=[f"{p.filter}-{p.scenario}" for p in PROBES])

@@ -29,7 +29,7 @@ LAYERS = {
                    "pfbench.papers", "pfbench.verdicts", "pfbench.compare", "pfbench.config"),
     "running": ("pfbench.workers", "pfbench.store", "pfbench.runner", "pfbench.precompile",
                 "pfbench.sweep", "pfbench.tables", "pfbench.tablecache", "pfbench.plots",
-                "pfbench.contract"),
+                "pfbench.contract", "pfbench.traps"),
     "outputs": ("pfbench.outputs", "pfbench.api", "pfbench.regen", "pfbench.report_data",
                 "pfbench.report_html", "pfbench.report"),
     "tooling": ("pfbench.benchmarks",),
