@@ -60,6 +60,9 @@ class FilterType:
         scenario's keys too (a histogram over its field), or None
     needs : what it needs of a scenario beyond its kind, names of ``NEEDS`` ('jacobians'); a
         config that pairs it with a scenario that does not provide one is refused at validation
+    reports : the consistency metrics its runs report beyond its kind's columns, names of
+        ``REPORTS`` ('nees' from its output 'pvar', 'nis' from 'innov' and 'innov_var'); an
+        experiment's trials file has those columns when one of its filters reports them
     """
 
     name: str
@@ -74,6 +77,7 @@ class FilterType:
     snapshots: bool = False
     needs: tuple = ()
     check_scenario: Callable | None = None
+    reports: tuple = ()
 
     def runs_on(self, scenario: str, kind: str, module=None) -> bool:
         """Whether it runs on the scenario ``scenario`` of kind ``kind``; what the scenario
@@ -105,6 +109,11 @@ NEEDS = {
     "jacobians": "the Jacobians of its model (df/dx and dh/dx: ScalarModel's transition_jac and "
                  "observe_jac)",
 }
+
+
+# The consistency metrics a filter type may report (``FilterType.reports``): the scalar kind's
+# columns that only experiments with such a filter have (pfbench.kinds, pfbench.metrics).
+REPORTS = ("nees", "nis")
 
 
 def declared(module) -> tuple:

@@ -83,10 +83,15 @@ def test_a_trials_file_carries_its_kinds_columns(tmp_path, write_config):
     exp = load(write_config(TINY))
     run_experiment(exp, tmp_path / "a")
     header = (tmp_path / "a/trials.csv").read_text().splitlines()[0].split(",")
-    assert tuple(header) == KINDS["scalar"].columns
+    # the kind's columns, with the NEES and NIS its UKF reports (after mse, in METRICS' order)
+    scalar = KINDS["scalar"].columns
+    assert tuple(header) == scalar[:6] + ("nees", "nis") + scalar[6:]
     assert "landmark_error" not in header and "converge_step" not in header
     metrics = list(KINDS["scalar"].metrics)
     rows = pd.read_csv(tmp_path / "a/trials.csv")
+    ukf = rows["filter"] == "ukf"
+    assert rows.loc[ukf, ["nees", "nis"]].notna().all().all()
+    assert rows.loc[~ukf, ["nees", "nis"]].isna().all().all()     # a PF reports neither
     assert rows["diversity_l1"].isna().all()        # computed only where read (diagnostics)
     assert not rows[[m for m in metrics if m != "diversity_l1"]].isna().all().any()
     run_experiment(load(write_config(TINY + "diagnostics: all\n", "all.yaml")), tmp_path / "b")
