@@ -979,7 +979,11 @@ def _resumed(exp: Experiment, out_dir: Path, warn) -> dict[int, list[dict]]:
         raise UserError(f"{out_dir}: cannot resume: those trials come from a different "
                         f"experiment (hash {old_hash}, this config {exp.hash}); run without "
                         "--resume or choose another --out")
-    got = read_trials(source, trial_columns(exp))     # a file that is no trials file: refused
+    try:                            # a file that is no trials file: refused
+        got = read_trials(source, trial_columns(exp))
+    except UserError as exc:        # (an older pfbench's, of other columns: say what to do)
+        raise UserError(f"{exc}; --force runs its trials again, or --out names another "
+                        "folder") from None
     digest = old.get("trials_sha256") if source == final else None
     if (isinstance(digest, str) and not got.rejected
             and trials_digest(source.read_bytes()) != digest):
