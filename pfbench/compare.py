@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 
 from .config import Experiment
-from .metrics import paired, summarize
+from .metrics import chi2_mean_bounds, paired, summarize
 from .papers import Quantity, Table
 from .verdicts import ALPHA, Claim, Estimate, decide_family
 
@@ -83,9 +83,12 @@ class PerTrial:
 class Comparison:
     """What an experiment's trials say, beside its paper's table where it has one.
 
-    table : one row per filter run: statistics over trials (rmse_mean, rmse_ci_lo, ...), the
-        paired difference to the baseline run, and per reported quantity Q: ours_Q, its
-        interval ours_lo_Q / ours_hi_Q, the trials it averages n_Q (fewer than all for a metric
+    table : one row per filter run: statistics over trials (rmse_mean, rmse_se, rmse_ci_lo,
+        ...; every mean over trials M with its Monte Carlo standard error M_se), the NEES and
+        NIS where the trials have them (nees_mean, nees_se, nees_bound_lo, nees_bound_hi,
+        nees_check: ``consistency``), the paired difference to the baseline run, and per
+        reported quantity Q: ours_Q, its standard error ours_se_Q, its interval ours_lo_Q /
+        ours_hi_Q, the trials it averages n_Q (fewer than all for a metric
         defined only on some, such as the convergence step), paper_Q, ratio_Q, verdict_Q (the
         text), kind_Q (reproduced, differs, inconclusive, not comparable, or '' without a paper
         value), the interval the verdict used verdict_lo_Q / verdict_hi_Q at verdict_level_Q,
@@ -133,9 +136,11 @@ class Comparison:
         baseline run), the same with or without the timings file."""
         tab = self.table.copy()
         tab["wall_ms_per_trial"] = math.nan
+        if "wall_ms_per_trial_se" in tab:
+            tab["wall_ms_per_trial_se"] = math.nan
         for q in (self.reported.quantities if self.reported is not None else ()):
             if q.metric in MACHINE_METRICS:
-                for c in ("ours", "ours_lo", "ours_hi", "ratio"):
+                for c in ("ours", "ours_se", "ours_lo", "ours_hi", "ratio"):
                     if f"{c}_{q.key}" in tab:
                         tab[f"{c}_{q.key}"] = math.nan
                 if f"n_{q.key}" in self.untimed_n and f"n_{q.key}" in tab:
@@ -382,11 +387,12 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame,
     if exp.compare["floor"] is not None:
         floor = summarize(by_key[exp.compare["floor"]]["rmse"])["ci_lo"]
     pairs = baseline_runs(exp)
+    steps = steps_of(exp)
     out, cells = [], []         # cells: (row, quantity, claim, the estimate judged)
     untimed: dict[str, list[int]] = {}      # Comparison.untimed_n
     for run in exp.filters:
         g = by_key[run.key]
-        r = _summary_row(run, g, by_key, pairs)
+        r = _summary_row(run, g, by_key, pairs, steps)
         if table is not None:
             base = by_key.get(pairs.get(run.key))
             for q in table.quantities:
@@ -407,31 +413,74 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame,
                       rankings(exp, tab, by_key, anytime), anytime, untimed)
 
 
-def _summary_row(run, g: pd.DataFrame, by_key: dict, pairs: dict) -> dict:
-    """A filter run's row of the comparison before the paper's cells: its metrics' means and
-    intervals, counters, time a trial, and the paired difference to its baseline run."""
+def _summary_row(run, g: pd.DataFrame, by_key: dict, pairs: dict, steps=None) -> dict:
+    """A filter run's row of the comparison before the paper's cells: its metrics' means with
+    their Monte Carlo standard errors and intervals, counters, time a trial, the paired
+    difference to its baseline run, and (where the trials have them) the NEES and NIS with their
+    chi-square bounds (``steps``: the steps each trial averages, for the bounds)."""
     r = {"filter": run.key, "label": run.label, "particles": run.particles, "trials": len(g)}
     for metric in ("rmse", "mse"):
         s = summarize(g[metric])
-        r.update({f"{metric}_{k}": s[k] for k in ("mean", "ci_lo", "ci_hi", "var",
-                                                   "var_ci_lo", "var_ci_hi", "se")})
+        r.update({f"{metric}_{k}": s[k] for k in ("mean", "se", "ci_lo", "ci_hi", "var",
+                                                   "var_ci_lo", "var_ci_hi")})
     for metric in MEAN_COLUMNS:     # NaN where the scenario's kind has no such column
-        r[metric] = summarize(g[metric])["mean"] if metric in g else math.nan
+        s = summarize(g[metric]) if metric in g else {"mean": math.nan, "se": math.nan}
+        r[metric], r[f"{metric}_se"] = s["mean"], s["se"]
+    for metric in CONSISTENCY_METRICS:      # only where the trials file has the column
+        if metric in g:
+            r.update(consistency(g[metric], steps, metric))
     r["underflow_steps"] = float(g["underflow_steps"].sum())
     dv = g["diverged_steps"] if "diverged_steps" in g else pd.Series(dtype=float)
     r["diverged_steps"] = float(dv.sum())
     r["diverged_trials"] = float((dv > 0).sum())
     wall = g["wall_s"] if "wall_s" in g else pd.Series(dtype=float)
-    r["wall_ms_per_trial"] = 1e3 * float(wall.mean()) if wall.notna().any() else math.nan
+    timed = wall.notna().any()
+    r["wall_ms_per_trial"] = 1e3 * float(wall.mean()) if timed else math.nan
+    r["wall_ms_per_trial_se"] = 1e3 * summarize(wall)["se"] if timed else math.nan
     r["baseline"] = pairs.get(run.key)
     if run.key in pairs:
         a = g.set_index("trial")["rmse"]
         b = by_key[pairs[run.key]].set_index("trial")["rmse"].reindex(a.index)
         r.update({f"rmse_{k}": v for k, v in paired(a.values, b.values).items()})
     else:
-        r.update(rmse_diff_mean=math.nan, rmse_diff_ci_lo=math.nan, rmse_diff_ci_hi=math.nan,
-                 rmse_win_rate=math.nan)
+        r.update(rmse_diff_mean=math.nan, rmse_diff_se=math.nan, rmse_diff_ci_lo=math.nan,
+                 rmse_diff_ci_hi=math.nan, rmse_win_rate=math.nan)
     return r
+
+
+# The consistency metrics (pfbench.metrics), in a table where the trials have them: the mean
+# over trials with its standard error, the two-sided 95% chi-square bounds of the mean of that
+# many squares of standard normals, and where the mean lies against them.
+CONSISTENCY_METRICS = ("nees", "nis")
+CONSISTENCY_COLUMNS = ("mean", "se", "bound_lo", "bound_hi", "check")
+
+
+def consistency(values, steps, metric: str = "nees") -> dict:
+    """A filter run's NEES (or NIS) over trials: ``values`` each trial's mean over its ``steps``
+    steps (None: unknown, no bounds). The mean over steps and trials of K = steps x trials
+    squares of standard normals, divided by K, lies within [chi2_K(0.025) / K, chi2_K(0.975) / K]
+    with probability 95% for a consistent filter; the check says 'consistent' within them,
+    'overconfident' above (the filter's variances too small for its errors), 'underconfident'
+    below, '' without a value. (NaN trials are left out; a trial whose value is not finite makes
+    the mean so, and the check 'overconfident'.)"""
+    s = summarize(values)
+    out = {f"{metric}_mean": s["mean"], f"{metric}_se": s["se"], f"{metric}_bound_lo": math.nan,
+           f"{metric}_bound_hi": math.nan, f"{metric}_check": ""}
+    if s["n"] == 0 or not steps:
+        return out
+    lo, hi = chi2_mean_bounds(int(s["n"]) * int(steps))
+    m = s["mean"]
+    out.update({f"{metric}_bound_lo": lo, f"{metric}_bound_hi": hi,
+                f"{metric}_check": ("consistent" if lo <= m <= hi else
+                                    "underconfident" if m < lo else "overconfident")})
+    return out
+
+
+def steps_of(exp: Experiment):
+    """The steps a trial of ``exp`` scores (its scenario's ``steps``; None when it has none)."""
+    v = exp.scenario_params.get("steps") if hasattr(exp.scenario_params, "get") else None
+    return int(v) if isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v > 0 \
+        else None
 
 
 def _paper_cell(exp: Experiment, table: Table, run, q: Quantity, r: dict, g: pd.DataFrame,
@@ -443,6 +492,7 @@ def _paper_cell(exp: Experiment, table: Table, run, q: Quantity, r: dict, g: pd.
     est = estimate(q, g, base, exp.seed, f"{run.key}:{q.key}")
     ours = est.value
     r[f"ours_{q.key}"] = ours
+    r[f"ours_se_{q.key}"] = est.se     # its Monte Carlo standard error (a bootstrap's, for BCa)
     # the 95% interval printed beside our value, by the estimate's own method
     r[f"ours_lo_{q.key}"], r[f"ours_hi_{q.key}"] = est.interval(1 - ALPHA)
     r[f"n_{q.key}"] = est.n         # the trials it averages (a conditional metric:

@@ -6,7 +6,11 @@ filter's output must hold and how a trial is scored:
 
 - ``scalar``: a one-dimensional state. ``simulate`` gives (x (T+1,), y (T+1,)); a filter returns
   ``xhat`` (T+1,), the posterior mean, and ``lik_evals_per_step``; optionally ``ess``,
-  ``resampled``, ``div_l1``, ``distinct`` (T+1,) and ``underflow_steps``.
+  ``resampled``, ``div_l1``, ``distinct`` (T+1,) and ``underflow_steps``; a filter that carries a
+  variance ``pvar`` (T+1,), the posterior variance (its NEES), and one that predicts the
+  measurement ``innov`` and ``innov_var`` (T+1,), the innovation and its predicted variance (its
+  NIS). The NEES and NIS columns are in an experiment's trials file when one of its filters
+  declares it reports them (``FilterType.reports``; ``reported_metrics``).
 - ``slam``: a robot's pose (x, y, heading) and a landmark map. The truth has ``pose`` (T+1, 3); a
   filter returns ``pose`` (T+1, 3), ``lm_est`` (M, 2), ``lm_seen`` (M,), ``lik_evals_per_step``;
   optionally ``ess``, ``resampled``, ``div_l1``, ``distinct``, ``lm_trace`` per observation (K,)
@@ -68,6 +72,8 @@ class Kind:
     diagnostics : the per-step diagnostics its filter runs can compute, names of
         pfbench.diagnostics.NAMES (which of them a run computes: pfbench.diagnostics.plan)
     figure_diagnostics : those its figures read, from the trials whose trace ``tracer`` keeps
+    reported : metrics of pfbench.metrics.METRICS its trials have only in an experiment with a
+        filter that reports them (``FilterType.reports``): the consistency metrics
 
     A trials file of the kind has the columns ``columns``: the trial, the filter run, its
     ``metrics`` (in the order of pfbench.metrics.METRICS) and the row's checksum.
@@ -86,9 +92,10 @@ class Kind:
     outputs: Callable | None = None
     diagnostics: tuple[str, ...] = ()
     figure_diagnostics: tuple[str, ...] = ()
+    reported: tuple[str, ...] = ()
 
     def __post_init__(self):
-        unknown = [m for m in self.metrics if m not in METRICS]
+        unknown = [m for m in self.metrics + self.reported if m not in METRICS]
         if unknown:
             raise ValueError(f"kind {self.name}: no metric {unknown[0]}")
         unknown = [d for d in self.diagnostics + self.figure_diagnostics
@@ -102,10 +109,18 @@ class Kind:
     def columns(self) -> tuple[str, ...]:
         return (*ID_COLUMNS, *self.metrics, *END_COLUMNS)
 
-    def row(self, model, truth, out) -> dict:
-        """The kind's metrics of one filter run (``score``'s row, the kind's columns only)."""
+    def row(self, model, truth, out, metrics: tuple[str, ...] | None = None) -> dict:
+        """The kind's metrics of one filter run (``score``'s row, the kind's columns only, or
+        ``metrics``: an experiment's, ``experiment_metrics``)."""
         row = self.score(model, truth, out)
-        return {m: row[m] for m in self.metrics}
+        return {m: row.get(m, math.nan) for m in (self.metrics if metrics is None else metrics)}
+
+    def experiment_metrics(self, reports) -> tuple[str, ...]:
+        """The metric columns of an experiment of this kind whose filters report ``reports``
+        (FilterType.reports, over its filters): the kind's metrics and those of ``reported``
+        that a filter reports, in METRICS' order."""
+        extra = set(self.reported) & set(reports)
+        return tuple(m for m in METRICS if m in self.metrics or m in extra)
 
 
 def _slam_particle_floats(params, scen: dict) -> int:
@@ -128,7 +143,8 @@ def _scalar_outputs(model, truth, data) -> dict:
     T1 = len(truth)
     return {"xhat": ((T1,), True), "lik_evals_per_step": (COUNT, True),
             "ess": ((T1,), False), "resampled": ((T1,), False), "div_l1": ((T1,), False),
-            "distinct": ((T1,), False), "underflow_steps": (COUNT, False)}
+            "distinct": ((T1,), False), "underflow_steps": (COUNT, False),
+            "pvar": ((T1,), False), "innov": ((T1,), False), "innov_var": ((T1,), False)}
 
 
 def _slam_outputs(model, truth, data) -> dict:
@@ -212,7 +228,8 @@ SCALAR = Kind(
     unit="",
     particle_floats=lambda params, scen: 24,
     step_floats=lambda scen: 8,
-    outputs=_scalar_outputs, diagnostics=("distinct_frac", "diversity_l1"))
+    outputs=_scalar_outputs, diagnostics=("distinct_frac", "diversity_l1"),
+    reported=("nees", "nis"))
 
 SLAM = Kind(
     "slam", "a robot's pose and a map of point landmarks, estimated together",
@@ -251,3 +268,11 @@ def kind_of(scenario: str) -> Kind:
     """The kind of the registered scenario ``scenario``."""
     from .scenarios import SCENARIOS    # the registry: every scenario and filter, numba's types
     return KINDS[SCENARIOS[scenario].KIND]
+
+
+def reported_metrics(exp) -> tuple[str, ...]:
+    """The metric columns of experiment ``exp``'s trials: its scenario kind's metrics, and the
+    consistency metrics (NEES, NIS) its kind has when one of its filters reports them."""
+    from .filters import FILTERS
+    reports = {m for f in exp.filters for m in getattr(FILTERS.get(f.type), "reports", ())}
+    return kind_of(exp.scenario).experiment_metrics(reports)

@@ -9,6 +9,12 @@ import numpy as np
 METRICS = {
     "rmse": "root mean squared error of the estimate over t = 1..T (a robot: of its position, m)",
     "mse": "mean squared error over t = 1..T (rmse squared)",
+    "nees": "normalised estimation error squared (xhat_t - x_t)^2 / P_t, averaged over t = 1..T, "
+            "P_t the filter's own posterior variance (filters that carry one: kf, ekf, ukf); 1 "
+            "for a consistent filter, above its chi-square bound for an overconfident one",
+    "nis": "normalised innovation squared nu_t^2 / S_t, averaged over t = 1..T: the innovation "
+           "nu_t = y_t - yhat_t over the variance S_t the filter predicts for it (filters that "
+           "predict the measurement: kf, ekf, ukf); 1 for a consistent filter",
     "heading_rmse": "root mean squared heading error over t = 1..T (wrapped, rad)",
     "position_error": "mean distance between the estimated and the true position over t = 1..T "
                       "(m)",
@@ -70,8 +76,9 @@ def _mean_or_nan(a) -> float:
 
 def trial_metrics(x: np.ndarray, out: dict) -> dict:
     """Metrics of one filter run: truth ``x`` (T+1,), filter output ``out`` (traces (T+1,)): 'xhat'
-    and 'lik_evals_per_step'; 'underflow_steps', 'ess', 'resampled', 'div_l1' and 'distinct' each
-    optional (a metric without its output is NaN; underflow_steps 0)."""
+    and 'lik_evals_per_step'; 'underflow_steps', 'ess', 'resampled', 'div_l1', 'distinct',
+    'pvar' (the NEES) and 'innov' with 'innov_var' (the NIS) each optional (a metric without its
+    output is NaN; underflow_steps 0)."""
     err = out["xhat"][1:] - x[1:]
     with np.errstate(over="ignore", invalid="ignore"):
         sq = err * err
@@ -89,7 +96,20 @@ def trial_metrics(x: np.ndarray, out: dict) -> dict:
         row["diversity_l1"] = _nanmean(out["div_l1"][1:])
     if "distinct" in out:
         row["distinct_frac"] = _nanmean(out["distinct"][1:])
+    if "pvar" in out:
+        row["nees"] = normalised_squares(err, out["pvar"][1:])
+    if "innov" in out and "innov_var" in out:
+        row["nis"] = normalised_squares(out["innov"][1:], out["innov_var"][1:])
     return row
+
+
+def normalised_squares(e: np.ndarray, var: np.ndarray) -> float:
+    """The mean over steps of e^2 / var: a filter's NEES (e its errors, var its variances) or
+    NIS (its innovations and their predicted variances). Not finite when a step's is not (a
+    diverged estimate, a variance of zero)."""
+    e = np.asarray(e, dtype=float)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        return float(np.mean(e * e / np.asarray(var, dtype=float)))
 
 
 def _pose_metrics(pose: np.ndarray, out: dict, score_from: int = 1,
@@ -157,6 +177,17 @@ def t975(df: int) -> float:
     return float(stdtrit(df, 0.975))
 
 
+def chi2_mean_bounds(k: int, level: float = 0.95) -> tuple[float, float]:
+    """The two-sided ``level`` bounds of the mean of ``k`` squares of independent standard
+    normals: the chi-square quantiles with k degrees of freedom at (1 -+ level) / 2, over k (the
+    bounds of a consistent filter's NEES or NIS averaged over k steps and trials)."""
+    if k < 1:
+        return math.nan, math.nan
+    from scipy.special import chdtri   # scipy.stats.chi2.isf, without importing scipy.stats
+    tail = (1.0 - level) / 2.0
+    return float(chdtri(k, 1.0 - tail)) / k, float(chdtri(k, tail)) / k
+
+
 def summarize(values) -> dict:
     """Mean, variance, standard error and 95% intervals over trials (NaN values are dropped).
 
@@ -196,8 +227,8 @@ def paired(values, baseline) -> dict:
     d = a[ok] - b[ok]
     s = summarize(d)
     wins = float(np.mean((d < 0) + 0.5 * (d == 0))) if d.size else math.nan
-    return {"diff_mean": s["mean"], "diff_ci_lo": s["ci_lo"], "diff_ci_hi": s["ci_hi"],
-            "win_rate": wins}
+    return {"diff_mean": s["mean"], "diff_se": s["se"], "diff_ci_lo": s["ci_lo"],
+            "diff_ci_hi": s["ci_hi"], "win_rate": wins}
 
 
 def settle_step(err: np.ndarray, bound: float) -> int:

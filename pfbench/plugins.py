@@ -24,7 +24,7 @@ import functools
 from importlib.metadata import entry_points
 from typing import Any, Callable
 
-from .protocols import FILTER_COMMON, KIND_NAMES, NEEDS, SCENARIO_NEEDS, FilterType
+from .protocols import FILTER_COMMON, KIND_NAMES, NEEDS, REPORTS, SCENARIO_NEEDS, FilterType
 from .schema import Key
 
 FILTER_GROUP = "pfbench.filters"
@@ -127,6 +127,8 @@ def check_filter(name: str, obj: Any) -> str | None:
                 "drop it from the schema")
     if not isinstance(obj.needs, tuple) or any(n not in NEEDS for n in obj.needs):
         return f"its needs {obj.needs!r} are not a tuple of {', '.join(NEEDS)}"
+    if not isinstance(obj.reports, tuple) or any(m not in REPORTS for m in obj.reports):
+        return f"its reports {obj.reports!r} are not a tuple of {', '.join(REPORTS)}"
     if obj.check is not None and not callable(obj.check):
         return "its check is not callable"
     if obj.check_scenario is not None and not callable(obj.check_scenario):

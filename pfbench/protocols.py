@@ -62,6 +62,9 @@ class FilterType:
         'gaussian_measurement', 'likelihood', 'linear'); a config, a sweep's cell or an API call
         that pairs it with a scenario that does not provide one is refused at validation, in one
         line naming what is missing
+    reports : the consistency metrics its runs report beyond its kind's columns, names of
+        ``REPORTS`` ('nees' from its output 'pvar', 'nis' from 'innov' and 'innov_var'); an
+        experiment's trials file has those columns when one of its filters reports them
     """
 
     name: str
@@ -76,6 +79,7 @@ class FilterType:
     snapshots: bool = False
     needs: tuple = ()
     check_scenario: Callable | None = None
+    reports: tuple = ()
 
     def runs_on(self, scenario: str, kind: str, module=None) -> bool:
         """Whether it runs on the scenario ``scenario`` of kind ``kind``; what the scenario
@@ -137,6 +141,11 @@ def need_text(needs) -> str:
     (...) ['jacobians'] and a Gaussian measurement (...) ['gaussian_measurement']"."""
     words = [f"{NEEDS[n]} ['{n}']" for n in needs]
     return " and ".join([", ".join(words[:-1]), words[-1]] if len(words) > 1 else words)
+
+
+# The consistency metrics a filter type may report (``FilterType.reports``): the scalar kind's
+# columns that only experiments with such a filter have (pfbench.kinds, pfbench.metrics).
+REPORTS = ("nees", "nis")
 
 
 def declared(module) -> tuple:

@@ -40,7 +40,7 @@ from .diagnostics import plan as plan_diagnostics
 from .errors import UserError
 from .fsutil import FolderLock, remove_tree, require_regular
 from .filters import FILTERS, LOAD_SECONDS
-from .kinds import check_outputs, kind_of
+from .kinds import check_outputs, kind_of, reported_metrics
 from .plugins import FILTER_GROUP, SCENARIO_GROUP
 from .precompile import compile_ahead, uncompiled  # noqa: F401  (uncompiled: this module's API)
 from .rng import state_from_seed
@@ -171,8 +171,9 @@ def _who(run, trial: int) -> str:
 
 
 def metrics_of(exp: Experiment, model, truth, out) -> dict:
-    """A filter run's metrics for the experiment's kind of scenario."""
-    return kind_of(exp.scenario).row(model, truth, out)
+    """A filter run's metrics for the experiment's kind of scenario (and the consistency metrics
+    its trials file has, pfbench.kinds.reported_metrics)."""
+    return kind_of(exp.scenario).row(model, truth, out, reported_metrics(exp))
 
 
 def run_filter(exp: Experiment, trial: int, run, model, y, diag: Diag | None = None,
@@ -978,7 +979,11 @@ def _resumed(exp: Experiment, out_dir: Path, warn) -> dict[int, list[dict]]:
         raise UserError(f"{out_dir}: cannot resume: those trials come from a different "
                         f"experiment (hash {old_hash}, this config {exp.hash}); run without "
                         "--resume or choose another --out")
-    got = read_trials(source, trial_columns(exp))     # a file that is no trials file: refused
+    try:                            # a file that is no trials file: refused
+        got = read_trials(source, trial_columns(exp))
+    except UserError as exc:        # (an older pfbench's, of other columns: say what to do)
+        raise UserError(f"{exc}; --force runs its trials again, or --out names another "
+                        "folder") from None
     digest = old.get("trials_sha256") if source == final else None
     if (isinstance(digest, str) and not got.rejected
             and trials_digest(source.read_bytes()) != digest):

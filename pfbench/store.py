@@ -39,7 +39,7 @@ from .errors import UserError
 from .fsutil import atomic_write, is_regular, remove_tree, require_regular
 from .schema import describe
 from .version import __version__
-from .kinds import END_COLUMNS, ID_COLUMNS, kind_of
+from .kinds import END_COLUMNS, ID_COLUMNS, reported_metrics
 from .metrics import METRICS, summarize
 
 __all__ = ["META", "check_meta", "check_trials", "read_meta", "read_results", "read_sweep",
@@ -74,8 +74,9 @@ def write_csv(path: Path, df) -> None:
 
 
 def trial_columns(exp: Experiment) -> tuple[str, ...]:
-    """The columns of ``exp``'s trials file: those of its scenario's kind."""
-    return kind_of(exp.scenario).columns
+    """The columns of ``exp``'s trials file: those of its scenario's kind, with the consistency
+    metrics (NEES, NIS) when one of its filters reports them (pfbench.kinds.reported_metrics)."""
+    return (*ID_COLUMNS, *reported_metrics(exp), *END_COLUMNS)
 
 
 def _fields(r: dict, columns: tuple[str, ...]) -> list[str]:
@@ -131,6 +132,19 @@ def _header_ok(header: tuple) -> bool:
             and len(header) > n + len(end) and list(middle) == order)
 
 
+def _column_difference(header: tuple, columns) -> str:
+    """': it lacks nees, nis' (and/or 'it has X, which this experiment's trials do not'): how a
+    trials file's header differs from the columns expected ('' when only their order does, or
+    nothing is expected)."""
+    if columns is None:
+        return ""
+    lacks = [c for c in columns if c not in header]
+    extra = [c for c in header if c not in columns]
+    parts = ([f"it lacks {', '.join(lacks)}"] if lacks else []) + (
+        [f"it has {', '.join(extra)}, which this experiment's trials do not"] if extra else [])
+    return f": {'; '.join(parts)}" if parts else ""
+
+
 @dataclass
 class TrialsFile:
     """What a trials file holds: the rows that check, and the trials that must run again."""
@@ -166,7 +180,8 @@ def read_trials(path: Path, columns: tuple[str, ...] | None = None) -> TrialsFil
     if columns is not None and _end(header) == _LEGACY_END:
         columns = tuple(columns)[:-len(END_COLUMNS)] + _LEGACY_END
     if not _header_ok(header) or (columns is not None and header != tuple(columns)):
-        raise UserError(f"{path}: not a pfbench trials file of this version (columns differ)")
+        raise UserError(f"{path}: not a pfbench trials file of this version (columns differ"
+                        f"{_column_difference(header, columns)})")
     columns = header
     rows: dict[tuple[int, str], dict] = {}
     rejected: dict[int, str] = {}
@@ -592,8 +607,8 @@ def _same_frame(a, b) -> bool:
 
 def sweep_summary(trials, keys: list[str],
                   metrics: tuple[str, ...] | None = None):
-    """Mean and 95% interval of each of ``metrics`` (default: every metric of pfbench.metrics the
-    trials hold) per cell and filter run (the run time ``wall_s`` only when asked: summary.csv
+    """Mean, its Monte Carlo standard error and 95% interval of each of ``metrics`` (default:
+    every metric of pfbench.metrics the trials hold) per cell and filter run (the run time ``wall_s`` only when asked: summary.csv
     holds what the seed determines). A pandas DataFrame: summary.csv, which pfbench.sweep
     writes and read_sweep checks."""
     import pandas as pd
@@ -607,6 +622,6 @@ def sweep_summary(trials, keys: list[str],
         for m in metrics:
             if m in g and pd.to_numeric(g[m], errors="coerce").notna().any():
                 s = summarize(g[m])
-                r[f"{m}_mean"], r[f"{m}_ci_lo"], r[f"{m}_ci_hi"] = s["mean"], s["ci_lo"], s["ci_hi"]
+                r.update({f"{m}_{k}": s[k] for k in ("mean", "se", "ci_lo", "ci_hi")})
         out.append(r)
     return pd.DataFrame(out)

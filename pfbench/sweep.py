@@ -2,9 +2,9 @@
 
 Each cell is an ordinary experiment (same base seed, so cells differ only in the swept values,
 with common random numbers) written to ``<out>/cells/<cell>/`` and resumable like ``run``; the
-sweep folder gets a long-form ``trials.csv`` with a column per swept key, ``summary.csv`` (mean
-and 95% interval of each metric per cell and filter run) and a figure per metric against the
-first swept key, one line per filter run with its 95% band.
+sweep folder gets a long-form ``trials.csv`` with a column per swept key, ``summary.csv`` (mean,
+its standard error and 95% interval of each metric per cell and filter run) and a figure per
+metric against the first swept key, one line per filter run with its 95% band.
 """
 from __future__ import annotations
 

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from .compare import MACHINE_METRICS, Comparison, PerTrial, Ranking, pair_counts
+from .compare import (CONSISTENCY_METRICS, MACHINE_METRICS, Comparison, PerTrial, Ranking,
+                      pair_counts)
 from .config import Experiment
 from .papers import Quantity
 from .verdicts import METHODS, percent
@@ -83,32 +84,50 @@ def _paired_head(exp: Experiment) -> list[str]:
     return [f"RMSE - {b} [95% CI]", f"Wins vs {b}"] if b else []
 
 
-def display_columns(cmp: Comparison) -> tuple[list[str], list[list[str]]]:
-    """Header and cells of the human table (Markdown and the console share it)."""
+def display_columns(cmp: Comparison, se: bool = False) -> tuple[list[str], list[list[str]]]:
+    """Header and cells of the human table (Markdown and the console share it); ``se``: the RMSE
+    mean with its Monte Carlo standard error (table.md)."""
     exp, tab, table = cmp.exp, cmp.table, cmp.reported
     quantities = table.quantities if table else ()
-    head = ["Filter", "N", "Trials", "RMSE mean [95% CI]", "RMSE var [95% CI]"]
+    head = ["Filter", "N", "Trials", f"RMSE mean{' +- SE' if se else ''} [95% CI]",
+            "RMSE var [95% CI]"]
     for q in quantities:
         head += ([] if _shown_as_rmse(q) else [_ours_head(q)]) + [f"Paper {q.title}", "Ratio",
                                                                    "Verdict"]
     timed = cmp.timed
+    shown = [m for m in CONSISTENCY_METRICS if f"{m}_mean" in tab]
+    head += [f"{m.upper()} +- SE [95% bound]" for m in shown]
     head += _paired_head(exp) + ["Mean ESS", "Distinct", "Evals/step"] + (["ms/trial"] if timed
                                                                            else [])
     cells = []
     for _, r in tab.iterrows():
         n = r["particles"]
+        mean = fmt(r["rmse_mean"]) + (f" +- {fmt(r['rmse_se'], 2)}" if se else "")
         row = [r["label"], "-" if n is None or n != n else str(int(n)), str(int(r["trials"])),
-               f"{fmt(r['rmse_mean'])} [{fmt(r['rmse_ci_lo'])}, {fmt(r['rmse_ci_hi'])}]",
+               f"{mean} [{fmt(r['rmse_ci_lo'])}, {fmt(r['rmse_ci_hi'])}]",
                f"{fmt(r['rmse_var'])} [{fmt(r['rmse_var_ci_lo'])}, {fmt(r['rmse_var_ci_hi'])}]"]
         for q in quantities:
             row += (([] if _shown_as_rmse(q) else [ours_cell(r, q)])
                     + [fmt(r[f"paper_{q.key}"], 6), fmt(r[f"ratio_{q.key}"], 3),
                        r[f"verdict_{q.key}"] or "-"])
+        row += [consistency_cell(r, m) for m in shown]
         row += (_paired_cells(exp, r) if exp.compare["baseline"] else [])
         row += [fmt(r["mean_ess"]), fmt(r["distinct_frac"], 3), fmt(r["lik_evals_per_step"])]
         row += [fmt(r["wall_ms_per_trial"], 3)] if timed else []
         cells.append(row)
     return head, cells
+
+
+def consistency_cell(r, metric: str) -> str:
+    """'1.02 +- 0.012 [0.972, 1.03] consistent': a row's NEES (or NIS) mean over trials with its
+    standard error, the 95% chi-square bounds of a consistent filter's and the check ('-' for a
+    filter that reports none)."""
+    v = r.get(f"{metric}_mean", math.nan)
+    if v != v:
+        return "-"
+    lo, hi = r.get(f"{metric}_bound_lo", math.nan), r.get(f"{metric}_bound_hi", math.nan)
+    bounds = f" [{fmt(lo, 3)}, {fmt(hi, 3)}] {r[f'{metric}_check']}" if lo == lo else ""
+    return f"{fmt(v, 3)} +- {fmt(r[f'{metric}_se'], 2)}{bounds}"
 
 
 def _shown_as_rmse(q: Quantity) -> bool:
@@ -301,6 +320,7 @@ def footnotes(cmp: Comparison) -> list[str]:
         notes.append(f"'RMSE - {exp.compare['baseline']}': mean per-trial RMSE difference to the "
                      "baseline on the same truth, with its 95% interval; 'Wins': fraction of trials "
                      "where the row's RMSE is lower.")
+    notes += consistency_notes(cmp)
     if exp.compare["floor"] is not None:
         r = tab[tab["filter"] == exp.compare["floor"]].iloc[0]
         notes.append(f"Floor: {r['label']} with N = {int(r['particles'])} reaches RMSE "
@@ -325,6 +345,24 @@ def footnotes(cmp: Comparison) -> list[str]:
                      f"they occur in: {_counts(hit, 'diverged_steps', 'diverged_trials')}. The "
                      "error averages include those steps.")
     return notes
+
+
+def consistency_notes(cmp: Comparison) -> list[str]:
+    """The note that explains the NEES and NIS columns, where the table has them."""
+    shown = [m.upper() for m in CONSISTENCY_METRICS if f"{m}_mean" in cmp.table]
+    if not shown:
+        return []
+    return [(f"{' and '.join(shown)}: the normalised estimation error squared (xhat - x)^2 / P "
+            "and the normalised innovation squared nu^2 / S, averaged over the steps of each "
+            "trial, then over trials, with the mean's Monte Carlo standard error; P is the "
+            "filter's own posterior variance, S the variance it predicts for its innovation nu. "
+            "A consistent filter averages 1: the bracket holds the two-sided 95% chi-square "
+            "bounds of the mean of K = steps x trials squares of standard normals "
+            "(chi2_K(0.025) / K, chi2_K(0.975) / K); above them a filter is overconfident (its "
+            "variance too small for its errors), below them underconfident. The bounds take the "
+            "K terms as independent: a consistent filter's innovations are, its estimation "
+            "errors are correlated in time, so its NEES strays beyond them somewhat more often "
+            "than 5%.")]
 
 
 def verdict_counts(cmp: Comparison) -> str:
@@ -389,7 +427,7 @@ def markdown(cmp: Comparison, meta: dict | None = None) -> str:
     lines += [f"Scenario `{exp.scenario}`; {trials} trials; seed {exp.seed}; experiment hash "
               f"`{exp.hash}`" + (f"; pfbench {meta['versions']['pfbench']}" if meta else "") + ".",
               "", interval_line(cmp), ""]
-    head, cells = display_columns(cmp)
+    head, cells = display_columns(cmp, se=True)
     lines.append("| " + " | ".join(head) + " |")
     lines.append("|" + "|".join(" --- " for _ in head) + "|")
     for row in cells:

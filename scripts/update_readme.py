@@ -104,9 +104,11 @@ def metrics_block() -> str:
            "| column | " + " | ".join(k.name for k in kinds) + " | meaning |",
            "| --- | " + " | ".join("---" for _ in kinds) + " | --- |"]
     for m, doc in METRICS.items():
-        marks = " | ".join("x" if m in k.metrics else "" for k in kinds)
+        marks = " | ".join("x" if m in k.metrics else "(x)" if m in k.reported else ""
+                           for k in kinds)
         out.append(f"| `{m}` | {marks} | {_esc(doc.replace('|', '/'))} |")
-    return "\n".join(out + [""])
+    return "\n".join(out + ["", "(x): only in the trials of an experiment with a filter that "
+                             "reports it (its `FilterType.reports`).", ""])
 
 
 def _m(rate) -> str:

@@ -91,3 +91,97 @@ def test_bootstrap_of_a_metric_no_trial_defined_is_nan_not_an_error():
         est = _bootstrap((np.array(values),), mean, math.nan, 0, "run:q")
         assert est.n == sum(v == v for v in values)
         assert math.isnan(est.se) or est.se == 0.0
+
+
+def test_consistency_checks_a_mean_against_its_chi_square_bounds():
+    from pfbench.compare import consistency
+    from pfbench.metrics import chi2_mean_bounds
+    lo, hi = chi2_mean_bounds(4 * 50)
+    got = consistency([1.0, 0.9, 1.1, 1.0], 50)
+    assert got["nees_mean"] == 1.0 and (got["nees_bound_lo"], got["nees_bound_hi"]) == (lo, hi)
+    assert got["nees_se"] == pytest.approx(np.std([1.0, 0.9, 1.1, 1.0], ddof=1) / 2)
+    assert got["nees_check"] == "consistent"
+    assert consistency([4.0] * 4, 50)["nees_check"] == "overconfident"
+    assert consistency([0.25] * 4, 50, "nis")["nis_check"] == "underconfident"
+    # a trial with no value is left out of the count; one that diverged makes the mean so
+    assert consistency([1.0, np.nan, 1.0], 50)["nees_bound_lo"] == chi2_mean_bounds(100)[0]
+    assert consistency([1.0, np.inf], 50)["nees_check"] == "overconfident"
+    # no value (a filter that reports none) or no step count: no bounds, no check
+    for got in (consistency([np.nan, np.nan], 50), consistency([1.0, 1.0], None)):
+        assert got["nees_check"] == "" and np.isnan(got["nees_bound_hi"])
+
+
+def _overconfident_kf(model, y, params, particles, state, diag=True):
+    """The Kalman filter with its variances scaled by 0.25: the same estimates, overconfident."""
+    from pfbench.filters import FILTERS
+    out = FILTERS["kf"].run(model, y, params, particles, state, diag)
+    out["pvar"] = 0.25 * out["pvar"]
+    out["innov_var"] = 0.25 * out["innov_var"]
+    return out
+
+
+def test_the_kalman_filter_is_consistent_and_an_overconfident_one_is_flagged(monkeypatch):
+    """A statistical check on linear_gaussian (the truth starts at the prior mean, so a prior
+    variance near zero is the exact one): the KF's NEES and NIS averaged over 1000 trials of 50
+    steps lie within the 95% chi-square bounds of the mean of K = 50 000 squares, and within 4
+    Monte Carlo standard errors of 1 (a tolerance that holds whatever the errors' correlation in
+    time); the same filter with its variances scaled by 0.25 averages 4 and is flagged
+    overconfident. Fixed seed: the test's outcome is the same on every run."""
+    from pfbench.api import run_experiment
+    from pfbench.filters import FILTERS
+    from pfbench.filters.types import FilterType
+    monkeypatch.setitem(FILTERS, "kf_overconfident", FilterType(
+        "kf_overconfident", "the KF with its variances scaled by 0.25", {}, _overconfident_kf,
+        particles=False, scenarios=("linear_gaussian",), cost="1", reports=("nees", "nis")))
+    cfg = {"seed": 33, "trials": 1000,
+           "scenario": {"name": "linear_gaussian", "steps": 50, "prior_var": 1e-12},
+           "filters": {"kf": {}, "kf_overconfident": {}, "pf": {"particles": 20}}}
+    res = run_experiment(cfg)
+    assert {"nees", "nis"} <= set(res.trials.columns)
+    tab = res.table.set_index("filter")
+    for m in ("nees", "nis"):
+        kf, over = tab.loc["kf"], tab.loc["kf_overconfident"]
+        assert kf[f"{m}_check"] == "consistent", kf
+        assert kf[f"{m}_bound_lo"] <= kf[f"{m}_mean"] <= kf[f"{m}_bound_hi"]
+        assert abs(kf[f"{m}_mean"] - 1.0) <= 4 * kf[f"{m}_se"]
+        assert over[f"{m}_check"] == "overconfident"
+        assert over[f"{m}_mean"] == pytest.approx(4 * kf[f"{m}_mean"], rel=1e-12)
+        assert over[f"{m}_mean"] > over[f"{m}_bound_hi"]
+        assert tab.loc["pf@20", f"{m}_check"] == "" and np.isnan(tab.loc["pf@20", f"{m}_mean"])
+
+
+def test_every_mean_in_the_table_carries_its_standard_error_beside_it(write_config):
+    from pfbench.compare import MEAN_COLUMNS, compare
+    from pfbench.config import load
+    exp = load(_afsa_cfg(write_config))
+    rng = np.random.default_rng(3)
+    vals = {"pso": {"position_error": rng.normal(0.4, 0.05, exp.trials),
+                    "mean_ess": rng.normal(30.0, 2.0, exp.trials)},
+            "afsa": {"position_error": rng.normal(0.2, 0.05, exp.trials)}, "afsa_std": {}}
+    df = _afsa_rows(exp, vals)
+    tab = compare(exp, df).table
+    cols = list(tab.columns)
+    per_cell = {c for c in cols for q in exp.reported.quantities if c.endswith(f"_{q.key}")}
+    means = [c for c in cols if c.endswith("_mean") and c not in per_cell]
+    assert {"rmse_mean", "mse_mean", "rmse_diff_mean"} <= set(means)
+    for c in means:
+        se = c[:-len("_mean")] + "_se"
+        assert cols[cols.index(c) + 1] == se, c
+    for c in MEAN_COLUMNS + ("wall_ms_per_trial",):
+        assert cols[cols.index(c) + 1] == f"{c}_se", c
+    for q in exp.reported.quantities:
+        assert cols[cols.index(f"ours_{q.key}") + 1] == f"ours_se_{q.key}"
+    # the standard errors are sd / sqrt(trials) of the per-trial values
+    keys = {f.name: f.key for f in exp.filters}
+    for name, metric in (("pso", "mean_ess"), ("pso", "position_error"), ("afsa", "rmse")):
+        key = keys[name]
+        g = df[df["filter"] == key][metric]
+        row = tab[tab["filter"] == key].iloc[0]
+        q = next((q for q in exp.reported.quantities if q.metric == metric and q.stat == "mean"
+                  and q.scale == 1.0), None)
+        col = f"ours_se_{q.key}" if metric == "position_error" else f"{metric}_se"
+        assert row[col] == pytest.approx(g.std(ddof=1) / np.sqrt(len(g)), rel=1e-12, abs=1e-15)
+    # the table's file leaves the machine's times out, their standard error too
+    cmp = compare(exp, df)
+    assert cmp.table["wall_ms_per_trial_se"].notna().all()
+    assert cmp.without_timings().table["wall_ms_per_trial_se"].isna().all()

@@ -221,3 +221,23 @@ def test_model_functions_are_handed_over_by_address_and_stay_the_functions():
 
     assert np.array_equal(trial(m.transition, m.observe),
                           trial(m.transition.dispatcher, m.observe.dispatcher))
+
+
+def test_kalman_family_reports_its_innovations_and_their_variances():
+    """kf, ekf and ukf give the innovation y_t - yhat_t and its predicted variance S_t (the NIS);
+    on linear_gaussian the three agree with the textbook recursion's."""
+    a, c, Q, R = 0.8, 1.5, 0.7, 2.0
+    model = _linear(a=a, c=c, process_noise_var=Q, measurement_noise_var=R, prior_var=3.0)
+    _, y = simulate(model, state_from_seed(np.random.SeedSequence(8)))
+    m, P = _numpy_kalman(y, a, c, Q, R, 0.0, 3.0)
+    Pp = a * a * P[:-1] + Q
+    S = c * c * Pp + R
+    nu = y[1:] - c * a * m[:-1]
+    runs = {"kf": _kalman(model, y)}
+    for name in ("ekf", "ukf"):
+        runs[name] = FILTERS[name].run(model, y, _params(FILTERS[name].schema), None, None)
+    for name, out in runs.items():
+        assert FILTERS[name].reports == ("nees", "nis")
+        assert np.isnan(out["innov"][0]) and np.isnan(out["innov_var"][0])
+        assert np.allclose(out["innov"][1:], nu, rtol=0, atol=1e-10), name
+        assert np.allclose(out["innov_var"][1:], S, rtol=1e-10, atol=0), name

@@ -109,6 +109,11 @@ MALFORMED = {
     "huge count": (lambda n: {**GOOD(n), "lik_evals_per_step": 10 ** 400}, "finite number"),
     "short ess": (lambda n: {**GOOD(n), "ess": np.ones(n + 2)}, "'ess' has shape (28,)"),
     "string resampled": (lambda n: {**GOOD(n), "resampled": "yes"}, "'resampled'"),
+    "short pvar": (lambda n: {**GOOD(n), "pvar": np.ones(n - 1)}, "'pvar' has shape (25,)"),
+    "string innov": (lambda n: {**GOOD(n), "innov": "big", "innov_var": np.ones(n)},
+                     "'innov' is str"),
+    "2-d innov_var": (lambda n: {**GOOD(n), "innov": np.ones(n), "innov_var": np.ones((n, 2))},
+                      "'innov_var' has shape (26, 2)"),
 }
 
 

@@ -5,7 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from pfbench.metrics import localization_metrics, paired, settle_step, summarize, t975
+from pfbench.metrics import (chi2_mean_bounds, localization_metrics, paired, settle_step,
+                             summarize, t975, trial_metrics)
 
 
 def test_t_quantiles_against_scipy():
@@ -117,3 +118,38 @@ def test_scoring_from_a_later_step_and_the_error_at_a_step():
     assert m["error_at_step"] == 2.0 and m["converge_step"] == 3 and m["converged"] == 1.0
     never = localization_metrics(*_poses([5.0, 6.0]), 0.5, np.array([], dtype=np.int64))
     assert never["converged"] == 0.0 and math.isnan(never["error_at_step"])
+
+
+def test_chi_square_bounds_of_a_mean_against_scipy():
+    stats = pytest.importorskip("scipy.stats")
+    for k in (1, 2, 7, 50, 1000, 59_000, 1_000_000):
+        lo, hi = chi2_mean_bounds(k)
+        assert math.isclose(lo, stats.chi2.ppf(0.025, k) / k, rel_tol=1e-9), k
+        assert math.isclose(hi, stats.chi2.ppf(0.975, k) / k, rel_tol=1e-9), k
+        assert lo < 1.0 < hi
+    lo99, hi99 = chi2_mean_bounds(50, 0.99)
+    assert lo99 < chi2_mean_bounds(50)[0] and hi99 > chi2_mean_bounds(50)[1]
+    assert all(math.isnan(v) for v in chi2_mean_bounds(0))
+
+
+def _scalar_out(T, **extra):
+    return {"xhat": np.zeros(T + 1), "lik_evals_per_step": 1.0, **extra}
+
+
+def test_nees_and_nis_are_the_mean_normalised_squares_over_t_1_to_T():
+    x = np.array([5.0, 1.0, -2.0, 3.0])       # x_0 is never scored
+    pvar = np.array([1e-300, 2.0, 4.0, 1.0])
+    innov = np.array([np.nan, 1.0, 2.0, -3.0])
+    S = np.array([np.nan, 1.0, 8.0, 9.0])
+    row = trial_metrics(x, _scalar_out(3, pvar=pvar, innov=innov, innov_var=S))
+    assert row["nees"] == pytest.approx((1 / 2 + 4 / 4 + 9 / 1) / 3)
+    assert row["nis"] == pytest.approx((1 + 4 / 8 + 9 / 9) / 3)
+    # each optional on its own: no variance, no NEES; an innovation without its variance, no NIS
+    row = trial_metrics(x, _scalar_out(3, innov=innov))
+    assert math.isnan(row["nees"]) and math.isnan(row["nis"])
+    # a variance of zero or a diverged estimate: not finite, never an exception
+    row = trial_metrics(x, _scalar_out(3, pvar=np.array([1.0, 0.0, 1.0, 1.0])))
+    assert row["nees"] == math.inf
+    bad = _scalar_out(3, pvar=np.ones(4))
+    bad["xhat"][2] = np.nan
+    assert math.isnan(trial_metrics(x, bad)["nees"])

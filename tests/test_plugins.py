@@ -202,3 +202,15 @@ def test_a_plugin_that_breaks_the_contract_is_named(site, tmp_path):
              and not l.startswith("pfbench: contract: trap ")]
     assert lines and all("metropolis_pf" in l for l in lines), res.stderr
     assert "the same seed gave different numbers" in lines[0]
+
+
+def test_a_filter_type_reports_only_the_consistency_metrics_pfbench_knows():
+    from pfbench.filters.types import FilterType
+    from pfbench.plugins import check_filter
+
+    def run(model, y, params, particles, state, diag=True):
+        return {}
+    assert check_filter("ok", FilterType("ok", "d", {}, run, reports=("nees",))) is None
+    for bad in (("nees", "coverage"), "nees", ["nis"]):
+        why = check_filter("bad", FilterType("bad", "d", {}, run, reports=bad))
+        assert why is not None and "its reports" in why and "nees, nis" in why

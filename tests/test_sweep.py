@@ -73,3 +73,19 @@ def test_many_cells_need_yes_and_a_sweep_file_is_not_run(tmp_path, write_config)
     assert res.exit_code == 2 and "pfbench sweep" in res.output
     res = runner.invoke(app, ["validate", str(sweep_cfg)])
     assert res.exit_code == 0 and "2 cells" in res.output
+
+
+def test_a_sweeps_summary_gives_each_mean_its_standard_error_beside_it():
+    import numpy as np
+
+    from pfbench.sweep import summary
+    rng = np.random.default_rng(2)
+    trials = pd.DataFrame({"scenario.steps": [10] * 6 + [20] * 6, "filter": "pf@20",
+                           "label": "PF", "particles": 20, "trial": list(range(6)) * 2,
+                           "rmse": rng.normal(1.0, 0.2, 12), "nees": rng.normal(1.0, 0.1, 12)})
+    s = summary(trials, ["scenario.steps"])
+    cols = list(s.columns)
+    for m in ("rmse", "nees"):
+        assert cols[cols.index(f"{m}_mean") + 1] == f"{m}_se"
+        for k, (_, g) in enumerate(trials.groupby("scenario.steps")):
+            assert s[f"{m}_se"].iloc[k] == pytest.approx(g[m].std(ddof=1) / np.sqrt(6))

@@ -127,6 +127,21 @@ def test_a_run_without_figures_imports_only_what_it_uses(tmp_path):
         assert ("up to date" in res.stderr) == up_to_date
 
 
+def test_a_run_with_consistency_bounds_imports_no_scipy_stats(tmp_path):
+    """The NEES and NIS chi-square bounds of a run with Kalman filters come from scipy.special:
+    its table needs no scipy.stats either."""
+    cfg = tmp_path / "kf.yaml"
+    cfg.write_text("seed: 1\ntrials: 3\nscenario: {name: linear_gaussian, steps: 5}\n"
+                   "filters:\n  kf: {}\n  ukf: {}\n")
+    out = tmp_path / "r"
+    res = subprocess.run([sys.executable, "-c", _MODULES, "run", str(cfg), "--out", str(out),
+                          "--no-figures"], capture_output=True, text=True, check=True,
+                         cwd=tmp_path)
+    assert res.stdout.strip().splitlines()[-1] == "[]", res.stdout + res.stderr
+    table = pd.read_csv(out / "table.csv")
+    assert table["nees_check"].notna().all() and table["nis_bound_hi"].gt(1).all()
+
+
 _AT_FORK = """
 import sys
 from pfbench import workers

@@ -143,3 +143,40 @@ def test_a_conditional_metric_names_its_denominator():
     assert ours_cell(r, q).endswith(" over 16 of 100 trials")
     r["n_step"] = 100
     assert "over" not in ours_cell(r, q)
+
+
+def test_table_md_shows_the_standard_errors_and_the_consistency_checks(write_config):
+    import pandas as pd
+
+    from pfbench.compare import compare
+    from pfbench.config import load
+    from pfbench.store import trial_columns
+    from pfbench.tables import console_tables, headline_tables, markdown
+    exp = load(write_config("seed: 1\ntrials: 8\nscenario: {name: linear_gaussian, steps: 20}\n"
+                            "filters:\n  kf: {}\n  pf: {particles: 10}\n"))
+    cols = trial_columns(exp)
+    assert "nees" in cols and "nis" in cols
+    rng = np.random.default_rng(0)
+    rows = []
+    for f in exp.filters:
+        for k in range(exp.trials):
+            r = {c: 0.0 for c in cols if c not in ("trial", "filter", "label", "particles",
+                                                   "crc")}
+            r.update(trial=k, filter=f.key, label=f.label, particles=f.particles,
+                     rmse=1.0 + 0.1 * rng.normal())
+            r["nees"] = 4.0 + 0.1 * rng.normal() if f.type == "kf" else np.nan
+            r["nis"] = 1.0 if f.type == "kf" else np.nan
+            rows.append(r)
+    cmp = compare(exp, pd.DataFrame(rows))
+    md = markdown(cmp)
+    assert "RMSE mean +- SE [95% CI]" in md and "NEES +- SE [95% bound]" in md
+    kf_line = next(line for line in md.splitlines() if line.startswith("| kf "))
+    assert "overconfident" in kf_line and "] consistent" in kf_line   # NEES 4, NIS 1
+    se = cmp.table.set_index("filter").loc["kf", "rmse_se"]
+    assert f"+- {se:.2g}" in kf_line
+    pf_line = next(line for line in md.splitlines() if line.startswith("| pf "))
+    assert "| - | - |" in pf_line                   # a PF reports neither
+    assert "chi-square bounds" in md                # the note that explains them
+    # the console's narrow tables stay as they were: no standard errors, no NEES
+    for _, head, _ in headline_tables(cmp) + console_tables(cmp):
+        assert not any("+- SE" in h or "NEES" in h for h in head)

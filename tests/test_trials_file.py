@@ -83,10 +83,15 @@ def test_a_trials_file_carries_its_kinds_columns(tmp_path, write_config):
     exp = load(write_config(TINY))
     run_experiment(exp, tmp_path / "a")
     header = (tmp_path / "a/trials.csv").read_text().splitlines()[0].split(",")
-    assert tuple(header) == KINDS["scalar"].columns
+    # the kind's columns, with the NEES and NIS its UKF reports (after mse, in METRICS' order)
+    scalar = KINDS["scalar"].columns
+    assert tuple(header) == scalar[:6] + ("nees", "nis") + scalar[6:]
     assert "landmark_error" not in header and "converge_step" not in header
     metrics = list(KINDS["scalar"].metrics)
     rows = pd.read_csv(tmp_path / "a/trials.csv")
+    ukf = rows["filter"] == "ukf"
+    assert rows.loc[ukf, ["nees", "nis"]].notna().all().all()
+    assert rows.loc[~ukf, ["nees", "nis"]].isna().all().all()     # a PF reports neither
     assert rows["diversity_l1"].isna().all()        # computed only where read (diagnostics)
     assert not rows[[m for m in metrics if m != "diversity_l1"]].isna().all().any()
     run_experiment(load(write_config(TINY + "diagnostics: all\n", "all.yaml")), tmp_path / "b")
@@ -117,3 +122,37 @@ def test_slam_rows_have_the_final_error(tmp_path, write_config):
     assert tuple(df.columns) == KINDS["slam"].columns
     assert df["final_error"].notna().all() and (df["final_error"] >= 0).all()
     assert set(res.rows[0]) == set(KINDS["slam"].columns) | {"wall_s"}     # in timings.csv
+
+
+def test_a_folder_written_without_the_consistency_columns_is_named_and_still_reads(
+        tmp_path, write_config):
+    """Trials of an experiment with a UKF written before it reported NEES and NIS (no such
+    columns): a run into the folder says in one line what the file lacks and what to do, and
+    changes nothing; the results still read (without those columns)."""
+    import csv
+    import io
+
+    from pfbench.store import read_trials
+
+    from .conftest import tree
+    cfg = write_config(TINY)
+    out = tmp_path / "a"
+    run_experiment(load(cfg), out)
+    lines = list(csv.reader(io.StringIO((out / "trials.csv").read_text())))
+    keep = [i for i, c in enumerate(lines[0]) if c not in ("nees", "nis")]
+    assert len(keep) == len(lines[0]) - 2
+    old = [[r[i] for i in keep] for r in lines]
+    for r in old[1:]:
+        r[-1] = str(row_crc(r[:-1]))
+    buf = io.StringIO()
+    csv.writer(buf, lineterminator="\n").writerows(old)
+    (out / "trials.csv").write_text(buf.getvalue())
+    before = tree(out)
+    line = one_line_exit_2(runner.invoke(app, ["run", str(cfg), "--out", str(out)]))
+    assert "columns differ: it lacks nees, nis" in line and "--force" in line, line
+    assert tree(out) == before
+    got = pd.DataFrame(read_trials(out / "trials.csv").rows)
+    assert "nees" not in got and len(got) == 4 * 3
+    res = runner.invoke(app, ["run", str(cfg), "--out", str(out), "--force", "--no-figures"])
+    assert res.exit_code == 0, res.output
+    assert "nees" in pd.read_csv(out / "trials.csv")

@@ -13,12 +13,15 @@ from .types import FilterType
 _F = types.float64[::1]
 
 EKF_SIG = types.int64(ModelFn, ModelFn, ModelFn, ModelFn, _F, _F, types.float64, types.float64,
-                      types.float64, types.float64, types.float64, _F, _F)
+                      types.float64, types.float64, types.float64, _F, _F, _F, _F)
 
 
 @kernel(EKF_SIG, cache=True)
-def ekf_kernel(f, h, fj, hj, theta, y, prior_mean, prior_var, q_mean, Q, R, xhat, pvar):
-    """Run the EKF over y (T+1,); fill the posterior mean xhat and variance pvar (T+1,).
+def ekf_kernel(f, h, fj, hj, theta, y, prior_mean, prior_var, q_mean, Q, R, xhat, pvar, innov,
+               innov_var):
+    """Run the EKF over y (T+1,); fill the posterior mean xhat and variance pvar (T+1,), the
+    innovation y_t - h(m_t|t-1) and its predicted variance S_t (innov, innov_var (T+1,); NaN at
+    t = 0).
 
     The process noise is taken as Gaussian with mean q_mean and variance Q, the measurement noise as
     N(0, R). Returns the number of steps whose variance came out non-positive (floored at 1e-300).
@@ -27,6 +30,8 @@ def ekf_kernel(f, h, fj, hj, theta, y, prior_mean, prior_var, q_mean, Q, R, xhat
     P = prior_var
     xhat[0] = m
     pvar[0] = P
+    innov[0] = np.nan
+    innov_var[0] = np.nan
     a = np.empty(1)
     b = np.empty(1)
     events = 0
@@ -44,6 +49,8 @@ def ekf_kernel(f, h, fj, hj, theta, y, prior_mean, prior_var, q_mean, Q, R, xhat
         S = H * H * Pp + R
         K = Pp * H / S
         m = mp + K * (y[t] - b[0])
+        innov[t] = y[t] - b[0]
+        innov_var[t] = S
         P = (1.0 - K * H) * Pp
         if not (P > 0.0):
             events += 1
@@ -66,7 +73,7 @@ def noise_moments(model, params) -> tuple[float, float, float]:
 
 def run(model, y, params, particles, state, diag=True):
     """Run the EKF (deterministic: the particle count and generator state are unused)."""
-    out = {"xhat": np.empty(y.size), "pvar": np.empty(y.size)}
+    out = {k: np.empty(y.size) for k in ("xhat", "pvar", "innov", "innov_var")}
     q_mean, Q, R = noise_moments(model, params)
     fj, hj = model.jacobians()
     if fj is None or hj is None:    # validation refuses the pairing; a model that lied is named
@@ -74,11 +81,12 @@ def run(model, y, params, particles, state, diag=True):
                         "observe_jac), though its PROVIDES says it has")
     out["variance_floor_steps"] = ekf_kernel(
         model.transition, model.observe, fj, hj, model.theta, y,
-        model.prior_mean, model.prior_var, q_mean, Q, R, out["xhat"], out["pvar"])
+        model.prior_mean, model.prior_var, q_mean, Q, R, out["xhat"], out["pvar"], out["innov"],
+        out["innov_var"])
     out["lik_evals_per_step"] = 1.0
     return out
 
 
 EKF = FilterType("ekf", "extended Kalman filter (on scenarios that provide their model's "
                  "Jacobians)", gaussian_noise_keys("the EKF"), run, particles=False, cost="1",
-                 needs=("jacobians", "gaussian_measurement"))
+                 needs=("jacobians", "gaussian_measurement"), reports=("nees", "nis"))

@@ -54,13 +54,15 @@ def ut_weights(L, alpha, beta, kappa, Wm, Wc):
 
 UKF_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64, types.float64,
                       types.float64, types.float64, types.float64, types.float64, types.float64,
-                      types.int64, _F, _F)
+                      types.int64, _F, _F, _F, _F)
 
 
 @kernel(UKF_SIG, cache=True)
 def ukf_kernel(f, h, theta, noise, y, prior_mean, prior_var, q_mean, Q, R, alpha, beta, kappa,
-               augmented, xhat, pvar):
-    """Run the UKF over y (T+1,), filling the posterior mean xhat and variance pvar (T+1,).
+               augmented, xhat, pvar, innov, innov_var):
+    """Run the UKF over y (T+1,), filling the posterior mean xhat and variance pvar (T+1,), the
+    innovation y_t - zm_t (zm_t the predicted measurement) and its predicted variance S_t (innov,
+    innov_var (T+1,); NaN at t = 0).
 
     q_mean, Q, R : the Gaussian process noise (mean, variance) and measurement noise variance the
     filter assumes.
@@ -82,6 +84,8 @@ def ukf_kernel(f, h, theta, noise, y, prior_mean, prior_var, q_mean, Q, R, alpha
     P = prior_var
     xhat[0] = m
     pvar[0] = P
+    innov[0] = np.nan
+    innov_var[0] = np.nan
     events = 0
     wn[:] = q_mean
     if augmented:
@@ -113,6 +117,8 @@ def ukf_kernel(f, h, theta, noise, y, prior_mean, prior_var, q_mean, Q, R, alpha
             S += R
         K = C / S
         m = mp + K * (y[t] - zm)
+        innov[t] = y[t] - zm
+        innov_var[t] = S
         P = Pp - K * K * S
         if not (P > 0.0):
             events += 1
@@ -125,13 +131,13 @@ def ukf_kernel(f, h, theta, noise, y, prior_mean, prior_var, q_mean, Q, R, alpha
 def run(model, y, params, particles, state, diag=True):
     """Run the UKF; the particle count and generator state are unused (it is deterministic)."""
     T1 = y.size
-    out = {"xhat": np.empty(T1), "pvar": np.empty(T1)}
+    out = {k: np.empty(T1) for k in ("xhat", "pvar", "innov", "innov_var")}
     aug = bool(params["augmented"])
     q_mean, Q, R = noise_moments(model, params)
     out["variance_floor_steps"] = ukf_kernel(
         model.transition, model.observe, model.theta, model.noise, y, model.prior_mean,
         model.prior_var, q_mean, Q, R, params["alpha"], params["beta"], params["kappa"], int(aug),
-        out["xhat"], out["pvar"])
+        out["xhat"], out["pvar"], out["innov"], out["innov_var"])
     out["lik_evals_per_step"] = 7.0 if aug else 3.0
     return out
 
@@ -141,4 +147,5 @@ UKF = FilterType(
     {**sigma_keys(),
      "augmented": Key("bool", True, "augment the state with the process and measurement noise"),
      **gaussian_noise_keys("the UKF")},
-    run, particles=False, cost="1", check=sigma_check, needs=("gaussian_measurement",))
+    run, particles=False, cost="1", check=sigma_check, needs=("gaussian_measurement",),
+    reports=("nees", "nis"))
