@@ -104,6 +104,7 @@ class FilterType:
 NEEDS = {
     "jacobians": "the Jacobians of its model (df/dx and dh/dx: ScalarModel's transition_jac and "
                  "observe_jac)",
+    "likelihood": "a log-likelihood of a measurement for any set of states (ScalarModel.loglik)",
 }
 
 
