@@ -108,3 +108,25 @@ def test_a_small_sv_experiment_runs_end_to_end(tmp_path):
     table = pd.read_csv(out / "table.csv")
     assert len(table) == 2 and np.all(np.isfinite(table["rmse_mean"]))
     assert tree(out)
+
+
+def test_a_built_in_scenario_the_installed_metadata_lacks_is_still_registered(monkeypatch):
+    """pfbench installed before a scenario was added (its entry points list the others): the
+    source tree's built-ins are all registered, in their declared order, pfbench's own."""
+    from pfbench import plugins, scenarios
+
+    class Dist:
+        name = "pfbench"
+
+    class EP:
+        def __init__(self, name):
+            self.name, self.value, self.dist = name, f"pfbench.scenarios.{name}", Dist()
+
+        def load(self):
+            return scenarios.BUILTIN[self.name]
+
+    stale = [EP(n) for n in scenarios.BUILTIN if n != "sv"]
+    monkeypatch.setattr(plugins, "entry_points", lambda group: stale)
+    found = plugins.discover("pfbench.scenarios", plugins.check_scenario, scenarios.BUILTIN)
+    assert list(found) == list(scenarios.BUILTIN) and found["sv"] is sv
+    assert plugins.ORIGIN[("pfbench.scenarios", "sv")] == "pfbench"
