@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from numba import njit, typeof
 
+from pfbench.errors import UserError
 from pfbench.filters import FILTERS
 from pfbench.models.scalar import (LIK_SIG, MODEL_SIG, SAMPLE_SIG, LikelihoodFunction, LikFn,
                                    SamplerFunction, ScalarModel, simulate)
@@ -130,6 +131,7 @@ def test_a_model_function_of_the_wrong_kind_is_refused_in_one_line():
             ScalarModel(base.transition, base.observe, base.theta, base.noise, 0.0, 0.0, 1.0, 3,
                         **kw)
         assert sig in str(e.value) and "\n" not in str(e.value)
+        assert isinstance(e.value, UserError)   # one line and exit status 2 from the CLI
     with pytest.raises(TypeError, match="MODEL_SIG"):
         ScalarModel(gaussian_loglik, base.observe, base.theta, base.noise, 0.0, 0.0, 1.0, 3)
 
@@ -169,43 +171,79 @@ def _guide_blocks() -> dict:
     return {lang: body for lang, body in re.findall(r"```(\w+)\n(.*?)```", section, re.DOTALL)}
 
 
-def test_the_guides_plugin_with_its_own_likelihood_runs(tmp_path, monkeypatch):
-    """The guide's scenario module, as written there: it passes the plug-in checks, builds its
-    model with its likelihood and sampler, and the guide's experiment validates and runs."""
+def _guide_plugin(tmp_path, monkeypatch, edit=lambda text: text):
+    """The guide's scenario module (``edit``ed) importable from tmp_path and registered, and
+    its experiment file (3 trials)."""
     import importlib
     import sys
     import tomllib
 
-    import pandas as pd
-    from typer.testing import CliRunner
-
-    from pfbench.cli import app
-    from pfbench.plugins import check_scenario
     from pfbench.protocols import register_scenarios
     from pfbench.scenarios import SCENARIOS
 
     blocks = _guide_blocks()
     project = tomllib.loads(blocks["toml"])
     module = project["project"]["entry-points"]["pfbench.scenarios"]["t_noise"]
-    (tmp_path / f"{module}.py").write_text(blocks["python"])
+    (tmp_path / f"{module}.py").write_text(edit(blocks["python"]))
     monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, module, raising=False)
     mod = importlib.import_module(module)
-    try:
-        assert check_scenario("t_noise", mod) is None
-        model = mod.build(default_params(mod.SCHEMA))
-        assert model.has_likelihood and model.sample is not None
-        monkeypatch.setitem(SCENARIOS, "t_noise", mod)
-        register_scenarios({"t_noise": mod})
-        cfg = tmp_path / "t_noise.yaml"
-        cfg.write_text(blocks["yaml"].replace("trials: 20", "trials: 3"))
-        runner = CliRunner()
-        assert runner.invoke(app, ["validate", str(cfg)]).exit_code == 0
-        res = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "out"),
-                                  "--no-figures"])
-        assert res.exit_code == 0, res.output
-        table = pd.read_csv(tmp_path / "out" / "table.csv")
-        assert len(table) == 3 and np.all(np.isfinite(table["rmse_mean"]))
-    finally:
-        sys.modules.pop(module, None)
-        from pfbench import protocols
-        protocols._SCENARIO_MODULES.pop("t_noise", None)
+    monkeypatch.setitem(SCENARIOS, "t_noise", mod)
+    register_scenarios({"t_noise": mod})
+    cfg = tmp_path / "t_noise.yaml"
+    cfg.write_text(blocks["yaml"].replace("trials: 20", "trials: 3"))
+    return mod, cfg
+
+
+@pytest.fixture
+def forget_t_noise():
+    yield
+    import sys
+
+    from pfbench import protocols
+    protocols._SCENARIO_MODULES.pop("t_noise", None)
+    sys.modules.pop("pfbench_tnoise", None)
+
+
+def test_the_guides_plugin_with_its_own_likelihood_runs(tmp_path, monkeypatch, forget_t_noise):
+    """The guide's scenario module, as written there: it passes the plug-in checks, builds its
+    model with its likelihood and sampler, and the guide's experiment validates and runs."""
+    import pandas as pd
+    from typer.testing import CliRunner
+
+    from pfbench.cli import app
+    from pfbench.plugins import check_scenario
+
+    mod, cfg = _guide_plugin(tmp_path, monkeypatch)
+    assert check_scenario("t_noise", mod) is None
+    model = mod.build(default_params(mod.SCHEMA))
+    assert model.has_likelihood and model.sample is not None
+    runner = CliRunner()
+    assert runner.invoke(app, ["validate", str(cfg)]).exit_code == 0
+    res = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "out"), "--no-figures"])
+    assert res.exit_code == 0, res.output
+    table = pd.read_csv(tmp_path / "out" / "table.csv")
+    assert len(table) == 3 and np.all(np.isfinite(table["rmse_mean"]))
+
+
+def test_a_plugin_likelihood_of_the_wrong_signature_stops_the_run_in_one_line(
+        tmp_path, monkeypatch, forget_t_noise):
+    """The guide's plug-in with its log-likelihood declared as a model function (no y): the run
+    stops (exit status 2, no traceback) with one error line naming the function and the
+    signature it needs; nothing is written."""
+    from typer.testing import CliRunner
+
+    from pfbench.cli import app
+
+    def as_model_function(text):
+        return (text.replace("@njit(LIK_SIG, cache=True)\ndef loglik(x, t, theta, y, out)",
+                             "@njit(MODEL_SIG, cache=True)\ndef loglik(x, t, theta, out)")
+                .replace("z = (y - x[i])", "z = (0.0 - x[i])"))
+
+    _, cfg = _guide_plugin(tmp_path, monkeypatch, as_model_function)
+    out = tmp_path / "out"
+    res = CliRunner().invoke(app, ["run", str(cfg), "--out", str(out), "--no-figures"])
+    assert res.exit_code == 2 and "Traceback" not in res.output, res.output
+    errors = [line for line in res.output.splitlines() if line.startswith("pfbench: error: ")]
+    assert len(errors) == 1 and "loglik" in errors[0] and "LIK_SIG" in errors[0]
+    assert not out.exists()

@@ -29,6 +29,7 @@ particle set, with one more argument before ``out`` than a model function:
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -41,6 +42,7 @@ from numba.core.types.function_type import CompileResultWAP
 from numba.core.typing.typeof import typeof_impl
 
 from .._lazy import LazyKernel, kernel
+from ..errors import UserError
 from ..codes import NOISE_GAMMA, NOISE_GAUSSIAN  # noqa: F401 (NOISE_GAMMA: re-exported)
 from ..rng import STATE, add_normal, normal, standard_gamma
 
@@ -65,18 +67,21 @@ class ModelFunction(CompileResultWAP):
     does. It calls like the function from Python and pickles as the function it wraps."""
 
     SIG, SIG_NAME, WHAT = MODEL_SIG, "MODEL_SIG", "model function"
+    ARGS = "(x: float64[::1], t: float64, theta: float64[::1], out: float64[::1]) -> void"
 
     def __init__(self, fn):
         disp = fn.dispatcher if isinstance(fn, (LazyKernel, ModelFunction)) else fn
+        need = f"a {self.WHAT} of {self.SIG_NAME} {self.ARGS}"
         if not hasattr(disp, "get_compile_result"):
-            raise TypeError(f"a {self.WHAT} must be a numba function (@njit({self.SIG_NAME}) or "
-                            f"@pfbench._lazy.kernel({self.SIG_NAME})), not {fn!r}")
+            raise ModelFunctionError(f"{_name(fn)} is not {need}: not a numba function "
+                                     f"(@njit({self.SIG_NAME}, cache=True))")
         try:
             cres = disp.get_compile_result(self.SIG)
-        except (NumbaError, TypeError, ValueError) as e:  # numba's error, many lines long
-            raise TypeError(f"{fn!r} is not a {self.WHAT} of {self.SIG_NAME} {self.SIG}: "
-                            f"{str(e).strip().splitlines()[0] if str(e).strip() else e!r}"
-                            ) from None
+        except (NumbaError, TypeError, ValueError):  # numba's own message: many lines
+            sigs = "; ".join("(" + ", ".join(map(str, sig)) + ")"
+                             for sig in getattr(disp, "signatures", ())) or "none"
+            raise ModelFunctionError(f"{_name(fn)} is not {need}: it compiles for the "
+                                     f"arguments {sigs}") from None
         super().__init__(cres)
         self.dispatcher = disp
 
@@ -91,12 +96,27 @@ class LikelihoodFunction(ModelFunction):
     """A model's log-likelihood (``LIK_SIG``) as the kernels take it (see ``ModelFunction``)."""
 
     SIG, SIG_NAME, WHAT = LIK_SIG, "LIK_SIG", "log-likelihood"
+    ARGS = ("(x: float64[::1], t: float64, theta: float64[::1], y: float64, out: float64[::1]) "
+            "-> void")
 
 
 class SamplerFunction(ModelFunction):
     """A model's measurement sampler (``SAMPLE_SIG``) as the kernels take it."""
 
     SIG, SIG_NAME, WHAT = SAMPLE_SIG, "SAMPLE_SIG", "measurement sampler"
+    ARGS = ("(x: float64[::1], t: float64, theta: float64[::1], s: uint64[::1], "
+            "out: float64[::1]) -> void")
+
+
+class ModelFunctionError(UserError, TypeError):
+    """A model's function that is not of the signature its place needs (one line; a TypeError
+    to the API, a user's error to the command line)."""
+
+
+def _name(fn) -> str:
+    disp = getattr(fn, "dispatcher", fn)
+    func = getattr(disp, "py_func", disp)
+    return f"'{getattr(func, '__module__', '?')}.{getattr(func, '__qualname__', repr(func))}'"
 
 
 @typeof_impl.register(ModelFunction)
@@ -172,13 +192,13 @@ class ScalarModel:
         """(loglik, 1) as the kernels take them, or (a placeholder, 0) where the model has none
         (the kernels then weigh by the Gaussian inline)."""
         if self.loglik is None:
-            return model_function(no_loglik, LikelihoodFunction), 0
+            return _placeholder(LikelihoodFunction), 0
         return self.loglik, 1
 
     def sampler(self) -> tuple:
         """(sample, 1) as ``simulate_scalar`` takes them, or (a placeholder, 0): h(x) + v."""
         if self.sample is None:
-            return model_function(no_sample, SamplerFunction), 0
+            return _placeholder(SamplerFunction), 0
         return self.sample, 1
 
     def jacobians(self) -> tuple:
@@ -200,6 +220,13 @@ class ScalarModel:
     @property
     def measurement_var(self) -> float:
         return float(self.noise[3])
+
+
+@functools.lru_cache(maxsize=None)
+def _placeholder(cls):
+    """The placeholder of a ``cls`` (LikelihoodFunction or SamplerFunction), looked up once (a
+    lookup costs tens of microseconds, a trial of a small filter not many more)."""
+    return cls(no_loglik if cls is LikelihoodFunction else no_sample)
 
 
 @kernel(LIK_SIG, cache=True)
