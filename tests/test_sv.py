@@ -60,12 +60,16 @@ def test_simulation_follows_the_model():
     assert np.std(starts) == pytest.approx(math.sqrt(0.16 ** 2 / (1 - 0.98 ** 2)), rel=0.15)
 
 
-@pytest.mark.parametrize("name", ["pf", "pfmh", "fa", "ifa", "ba", "pso", "afsa"])
-def test_every_particle_filter_of_the_family_runs_on_sv(name):
+@pytest.mark.parametrize("name,over", [("pf", {}), ("pfmh", {}), ("fa", {}), ("ifa", {}),
+                                       ("ifa", {"brightness": "inverse"}), ("ba", {}),
+                                       ("pso", {}), ("afsa", {}),
+                                       ("pf", {"likelihood_floor": 1e-3})])
+def test_every_particle_filter_of_the_family_runs_on_sv(name, over):
     m = _model(steps=25)
     x, y = _data(m, 1)
     ft = FILTERS[name]
-    out = ft.run(m, y, default_params(ft.schema), 30, state_from_seed(np.random.SeedSequence(2)))
+    out = ft.run(m, y, default_params(ft.schema, **over), 30,
+                 state_from_seed(np.random.SeedSequence(2)))
     assert out["xhat"].shape == x.shape and np.all(np.isfinite(out["xhat"]))
     assert out["underflow_steps"] == 0
 
@@ -130,3 +134,15 @@ def test_a_built_in_scenario_the_installed_metadata_lacks_is_still_registered(mo
     found = plugins.discover("pfbench.scenarios", plugins.check_scenario, scenarios.BUILTIN)
     assert list(found) == list(scenarios.BUILTIN) and found["sv"] is sv
     assert plugins.ORIGIN[("pfbench.scenarios", "sv")] == "pfbench"
+
+
+def test_the_gaussian_filters_do_not_crash_on_sv(tmp_path):
+    """The UKF runs on sv (h = 0: it learns nothing, its estimates finite); the EKF, which needs
+    Jacobians sv does not have, is refused at validation in one line."""
+    m = _model(steps=20)
+    x, y = _data(m, 4)
+    ukf = FILTERS["ukf"].run(m, y, default_params(FILTERS["ukf"].schema), None, None)
+    assert np.all(np.isfinite(ukf["xhat"]))
+    cfg = tmp_path / "sv.yaml"
+    cfg.write_text("seed: 0\ntrials: 2\nscenario:\n  name: sv\nfilters:\n  ekf: {}\n")
+    one_line_exit_2(runner.invoke(app, ["validate", str(cfg)]))
