@@ -140,7 +140,7 @@ def test_the_gaussian_filters_do_not_crash_on_sv(tmp_path):
     """The UKF runs on sv (h = 0: it learns nothing, its estimates finite); the EKF, which needs
     Jacobians sv does not have, is refused at validation in one line."""
     m = _model(steps=20)
-    x, y = _data(m, 4)
+    _, y = _data(m, 4)
     ukf = FILTERS["ukf"].run(m, y, default_params(FILTERS["ukf"].schema), None, None)
     assert np.all(np.isfinite(ukf["xhat"]))
     cfg = tmp_path / "sv.yaml"

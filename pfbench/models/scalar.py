@@ -222,7 +222,7 @@ class ScalarModel:
         return float(self.noise[3])
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _placeholder(cls):
     """The placeholder of a ``cls`` (LikelihoodFunction or SamplerFunction), looked up once (a
     lookup costs tens of microseconds, a trial of a small filter not many more)."""
