@@ -62,13 +62,14 @@ def discover(group: str, check: Callable[[str, Any], str | None],
     returns why an object does not fit, or None). pfbench's own entry points come first; a
     plug-in cannot take a name that is already registered. ``builtin`` (name -> object) stands in
     for pfbench's own entry points when its package metadata is not installed (a source tree on
-    the path)."""
+    the path), and for those its installed metadata lacks (a source tree newer than its install)."""
     found: dict[str, Any] = {}
     eps = list(entry_points(group=group))
     own = [ep for ep in eps if _dist(ep).lower() == "pfbench"]
-    if not own:
-        found.update(builtin)
-        ORIGIN.update({(group, name): "pfbench" for name in builtin})
+    listed = {ep.name for ep in own}
+    unlisted = {name: obj for name, obj in builtin.items() if name not in listed}
+    found.update(unlisted)
+    ORIGIN.update({(group, name): "pfbench" for name in unlisted})
     for ep in own + [ep for ep in eps if ep not in own]:
         if ep.name in found:
             _problem(group, ep, f"the name '{ep.name}' is taken by package "

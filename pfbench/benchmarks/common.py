@@ -45,8 +45,8 @@ def pfbench_single(model, y, N, state):
     T1 = y.size
     xhat, ess, d1, d2 = (np.empty(T1) for _ in range(4))
     res = np.empty(T1, dtype=np.int64)
-    pf_kernel(model.transition, model.observe, model.theta, model.noise, y, model.prior_mean,
-              model.prior_var, N, SCHEME_SYSTEMATIC, np.inf, 0, 0, -np.inf, 0, state, xhat, ess,
+    pf_kernel(model.transition, model.observe, *model.likelihood(), model.theta, model.noise, y,
+              model.prior_mean, model.prior_var, N, SCHEME_SYSTEMATIC, np.inf, 0, 0, -np.inf, 0, state, xhat, ess,
               res, d1, d2)
     return xhat
 

@@ -13,7 +13,7 @@ from numba import prange, types
 
 from .._lazy import kernel
 from ..filters.pf import pf_kernel
-from ..models.scalar import ModelFn
+from ..models.scalar import LikFn, ModelFn
 from ..rng import state_from_seed
 from .c_reference import c_rows
 from .common import (BATCH_N, P0, Q, R, SCHEME_SYSTEMATIC, SIZES, T, bench_data, bench_model,
@@ -23,9 +23,9 @@ _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
 
 
-@kernel(types.void(ModelFn, ModelFn, _F, _F, _F2, types.float64, types.float64, types.int64,
+@kernel(types.void(ModelFn, ModelFn, LikFn, _F, _F, _F2, types.float64, types.float64, types.int64,
                    types.uint64[:, ::1], _F2), cache=True, parallel=True, error_model="python")
-def pf_batch(f, h, theta, noise, Y, prior_mean, prior_var, N, S, XH):
+def pf_batch(f, h, lik, theta, noise, Y, prior_mean, prior_var, N, S, XH):
     """Run pf_kernel on every row of Y (trials x (T+1)) in parallel; estimates into XH."""
     K, T1 = Y.shape
     for k in prange(K):
@@ -33,8 +33,8 @@ def pf_batch(f, h, theta, noise, Y, prior_mean, prior_var, N, S, XH):
         res = np.empty(T1, dtype=np.int64)
         d1 = np.empty(T1)
         d2 = np.empty(T1)
-        pf_kernel(f, h, theta, noise, Y[k], prior_mean, prior_var, N, SCHEME_SYSTEMATIC, np.inf,
-                  0, 0, -np.inf, 0, S[k], XH[k], ess, res, d1, d2)
+        pf_kernel(f, h, lik, 0, theta, noise, Y[k], prior_mean, prior_var, N, SCHEME_SYSTEMATIC,
+                  np.inf, 0, 0, -np.inf, 0, S[k], XH[k], ess, res, d1, d2)
 
 
 def numpy_pf(y: np.ndarray, N: int, rng, resample=None) -> np.ndarray:
@@ -83,7 +83,8 @@ def ungm_bench(quick, c_ref, K, min_time, reps, threads, say, console) -> list[d
         records.append(ungm_record("numpy", "single", N, 1, sec, 1))
     S = np.stack([state_from_seed(ss) for ss in np.random.SeedSequence(8).spawn(K)])
     XH = np.empty_like(Y)
-    run_batch = lambda: pf_batch(model.transition, model.observe, model.theta, model.noise, Y,
+    run_batch = lambda: pf_batch(model.transition, model.observe, model.likelihood()[0],
+                                 model.theta, model.noise, Y,
                                  model.prior_mean, model.prior_var, BATCH_N, S, XH)
     run_batch()
     sec, _ = best_time(run_batch, min_time, reps)

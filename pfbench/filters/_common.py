@@ -9,7 +9,7 @@ from numba import types
 from .._lazy import kernel
 
 from ..rng import STATE, fill_normal, uniform
-from ..models.scalar import ModelFn, add_process_noise
+from ..models.scalar import LikFn, ModelFn, add_process_noise
 from .weights import ess as ess_of, normalise, normalise_lanes
 
 _F = types.float64[::1]
@@ -209,3 +209,65 @@ def mh_move(f, h, theta, noise, xprev, x, hx, yt, tt, log_floor, s, prop, hprop)
             hx[i] = hprop[i]
             accepted += 1
     return accepted
+
+
+@kernel(types.int64(ModelFn, LikFn, _F, _F, _F, _F, _F, types.float64, types.float64,
+                    types.float64, STATE, _F, _F), cache=True)
+def mh_move_lik(f, lik, theta, noise, xprev, x, llx, yt, tt, log_floor, s, prop, llprop):
+    """``mh_move`` through the model's own log-likelihood ``lik`` (``LIK_SIG``): llx (N,) holds
+    the log-likelihoods of x (updated where a move is accepted), llprop (N,) scratch. A proposal
+    of log-likelihood -inf is never accepted; one from a particle at -inf (or NaN) always is."""
+    f(xprev, tt, theta, prop)
+    add_process_noise(s, noise, prop)
+    lik(prop, tt, theta, yt, llprop)
+    accepted = 0
+    for i in range(x.size):
+        l1 = floored(llprop[i], log_floor)
+        l0 = floored(llx[i], log_floor)
+        if not (l1 > -np.inf):
+            continue
+        log_a = l1 - l0 if l0 > -np.inf else np.inf
+        if log_a >= 0.0 or math.log(uniform(s)) < log_a:
+            x[i] = prop[i]
+            llx[i] = llprop[i]
+            accepted += 1
+    return accepted
+
+
+# A log-likelihood of +inf (a density without bound at the measurement) counts as the largest
+# double: the particles there take the weight, rather than every weight turning into NaN.
+LOGLIK_MAX = np.finfo(np.float64).max
+
+
+@kernel(types.void(_F), cache=True, inline="always")
+def bound_above(ll):
+    """ll with every +inf replaced by ``LOGLIK_MAX`` (NaN and -inf stay)."""
+    for i in range(ll.size):
+        if ll[i] == np.inf:
+            ll[i] = LOGLIK_MAX
+
+
+@kernel(types.float64(LikFn, _F, _F, types.float64, types.float64, types.float64, _F, _F),
+        cache=True)
+def add_own_loglik(lik, theta, x, tt, yt, log_floor, ll, lw):
+    """lw += the model's own log-likelihood of y_t at the particles x (``LIK_SIG``; with the
+    likelihood floor, see ``floored``; +inf bounded, see ``bound_above``), its values kept in ll
+    (N,); returns the largest log-weight (NaN skipped)."""
+    lik(x, tt, theta, yt, ll)
+    bound_above(ll)
+    mx = -np.inf
+    for i in range(x.size):
+        l = lw[i] + floored(ll[i], log_floor)
+        lw[i] = l
+        mx = max(mx, l)
+    return mx
+
+
+@kernel(types.int64(ModelFn, ModelFn, LikFn, types.int64, _F, _F, _F, _F, _F, types.float64,
+                    types.float64, types.float64, STATE, _F, _F), cache=True)
+def mh_step(f, h, lik, use_lik, theta, noise, xprev, x, hx, yt, tt, log_floor, s, prop, hprop):
+    """One MH move per particle (``mh_move``), through the model's own likelihood with
+    ``use_lik`` (``mh_move_lik``: hx, hprop then hold log-likelihoods)."""
+    if use_lik:
+        return mh_move_lik(f, lik, theta, noise, xprev, x, hx, yt, tt, log_floor, s, prop, hprop)
+    return mh_move(f, h, theta, noise, xprev, x, hx, yt, tt, log_floor, s, prop, hprop)

@@ -1,7 +1,9 @@
 """Bootstrap particle filter (SIR) on a scalar model; the whole time loop runs in numba.
 
 Per step: propagate through the transition and process noise, weight by the measurement likelihood
-in the log domain (max-shift normalisation), estimate, and resample when ESS < threshold.
+in the log domain (max-shift normalisation), estimate, and resample when ESS < threshold. The
+likelihood is the model's own (``ScalarModel.loglik``) where it has one, else the Gaussian of
+y_t - h(x_t), computed inline.
 """
 from __future__ import annotations
 
@@ -14,9 +16,9 @@ from .._lazy import kernel
 from ..schema import Key
 from ..resampling import SCHEME_CODES, ess_threshold, resample
 from ..rng import STATE
-from ..models.scalar import ModelFn, add_process_noise
-from ._common import (DIAG_DISTINCT, drop_unasked, floored, mh_move, resampled_step, start,
-                      weigh_lanes)
+from ..models.scalar import LikFn, ModelFn, add_process_noise
+from ._common import (DIAG_DISTINCT, add_own_loglik, drop_unasked, floored, mh_step,
+                      resampled_step, start, weigh_lanes)
 from ..diag import flags
 from .keys import pf_keys
 from .types import FilterType
@@ -24,16 +26,19 @@ from .types import FilterType
 _F = types.float64[::1]
 _I = types.int64[::1]
 
-PF_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64, types.int64,
-                     types.int64, types.float64, types.int64, types.int64, types.float64,
-                     types.int64, STATE, _F, _F, _I, _F, _F)
+PF_SIG = types.int64(ModelFn, ModelFn, LikFn, types.int64, _F, _F, _F, types.float64,
+                     types.float64, types.int64, types.int64, types.float64, types.int64,
+                     types.int64, types.float64, types.int64, STATE, _F, _F, _I, _F, _F)
 
 
 @kernel(PF_SIG, cache=True)
-def pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, scheme, threshold, estimate_after,
-              mh_steps, log_floor, diag, s, xhat, ess, resampled, div_l1, distinct):
+def pf_kernel(f, h, lik, use_lik, theta, noise, y, prior_mean, prior_var, N, scheme, threshold,
+              estimate_after, mh_steps, log_floor, diag, s, xhat, ess, resampled, div_l1,
+              distinct):
     """Run a bootstrap PF over y (T+1,) and fill the (T+1,) traces; return the underflow count.
 
+    lik, use_lik : the model's log-likelihood (``LIK_SIG``) and 1 to weigh by it, or 0 to weigh by
+        the Gaussian of y - h(x) of variance noise[3] (``ScalarModel.likelihood()``)
     threshold : resample when ESS < threshold (np.inf: every step)
     estimate_after : 1 = estimate is the mean of the particles after resampling (and the MH
         moves), 0 = the weighted mean before resampling
@@ -52,7 +57,7 @@ def pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, scheme, threshold
     x = np.empty(N)
     start(s, prior_mean, prior_var, x, xhat, ess, resampled, div_l1, distinct)
     xn = np.empty(N)
-    hx = np.empty(N)
+    hx = np.empty(N)            # h(x), or with use_lik the log-likelihoods
     w = np.empty(N)
     lw = np.zeros(N)
     idx = np.empty(N, dtype=np.int64)
@@ -67,16 +72,19 @@ def pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, scheme, threshold
         tt = float(t)
         f(x, tt, theta, xn)
         add_process_noise(s, noise, xn)
-        h(xn, tt, theta, hx)
         yt = y[t]
         mx = -np.inf
-        if log_floor == -np.inf:
+        if use_lik:
+            mx = add_own_loglik(lik, theta, xn, tt, yt, log_floor, hx, lw)
+        elif log_floor == -np.inf:
+            h(xn, tt, theta, hx)
             for i in range(N):
                 d = yt - hx[i]
                 l = lw[i] - half_inv_R * d * d
                 lw[i] = l
                 mx = max(mx, l)  # a NaN loses every comparison: it never becomes the max
         else:
+            h(xn, tt, theta, hx)
             for i in range(N):
                 d = yt - hx[i]
                 l = lw[i] + floored(c0 - half_inv_R * d * d, log_floor)
@@ -94,7 +102,8 @@ def pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, N, scheme, threshold
                 x[i] = xn[idx[i]]
                 lw[i] = 0.0
             for _ in range(mh_steps):
-                mh_move(f, h, theta, noise, xprev, x, hcur, yt, tt, log_floor, s, prop, hprop)
+                mh_step(f, h, lik, use_lik, theta, noise, xprev, x, hcur, yt, tt, log_floor, s,
+                        prop, hprop)
             est = resampled_step(x, xn, idx, mark, t, est, estimate_after, diag, resampled,
                                  div_l1, distinct)
         else:
@@ -120,8 +129,8 @@ def run(model, y, params, particles, state, diag=True):
     threshold = ess_threshold(params, particles)
     mh = int(params.get("mh_steps", 0))
     out["underflow_steps"] = pf_kernel(
-        model.transition, model.observe, model.theta, model.noise, y, model.prior_mean,
-        model.prior_var, particles, SCHEME_CODES[params["resampling"]], threshold,
+        model.transition, model.observe, *model.likelihood(), model.theta, model.noise, y,
+        model.prior_mean, model.prior_var, particles, SCHEME_CODES[params["resampling"]], threshold,
         int(params["estimate"] == "after_resampling"), mh, log_floor(params), diag, state,
         out["xhat"], out["ess"], out["resampled"], out["div_l1"], out["distinct"])
     drop_unasked(out, diag)

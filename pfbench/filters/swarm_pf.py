@@ -3,7 +3,9 @@ AFSA-PF.
 
 Per step: predict the particles through the transition, run ``iterations`` swarm moves on them
 (fitness: the likelihood of the current measurement), weight the moved particles by the
-likelihood, estimate, resample. As in the papers, the weights are not corrected for having moved
+likelihood, estimate, resample. The likelihood is the model's own (``ScalarModel.loglik``) where it
+has one, else the Gaussian of y_t - h(x_t): the weights, the swarms' fitness and IFA's brightness
+all read it. As in the papers, the weights are not corrected for having moved
 the particles (the moved set is treated as a draw from the prior): a documented property of these
 filters, which the equal-compute PF rows of the tables put in perspective.
 """
@@ -21,8 +23,8 @@ from ..resampling import (SCHEME_CODES, SCHEMES, STEPWISE_EWA, ess_threshold, ew
 from ..rng import STATE
 from ..schema import Key
 from ..codes import BRIGHTNESS, BRIGHTNESS_GAUSSIAN
-from ..models.scalar import NOISE_GAUSSIAN, ModelFn, add_process_noise
-from ._common import DIAG_DISTINCT, drop_unasked, resampled_step, start, weigh_lanes
+from ..models.scalar import NOISE_GAUSSIAN, LikFn, ModelFn, add_process_noise
+from ._common import DIAG_DISTINCT, bound_above, drop_unasked, resampled_step, start, weigh_lanes
 from ..diag import flags
 from .keys import ewa_keys, pf_keys
 from .swarm import (AFSA_JOINT_SHIFT, ALGORITHMS, DONE, FIT_BEHAVIOURS, FIT_BRIGHTNESS,
@@ -36,10 +38,16 @@ _I = types.int64[::1]
 
 EWA = STEPWISE_EWA
 
-@kernel(types.void(ModelFn, _F, types.float64, types.float64, types.float64, _F, _F, _F),
-      cache=True)
-def _loglik(h, theta, tt, yt, half_inv_R, X, hx, ll):
-    """ll = log p(y_t | X) up to a constant, for every point of X; hx is scratch."""
+@kernel(types.void(ModelFn, LikFn, types.int64, _F, types.float64, types.float64, types.float64,
+                   _F, _F, _F), cache=True)
+def _loglik(h, lik, use_lik, theta, tt, yt, half_inv_R, X, hx, ll):
+    """ll = log p(y_t | X) up to a constant, for every point of X: the model's own ``lik`` with
+    ``use_lik`` (+inf bounded: ``_common.bound_above``), else the Gaussian -(y_t - h(x))^2 / 2R
+    (half_inv_R = 1 / 2R); hx is scratch."""
+    if use_lik:
+        lik(X, tt, theta, yt, ll)
+        bound_above(ll)
+        return
     h(X, tt, theta, hx)
     for i in range(X.size):
         d = yt - hx[i]
@@ -72,12 +80,15 @@ SWARM_OPTIONS = typeof(SwarmOptions(1, 0, 1, 0, 1.0, 0, 0.8, 0.01, 0, 1))
 
 
 @kernel(types.void(ModelFn, _F, types.float64, types.float64, _F, _F, types.float64,
-                   types.float64, SWARM_WORK, _F), cache=True)
-def predicted_distance_brightness(f, theta, tt, xprev_hat, noise, xn, M, kind, wk, pt):
+                   types.float64, types.int64, SWARM_WORK, _F), cache=True)
+def predicted_distance_brightness(f, theta, tt, xprev_hat, noise, xn, M, kind, use_lik, wk, pt):
     """IFA's brightness of the particles xn: d_i, the distance of (h(x_i), x_i) to (y_t,
     f(xhat_{t-1}) + noise mean), each coordinate in units of its noise standard deviation
     (-2 ll = (y - h)^2 / R); kind (codes.BRIGHTNESS) gaussian: exp(-d^2/2), scaled by exp(-M)
-    (ratios and order unchanged), inverse: 1 / (1 + d). pt (2,) scratch."""
+    (ratios and order unchanged), inverse: 1 / (1 + d). pt (2,) scratch. With the model's own
+    likelihood (``use_lik``) the measurement's part of d^2 is -2 (ll - M), M the particles'
+    largest log-likelihood (its distance from the likeliest particle: a likelihood has no
+    absolute scale)."""
     Qv = noise[1] if noise[0] == NOISE_GAUSSIAN else noise[1] / (noise[2] * noise[2])
     qmean = 0.0 if noise[0] == NOISE_GAUSSIAN else noise[1] / noise[2]
     pt[0] = xprev_hat
@@ -89,30 +100,37 @@ def predicted_distance_brightness(f, theta, tt, xprev_hat, noise, xn, M, kind, w
             wk.fit[i] = 0.5 * e * e / Qv
         shifted_exp_less(wk.ll, M, wk.fit, wk.fit)
     else:
-        for i in range(xn.size):
-            e = xn[i] - xbar
-            wk.fit[i] = 1.0 / (1.0 + math.sqrt(-2.0 * wk.ll[i] + e * e / Qv))
+        if use_lik:
+            for i in range(xn.size):
+                e = xn[i] - xbar
+                wk.fit[i] = 1.0 / (1.0 + math.sqrt(-2.0 * (wk.ll[i] - M) + e * e / Qv))
+        else:
+            for i in range(xn.size):
+                e = xn[i] - xbar
+                wk.fit[i] = 1.0 / (1.0 + math.sqrt(-2.0 * wk.ll[i] + e * e / Qv))
 
 
-@kernel(types.int64(ModelFn, ModelFn, _F, types.float64, types.float64, _F, types.float64, _F,
-                    SWARM_PARAMS, types.int64, SWARM_WORK, _F, _F), cache=True)
-def swarm_fitness(f, h, theta, tt, yt, noise, xprev_hat, xn, p, request, wk, hx, pt):
+@kernel(types.int64(ModelFn, ModelFn, LikFn, types.int64, _F, types.float64, types.float64, _F,
+                    types.float64, _F, SWARM_PARAMS, types.int64, SWARM_WORK, _F, _F), cache=True)
+def swarm_fitness(f, h, lik, use_lik, theta, tt, yt, noise, xprev_hat, xn, p, request, wk, hx,
+                  pt):
     """What ``swarm.swarm_move`` asks (``request``), over the particles xn: the log-likelihood of
-    y_t at the points it names (h at up to 3 N points into hx), or IFA's brightness (its kind
-    p.brightness); returns the likelihood evaluations."""
+    y_t at the points it names (h at up to 3 N points into hx, or the model's own ``lik`` with
+    ``use_lik``), or IFA's brightness (its kind p.brightness); returns the likelihood
+    evaluations."""
     N = xn.size
     half_inv_R = 0.5 / noise[3]
     if request == FIT_X:
-        _loglik(h, theta, tt, yt, half_inv_R, xn, hx[:N], wk.ll)
+        _loglik(h, lik, use_lik, theta, tt, yt, half_inv_R, xn, hx[:N], wk.ll)
     elif request == FIT_CANDIDATES:
-        _loglik(h, theta, tt, yt, half_inv_R, wk.C[:N], hx[:N], wk.llC[:N])
+        _loglik(h, lik, use_lik, theta, tt, yt, half_inv_R, wk.C[:N], hx[:N], wk.llC[:N])
     elif request == FIT_CENTRES:
-        _loglik(h, theta, tt, yt, half_inv_R, wk.Xc, hx[:N], wk.llc)
+        _loglik(h, lik, use_lik, theta, tt, yt, half_inv_R, wk.Xc, hx[:N], wk.llc)
     elif request == FIT_BEHAVIOURS:
-        _loglik(h, theta, tt, yt, half_inv_R, wk.C, hx, wk.llC)
+        _loglik(h, lik, use_lik, theta, tt, yt, half_inv_R, wk.C, hx, wk.llC)
     elif request == FIT_BRIGHTNESS:
         predicted_distance_brightness(f, theta, tt, xprev_hat, noise, xn, wk.ll.max(),
-                                      p.brightness, wk, pt)
+                                      p.brightness, use_lik, wk, pt)
     return evaluations(request, N)
 
 
@@ -136,14 +154,15 @@ def resample_swarm(x, xn, w, S, lw, idx, mutant, o, s):
         lw[i] = 0.0
 
 
-@kernel(types.int64(ModelFn, ModelFn, _F, types.float64, types.float64, _F, types.float64, _F,
-                    SWARM_OPTIONS, SWARM_PARAMS, SWARM_WORK, _F, _F, STATE), cache=True)
-def swarm_refine(f, h, theta, tt, yt, noise, xprev_hat, xn, o, p, wk, hx, pt, s):
+@kernel(types.int64(ModelFn, ModelFn, LikFn, types.int64, _F, types.float64, types.float64, _F,
+                    types.float64, _F, SWARM_OPTIONS, SWARM_PARAMS, SWARM_WORK, _F, _F, STATE),
+        cache=True)
+def swarm_refine(f, h, lik, use_lik, theta, tt, yt, noise, xprev_hat, xn, o, p, wk, hx, pt, s):
     """The swarm's o.iters iterations (``swarm.swarm_move``, its fitness ``swarm_fitness``) on
     the predicted particles xn, from their log-likelihood of y_t (into wk.ll, kept up to date);
     returns the likelihood evaluations of the step."""
     N = xn.size
-    _loglik(h, theta, tt, yt, 0.5 / noise[3], xn, hx[:N], wk.ll)
+    _loglik(h, lik, use_lik, theta, tt, yt, 0.5 / noise[3], xn, hx[:N], wk.ll)
     nev = N
     for it in range(o.iters):
         phase = 0
@@ -151,8 +170,8 @@ def swarm_refine(f, h, theta, tt, yt, noise, xprev_hat, xn, o, p, wk, hx, pt, s)
             request = swarm_move(o.algo, AFSA_JOINT_SHIFT, phase, xn, 1, p, noise[3], it, wk, s)
             if request == DONE:
                 break
-            nev += swarm_fitness(f, h, theta, tt, yt, noise, xprev_hat, xn, p, request, wk, hx,
-                                 pt)
+            nev += swarm_fitness(f, h, lik, use_lik, theta, tt, yt, noise, xprev_hat, xn, p,
+                                 request, wk, hx, pt)
             phase += 1
     return nev
 
@@ -168,15 +187,16 @@ def add_loglik(lw, ll):
     return mx
 
 
-SWARM_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64,
-                        SWARM_OPTIONS, SWARM_PARAMS, STATE, _F, _F, _I, _F, _F, _F)
+SWARM_SIG = types.int64(ModelFn, ModelFn, LikFn, types.int64, _F, _F, _F, types.float64,
+                        types.float64, SWARM_OPTIONS, SWARM_PARAMS, STATE, _F, _F, _I, _F, _F, _F)
 
 
 @kernel(SWARM_SIG, cache=True)
-def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, p, s, xhat, ess, resampled,
-                    div_l1, distinct, evals):
+def swarm_pf_kernel(f, h, lik, use_lik, theta, noise, y, prior_mean, prior_var, o, p, s, xhat, ess,
+                    resampled, div_l1, distinct, evals):
     """Run a swarm-optimised PF over y (T+1,) (settings o, see ``SwarmOptions``; the swarm's
-    parameters p, a ``swarm.SwarmParams``); fill the (T+1,) traces and evals, the likelihood
+    parameters p, a ``swarm.SwarmParams``; the likelihood: the model's ``lik`` with ``use_lik``,
+    else the Gaussian of y - h(x)); fill the (T+1,) traces and evals, the likelihood
     evaluations of each step; return the underflow count. Each step: predict, refine (the
     swarm), weigh, estimate, resample."""
     T, N = y.size - 1, o.N
@@ -197,7 +217,8 @@ def swarm_pf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, p, s, xhat,
         tt, yt = float(t), y[t]
         f(x, tt, theta, xn)
         add_process_noise(s, noise, xn)
-        evals[t] = swarm_refine(f, h, theta, tt, yt, noise, xhat[t - 1], xn, o, p, wk, hx, pt, s)
+        evals[t] = swarm_refine(f, h, lik, use_lik, theta, tt, yt, noise, xhat[t - 1], xn, o, p,
+                                wk, hx, pt, s)
         mx = add_loglik(lw, wk.ll)
         S, est, under = weigh_lanes(lw, w, xn, mx, t, ess, resampled, div_l1, distinct)
         events += int(under)
@@ -229,9 +250,9 @@ def make_run(kind: str):
             ewa_beta=float(params["ewa_beta"]), ewa_mu=float(params["ewa_mu"]),
             ewa_printed=int(params["ewa_correction"] == "as_printed"), diag=diag)
         out["underflow_steps"] = swarm_pf_kernel(
-            model.transition, model.observe, model.theta, model.noise, y, model.prior_mean,
-            model.prior_var, o, swarm_params(kind, params), state, out["xhat"], out["ess"],
-            out["resampled"], out["div_l1"], out["distinct"], evals)
+            model.transition, model.observe, *model.likelihood(), model.theta, model.noise, y,
+            model.prior_mean, model.prior_var, o, swarm_params(kind, params), state, out["xhat"],
+            out["ess"], out["resampled"], out["div_l1"], out["distinct"], evals)
         out["lik_evals_per_step"] = float(np.mean(evals[1:]))
         return drop_unasked(out, diag)
     return run
