@@ -78,13 +78,18 @@ def missing_kernels(exp) -> list[str]:
         for k in vars(importlib.import_module(name)).values():
             if (isinstance(k, LazyKernel) and k._options.get("cache") and not k.built
                     and k.__module__ == name):
-                try:
-                    index = FunctionCache(k.__wrapped__)._cache_file._index_path
-                except Exception:       # numba cannot cache it: nothing the warm-up can do
-                    continue
-                if not os.path.exists(index):
+                index = _index(FunctionCache, k.__wrapped__)
+                if index is not None and not os.path.exists(index):
                     out.append(f"{name}.{k.__name__}")
     return out
+
+
+def _index(cache, func) -> str | None:
+    """The path of the numba cache index of ``func``, or None where numba cannot cache it."""
+    try:
+        return cache(func)._cache_file._index_path
+    except RuntimeError:        # "cannot cache function": nothing the warm-up can do
+        return None
 
 
 def _stamp(path: Path) -> Path:
@@ -119,6 +124,27 @@ def warm_jobs(extra: Path | None = None) -> list[str]:
     return jobs
 
 
+def warm_groups(paths: list[str]) -> list[tuple[str, tuple[str, ...], frozenset]]:
+    """Each config's filter runs grouped by the module of their filter type (what one module's
+    kernels compile: ``precompile.groups``), as (config, filter keys, modules), first the groups
+    of a module the cache lacks kernels of."""
+    from pfbench.config import load
+    from pfbench.filters import FILTERS
+    from pfbench.precompile import groups
+    from pfbench.runner import uncompiled
+    first, then = [], []
+    for path in paths:
+        exp = load(path, {"trials": 1})
+        missing = set(uncompiled(exp))
+        lacking = {k.rsplit(".", 1)[0] for k in missing_kernels(exp)}
+        for keys in groups(exp):
+            runs = [f for f in exp.filters if f.key in keys]
+            modules = frozenset(getattr(FILTERS[f.type].run, "__module__", f.type) for f in runs)
+            (first if any(f.type in missing for f in runs) or modules & lacking else then).append(
+                (path, keys, modules))
+    return first + then
+
+
 _QUEUE = None
 
 
@@ -134,21 +160,23 @@ def _init(queue) -> None:
 _CONFIG = ""
 
 
-def _warm(path: str) -> tuple[str, float, str]:
-    """One trial of the config at ``path`` in this (pool) process: its kernels compile into the
-    numba cache; returns (path, seconds, error or '')."""
+def _warm(path: str, keys: tuple[str, ...] | None = None) -> tuple[str, float, str]:
+    """One trial of the config at ``path`` (of its filter runs ``keys``; default all) in this
+    (pool) process: its kernels compile into the numba cache; returns (path, seconds, error or
+    '')."""
     global _CONFIG
     _CONFIG = Path(path).name
     t0 = time.perf_counter()
     try:
+        from dataclasses import replace
+
         from pfbench.config import load
         from pfbench.runner import trial_result
-        trial_result(load(path, {"trials": 1}), 0)
+        exp = load(path, {"trials": 1})
+        if keys is not None:
+            exp = replace(exp, filters=tuple(f for f in exp.filters if f.key in keys))
+        trial_result(exp, 0)
         err = ""
-        if Path(path).parent == ROOT / "configs":
-            stamp = _stamp(Path(path))
-            stamp.parent.mkdir(parents=True, exist_ok=True)
-            stamp.touch()
     except Exception as exc:     # the tests that use the config will say what is wrong
         err = f"{type(exc).__name__}: {exc}"
     return path, time.perf_counter() - t0, err
@@ -159,25 +187,40 @@ QUIET_S = 5.0
 
 
 def warm(say, workers: int | None = None) -> None:
-    """Compile the kernels of ``warm_jobs`` in ``workers`` processes (default: the cores),
-    saying each kernel as it compiles, each config as it is done, and every few seconds what is
-    still compiling."""
+    """Compile the kernels of ``warm_jobs`` in ``workers`` processes (default: the cores), one
+    group of filter runs of a config at a time (``warm_groups``), never two groups of one module
+    at once (they would compile its kernels twice), saying each kernel as it compiles, each
+    group as it is done, and every few seconds what is still compiling; then stamps each config
+    done without an error (``_stamp``)."""
     import tempfile
     with tempfile.TemporaryDirectory() as tmp:
-        _warm_all(say, warm_jobs(Path(tmp)), workers)
+        paths = warm_jobs(Path(tmp))
+        if not paths:
+            return
+        failed = _warm_all(say, warm_groups(paths), workers, configs=len(paths))
+        for path in paths:
+            if Path(path).parent == ROOT / "configs" and path not in failed:
+                stamp = _stamp(Path(path))
+                stamp.parent.mkdir(parents=True, exist_ok=True)
+                stamp.touch()
 
 
-def _warm_all(say, jobs: list[str], workers: int | None, run=None) -> None:
+def _warm_all(say, jobs: list, workers: int | None, run=None, configs: int | None = None
+              ) -> set[str]:
+    """Run ``jobs`` ((config, filter keys, modules), or config paths) in a pool of ``workers``
+    processes, no two with a module in common at once; returns the configs that failed."""
     if not jobs:
-        return
+        return set()
+    jobs = [j if isinstance(j, tuple) else (j, None, frozenset()) for j in jobs]
     workers = max(1, min(len(jobs), workers or os.cpu_count() or 1))
-    say(f"numba: compiling the kernels of {len(jobs)} config(s) the cache lacks, in "
-        f"{workers} process(es) (first run only) ...")
+    say(f"numba: compiling the kernels of {configs or len(jobs)} config(s) the cache lacks "
+        f"({len(jobs)} groups of filters), in {workers} process(es) (first run only) ...")
     t0 = time.perf_counter()
     ctx = mp.get_context("spawn")       # a fresh interpreter: no state of the test session
     queue = ctx.Queue()
     busy: dict[int, tuple[str, float]] = {}     # pid -> (what it compiles, since)
     last = time.perf_counter()
+    failed: set[str] = set()
 
     def drain(wait: float) -> None:
         nonlocal last
@@ -203,16 +246,30 @@ def _warm_all(say, jobs: list[str], workers: int | None, run=None) -> None:
             last = now
 
     with ctx.Pool(workers, initializer=_init, initargs=(queue,)) as pool:
-        results = pool.imap_unordered(run or _warm, jobs)
-        for k in range(1, len(jobs) + 1):
-            while True:
-                try:
-                    path, dt, err = results.next(timeout=0.5)
+        pending, running, done = list(jobs), {}, 0
+        while pending or running:
+            while len(running) < workers:
+                taken = frozenset().union(*(j[2] for j in running.values()))
+                job = next((j for j in pending if not j[2] & taken), None)
+                if job is None:
                     break
-                except mp.TimeoutError:
-                    drain(0.0)
+                pending.remove(job)
+                args = (job[0],) if job[1] is None else (job[0], job[1])
+                running[pool.apply_async(run or _warm, args)] = job
+            finished = [r for r in running if r.ready()]
+            if not finished:
+                drain(0.25)
+                continue
             drain(0.0)
-            say(f"numba: [{k}/{len(jobs)}] {Path(path).name}: {dt:.0f} s"
-                + (f" ({err[:120]})" if err else ""))
-            last = time.perf_counter()
+            for r in finished:
+                path, keys, _ = running.pop(r)
+                _, dt, err = r.get()
+                done += 1
+                if err:
+                    failed.add(path)
+                what = Path(path).name + (f" ({', '.join(keys)})" if keys else "")
+                say(f"numba: [{done}/{len(jobs)}] {what}: {dt:.0f} s"
+                    + (f" ({err[:120]})" if err else ""))
+                last = time.perf_counter()
     say(f"numba: kernels compiled in {time.perf_counter() - t0:.0f} s")
+    return failed

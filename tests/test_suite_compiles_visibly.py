@@ -1,5 +1,7 @@
 """The suite says what it compiles (tests/_kernels.py): a compilation a test starts is named when
 it starts and timed when it ends; the warm-up picks the configs whose kernels are not cached."""
+from pathlib import Path
+
 import numba
 from numba.core import event
 
@@ -81,14 +83,14 @@ def test_a_config_needing_a_kernel_its_modules_lack_is_warmed(monkeypatch, tmp_p
                "from tests._kernels import missing_kernels\n"
                "print(missing_kernels(load('configs/afsa_fastslam.yaml', {'trials': 1})))\n")
     res = subprocess.run([sys.executable, "-c", program], cwd=ROOT, capture_output=True,
-                         text=True, timeout=300,
+                         text=True, timeout=300, check=False,
                          env={**__import__("os").environ, "PYTHONPATH": str(ROOT),
                               "NUMBA_CACHE_DIR": str(tmp_path)})
     assert res.returncode == 0, res.stderr
     assert "pfbench.filters.fastslam.fastslam_kernel'" in res.stdout
     # a config warmed once under this cache is not warmed again for a kernel none of its
     # trials build
-    import pfbench.runner as runner
+    from pfbench import runner
     monkeypatch.setattr(runner, "uncompiled", lambda exp: [])
     monkeypatch.setattr(_kernels, "missing_kernels", lambda exp: ["m.k"])
     monkeypatch.setattr(_kernels, "_stamp", lambda path: tmp_path / path.name)
@@ -153,3 +155,29 @@ def test_the_warm_up_runs_once_per_run_of_the_suite(monkeypatch):
     few.pluginmanager = config.pluginmanager
     conftest.pytest_xdist_node_collection_finished(type("Node", (), {"config": few})(), ids[:3])
     assert calls == [1]
+
+
+def _timed_job(path, keys):
+    """A warm-up job that notes when it ran (a pool process's; see the test below)."""
+    import time
+    t0 = time.time()
+    time.sleep(0.6)
+    Path(path).write_text(f"{t0} {time.time()}")
+    return path, 0.6, ""
+
+
+def test_two_groups_of_one_module_never_compile_at_once(tmp_path):
+    """The warm-up's processes take groups of filter runs; two that share a module would compile
+    its kernels twice, side by side: one waits for the other, while a group of another module
+    runs beside it."""
+    a, b, c = (str(tmp_path / n) for n in "abc")
+    said = []
+    failed = _kernels._warm_all(said.append, [(a, ("pf",), frozenset({"m.pf"})),
+                                              (b, ("pfmh",), frozenset({"m.pf"})),
+                                              (c, ("mcl",), frozenset({"m.mcl"}))], 2,
+                                run=_timed_job)
+    assert failed == set()
+    (a0, a1), (b0, b1), (c0, c1) = (map(float, Path(p).read_text().split()) for p in (a, b, c))
+    assert b0 >= a1 or a0 >= b1             # a and b one after the other
+    assert c0 < a1 and a0 < c1              # c beside a
+    assert any(s.endswith("a (pf): 1 s") for s in said), said
