@@ -64,20 +64,28 @@ def tree(folder: Path) -> dict:
 
 def _say(config):
     """A function that writes a line to the terminal even while a test's output is captured."""
+    worker = getattr(config, "workerinput", {}).get("workerid")
+
+    def write(text: str) -> None:
+        if worker:      # a pytest-xdist worker: its stderr is the terminal of the controller
+            os.write(2, f"[{worker}] {text}\n".encode())
+        else:
+            config.pluginmanager.getplugin("terminalreporter").write_line(text)
+
     def say(text: str) -> None:
         tr = config.pluginmanager.getplugin("terminalreporter")
         cap = config.pluginmanager.getplugin("capturemanager")
-        if tr is None:
+        if tr is None and not worker:
             return
         if cap is None:
-            tr.write_line(text)
+            write(text)
             return
         # pytest's capture, suspended and resumed, sets sys.stdout and sys.stderr to its own:
         # a test that swapped them (typer's CliRunner) gets its own back
         out, err = sys.stdout, sys.stderr
         try:
             with cap.global_and_fixture_disabled():
-                tr.write_line(text)
+                write(text)
         finally:
             sys.stdout, sys.stderr = out, err
     return say
@@ -90,15 +98,57 @@ def pytest_configure(config):
     event.register("numba:compile", CompileReporter(_say(config)).listener())
 
 
-def pytest_collection_finish(session):
-    """Before the first test of a run of the suite (tests from more than ten files): the kernels
-    of the committed configs the numba cache lacks compile on every core, visibly
-    (tests/_kernels.py). A run of a few files compiles only what its tests use."""
-    if (session.config.option.collectonly
-            or len({item.path for item in session.items}) <= 10):
+def _suite_files(config) -> int:
+    """How many test files the command line names (its folders' test_*.py counted; the
+    testpaths when it names none)."""
+    files = set()
+    for arg in config.args or [str(ROOT / "tests")]:
+        path = Path(config.invocation_params.dir, arg.split("::", 1)[0])
+        if path.is_dir():
+            files.update(path.rglob("test_*.py"))
+        else:
+            files.add(path)
+    return len(files)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_auto_num_workers(config):
+    """``-n auto`` (pyproject's addopts): one worker process per core for a run of the suite (the
+    default selection, more than ten files); a run of a few files, or of another selection
+    (``-m slow``: the long end-to-end runs, one at a time as before), runs in this process."""
+    if config.option.markexpr != "not slow" or _suite_files(config) <= 10:
+        return 0
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def _warm_first(config, files: int) -> None:
+    """The kernels of the committed configs the numba cache lacks compile on every core, visibly
+    (tests/_kernels.py), before the first test of a run of the suite (tests from more than ten
+    files; a run of a few files compiles only what its tests use)."""
+    if config.option.collectonly or files <= 10 or getattr(config, "_pfbench_warmed", False):
         return
+    config._pfbench_warmed = True
     from ._kernels import warm
-    tr = session.config.pluginmanager.getplugin("terminalreporter")
+    tr = config.pluginmanager.getplugin("terminalreporter")
     if tr is not None:
         tr.write_line("")
-    warm(_say(session.config))
+    warm(_say(config))
+
+
+def pytest_collection_finish(session):
+    """In one process (no ``-n``): the warm-up, before the first test. Under pytest-xdist the
+    workers leave it to the controller (``pytest_xdist_node_collection_finished``)."""
+    if hasattr(session.config, "workerinput"):
+        return
+    _warm_first(session.config, len({item.path for item in session.items}))
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_node_collection_finished(node, ids):
+    """Under pytest-xdist: the warm-up runs once, in the controller, when the first worker has
+    collected and before any test is handed out (the workers then load every kernel from the
+    cache instead of each compiling it, unseen)."""
+    _warm_first(node.config, len({i.split("::", 1)[0] for i in ids}))
