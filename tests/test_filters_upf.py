@@ -172,3 +172,27 @@ def test_gaussian_filters_use_the_configured_noise_mean():
     for kind in ("ekf", "ukf"):
         out = _run(kind, model, y, process_noise_mean=mu)
         assert np.max(np.abs(out["xhat"] - np.array(ms))) < 1e-10
+
+
+@pytest.mark.parametrize("kind,extra", [("upf", {}), ("sspf", {}), ("upf", {"resample": "neff"})])
+@pytest.mark.parametrize("bad", [1e200, -1e200, math.inf, math.nan])
+def test_an_impossible_measurement_is_ignored_and_the_filter_recovers(kind, extra, bad):
+    # The UKF proposal follows a measurement of 1e200 there: every log-weight is -inf or NaN at
+    # that step, which then ignores its measurement (particles from the transition, weights kept)
+    model = _linear(a=0.9, c=1.0, process_noise_var=1.0, measurement_noise_var=0.5, steps=40)
+    x, y = simulate(model, state_from_seed(np.random.SeedSequence(5)))
+    t0 = 15
+    bad_y = y.copy()
+    bad_y[t0] = bad
+    clean = _run(kind, model, y, 300, 1, **extra)
+    out = _run(kind, model, bad_y, 300, 1, **extra)
+    assert clean["underflow_steps"] == 0 and out["underflow_steps"] == 1
+    assert np.all(np.isfinite(out["xhat"])) and np.all(np.isfinite(out["ess"]))
+    assert np.array_equal(out["xhat"][:t0], clean["xhat"][:t0])    # the steps before: untouched
+    # the step's estimate is the prediction a * (the previous estimate), within Monte Carlo error
+    assert abs(out["xhat"][t0] - 0.9 * out["xhat"][t0 - 1]) < 0.5
+    # a few steps later the errors are those of the clean run again
+    later = slice(t0 + 5, None)
+    e_bad = np.sqrt(np.mean((out["xhat"][later] - x[later]) ** 2))
+    e_clean = np.sqrt(np.mean((clean["xhat"][later] - x[later]) ** 2))
+    assert e_bad < 1.2 * e_clean + 0.05

@@ -583,3 +583,26 @@ def test_mcls_passes_are_public_and_keep_their_contracts():
     out = np.empty(N)
     exp_pass(a, 0.5, N - 1, out)
     assert np.allclose(out[:N - 1], np.exp(a[:N - 1] - 0.5), rtol=1e-15, atol=0)
+
+
+@pytest.mark.parametrize("bad", [1e200, math.nan])
+def test_sspf_ignores_an_impossible_observation_and_recovers(bad):
+    from dataclasses import replace
+    # A range of 1e200 drags every particle's UKF proposal there: every log-weight is -inf or NaN
+    # at that step, which then ignores its observations (particles from the transition density)
+    model = _field(steps=40, initial="known")
+    truth, data = bf.simulate(model, state_from_seed(np.random.SeedSequence(41)))
+    t0 = next(t for t in range(10, 40) if data.obs_n[t] > 0)
+    z = np.array(data.obs_z, dtype=float)
+    z[t0, :data.obs_n[t0], 0] = bad
+    ft = FILTERS["sspf_field"]
+    p = Params({k: v.default for k, v in ft.schema.items()})
+    clean = ft.run(model, data, p, 300, state_from_seed(np.random.SeedSequence(2)))
+    out = ft.run(model, replace(data, obs_z=z), p, 300, state_from_seed(np.random.SeedSequence(2)))
+    assert clean["underflow_steps"] == 0 and out["underflow_steps"] == 1
+    assert np.all(np.isfinite(out["pose"]))
+    assert np.array_equal(out["pose"][:t0 + 1], clean["pose"][:t0 + 1])    # before: untouched
+    err = np.hypot(*(out["pose"][:, :2] - truth.pose[:, :2]).T)
+    err_clean = np.hypot(*(clean["pose"][:, :2] - truth.pose[:, :2]).T)
+    assert err[t0 + 1] < 1.0                     # the step's estimate: the motion's prediction
+    assert err[t0 + 6:].mean() < 1.2 * err_clean[t0 + 6:].mean() + 0.05

@@ -25,6 +25,13 @@ ancestor's proposal: accept x* ~ N(m_a, Pn_a) with probability
 min(1, p(z|x*) p(x*|x_prev) q(x) / (p(z|x) p(x|x_prev) q(x*))). The estimate is the weighted mean
 (circular heading) before resampling.
 
+A step whose log-weights are all -inf or NaN (observations no pose can have produced, such as a
+range of 1e200: each UKF's proposal follows them there) ignores its observations: the particles
+are drawn again from the transition density N(f(x_prev, u), G M G^T + J) that the weights use,
+each UKF's covariance is its prediction (the update skipped), the weights stay those of the
+previous step and there is no MH move (``prior_draws``). The step counts in ``underflow_steps``;
+every other step is untouched.
+
 The kernel (``sspf_field_kernel``) keeps the particles as rows (pose (3, N), each 3 x 3 matrix
 nine rows) and runs their UKFs a chunk at a time: predict (``predict_moments``), update
 (``sensor_update``: sigma observations, predicted observation, innovation covariances, Kalman gain,
@@ -240,7 +247,7 @@ class FieldRows(NamedTuple):
     """The particles as rows: pose X (3, N), covariance Pc (9, N); the proposal each was drawn
     from, mean mprop (3, N) and Cholesky factor Lprop (9, N); the transition density's mean fpre
     (3, N) and factor Lq (9, N); ltgt (N,) log p(z | x) + log p(x | x_prev) and lqs (N,) log q(x)
-    at the particle."""
+    at the particle; Ppred (9, N) the UKF's predicted covariance of the step (``prior_draws``)."""
 
     X: np.ndarray
     Pc: np.ndarray
@@ -250,15 +257,17 @@ class FieldRows(NamedTuple):
     Lq: np.ndarray
     ltgt: np.ndarray
     lqs: np.ndarray
+    Ppred: np.ndarray
 
 
-FIELD_ROWS = types.NamedTuple((_F2, _F2, _F2, _F2, _F2, _F2, _F, _F), FieldRows)
+FIELD_ROWS = types.NamedTuple((_F2, _F2, _F2, _F2, _F2, _F2, _F, _F, _F2), FieldRows)
 
 
 @kernel(FIELD_ROWS(types.int64), cache=True)
 def new_rows(N):
     return FieldRows(np.empty((3, N)), np.zeros((9, N)), np.empty((3, N)), np.zeros((9, N)),
-                     np.empty((3, N)), np.zeros((9, N)), np.empty(N), np.empty(N))
+                     np.empty((3, N)), np.zeros((9, N)), np.empty(N), np.empty(N),
+                     np.zeros((9, N)))
 
 
 class ChunkWork(NamedTuple):
@@ -601,6 +610,7 @@ def draw_particles(pr, i0, c, u, bc, ids, zs, m, o, wk, sd, jit, z, lw, xm, T3):
             pr.mprop[a, i] = xm[a]
             for b in range(3):
                 pr.Pc[3 * a + b, i] = Pn[a, b]
+                pr.Ppred[3 * a + b, i] = Pm[a, b]
                 pr.Lprop[3 * a + b, i] = L3[a, b]
                 pr.Lq[3 * a + b, i] = Lt[a, b]
         pr.fpre[0, i], pr.fpre[1, i], pr.fpre[2, i] = fx, fy, ft
@@ -626,6 +636,28 @@ def copy_resampled(pr, out, idx):
     for i in range(idx.size):
         out.ltgt[i] = pr.ltgt[idx[i]]
         out.lqs[i] = pr.lqs[idx[i]]
+
+
+@kernel(types.float64(FIELD_ROWS, _F, STATE, _F, _F), cache=True, error_model="numpy")
+def prior_draws(pr, Wprev, s, z, lw):
+    """A step that ignores its observations (every log-weight -inf or NaN): each particle drawn
+    again, with new normal draws z (3 N,), from the transition density N(pr.fpre, Lq Lq^T) its
+    weight uses (from the previous pose), its covariance pr.Pc its UKF's prediction pr.Ppred, lw
+    the log of the previous step's normalised weights Wprev. Returns the largest log-weight."""
+    fill_normal(s, z)
+    X, F, L = pr.X, pr.fpre, pr.Lq
+    mx = -np.inf
+    for i in range(X.shape[1]):
+        n0, n1, n2 = z[3 * i], z[3 * i + 1], z[3 * i + 2]
+        X[0, i] = F[0, i] + L[0, i] * n0
+        X[1, i] = F[1, i] + L[3, i] * n0 + L[4, i] * n1
+        X[2, i] = wrap(F[2, i] + L[6, i] * n0 + L[7, i] * n1 + L[8, i] * n2)
+        for a in range(9):
+            pr.Pc[a, i] = pr.Ppred[a, i]
+        lw[i] = math.log(Wprev[i]) if Wprev[i] > 0.0 else -np.inf
+        if lw[i] > mx:
+            mx = lw[i]
+    return mx
 
 
 @kernel(types.int64(FIELD_ROWS, _F2, _I, _F2, types.int64, FIELD_OPTIONS, STATE, _F3), cache=True)
@@ -696,7 +728,7 @@ def sspf_field_kernel(ctrl, obs, bc, area, o, mnoise, up, init, jit, start, s, e
     (``PoseStd``); obs: the observations (``Observations``); start: the initial belief
     (``InitialBelief``). Fills est (T+1, 3), ess / resampled / accepted (MH acceptance rate, NaN
     without a move) (T,); snapshots as mcl_kernel's. Returns the steps
-    whose weights all underflowed. The particles' UKFs run in passes over chunks of SSPF_CHUNK
+    whose weights all underflowed, which ignore their observations (``prior_draws``). The particles' UKFs run in passes over chunks of SSPF_CHUNK
     particles (see the section's comment)."""
     T, N = ctrl.shape[0], o.N
     nzmax = 2 * bc.shape[0]
@@ -730,8 +762,11 @@ def sspf_field_kernel(ctrl, obs, bc, area, o, mnoise, up, init, jit, start, s, e
         fill_normal(s, z)      # the draws of the particles' proposals, in particle order
         mx = propose_and_draw(pr, u, bc, ids, zs, m, nz, o, zobs, isb, wk, Wm, Wc, sq, sd, jit, z,
                               lw, xm3, T3)
-        under, ess[t], Kc = weights_and_change(lw, W, Wprev, mx)
-        events += int(under)
+        skip = not np.isfinite(mx)          # the observations are ignored
+        if skip:
+            mx = prior_draws(pr, Wprev, s, z, lw)
+            events += 1
+        _, ess[t], Kc = weights_and_change(lw, W, Wprev, mx)
         estimate_pose(pr.X, W, N, est[t + 1], True)
         si = snapshot(t + 1, pr.X, N, snap, si, True)
         accepted[t] = np.nan
@@ -746,6 +781,8 @@ def sspf_field_kernel(ctrl, obs, bc, area, o, mnoise, up, init, jit, start, s, e
         W[:] = 1.0 / N
         Wprev[:] = W
         resampled[t] = 1
+        if skip:
+            continue
         acc = mh_moves(pr, bc, ids, zs, m, o, s, T3)
         if o.mh_steps > 0:
             accepted[t] = acc / (N * o.mh_steps)

@@ -10,6 +10,12 @@ SSPF (sspf2008) adds: resampling triggered when the weight change
 K = sum_i W_k^i (W_k^i - W_{k-1}^i)^2 exceeds sigma (normalised weights; W_{k-1} are the weights
 after the last step, uniform after a resampling), and after each resampling one independence
 Metropolis-Hastings move per particle with the particle's own UKF proposal.
+
+A step whose log-weights are all -inf or NaN (a measurement the model cannot have produced, such as
+1e200: each UKF's proposal follows it there) ignores its measurement: the particles are drawn again
+from the model's transition p(x | x_prev), each UKF's variance is its prediction (the update
+skipped), the weights stay those of the previous step and there is no MH move. The step counts in
+``underflow_steps``; every other step is untouched.
 """
 from __future__ import annotations
 
@@ -24,7 +30,7 @@ from ..schema import Key
 from ..resampling import SCHEME_CODES, SCHEMES, ess_threshold, resample
 from ..rng import STATE, normal, uniform
 from ..codes import NOISE_GAUSSIAN
-from ..models.scalar import ModelFn, process_logpdf
+from ..models.scalar import ModelFn, add_process_noise, process_logpdf
 from ._common import DIAG_DISTINCT, drop_unasked, floored, resampled_step, start, weigh
 from ..diag import flags
 from .ekf import noise_moments
@@ -177,6 +183,32 @@ def proposals(f, h, theta, tt, yt, x, P, sg, o, fprev, pm, pv):
         pv[i] = v if v > 1e-300 else 1e-300
 
 
+@kernel(types.float64(ModelFn, _F, types.float64, _F, _F, SIGMA, STATE, _F, _F, _F, _F),
+        cache=True)
+def prior_step(f, theta, tt, noise, x, sg, s, Wprev, xn, pv, lw):
+    """A step that ignores its measurement (every log-weight -inf or NaN): xn drawn from the
+    model's transition p(x | x_prev) at the previous particles x; pv each UKF's predicted variance
+    (its update skipped; from the sigma points through f in sg.fx); lw the log of the previous
+    step's normalised weights Wprev. Returns the largest log-weight."""
+    f(x, tt, theta, xn)
+    add_process_noise(s, noise, xn)
+    n, Wm, Wc, fx = 7, sg.Wm, sg.Wc, sg.fx
+    mx = -np.inf
+    for i in range(xn.size):
+        b = i * n
+        mp = 0.0
+        for j in range(n):
+            mp += Wm[j] * fx[b + j]
+        v = 0.0
+        for j in range(n):
+            d = fx[b + j] - mp
+            v += Wc[j] * d * d
+        pv[i] = v if v > 1e-300 else 1e-300
+        lw[i] = math.log(Wprev[i]) if Wprev[i] > 0.0 else -np.inf
+        mx = max(mx, lw[i])
+    return mx
+
+
 @kernel(types.float64(_F, types.float64, UPF_OPTIONS), cache=True)
 def log_prior(noise, w, o):
     """The transition density's log at w: the model's, or the reference implementation's."""
@@ -231,7 +263,8 @@ UPF_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64
 def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, s, xhat, ess, resampled, div_l1,
                distinct):
     """Run the UPF/SSPF over y (T+1,) (settings o, see ``UpfOptions``); fill the (T+1,) traces;
-    return the underflow count."""
+    return the underflow count: the steps whose log-weights were all -inf or NaN, which ignore
+    their measurement (``prior_step``; no MH move)."""
     T, N = y.size - 1, o.N
     sg = sigma_points(o)
     x = np.empty(N)
@@ -260,8 +293,11 @@ def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, s, xhat, ess, re
             xn[i] = pm[i] + math.sqrt(pv[i]) * normal(s)
         h(xn, tt, theta, hx)
         mx = weigh_draws(noise, yt, xn, hx, fprev, pm, pv, lw, o)
-        Ssum, est, under = weigh(lw, w, xn, mx, t, ess, resampled, div_l1, distinct)
-        events += int(under)
+        skip = not math.isfinite(mx)        # the measurement is ignored
+        if skip:
+            mx = prior_step(f, theta, tt, noise, x, sg, s, Wprev, xn, pv, lw)
+            events += 1
+        Ssum, est, _ = weigh(lw, w, xn, mx, t, ess, resampled, div_l1, distinct)
         if o.trigger == TRIGGER_ESS:
             go = ess[t] < o.threshold
         else:
@@ -287,7 +323,8 @@ def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, s, xhat, ess, re
             ha[i] = hx[j]
             lw[i] = 0.0
             Wprev[i] = 1.0 / N
-        independence_mh_moves(h, theta, tt, yt, noise, x, P, am, fa, ha, prop, hprop, o, s)
+        if not skip:
+            independence_mh_moves(h, theta, tt, yt, noise, x, P, am, fa, ha, prop, hprop, o, s)
         xhat[t] = resampled_step(x, xn, idx, mark, t, est, o.estimate_after, o.diag, resampled,
                                  div_l1, distinct)
     return events
