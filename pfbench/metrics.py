@@ -49,7 +49,7 @@ METRICS = {
     "diversity_l1": "mean pairwise |x_i - x_j| of the particles right after resampling, averaged "
                     "over the steps that resampled (SLAM: L1 on poses, |dx| + |dy| + |dtheta|)",
     "distinct_frac": "fraction of distinct particles right after resampling, averaged likewise",
-    "underflow_steps": "steps where every log-weight was -inf or NaN (weights reset to uniform)",
+    "underflow_steps": "steps where every log-weight was -inf or NaN (that measurement ignored)",
     "diverged_steps": "steps whose estimate or its error is not a finite number, or (localization) "
                       "whose estimate lies outside the world",
     "lik_evals_per_step": "measurement-model evaluations per step (N for a PF, sigma points for "

@@ -202,6 +202,17 @@ def _build(kernels: list[LazyKernel], i: int) -> bool:
     return True
 
 
+def kernel_jobs(exps, trial: Callable) -> list[Job]:
+    """The jobs (see Job) of compiling ahead the kernels that trials of any of the experiments
+    ``exps`` call and the numba cache does not hold yet: one plan for all of them, so that a
+    kernel several of them call is one job (what the test suite's warm-up compiles)."""
+    found: dict[int, LazyKernel] = {}
+    for exp in exps:
+        for k in roots(exp, trial):
+            found.setdefault(id(k), k)
+    return _plan(list(found.values()))
+
+
 def uncompiled_kernels(exp, trial: Callable) -> list[Job]:
     """The jobs (see Job) of compiling ahead the kernels a trial of ``exp`` calls that the
     numba cache does not hold yet."""

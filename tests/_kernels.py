@@ -1,8 +1,11 @@
 """What the suite compiles, on screen: each numba compilation a test starts is named as it
 starts and timed as it ends, and before the first test the kernels of every committed config
-that the numba cache does not hold yet compile in parallel, one line per config (the first run
-of the suite after ``pfbench run configs/ifa_fastslam.yaml`` compiles the other filters' kernels
-there, on every core, instead of silently inside the tests that first use them)."""
+that the numba cache does not hold yet compile by their signatures, on every core, a line per
+kernel (the first run of the suite after ``pfbench run configs/ifa_fastslam.yaml`` compiles the
+other filters' kernels there, instead of silently inside the tests that first use them). The
+plan is pfbench's own compiling ahead (pfbench.precompile) over every config at once: each
+kernel the cache lacks is one job, after the jobs of the kernels it calls, longest chain first,
+so that no kernel compiles twice and every core stays busy."""
 from __future__ import annotations
 
 import multiprocessing as mp
@@ -56,93 +59,49 @@ class CompileReporter:
             self.say(f"numba: compiled {self._name(ev)} in {time.perf_counter() - self.t0:.1f} s")
 
 
-def missing_kernels(exp) -> list[str]:
-    """The cached kernels of the experiment's filter and scenario modules that the numba cache
-    holds no entry for (``runner.uncompiled`` looks at modules: a module with one kernel cached
-    counts as compiled, though a config may need another of its kernels, as afsa_fastslam needs
-    the FastSLAM kernel with the afsa2014 branches that ifa_fastslam's run does not build)."""
-    import importlib
-
-    from numba.core.caching import FunctionCache
-
-    from pfbench import _cache
-    from pfbench._lazy import LazyKernel
-    from pfbench.filters import FILTERS
-    from pfbench.scenarios import SCENARIOS
-    if not _cache.ENABLED:
-        return []
-    modules = {getattr(FILTERS[f.type].run, "__module__", "") for f in exp.filters}
-    modules.add(getattr(getattr(SCENARIOS[exp.scenario], "simulate", None), "__module__", ""))
-    out = []
-    for name in sorted(m for m in modules if m.startswith("pfbench.")):
-        for k in vars(importlib.import_module(name)).values():
-            if (isinstance(k, LazyKernel) and k._options.get("cache") and not k.built
-                    and k.__module__ == name):
-                index = _index(FunctionCache, k.__wrapped__)
-                if index is not None and not os.path.exists(index):
-                    out.append(f"{name}.{k.__name__}")
-    return out
-
-
-def _index(cache, func) -> str | None:
-    """The path of the numba cache index of ``func``, or None where numba cannot cache it."""
-    try:
-        return cache(func)._cache_file._index_path
-    except RuntimeError:        # "cannot cache function": nothing the warm-up can do
-        return None
-
-
-def _stamp(path: Path) -> Path:
-    """The file that says the warm-up ran ``path`` (its name and text) under this kernel cache."""
-    import hashlib
-
-    from pfbench.version import CACHE_DIR
-    digest = hashlib.sha256(path.name.encode() + b"\0" + path.read_bytes()).hexdigest()[:16]
-    return Path(CACHE_DIR) / "suite-warmed" / f"{path.stem}-{digest}"
-
-
-def warm_jobs(extra: Path | None = None) -> list[str]:
-    """The committed configs, and the suite's own small config (conftest.SMALL, written into the
-    folder ``extra``), whose filters' or scenario's kernels the numba cache lacks: a module none
-    of whose kernels is cached (``runner.uncompiled``), or, once per kernel cache, a kernel of
-    their modules that is not (``missing_kernels``)."""
-    from pfbench.config import load
-    from pfbench.runner import uncompiled
-    jobs = []
-    paths = sorted((ROOT / "configs").glob("*.yaml"))
+def _paths(extra: Path | None) -> list[Path]:
+    """The committed configs (not the sweeps, whose cells are configs of the same filters), and
+    the suite's own small config (conftest.SMALL, written into the folder ``extra``)."""
+    from pfbench.regen import is_sweep
+    paths = [p for p in sorted((ROOT / "configs").glob("*.yaml")) if not is_sweep(p)]
     if extra is not None:
         from .conftest import SMALL
         (extra / "small.yaml").write_text(SMALL)
         paths.append(extra / "small.yaml")
-    from pfbench.regen import is_sweep
-    for path in paths:
-        if is_sweep(path):
+    return paths
+
+
+def _names() -> dict[int, tuple[str, str]]:
+    """id of each kernel of pfbench's imported modules -> (module, attribute): how a fresh
+    process finds it."""
+    import sys
+
+    from pfbench._lazy import LazyKernel
+    out: dict[int, tuple[str, str]] = {}
+    for name, mod in sorted(sys.modules.items()):
+        if mod is None or not name.startswith("pfbench."):
             continue
-        exp = load(path, {"trials": 1})
-        if uncompiled(exp) or (not _stamp(path).exists() and missing_kernels(exp)):
-            jobs.append(str(path))
-    return jobs
+        for attr, value in list(vars(mod).items()):
+            if isinstance(value, LazyKernel) and value.__module__ == name:
+                out.setdefault(id(value), (name, attr))
+    return out
 
 
-def warm_groups(paths: list[str]) -> list[tuple[str, tuple[str, ...], frozenset]]:
-    """Each config's filter runs grouped by the module of their filter type (what one module's
-    kernels compile: ``precompile.groups``), as (config, filter keys, modules), first the groups
-    of a module the cache lacks kernels of."""
+def warm_plan(extra: Path | None = None) -> list[tuple[str, str, frozenset, float]]:
+    """The kernels the configs (``_paths``) call that the numba cache lacks, as (module,
+    attribute, the indices of the entries it waits for, rank), ranked first to last
+    (pfbench.precompile's plan over every config at once). A kernel no module names (none of
+    pfbench's today) is left to the tests; what waits for it compiles it inline."""
+    from pfbench import precompile, runner
     from pfbench.config import load
-    from pfbench.filters import FILTERS
-    from pfbench.precompile import groups
-    from pfbench.runner import uncompiled
-    first, then = [], []
-    for path in paths:
-        exp = load(path, {"trials": 1})
-        missing = set(uncompiled(exp))
-        lacking = {k.rsplit(".", 1)[0] for k in missing_kernels(exp)}
-        for keys in groups(exp):
-            runs = [f for f in exp.filters if f.key in keys]
-            modules = frozenset(getattr(FILTERS[f.type].run, "__module__", f.type) for f in runs)
-            (first if any(f.type in missing for f in runs) or modules & lacking else then).append(
-                (path, keys, modules))
-    return first + then
+    exps = [load(path, {"trials": 1}) for path in _paths(extra)]
+    jobs = precompile.kernel_jobs(exps, runner.trial_result)
+    names = _names()
+    keep = [i for i, job in enumerate(jobs) if id(job.kernel) in names]
+    keep.sort(key=lambda i: (-jobs[i].rank, i))
+    new = {old: n for n, old in enumerate(keep)}
+    return [(*names[id(jobs[i].kernel)], frozenset(new[j] for j in jobs[i].needs if j in new),
+             jobs[i].rank) for i in keep]
 
 
 _QUEUE = None
@@ -154,32 +113,27 @@ def _init(queue) -> None:
     _QUEUE = queue
     from numba.core import event
     event.register("numba:compile", CompileReporter(
-        lambda text: queue.put((os.getpid(), _CONFIG, text))).listener())
+        lambda text: queue.put((os.getpid(), _LABEL, text))).listener())
 
 
-_CONFIG = ""
+_LABEL = ""
 
 
-def _warm(path: str, keys: tuple[str, ...] | None = None) -> tuple[str, float, str]:
-    """One trial of the config at ``path`` (of its filter runs ``keys``; default all) in this
-    (pool) process: its kernels compile into the numba cache; returns (path, seconds, error or
-    '')."""
-    global _CONFIG
-    _CONFIG = Path(path).name
+def _build(module: str, attr: str) -> tuple[float, str]:
+    """Build the kernel ``module.attr`` in this (pool) process: its declared signatures compile
+    into the numba cache, its callees load from it; returns (seconds, error or '')."""
+    global _LABEL
+    _LABEL = f"{module.removeprefix('pfbench.')}.{attr}"
     t0 = time.perf_counter()
     try:
-        from dataclasses import replace
+        import importlib
 
-        from pfbench.config import load
-        from pfbench.runner import trial_result
-        exp = load(path, {"trials": 1})
-        if keys is not None:
-            exp = replace(exp, filters=tuple(f for f in exp.filters if f.key in keys))
-        trial_result(exp, 0)
+        import pfbench  # noqa: F401  (the kernel cache's folder, before any kernel builds)
+        getattr(importlib.import_module(module), attr).dispatcher
         err = ""
-    except Exception as exc:     # the tests that use the config will say what is wrong
+    except Exception as exc:     # the tests that use the kernel will say what is wrong
         err = f"{type(exc).__name__}: {exc}"
-    return path, time.perf_counter() - t0, err
+    return time.perf_counter() - t0, err
 
 
 # the longest the warm-up stays silent: a kernel compiling longer is named again, with its time
@@ -187,34 +141,26 @@ QUIET_S = 5.0
 
 
 def warm(say, workers: int | None = None) -> None:
-    """Compile the kernels of ``warm_jobs`` in ``workers`` processes (default: the cores), one
-    group of filter runs of a config at a time (``warm_groups``), never two groups of one module
-    at once (they would compile its kernels twice), saying each kernel as it compiles, each
-    group as it is done, and every few seconds what is still compiling; then stamps each config
-    done without an error (``_stamp``)."""
+    """Compile the kernels of ``warm_plan`` in ``workers`` processes (default: the cores), each
+    after the kernels it calls, saying each kernel as it compiles and every few seconds what is
+    still compiling."""
     import tempfile
+    t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
-        paths = warm_jobs(Path(tmp))
-        if not paths:
-            return
-        failed = _warm_all(say, warm_groups(paths), workers, configs=len(paths))
-        for path in paths:
-            if Path(path).parent == ROOT / "configs" and path not in failed:
-                stamp = _stamp(Path(path))
-                stamp.parent.mkdir(parents=True, exist_ok=True)
-                stamp.touch()
+        plan = warm_plan(Path(tmp))
+    if time.perf_counter() - t0 > 2.0:
+        say(f"numba: the committed configs' kernels found in {time.perf_counter() - t0:.0f} s")
+    if plan:
+        _warm_all(say, plan, workers)
 
 
-def _warm_all(say, jobs: list, workers: int | None, run=None, configs: int | None = None
-              ) -> set[str]:
-    """Run ``jobs`` ((config, filter keys, modules), or config paths) in a pool of ``workers``
-    processes, no two with a module in common at once; returns the configs that failed."""
-    if not jobs:
-        return set()
-    jobs = [j if isinstance(j, tuple) else (j, None, frozenset()) for j in jobs]
-    workers = max(1, min(len(jobs), workers or os.cpu_count() or 1))
-    say(f"numba: compiling the kernels of {configs or len(jobs)} config(s) the cache lacks "
-        f"({len(jobs)} groups of filters), in {workers} process(es) (first run only) ...")
+def _warm_all(say, plan: list, workers: int | None, run=None) -> set[str]:
+    """Run the jobs of ``plan`` ((module, attribute, needs, rank), first to last) in a pool of
+    ``workers`` fresh processes, a job once every job it needs has ended; ``run(module, attr)``
+    (default _build) -> (seconds, error). Returns the jobs that failed, as module.attribute."""
+    workers = max(1, min(len(plan), workers or os.cpu_count() or 1))
+    say(f"numba: compiling {len(plan)} kernel(s) the cache lacks, for the committed configs, in "
+        f"{workers} process(es) (first run only) ...")
     t0 = time.perf_counter()
     ctx = mp.get_context("spawn")       # a fresh interpreter: no state of the test session
     queue = ctx.Queue()
@@ -228,15 +174,14 @@ def _warm_all(say, jobs: list, workers: int | None, run=None, configs: int | Non
         end = time.perf_counter() + wait
         while True:
             try:
-                pid, config, text = queue.get(timeout=max(0.0, end - time.perf_counter()))
+                pid, label, text = queue.get(timeout=max(0.0, end - time.perf_counter()))
             except q.Empty:
                 break
             if text.startswith("numba: compiling "):
-                busy[pid] = (f"{text[len('numba: compiling '):-4]} ({config})",
-                             time.perf_counter())
+                busy[pid] = (text[len("numba: compiling "):-4], time.perf_counter())
             else:
                 busy.pop(pid, None)
-            say(f"numba: [{config}] {text[len('numba: '):]}")
+            say(f"numba: [{label}] {text[len('numba: '):]}")
             last = time.perf_counter()
         if time.perf_counter() - last >= QUIET_S:
             now = time.perf_counter()
@@ -246,30 +191,30 @@ def _warm_all(say, jobs: list, workers: int | None, run=None, configs: int | Non
             last = now
 
     with ctx.Pool(workers, initializer=_init, initargs=(queue,)) as pool:
-        pending, running, done = list(jobs), {}, 0
-        while pending or running:
+        waiting, running, ended = list(range(len(plan))), {}, set()
+        while waiting or running:
             while len(running) < workers:
-                taken = frozenset().union(*(j[2] for j in running.values()))
-                job = next((j for j in pending if not j[2] & taken), None)
-                if job is None:
+                i = next((i for i in waiting if plan[i][2] <= ended), None)
+                if i is None and not running and waiting:
+                    i = waiting[0]              # what it waits for never ended: go on anyway
+                if i is None:
                     break
-                pending.remove(job)
-                args = (job[0],) if job[1] is None else (job[0], job[1])
-                running[pool.apply_async(run or _warm, args)] = job
+                waiting.remove(i)
+                running[pool.apply_async(run or _build, plan[i][:2])] = i
             finished = [r for r in running if r.ready()]
             if not finished:
                 drain(0.25)
                 continue
             drain(0.0)
             for r in finished:
-                path, keys, _ = running.pop(r)
-                _, dt, err = r.get()
-                done += 1
+                i = running.pop(r)
+                dt, err = r.get()
+                ended.add(i)
+                what = f"{plan[i][0]}.{plan[i][1]}"
                 if err:
-                    failed.add(path)
-                what = Path(path).name + (f" ({', '.join(keys)})" if keys else "")
-                say(f"numba: [{done}/{len(jobs)}] {what}: {dt:.0f} s"
-                    + (f" ({err[:120]})" if err else ""))
+                    failed.add(what)
+                say(f"numba: [{len(ended)}/{len(plan)}] {what.removeprefix('pfbench.')}: "
+                    f"{dt:.0f} s" + (f" ({err[:120]})" if err else ""))
                 last = time.perf_counter()
     say(f"numba: kernels compiled in {time.perf_counter() - t0:.0f} s")
     return failed

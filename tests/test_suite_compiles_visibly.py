@@ -6,7 +6,7 @@ import numba
 from numba.core import event
 
 from . import _kernels
-from ._kernels import CompileReporter, warm_jobs
+from ._kernels import CompileReporter, warm_plan
 
 
 def test_a_compilation_is_named_as_it_starts_and_timed_as_it_ends():
@@ -30,15 +30,25 @@ def test_a_compilation_is_named_as_it_starts_and_timed_as_it_ends():
     assert said[2].endswith("outer ...") and said[3].endswith(" s")
 
 
-def test_the_warm_up_names_only_configs_whose_kernels_are_missing(monkeypatch):
-    import pfbench.runner as runner
-    monkeypatch.setattr(runner, "uncompiled", lambda exp: [])
-    monkeypatch.setattr(_kernels, "missing_kernels", lambda exp: [])
-    assert warm_jobs() == []
-    monkeypatch.setattr(runner, "uncompiled",
-                        lambda exp: ["mcl"] if any(f.type == "mcl" for f in exp.filters) else [])
-    jobs = warm_jobs()
-    assert jobs and all("mcl" in open(p).read() for p in jobs)
+def test_the_warm_up_plans_only_the_kernels_the_cache_lacks_callees_first(monkeypatch):
+    """Every kernel the configs call that the cache lacks, and no other: a module with one
+    kernel cached is not all of it (afsa_fastslam needs the FastSLAM kernel with the afsa2014
+    branches, which ifa_fastslam's run, the main job, does not build); each entry waits only
+    for entries before it."""
+    from pfbench import precompile
+    from pfbench.filters import fastslam
+    monkeypatch.setattr(precompile, "_cached", lambda k: True)
+    assert warm_plan() == []
+    lacking = {id(fastslam.fastslam_kernel), id(fastslam.update_maps)}
+    monkeypatch.setattr(precompile, "_cached", lambda k: id(k) not in lacking)
+    plan = warm_plan()
+    names = [(m, a) for m, a, _, _ in plan]
+    assert sorted(names) == [("pfbench.filters.fastslam", "fastslam_kernel"),
+                             ("pfbench.filters.fastslam", "update_maps")]
+    assert all(j < i for i, (_, _, needs, _) in enumerate(plan) for j in needs)
+    calls = dict(zip(names, plan))
+    assert calls["pfbench.filters.fastslam", "fastslam_kernel"][2] == {
+        names.index(("pfbench.filters.fastslam", "update_maps"))}
 
 
 def test_asking_a_kernel_for_what_no_dispatcher_has_builds_nothing():
@@ -72,40 +82,12 @@ def test_a_compilation_inside_a_cli_runner_keeps_its_output():
     assert "result 6.0" in res.output
 
 
-def test_a_config_needing_a_kernel_its_modules_lack_is_warmed(monkeypatch, tmp_path):
-    """A module with one kernel cached is not all of it: afsa_fastslam needs the FastSLAM kernel
-    with the afsa2014 branches, which ifa_fastslam's run (the main job) does not build."""
-    import subprocess
-    import sys
-
-    from .conftest import ROOT
-    program = ("from pfbench.config import load\n"
-               "from tests._kernels import missing_kernels\n"
-               "print(missing_kernels(load('configs/afsa_fastslam.yaml', {'trials': 1})))\n")
-    res = subprocess.run([sys.executable, "-c", program], cwd=ROOT, capture_output=True,
-                         text=True, timeout=300, check=False,
-                         env={**__import__("os").environ, "PYTHONPATH": str(ROOT),
-                              "NUMBA_CACHE_DIR": str(tmp_path)})
-    assert res.returncode == 0, res.stderr
-    assert "pfbench.filters.fastslam.fastslam_kernel'" in res.stdout
-    # a config warmed once under this cache is not warmed again for a kernel none of its
-    # trials build
-    from pfbench import runner
-    monkeypatch.setattr(runner, "uncompiled", lambda exp: [])
-    monkeypatch.setattr(_kernels, "missing_kernels", lambda exp: ["m.k"])
-    monkeypatch.setattr(_kernels, "_stamp", lambda path: tmp_path / path.name)
-    assert len(warm_jobs()) >= 8
-    (tmp_path / "afsa_fastslam.yaml").touch()
-    assert not any(p.endswith("afsa_fastslam.yaml") for p in warm_jobs())
-
-
-def _slow_job(path):
+def _slow_job(module, attr):
     """A warm-up job that compiles for a while (a pool process's; see the test below)."""
     import time
-    _kernels._QUEUE.put((__import__("os").getpid(), "x.yaml",
-                         "numba: compiling pfbench.slow_kernel ..."))
+    _kernels._QUEUE.put((__import__("os").getpid(), "m.k", "numba: compiling pfbench.m.k ..."))
     time.sleep(2.0)
-    return path, 2.0, ""
+    return 2.0, ""
 
 
 def test_the_warm_up_is_never_silent_while_a_kernel_compiles(monkeypatch):
@@ -113,13 +95,12 @@ def test_the_warm_up_is_never_silent_while_a_kernel_compiles(monkeypatch):
     (QUIET_S) while it goes on."""
     said = []
     monkeypatch.setattr(_kernels, "QUIET_S", 0.5)
-    _kernels._warm_all(said.append, ["a.yaml"], 1, run=_slow_job)
-    assert said[0].startswith("numba: compiling the kernels of 1 config(s)")
-    start = said.index("numba: [x.yaml] compiling pfbench.slow_kernel ...")
-    still = [s for s in said[start:]
-             if s.startswith("numba: still compiling pfbench.slow_kernel (x.yaml): ")]
+    _kernels._warm_all(said.append, [("pfbench.m", "k", frozenset(), 1.0)], 1, run=_slow_job)
+    assert said[0].startswith("numba: compiling 1 kernel(s) the cache lacks")
+    start = said.index("numba: [m.k] compiling pfbench.m.k ...")
+    still = [s for s in said[start:] if s.startswith("numba: still compiling pfbench.m.k: ")]
     assert len(still) >= 2, said
-    assert said[-2] == "numba: [1/1] a.yaml: 2 s" and said[-1].startswith("numba: kernels compiled")
+    assert said[-2] == "numba: [1/1] m.k: 2 s" and said[-1].startswith("numba: kernels compiled")
 
 
 class _Config:
@@ -157,27 +138,25 @@ def test_the_warm_up_runs_once_per_run_of_the_suite(monkeypatch):
     assert calls == [1]
 
 
-def _timed_job(path, keys):
+def _timed_job(module, attr):
     """A warm-up job that notes when it ran (a pool process's; see the test below)."""
     import time
     t0 = time.time()
     time.sleep(0.6)
-    Path(path).write_text(f"{t0} {time.time()}")
-    return path, 0.6, ""
+    Path(module).write_text(f"{t0} {time.time()}")
+    return 0.6, ""
 
 
-def test_two_groups_of_one_module_never_compile_at_once(tmp_path):
-    """The warm-up's processes take groups of filter runs; two that share a module would compile
-    its kernels twice, side by side: one waits for the other, while a group of another module
-    runs beside it."""
+def test_a_kernel_compiles_after_the_kernels_it_calls_and_beside_the_others(tmp_path):
+    """A job starts once every job it waits for has ended (its callees then load from the
+    cache, never compile twice), while a job that waits for nothing runs beside them."""
     a, b, c = (str(tmp_path / n) for n in "abc")
     said = []
-    failed = _kernels._warm_all(said.append, [(a, ("pf",), frozenset({"m.pf"})),
-                                              (b, ("pfmh",), frozenset({"m.pf"})),
-                                              (c, ("mcl",), frozenset({"m.mcl"}))], 2,
-                                run=_timed_job)
+    failed = _kernels._warm_all(said.append, [(a, "k", frozenset(), 3.0),
+                                              (b, "k", frozenset({0}), 2.0),
+                                              (c, "k", frozenset(), 1.0)], 2, run=_timed_job)
     assert failed == set()
     (a0, a1), (b0, b1), (c0, c1) = (map(float, Path(p).read_text().split()) for p in (a, b, c))
-    assert b0 >= a1 or a0 >= b1             # a and b one after the other
+    assert b0 >= a1                         # b after a, which it calls
     assert c0 < a1 and a0 < c1              # c beside a
-    assert any(s.endswith("a (pf): 1 s") for s in said), said
+    assert any(s.endswith(f"{a}.k: 1 s") for s in said), said
