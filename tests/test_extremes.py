@@ -14,8 +14,9 @@ runner = CliRunner()
 
 
 def _scalar_filters():
+    """Every filter type that runs on ungm (what the tests below configure)."""
     from pfbench.filters import FILTERS
-    return [n for n, f in FILTERS.items() if f.kind == "scalar" and f.scenarios is None]
+    return [n for n, f in FILTERS.items() if f.runs_on("ungm", "scalar")]
 
 
 @pytest.mark.parametrize("particles,noise", [(2, 1.0), (2, 1e-9), (50, 1e-4), (3, 1e6)])

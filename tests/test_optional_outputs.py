@@ -19,7 +19,9 @@ from .conftest import ROOT
 # every optional output of each kind, and the metric it gives (None: the figures only)
 OPTIONAL = {
     "scalar": {"ess": "mean_ess", "resampled": "resample_count", "div_l1": "diversity_l1",
-               "distinct": "distinct_frac", "underflow_steps": "underflow_steps"},
+               "distinct": "distinct_frac", "underflow_steps": "underflow_steps",
+               # the consistency outputs: their columns (nees, nis) are the kind's reported ones
+               "pvar": None, "innov": None, "innov_var": None},
     "slam": {"ess": "mean_ess", "resampled": "resample_count", "div_l1": "diversity_l1",
              "distinct": "distinct_frac", "lm_trace": None, "underflow_steps": "underflow_steps",
              "association_errors": "association_errors", "dropped_frac": "dropped_frac",
@@ -52,7 +54,8 @@ def _world(kind):
     full = {"ess": np.full(n, 4.0), "resampled": np.ones(n, np.int64), "n": np.full(n, 7),
             "div_l1": np.full(n, 0.5), "distinct": np.full(n, 0.25), "lm_trace": np.ones(n),
             "underflow_steps": 1, "association_errors": 0.1, "dropped_frac": 0.2,
-            "map_duplicates": 2}
+            "map_duplicates": 2, "pvar": np.full(n, 0.5), "innov": np.full(n, 0.3),
+            "innov_var": np.full(n, 0.9)}
     return model, truth, data, required, {o: full[o] for o in OPTIONAL[kind]}
 
 
