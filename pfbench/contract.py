@@ -294,25 +294,38 @@ def run_probe(probe: Probe, configs: Path | None = None, timeout: float | None =
     except UserError as exc:
         return [f"{' and '.join(probe.subjects)}: the probe {probe.filter} on {probe.scenario} "
                 f"does not validate: {exc}"], None, []
+    who, where = " and ".join(probe.subjects), f"{probe.filter} on {probe.scenario}"
+    how, got = in_child(_probe_child, (probe, configs), timeout)
+    if how == "ok":
+        problems, rows, built = got
+        _load(built)
+        return problems, exp, rows
+    if how == "ended":
+        return [f"{who}: {where} ended the process that ran it (exit code {got})"], exp, []
+    return [f"{who}: {where} did not finish within {timeout:g} s (--probe-timeout); "
+            "stopped"], exp, []
+
+
+def in_child(target, args: tuple, timeout: float) -> tuple[str, object]:
+    """``target(conn, *args)`` in a forked child process that sends its one result through
+    ``conn``: ("ok", the result); ("ended", its exit code) when it ended without sending one;
+    ("late", None) when none came within ``timeout`` seconds. The child is stopped either way
+    (SIGTERM, then SIGKILL five seconds later): a filter that never returns, or ends the
+    interpreter, is a finding, never a hung or crashed check."""
+    import multiprocessing as mp
     ctx = mp.get_context("fork")
     mine, theirs = ctx.Pipe(duplex=False)
-    child = ctx.Process(target=_probe_child, args=(theirs, probe, configs), daemon=True)
+    child = ctx.Process(target=target, args=(theirs, *args), daemon=True)
     child.start()
     theirs.close()
-    who, where = " and ".join(probe.subjects), f"{probe.filter} on {probe.scenario}"
     try:
-        if mine.poll(timeout):
-            try:
-                problems, rows, built = mine.recv()
-                _load(built)
-                return problems, exp, rows
-            except (EOFError, OSError):
-                pass
+        if not mine.poll(timeout):
+            return "late", None
+        try:
+            return "ok", mine.recv()
+        except (EOFError, OSError):     # its end of the pipe closed: the child ended
             child.join(5)
-            return [f"{who}: {where} ended the process that ran it (exit code "
-                    f"{child.exitcode})"], exp, []
-        return [f"{who}: {where} did not finish within {timeout:g} s (--probe-timeout); "
-                "stopped"], exp, []
+            return "ended", child.exitcode
     finally:
         mine.close()
         if child.is_alive():

@@ -216,7 +216,7 @@ def kernel_jobs(exps, trial: Callable) -> list[Job]:
 def uncompiled_kernels(exp, trial: Callable) -> list[Job]:
     """The jobs (see Job) of compiling ahead the kernels a trial of ``exp`` calls that the
     numba cache does not hold yet."""
-    return _plan(roots(exp, trial))
+    return kernel_jobs([exp], trial)
 
 
 def compile_ahead(exp, trial: Callable, processes: int | None = None) -> int:

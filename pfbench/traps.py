@@ -552,29 +552,15 @@ def filter_traps(name: str, chosen=None, timeout: float | None = None) -> list[T
     chosen = list(TRAPS) if chosen is None else list(chosen)
     if timeout is None or "fork" not in mp.get_all_start_methods() or mp.current_process().daemon:
         return [run_trap(t, name) for t in chosen]
-    ctx = mp.get_context("fork")
-    mine, theirs = ctx.Pipe(duplex=False)
-    child = ctx.Process(target=_traps_child, args=(theirs, name, chosen), daemon=True)
-    child.start()
-    theirs.close()
-    try:
-        if mine.poll(timeout):
-            try:
-                return mine.recv()
-            except (EOFError, OSError):
-                child.join(5)
-                return [TrapResult(chosen[0], name, BROKEN, "ended the process that ran its traps "
-                                f"(exit code {child.exitcode})")]
-        return [TrapResult(chosen[0], name, BROKEN, f"its traps did not finish within {timeout:g} s "
-                        "(--probe-timeout); stopped")]
-    finally:
-        mine.close()
-        if child.is_alive():
-            child.terminate()
-            child.join(5)
-            if child.is_alive():
-                child.kill()
-                child.join()
+    from .contract import in_child
+    how, got = in_child(_traps_child, (name, chosen), timeout)
+    if how == "ok":
+        return got
+    if how == "ended":
+        return [TrapResult(chosen[0], name, BROKEN, "ended the process that ran its traps "
+                           f"(exit code {got})")]
+    return [TrapResult(chosen[0], name, BROKEN, f"its traps did not finish within {timeout:g} s "
+                       "(--probe-timeout); stopped")]
 
 
 def run_traps(filters=None, traps=None, progress=None, timeout: float | None = None

@@ -27,6 +27,7 @@ from ..models.scalar import (LIK_SIG, MODEL_SIG, NOISE_GAUSSIAN, SAMPLE_SIG, Sca
                              simulate_scalar)
 from ..rng import STATE, normal
 from ..schema import ConfigError, Key
+from .linear_gaussian import transition  # f(x) = theta[0] x: phi x here, theta = [phi, beta]
 
 NAME = "sv"
 KIND = "scalar"
@@ -62,13 +63,6 @@ def resolve(params: dict, base_dir) -> dict:
 def stationary_var(phi: float, sigma: float) -> float:
     """The stationary variance of x_t, sigma^2 / (1 - phi^2)."""
     return sigma * sigma / (1.0 - phi * phi)
-
-
-@kernel(MODEL_SIG, cache=True)
-def transition(x, t, theta, out):
-    """f(x) = phi x."""
-    for i in range(x.size):
-        out[i] = theta[0] * x[i]
 
 
 @kernel(MODEL_SIG, cache=True)
