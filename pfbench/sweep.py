@@ -146,8 +146,10 @@ def expand(config: Path, sets: dict[str, list[Any]], overrides: dict[str, Any], 
             if len(err.problems) > 1:       # every problem, each on its line
                 raise UserError(f"{locate(err, str(config), lines)} (sweep cell {where})") \
                     from None
-            raise ConfigError(err.path, f"{err.message} (sweep cell {where})", source=str(config),
-                              line=lines.get(err.path)) from None
+            # a problem of another file (the paper's) names that file and its line
+            raise ConfigError(err.path, f"{err.message} (sweep cell {where})",
+                              source=err.source or str(config),
+                              line=err.line if err.source else lines.get(err.path)) from None
         cells.append(Cell(values, exp, _cell_name(values)))
     names = [c.name for c in cells]
     if len(set(names)) != len(names):
