@@ -491,8 +491,10 @@ def sweep(
                 say(f"writing {folder}/summary.csv and the figures")
                 summ, figs = write_sweep(trials_df, keys, folder, name, True, figure_format,
                                          cells[0].exp,
-                                         missing_only=trials_df.attrs.get("up_to_date", False))
+                                         missing_only=trials_df.attrs.get("up_to_date", False),
+                                         curves=cells[0].curves)
         _print_sweep(summ, trials_df, keys, cells[0].exp, name, folder, len(figs))
+        _print_curves(cells[0].curves, summ.attrs.get("curves"), keys, folder)
 
 
 def _print_sweep(summ, trials_df, keys: list, exp, name: str, folder: Path,
@@ -524,6 +526,31 @@ def _print_sweep(summ, trials_df, keys: list, exp, name: str, folder: Path,
     out.print(t)
     err.print(f"wrote {folder}/trials.csv, summary.csv, {figures} figures and a results "
               "folder per cell under cells/", markup=False)
+
+
+def _print_curves(curves: tuple, judged, keys: list, folder: Path) -> None:
+    """The sweep's verdicts against the paper's curves: per curve, what it is, the counts and a
+    row per point (pfbench.curves)."""
+    if not curves or judged is None:
+        return
+    from . import curves as cv
+    for name, c in curves:
+        g = judged[judged["curve"] == name]
+        out.print(f"curve {name}: {cv.counts(judged, name)}", markup=False, style="bold")
+        out.print(cv.describe(name, c), markup=False)
+        t = RichTable(show_edge=False)
+        for h in [k.split(".")[-1] for k in keys] + ["Filter", "paper", "ours [95% CI]",
+                                                     "verdict"]:
+            t.add_column(h, no_wrap=h != "verdict")
+        for _, r in g.iterrows():
+            paper = ("-" if r["paper"] != r["paper"] else
+                     f"{r['paper']:.4g} +- {r['reading_error']:.2g}"
+                     + (" (interpolated)" if r["how"].startswith("interpolated") else ""))
+            t.add_row(*[str(r[k]) for k in keys], str(r["label"]), paper,
+                      f"{r['ours']:.4g} [{r['ours_lo']:.4g}, {r['ours_hi']:.4g}]",
+                      str(r["verdict"]))
+        out.print(t)
+    err.print(f"wrote {folder}/curves.csv and curves.md", markup=False)
 
 
 @app.command("tables")

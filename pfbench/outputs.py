@@ -49,31 +49,41 @@ def write_experiment(exp, res, folder: Path, figures: bool = True,
 
 def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: str,
                 figures: bool = True, figure_format: str = "png", exp=None,
-                missing_only: bool = False) -> tuple:
+                missing_only: bool = False, curves: tuple = ()) -> tuple:
     """summary.csv and the figures of a finished sweep (``exp``: a cell's experiment, whose
-    metrics the figures draw); returns (summary, figure paths). ``missing_only`` (an up-to-date
-    sweep): the figures are drawn only when one is missing, as an up-to-date run's."""
+    metrics the figures draw); with ``curves`` (the paper's curves the sweep names), the
+    verdicts against them (curves.csv, curves.md) and their points on the figures. Returns
+    (summary, figure paths); the summary's ``attrs["curves"]`` holds the curves' verdicts (a
+    frame, pfbench.curves.judge). ``missing_only`` (an up-to-date sweep): the figures are drawn
+    only when one is missing, as an up-to-date run's."""
     if figures:
         check_figure_format(figure_format)
         own_folder(Path(folder) / "figures", folder, "figures folder")
+    from . import curves as cv
     from .store import sweep_summary, write_csv
     summ = sweep_summary(trials_df, keys)
     write_csv(folder / "summary.csv", summ)
+    judged = cv.judge(curves, trials_df, keys, exp.seed if exp else 0) if curves else None
+    cv.write(folder, curves, judged, keys)
     if not figures:
+        summ.attrs["curves"] = judged
         return summ, []
     from .kinds import kind_of
     from .plots import sweep_figures, sweep_metrics
-    if missing_only:
+    if missing_only and not curves:
         which = sweep_metrics(exp) if exp else ["rmse"]
         want = [folder / "figures" / f"{m}.{figure_format}" for m in which
                 if f"{m}_mean" in summ and not summ[f"{m}_mean"].isna().all()]
         if want and all(p.is_file() for p in want):
+            summ.attrs["curves"] = judged
             return summ, want
     paths = sweep_figures(summ, keys, folder, name, sweep_metrics(exp) if exp else None,
-                          fmt=figure_format, unit=kind_of(exp.scenario).unit if exp else "")
+                          fmt=figure_format, unit=kind_of(exp.scenario).unit if exp else "",
+                          curves=curves)
     prune(folder / "figures", paths)
     if "wall_s" in trials_df and trials_df["wall_s"].notna().any():
         # the run times: beside the timings file, never in figures/ (they depend on the machine)
         sweep_figures(sweep_summary(trials_df, keys, ("wall_s",)), keys, folder, name,
                       ["wall_s"], folder / f"timings.{figure_format}", figure_format)
+    summ.attrs["curves"] = judged
     return summ, paths

@@ -14,6 +14,7 @@ A config names its paper (``paper: ifa2021``); the file is looked up in the fold
 """
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -85,6 +86,28 @@ class Table:
 
 
 @dataclass(frozen=True)
+class Curve:
+    """A figure's values, or a table's row, as a curve over a swept config key: the points the
+    paper gives (x increasing), what y is (our metric and statistic, times ``scale`` in the
+    paper's unit), the filter runs it is about, and the declared reading error (how far a value
+    read off the figure may lie from the one the paper plotted) and margin. A sweep over ``x_key``
+    is judged against it point by point (pfbench.curves)."""
+    caption: str
+    x_key: str                          # the swept config key path (scenario.speed_mps)
+    x_title: str
+    metric: str                         # our per-trial metric column
+    stat: str                           # 'mean' or 'var' over trials
+    y_title: str
+    filters: tuple[str, ...]            # filter names (config keys), run keys or labels
+    reading_error: Margin               # each point's value is known to within this
+    points: tuple[tuple[float, float], ...]
+    margin: Margin | None = None        # how far ours may lie from it and still be the same
+    scale: float = 1.0                  # our metric times this is in the paper's unit
+    runs: int | None = None             # runs behind the values, when the paper states it
+    notes: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
 class Ref:
     """A reference of a finding to our results: ``{config:run:column}``, ``:ci`` adding the 95%
     interval. ``config``: an experiment's name (its results folder); ``run``: a filter run's key
@@ -117,6 +140,7 @@ class Paper:
     findings: tuple[Finding, ...] = ()
     source: str = ""
     about: str = ""
+    curves: dict = field(default_factory=dict)     # name -> Curve
 
 
 # ---------------------------------------------------------------- the schema of a paper file
@@ -174,6 +198,23 @@ _FACTOR = {
     "quantity": Key("str", doc="the column"),
     "from": Key("str", doc="the row divided by"),
     "to": Key("str", doc="the row divided"),
+}
+_CURVE = {
+    "caption": Key("str", doc="what the figure (or the table's row) shows, in a sentence"),
+    "scale": Key("float", 1.0, "our metric times this is in the paper's unit", min=0.0,
+                 min_exclusive=True),
+    "runs": Key("int", None, "the number of runs behind the values, when the paper states it",
+                nullable=True, min=1),
+}
+_CURVE_X = {
+    "key": Key("str", doc="the config key path the sweep varies (scenario.speed_mps)"),
+    "title": Key("str", doc="the axis's name, with its unit"),
+}
+_CURVE_Y = {
+    "metric": Key("choice", doc="our per-trial metric it stands beside", choices=tuple(METRICS)),
+    "stat": Key("choice", "mean", "the statistic over runs the paper plots: mean or var",
+                choices=STATS),
+    "title": Key("str", doc="the axis's name, with its unit"),
 }
 _CHOICE = {
     "what": Key("str", doc="what the paper leaves open"),
@@ -300,6 +341,56 @@ def _table(raw: Any, path: str) -> Table:
                  top["runs"])
 
 
+def _points(raw: Any, path: str) -> tuple[tuple[float, float], ...]:
+    """A curve's [[x, y], ...]: numbers, x strictly increasing."""
+    out = []
+    for i, pt in enumerate(_list(raw, path)):
+        here = f"{path}[{i}]"
+        xy = Key("floats").validate(here, pt)
+        if len(xy) != 2:
+            raise ConfigError(here, f"a point is [x, y], got {pt}")
+        if not all(map(math.isfinite, xy)):
+            raise ConfigError(here, f"a point's x and y are finite numbers, got {pt}")
+        if out and not xy[0] > out[-1][0]:
+            raise ConfigError(here, f"the points' x must increase: {xy[0]:g} follows "
+                              f"{out[-1][0]:g}")
+        out.append((float(xy[0]), float(xy[1])))
+    return tuple(out)
+
+
+def _curve(raw: Any, path: str) -> Curve:
+    raw = check_mapping(path, raw)
+    parts = ("x", "y", "filter", "reading_error", "margin", "points", "notes")
+    top = check_section(raw, _CURVE, path, ignore=parts)
+    for part, what in (("x", "{key: CONFIG.KEY.PATH, title: ...}"),
+                       ("y", "{metric: rmse, stat: mean, title: ...}"),
+                       ("filter", "the filter runs it is about: a filter's name under "
+                        "'filters', a run key (pf@100) or a label, or a list of them"),
+                       ("reading_error", "{absolute: or relative: ..., why: how the values "
+                        "were read}"),
+                       ("points", "[[x, y], ...] with x increasing")):
+        if part not in raw:
+            raise ConfigError(f"{path}.{part}", f"missing required key ({what})")
+    x = check_section(raw["x"], _CURVE_X, f"{path}.x")
+    y = check_section(raw["y"], _CURVE_Y, f"{path}.y")
+    filters = raw["filter"]
+    filters = _strings([filters] if isinstance(filters, str) else filters, f"{path}.filter")
+    if not filters or len(set(filters)) != len(filters):
+        raise ConfigError(f"{path}.filter", f"expected one or more distinct names, got "
+                          f"{describe(raw['filter'])}")
+    return Curve(top["caption"], x["key"], x["title"], y["metric"], y["stat"], y["title"],
+                 filters, _margin(raw["reading_error"], f"{path}.reading_error"),
+                 _points(raw["points"], f"{path}.points"),
+                 _margin(raw.get("margin"), f"{path}.margin"), top["scale"], top["runs"],
+                 _strings(raw.get("notes"), f"{path}.notes"))
+
+
+def _curves(raw: Any) -> dict:
+    """The ``curves:`` section: name -> Curve."""
+    return {str(name): _curve(c, f"curves.{name}")
+            for name, c in check_mapping("curves", raw or {}).items()}
+
+
 def _findings(raw: Any, lines: dict[str, int]) -> tuple[Finding, ...]:
     out = []
     for i, text in enumerate(_strings(raw, "findings")):
@@ -320,7 +411,8 @@ def parse(raw: Any, source: str, lines: dict[str, int] | None = None) -> Paper:
     lines = lines or {}
     try:
         raw = check_mapping("", raw if raw is not None else {})
-        top = check_section(raw, _TOP, "", ignore=("tables", "choices", "findings"))
+        top = check_section(raw, _TOP, "", ignore=("tables", "choices", "findings",
+                                                                "curves"))
         stem = Path(source).stem
         if source and top["paper"] != stem:
             raise ConfigError("paper", f"'{top['paper']}' in a file named {stem}.yaml: the key "
@@ -334,7 +426,8 @@ def parse(raw: Any, source: str, lines: dict[str, int] | None = None) -> Paper:
             what = check_section(c, _CHOICE, f"choices[{i}]", ignore=("keys",))["what"]
             choices.append((what, _strings(c.get("keys"), f"choices[{i}].keys")))
         return Paper(top["paper"], top["citation"], tables, tuple(choices),
-                     _findings(raw.get("findings"), lines), source, top["about"] or "")
+                     _findings(raw.get("findings"), lines), source, top["about"] or "",
+                     _curves(raw.get("curves")))
     except ConfigError as err:
         raise err.located(source, lines) from None
 

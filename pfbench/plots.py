@@ -483,12 +483,14 @@ def sweep_metrics(exp: Experiment) -> list[str]:
 
 def sweep_figures(summ: pd.DataFrame, keys: list[str], out_dir: Path, title: str,
                   which=None, where: Path | None = None, fmt: str = "png",
-                  unit: str = "", into: Path | None = None) -> list[Path]:
+                  unit: str = "", into: Path | None = None, curves: tuple = ()) -> list[Path]:
     """One figure per metric of ``which`` (default: those of SWEEP_FIGURES the summary holds; a
     sweep draws sweep_metrics of its experiment) against the first swept key, into ``where``
     (default: the folder's figures/METRIC.FMT): a line per filter (and per value of the other
     swept keys; a particle count that the sweep varies is the x axis, not a line of its own) with
-    its 95% band; a log axis where the swept values span two decades or more."""
+    its 95% band; a log axis where the swept values span two decades or more. The paper's
+    ``curves`` (pfbench.curves) of a metric's mean are drawn on its figure: the points with
+    their reading-error bars, joined by a dashed line."""
     folder = Path(into) if into is not None else out_dir / "figures"
     x = keys[0]
     others = keys[1:]
@@ -516,6 +518,11 @@ def sweep_figures(summ: pd.DataFrame, keys: list[str], out_dir: Path, title: str
                         marker=fs.marker(i), ms=4, lw=1.4, label=name)
                 ax.fill_between(g["_x"], g[f"{m}_ci_lo"], g[f"{m}_ci_hi"], color=c,
                                 alpha=0.15, lw=0)
+            from .curves import figure_points
+            for j, (name, px, py, perr) in enumerate(figure_points(curves, m, x)):
+                ax.errorbar(px, py, yerr=perr, color="black", ls="--", lw=1.0,
+                            marker=("s", "D", "^", "v")[j % 4], ms=5, mfc="white",
+                            capsize=3, label=name, zorder=5)
             pos = numeric[numeric > 0]
             if len(pos) and pos.max() / pos.min() >= 100:
                 ax.set_xscale("log")

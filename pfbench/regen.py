@@ -156,7 +156,7 @@ def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int |
                 df = sw.run_sweep(cells, stage, resume=resume, progress=progress,
                                   executor=executor, status=status)
                 write_sweep(df, list(cells[0].values), stage, name, figures, figure_format,
-                            cells[0].exp)
+                            cells[0].exp, curves=cells[0].curves)
             elif until_decided and exp.reported is not None:
                 run_until_decided(exp, out=stage, max_trials=max_trials, resume=resume,
                                   figures=figures, executor=executor, progress=progress,

@@ -42,6 +42,9 @@ class Entry:
     table: pd.DataFrame | None = None   # the comparison's table, or a sweep's summary.csv
     meta: dict | None = None
     comparison: Comparison | None = None   # an experiment's, computed from its trials
+    # a sweep's verdicts against the paper's curves it names, computed from its trials
+    # (pfbench.curves.judge)
+    curves: pd.DataFrame | None = None
 
     @property
     def name(self) -> str:
@@ -110,7 +113,10 @@ def _read_files(e: Entry) -> None:
                 e.status = f"{why} (cell {cell.name})"
                 return
             e.meta = e.meta or meta
-        e.table = read_sweep(e.folder)[1]     # checked: its trials, summary and cells agree
+        trials, e.table = read_sweep(e.folder)    # checked: its trials, summary and cells agree
+        if e.cells[0].curves:
+            from .curves import judge
+            e.curves = judge(e.cells[0].curves, trials, e.sweep_keys, e.exp.seed)
         return
     trials = e.folder / "trials.csv"
     if not trials.exists():
@@ -316,7 +322,10 @@ def verdict_counts(e: Entry) -> dict[str, int]:
     """Paper values compared, by the kind of verdict the engine gave each: reproduced, differ,
     inconclusive, not comparable."""
     counts = {"values": 0, "reproduced": 0, "differ": 0, "inconclusive": 0, "not comparable": 0}
-    for kind in (e.comparison.kinds() if e.comparison is not None else []):
+    kinds = list(e.comparison.kinds()) if e.comparison is not None else []
+    if e.curves is not None:        # a sweep's points against the paper's curves
+        kinds += [k for k in e.curves["kind"] if k]
+    for kind in kinds:
         counts["values"] += 1
         counts["differ" if kind == "differs" else kind] += 1
     return counts
@@ -450,6 +459,12 @@ def _sweep_section(e: Entry, where: Path) -> list[str]:
             "evaluations per step (run times depend on the machine: the sweep's console table "
             "and its timings.csv hold them):", ""]
     out += _table_md(head, cells) + [""]
+    if e.curves is not None:
+        from .curves import markdown
+        md = markdown(e.cells[0].curves, e.curves, keys).splitlines()
+        # its sections one level below the sweep's heading
+        out += [f"#### Against the paper's curve {ln[3:]}" if ln.startswith("## ") else ln
+                for ln in md[2:]] + [""]
     return out + _figures(e.folder, where) + [""]
 
 

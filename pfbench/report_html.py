@@ -175,7 +175,24 @@ def _sweep_tables(e: rp.Entry) -> list[dict]:
     head, cells = rp.sweep_cells(e)
     n = len(e.sweep_keys)
     rows = [[_cell(c, i < n or i > n + 1) for i, c in enumerate(row)] for row in cells]
-    return [{"title": f"Swept: {', '.join(e.sweep_keys)}", "head": head, "rows": rows}]
+    out = [{"title": f"Swept: {', '.join(e.sweep_keys)}", "head": head, "rows": rows}]
+    from . import curves as cv
+    for name, c in (e.cells[0].curves if e.curves is not None else ()):
+        g = e.curves[e.curves["curve"] == name]
+        rows = [[_cell(rp._fmt_value(r[k]), True) for k in e.sweep_keys]
+                + [_cell(r["label"]),
+                   _cell("-" if r["paper"] != r["paper"] else
+                         f"{tb.fmt(r['paper'])} +- {r['reading_error']:.2g}"
+                         + (" (interpolated)" if r["how"].startswith("interpolated") else ""),
+                         True),
+                   _cell(f"{tb.fmt(r['ours'])} [{tb.fmt(r['ours_lo'])}, "
+                         f"{tb.fmt(r['ours_hi'])}]", True),
+                   _cell(r["verdict"])] for _, r in g.iterrows()]
+        out.append({"title": f"Against the paper's curve {name}: {cv.counts(e.curves, name)}. "
+                             + cv.describe(name, c),
+                    "head": list(e.sweep_keys) + ["Filter", "paper", "ours [95% CI]",
+                                                  "verdict"], "rows": rows})
+    return out
 
 
 def _provenance_html(e: rp.Entry) -> str:
@@ -201,7 +218,8 @@ def _draw_figures(e: rp.Entry, into: Path) -> list[Path]:
         from .kinds import kind_of
         return plots.sweep_figures(e.table, e.sweep_keys, into, e.name,
                                    plots.sweep_metrics(e.exp), fmt="svg",
-                                   unit=kind_of(e.exp.scenario).unit, into=into)
+                                   unit=kind_of(e.exp.scenario).unit, into=into,
+                                   curves=e.cells[0].curves)
     rows = read_trials(e.folder / "trials.csv").rows
     return plots.write_figures(e.exp, rows, e.folder, "svg", e.table, into=into)
 

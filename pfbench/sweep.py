@@ -4,7 +4,10 @@ Each cell is an ordinary experiment (same base seed, so cells differ only in the
 with common random numbers) written to ``<out>/cells/<cell>/`` and resumable like ``run``; the
 sweep folder gets a long-form ``trials.csv`` with a column per swept key, ``summary.csv`` (mean,
 its standard error and 95% interval of each metric per cell and filter run) and a figure per
-metric against the first swept key, one line per filter run with its 95% band.
+metric against the first swept key, one line per filter run with its 95% band. A sweep config
+may name curves of its paper (``curves: [NAME, ...]``): the sweep is then judged against each
+point by point (pfbench.curves: ``curves.csv``, ``curves.md``, the paper's points on the
+figure).
 """
 from __future__ import annotations
 
@@ -21,6 +24,7 @@ from typing import Any, Callable
 import pandas as pd
 
 from .config import Experiment, apply_override, locate, read_yaml, validate
+from .curves import resolve as resolve_curves
 from .errors import UserError
 from .fsutil import FolderLock, own_folder
 from .runner import run_experiment
@@ -78,6 +82,9 @@ class Cell:
     values: dict[str, Any]
     exp: Experiment
     name: str
+    # the paper's curves the sweep is judged against, ((name, papers.Curve), ...): the same for
+    # every cell of a sweep (pfbench.curves)
+    curves: tuple = ()
 
 
 def _cell_name(values: dict[str, Any]) -> str:
@@ -115,6 +122,7 @@ def expand(config: Path, sets: dict[str, list[Any]], overrides: dict[str, Any], 
     The cells are counted before any is built: more than ``confirm_above`` (when given: the
     caller has no --yes) or than MAX_CELLS are refused."""
     raw, lines, spec = _spec(config, sets)
+    curve_names = raw.pop("curves", None)
     n = math.prod(len(v) for v in spec.values())
     if confirm_above is not None and n > confirm_above:
         raise UserError(f"{n} cells is more than {confirm_above}: add --yes to run them")
@@ -138,14 +146,23 @@ def expand(config: Path, sets: dict[str, list[Any]], overrides: dict[str, Any], 
             if len(err.problems) > 1:       # every problem, each on its line
                 raise UserError(f"{locate(err, str(config), lines)} (sweep cell {where})") \
                     from None
-            raise ConfigError(err.path, f"{err.message} (sweep cell {where})", source=str(config),
-                              line=lines.get(err.path)) from None
+            # a problem of another file (the paper's) names that file and its line
+            raise ConfigError(err.path, f"{err.message} (sweep cell {where})",
+                              source=err.source or str(config),
+                              line=err.line if err.source else lines.get(err.path)) from None
         cells.append(Cell(values, exp, _cell_name(values)))
     names = [c.name for c in cells]
     if len(set(names)) != len(names):
         dup = next(n for n in names if names.count(n) > 1)
         raise UserError(f"{config}: two sweep cells would share the folder '{dup}': make the "
                         "swept values distinct")
+    if cells and curve_names is not None:
+        try:
+            judged = resolve_curves(curve_names, keys, cells)
+        except ConfigError as err:
+            raise err.located(str(config), lines) from None
+        for cell in cells:
+            cell.curves = judged
     return (cells[0].exp.name if cells else config.stem), cells
 
 
