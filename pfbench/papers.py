@@ -141,6 +141,9 @@ class Paper:
     source: str = ""
     about: str = ""
     curves: dict = field(default_factory=dict)     # name -> Curve
+    # the algorithms the paper proposes or uses, step by step as its text gives them, and where
+    # pfbench follows each step (``Algorithm``)
+    implementation: tuple = ()
 
 
 # ---------------------------------------------------------------- the schema of a paper file
@@ -406,13 +409,134 @@ def _findings(raw: Any, lines: dict[str, int]) -> tuple[Finding, ...]:
     return tuple(out)
 
 
+# ---------------------------------------------------------------- the algorithms, step by step
+
+STATUSES = ("follows", "open", "departs")
+_CHOICE_ID = re.compile(r"[a-z0-9_]+")
+
+
+@dataclass(frozen=True)
+class Step:
+    """A step of an algorithm as the paper's text gives it, and where pfbench does it."""
+    name: str                   # a few words: what the step does
+    text: str                   # the text's words, quoted in the original language
+    english: str                # their translation
+    functions: tuple[str, ...]  # the functions of pfbench that do it (dotted import paths)
+    status: str                 # 'follows', 'open' (a choice the text leaves open), 'departs'
+    note: str = ""              # how: the reading pfbench takes, or why it departs
+    choice: str | None = None   # the id of the paper's open choice (its ``choices:`` entry)
+    damaged: str | None = None  # where the text's extraction is damaged, if it is
+
+
+@dataclass(frozen=True)
+class Algorithm:
+    """An algorithm the paper proposes or uses: its steps as the text gives them."""
+    name: str
+    where: str                  # where the paper gives it (section, equations)
+    steps: tuple[Step, ...]
+
+
+_ALGORITHM = {
+    "algorithm": Key("str", doc="the algorithm's name (IFA-PF, stepwise EWA resampling, ...)"),
+    "where": Key("str", doc="where the paper gives it: section, equations"),
+}
+_STEP = {
+    "step": Key("str", doc="what the step does, in a few words"),
+    "text": Key("str", doc="the step in the paper's words, quoted exactly in the original "
+                "language"),
+    "english": Key("str", doc="the quote translated into English, saying no more than it says"),
+    "damaged": Key("str", None, "where the text's extraction is damaged (symbols, numbers "
+                   "lost) and how the quote reads it", nullable=True),
+    "status": Key("choice", doc="how pfbench does the step: 'follows' the text, makes a choice "
+                  "it leaves 'open', or 'departs' from it", choices=STATUSES),
+    "choice": Key("str", None, "open: the id of the open choice (the paper's choices)",
+                  nullable=True),
+    "note": Key("str", None, "open: the readings the text allows and pfbench's default; "
+                "departs: what pfbench does instead and why; follows: anything to add",
+                nullable=True),
+}
+
+
+def function_problem(path: str) -> str | None:
+    """Why the dotted path ``path`` names no importable function (or object), or None: its
+    longest importable module prefix, then attributes."""
+    import importlib
+    parts = path.split(".")
+    if not all(p.isidentifier() for p in parts) or len(parts) < 2:
+        return f"'{path}' is not a dotted path module.function"
+    for cut in range(len(parts) - 1, 0, -1):
+        module = ".".join(parts[:cut])
+        try:
+            obj = importlib.import_module(module)
+        except ModuleNotFoundError as exc:
+            if exc.name and (module == exc.name or module.startswith(exc.name + ".")):
+                continue    # no such module: a shorter prefix may be the module
+            return f"'{path}': importing {module} fails (no module {exc.name})"
+        except Exception as exc:      # a module that fails to import is a problem of its own
+            return f"'{path}': importing {module} fails ({type(exc).__name__}: {exc})"
+        for attr in parts[cut:]:
+            if not hasattr(obj, attr):
+                return f"'{path}': {module} has no {'.'.join(parts[cut:])}"
+            obj = getattr(obj, attr)
+        return None
+    return f"'{path}': no module {parts[0]}"
+
+
+def _step(raw: Any, path: str) -> Step:
+    raw = check_mapping(path, raw)
+    for need in ("text", "english"):
+        v = raw.get(need)
+        if v is None or (isinstance(v, str) and not v.strip()):
+            raise ConfigError(f"{path}.{need}", "a step needs the text's words ('text', quoted "
+                              "in the original) and their translation ('english')")
+    s = check_section(raw, _STEP, path, ignore=("pfbench",))
+    funcs = raw.get("pfbench")
+    funcs = [funcs] if isinstance(funcs, str) else funcs
+    if not funcs:
+        raise ConfigError(f"{path}.pfbench", "missing: the function(s) of pfbench that do the "
+                          "step, as dotted paths (pfbench.filters.swarm.ifa_move)")
+    funcs = _strings(funcs, f"{path}.pfbench")
+    for k, f in enumerate(funcs):
+        problem = function_problem(f)
+        if problem:
+            raise ConfigError(f"{path}.pfbench" + (f"[{k}]" if len(funcs) > 1 else ""),
+                              f"{problem}: name a function that exists")
+    if s["choice"] is not None and not _CHOICE_ID.fullmatch(s["choice"]):
+        raise ConfigError(f"{path}.choice", f"'{s['choice']}' is not a choice id ([a-z0-9_]+)")
+    if s["status"] != "follows" and not (s["note"] or "").strip():
+        why = ("what pfbench does instead and why" if s["status"] == "departs"
+               else "the readings the text allows and pfbench's default")
+        raise ConfigError(f"{path}.note", f"a step with status {s['status']} needs a note: {why}")
+    return Step(s["step"], s["text"], s["english"], funcs, s["status"], s["note"] or "",
+                s["choice"], s["damaged"])
+
+
+def implementation(raw: Any) -> tuple[Algorithm, ...]:
+    """The paper file's ``implementation:``: per algorithm, its steps as the text gives them
+    (quoted, translated) and the functions of pfbench that do each (each must import), with
+    whether pfbench follows the step, reads a choice it leaves open, or departs from it."""
+    out = []
+    names: set[str] = set()
+    for i, a in enumerate(_list(raw, "implementation", allow_empty=True)):
+        here = f"implementation[{i}]"
+        a = check_mapping(here, a)
+        top = check_section(a, _ALGORITHM, here, ignore=("steps",))
+        if top["algorithm"] in names:
+            raise ConfigError(f"{here}.algorithm", f"a second algorithm '{top['algorithm']}'")
+        names.add(top["algorithm"])
+        steps = tuple(_step(s, f"{here}.steps[{j}]")
+                      for j, s in enumerate(_list(a.get("steps"), f"{here}.steps")))
+        out.append(Algorithm(top["algorithm"], top["where"], steps))
+    return tuple(out)
+
+
 def parse(raw: Any, source: str, lines: dict[str, int] | None = None) -> Paper:
     """A paper from the raw mapping of a paper file (ConfigError: file, line, key)."""
     lines = lines or {}
     try:
         raw = check_mapping("", raw if raw is not None else {})
         top = check_section(raw, _TOP, "", ignore=("tables", "choices", "findings",
-                                                                "curves"))
+                                                                "curves", "implementation"))
         stem = Path(source).stem
         if source and top["paper"] != stem:
             raise ConfigError("paper", f"'{top['paper']}' in a file named {stem}.yaml: the key "
@@ -427,7 +551,7 @@ def parse(raw: Any, source: str, lines: dict[str, int] | None = None) -> Paper:
             choices.append((what, _strings(c.get("keys"), f"choices[{i}].keys")))
         return Paper(top["paper"], top["citation"], tables, tuple(choices),
                      _findings(raw.get("findings"), lines), source, top["about"] or "",
-                     _curves(raw.get("curves")))
+                     _curves(raw.get("curves")), implementation(raw.get("implementation")))
     except ConfigError as err:
         raise err.located(source, lines) from None
 

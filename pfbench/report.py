@@ -44,6 +44,8 @@ from .report_data import (  # noqa: F401  (this module's API)
     choice_rows,
     _summary_row,
     reported_papers,
+    implementation_md,
+    readings_outcome_md,
 )
 
 
@@ -88,6 +90,8 @@ def build(configs: Path, results: Path, out: Path,
         if found:
             lines += ["What reproduced and what did not:", ""]
             lines += [f"- {text}" for text in found] + [""]
+        if p.implementation:
+            lines += implementation_md(p) + readings_outcome_md(mine)
         for e in mine:
             lines += _sweep_section(e, where) if e.cells else _experiment_section(e, where)
         lines += _choices(p, mine or entries)   # a survey's choices live in others' configs

@@ -538,3 +538,75 @@ def reported_papers(entries: list[Entry], configs: Path) -> dict[str, pp.Paper]:
             if not p.tables and any(f.refs and here(f, names) for f in p.findings):
                 papers[key] = p
     return papers
+
+
+# ---- 'Did we implement it as the paper says?': each algorithm's steps beside pfbench's functions
+
+IMPLEMENTATION_TITLE = "Did we implement it as the paper says?"
+IMPLEMENTATION_INTRO = (
+    "Each algorithm the paper proposes or uses, step by step as its text gives it (quoted in the "
+    "original, then in English; square brackets: a reading of a symbol the text's extraction "
+    "lost), beside the functions of pfbench that do the step and whether they follow the text, "
+    "read a choice it leaves open (the choice's id; the reading named is pfbench's default), or "
+    "depart from it.")
+STATUS_WORDS = {"follows": "follows the text", "open": "open choice",
+                "departs": "departs from the text"}
+READINGS_TITLE = "The readings' outcome"
+READINGS_INTRO = ("Every reading of the open choices above, run on the same trials as the "
+                  "tables: one line per judged claim; the readings table follows.")
+
+
+def md_text(text: str) -> str:
+    """Prose as the text of a Markdown table cell: the characters Markdown would read as a
+    cell's end, as emphasis or as a link (``|``, ``*``, ``_``, ``[``, ``]``, a backslash)
+    escaped, so that a formula such as exp[-a](rand - 0.5) reads as written."""
+    return re.sub(r"([\\|*_\[\]])", r"\\\1", " ".join(text.split()))
+
+
+def step_verdict(s: pp.Step) -> str:
+    """A step's status in Markdown: in words, with its open choice's id and its note."""
+    out = STATUS_WORDS[s.status] + (f" `{s.choice}`" if s.choice else "")
+    return out + (f": {md_text(s.note)}" if s.note else "")
+
+
+def implementation_md(paper: pp.Paper) -> list[str]:
+    """The paper's 'Did we implement it as the paper says?' in Markdown: a table of steps per
+    algorithm (step; the text, original and English; pfbench's functions and status)."""
+    if not paper.implementation:
+        return []
+    out = [f"### {IMPLEMENTATION_TITLE}", "", IMPLEMENTATION_INTRO, ""]
+    for a in paper.implementation:
+        out += [f"#### {a.name} ({a.where})", ""]
+        out += ["| Step | The text | pfbench |", "| --- | --- | --- |"]
+        for s in a.steps:
+            text = f"{md_text(s.text)}<br>*{md_text(s.english)}*"
+            if s.damaged:
+                text += f"<br>(extraction damaged: {md_text(s.damaged)})"
+            where = ", ".join(f"`{f}`" for f in s.functions)
+            out.append(f"| {md_text(s.name)} | {text} | {where}: {step_verdict(s)} |")
+        out.append("")
+    return out
+
+
+def readings_outcome(entries: list[Entry]) -> list[str]:
+    """The robustness lines of the readings of the experiments ``entries`` (the claims judged
+    under each reading of the paper's open choices), from ``pfbench.readings.robustness_lines``
+    of each results folder; none where that module or its readings do not exist."""
+    try:
+        from .readings import robustness_lines     # lazily: the readings may not be there
+    except ImportError:
+        return []
+    out: list[str] = []
+    for e in entries:
+        if e.status == "ok":
+            out += [str(line) for line in (robustness_lines(e.folder) or [])]
+    return out
+
+
+def readings_outcome_md(entries: list[Entry]) -> list[str]:
+    """The place of the readings' outcome right after the implementation's tables (a heading,
+    a sentence, the robustness lines), only where there are lines."""
+    lines = readings_outcome(entries)
+    if not lines:
+        return []
+    return [f"#### {READINGS_TITLE}", "", READINGS_INTRO, "", *[f"- {x}" for x in lines], ""]

@@ -48,6 +48,10 @@ figcaption { font-size: 0.85em; color: #555; }
 .prov { font-size: 0.85em; color: #444; }
 code { background: #f5f5f5; padding: 0 0.2em; }
 ul.notes li { margin-bottom: 0.3em; font-size: 0.92em; }
+table.steps td:first-child { width: 12%; } table.steps td:nth-child(2) { width: 50%; }
+table.steps .en { display: block; margin-top: 0.3em; font-style: italic; }
+table.steps .damaged, table.steps .fn { display: block; font-size: 0.9em; color: #555; }
+.step-status { font-weight: 600; }
 """
 
 # A verdict's mark: readable without colour (and in print).
@@ -90,6 +94,18 @@ reports, with 95% intervals and a verdict for every value.</p>
 <p>Not among these configs: {{ elsewhere|join(", ") }} of this paper.</p>{% endif %}
 {% if findings %}<h2>What reproduced and what did not</h2>
 <ul class="notes">{% for f in findings %}<li>{{ f }}</li>{% endfor %}</ul>{% endif %}
+{% if implementation %}<h2 id="implementation">{{ implementation_title }}</h2>
+<p>{{ implementation_intro }}</p>
+{% for a in implementation %}<h3>{{ a.name }} ({{ a.where }})</h3>
+<div class="wrap"><table class="steps"><tr><th>Step</th><th>The text</th><th>pfbench</th></tr>
+{% for st in a.steps %}<tr><td>{{ st.name }}</td><td><span lang="{{ lang }}">{{ st.text }}</span><span class="en" lang="en">{{ st.english }}</span>{% if st.damaged %}<span class="damaged">Extraction damaged: {{ st.damaged }}</span>{% endif %}</td>
+<td>{% for f in st.functions %}<code class="fn">{{ f }}</code>{% endfor %}<span class="step-status">{{ status_words[st.status] }}</span>{% if st.choice %} <code>{{ st.choice }}</code>{% endif %}{% if st.note %}: {{ st.note }}{% endif %}</td></tr>
+{% endfor %}</table></div>
+{% endfor %}
+{% if readings_outcome %}<h3 id="readings-outcome">{{ readings_title }}</h3>
+<p>{{ readings_intro }}</p>
+<ul class="notes">{% for line in readings_outcome %}<li>{{ line }}</li>{% endfor %}</ul>{% endif %}
+{% endif %}
 {% for s in sections %}
 <h2 id="{{ s.name }}">{{ s.title }}</h2>
 {% if s.caption %}<p>{{ s.caption }}</p>{% endif %}
@@ -310,6 +326,11 @@ def build(configs: Path, results: Path, out_dir: Path, figures: bool = True,
                 title=f"{key}: pfbench reproduction", css=CSS, papers=nav, version=__version__,
                 paper=p, sections=sections, choices=rp.choice_rows(p, mine or entries),
                 findings=rp.findings(p, by_name) if p.findings else [],
+                implementation=p.implementation, lang="zh",
+                implementation_title=rp.IMPLEMENTATION_TITLE,
+                implementation_intro=rp.IMPLEMENTATION_INTRO, status_words=rp.STATUS_WORDS,
+                readings_outcome=rp.readings_outcome(mine) if p.implementation else [],
+                readings_title=rp.READINGS_TITLE, readings_intro=rp.READINGS_INTRO,
                 elsewhere=[rp._table_name(k) for k in rp.tables_elsewhere(p, entries)]
                 if mine else [],
                 ).encode()

@@ -5,16 +5,17 @@ written by hand:
 - in docs/: the config-key reference (from the schemas), the trials file's metric columns of each
   scenario kind (from pfbench.kinds and pfbench.metrics), the worked example (from the committed
   results/ifa_pf_ungm/table.csv), the speed tables (from the committed bench record,
-  bench/record.json, which `pfbench bench --json` wrote), and each paper page's findings and open
-  choices (from the committed results/REPORT.md);
+  bench/record.json, which `pfbench bench --json` wrote), and each paper page's findings, open
+  choices and algorithms step by step beside pfbench's functions (from the committed
+  results/REPORT.md);
 - whole pages: the command-line reference (docs/reference/cli.md, from the typer app: every
   command and option with its help) and the Python API (docs/reference/api.md, from the
   docstrings of pfbench.api's public names);
 - in README.md: the summary of the committed results (from results/REPORT.md).
 
 A generated block sits between `<!-- NAME:begin -->` and `<!-- NAME:end -->` in a Markdown file
-(README.md or any page under docs/); NAME is one of BLOCKS, or `findings:PAPER` /
-`choices:PAPER`.
+(README.md or any page under docs/); NAME is one of BLOCKS, or `findings:PAPER`,
+`choices:PAPER` / `implementation:PAPER`.
 
     python scripts/update_readme.py            # list the generated blocks and pages
     python scripts/update_readme.py --write    # rewrite them
@@ -274,6 +275,20 @@ def choices_block(paper: str) -> str:
             "the [config keys](../reference/config.md)).*\n\n" + m.group(1).strip() + "\n")
 
 
+def implementation_block(paper: str) -> str:
+    """The report's 'Did we implement it as the paper says?' of one paper: each algorithm's steps
+    as the paper's text gives them beside pfbench's functions (and the readings' outcome where
+    the report has it)."""
+    sec = _report_section(paper)
+    m = re.search(r"^### Did we implement it as the paper says\?\n\n(.*?)(?=^### |^## |\Z)", sec,
+                  re.S | re.M)
+    if not m:
+        raise SystemExit(f"results/REPORT.md: paper {paper!r} has no 'Did we implement it as "
+                         "the paper says?'")
+    return ("\n*From the committed `results/REPORT.md` (`pfbench report`), by `python "
+            "scripts/update_readme.py --write`.*\n\n" + m.group(1).strip() + "\n")
+
+
 def summary_block() -> str:
     """The report's summary table: per config, the paper values compared and their verdicts."""
     text = REPORT.read_text()
@@ -423,7 +438,8 @@ def compatibility_block() -> str:
 
 BLOCKS = {"compatibility": compatibility_block, "config-keys": keys_block, "metrics": metrics_block, "example": example_block,
           "bench": bench_block, "summary": summary_block, "modules": modules_block}
-PARAMETRISED = {"findings": findings_block, "choices": choices_block}
+PARAMETRISED = {"findings": findings_block, "choices": choices_block,
+                "implementation": implementation_block}
 # the blocks that must appear somewhere: a generated table never vanishes from the docs unseen
 REQUIRED_BLOCKS = ("compatibility", "config-keys", "metrics", "example", "bench", "summary", "modules")
 PAGES = {"reference/cli.md": cli_page, "reference/api.md": api_page}
