@@ -353,6 +353,12 @@ def run(
     wide: bool = typer.Option(False, "--wide", help="Print every column and note of the table "
                               "(default: our values, the paper's and the verdicts, in 100 "
                               "columns; table.md has the rest)."),
+    readings: Optional[str] = typer.Option(None, "--readings", is_flag=False, flag_value="all",
+                                           help="Then run the readings of the paper's open "
+                                           "choices its paper file declares for the table (all, "
+                                           "or NAME,NAME) on the same trials, and judge each "
+                                           "claim under each (readings.md); put it after the "
+                                           "config."),
 ):
     """Run an experiment: Monte Carlo trials, then the table beside the paper's values."""
     with _guard():
@@ -361,7 +367,14 @@ def run(
         out_dir = _path(out_dir, "--out")
         if max_trials is not None and not until_decided:
             raise UserError("--max-trials goes with --until-decided")
+        if readings is not None and until_decided:
+            raise UserError("--readings runs the config's trials count; --until-decided grows "
+                            "it: run them one after the other")
         exp = _load(config, trials, seed, set_)
+        plan = None
+        if readings is not None:        # every reading valid before anything runs
+            from . import readings as rd
+            plan = rd.plan(exp, rd.parse_names(readings))
         from .api import until_decided_budget
         folder = _results_folder(exp.name, config, out_dir)
         most = until_decided_budget(exp, max_trials) if until_decided else exp.trials
@@ -372,6 +385,62 @@ def run(
                                               figure_format=figure_format, force=force))
         _print_table(res.comparison, wide, folder)
         _say_what_ran(exp, res, folder, until_decided)
+        if plan is not None:
+            _run_readings(plan, folder, out_dir, workers, (executor, scheduler))
+
+
+def _run_readings(plan: list, folder: Path, out_dir, workers: int, where: tuple) -> None:
+    """Run the readings of ``plan`` (pfbench.readings.plan) beside the config's results in
+    ``folder``, a line and a progress bar for each, then judge them (readings.csv,
+    readings.md) and print the robustness lines."""
+    import time
+    from . import readings as rd
+    from .fsutil import FolderLock
+    exp = plan[0].exp
+    n = len(plan) - 1
+    with _executor(where[0], workers, where[1]) as ex, \
+            FolderLock(folder, "--out" if out_dir else "results folder"):
+        with _bar() as bar:
+            seen = {"i": 0, "t0": time.perf_counter(), "last": None}
+
+            def done_line():
+                last = seen["last"]
+                if last is not None:
+                    bar.console.print(f"  {last}: {time.perf_counter() - seen['t0']:.1f} s",
+                                      markup=False)
+
+            def progress_for(run, fresh):
+                done_line()
+                seen["i"] += 1
+                seen["t0"], seen["last"] = time.perf_counter(), None
+                head = f"reading {seen['i']} of {n}, {run.name} ({run.title})"
+                if fresh:
+                    bar.console.print(f"{head}: up to date in {folder}/readings/{run.name}",
+                                      markup=False)
+                    return None
+                again = len(run.changed)
+                bar.console.print(f"{head}: {exp.trials} trials of {again} of "
+                                  f"{len(run.exp.filters)} filter runs (the others' rows are "
+                                  "the config's)", markup=False)
+                seen["last"] = run.name
+                return _progress(bar, exp.trials, lambda: None, [run.exp],
+                                 getattr(ex, "underway", None))
+            try:
+                rd.run_all(plan, folder, ex, progress_for)
+            except KeyboardInterrupt:
+                bar.stop()
+                err.print("pfbench: readings: interrupted; the readings finished are kept (the "
+                          "same command runs the rest)", markup=False)
+                raise typer.Exit(130) from None
+            done_line()
+        lines = rd.write(plan, folder)
+    out.print(f"Readings of {exp.paper} {exp.table}: {len(plan)} ({', '.join(r.name for r in plan)})"
+              f"; each claim across them (one Holm family over claims x readings; "
+              f"{folder}/readings.md has every value):", markup=False, style="bold")
+    for line in lines:
+        out.print(f"- {line}", markup=False, soft_wrap=True)
+    err.print(f"wrote {folder}/readings/ (trials of each reading), readings.csv and readings.md",
+              markup=False)
 
 
 def _results_folder(name: str, config: Path, out_dir: Path | None) -> Path:
