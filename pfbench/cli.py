@@ -29,6 +29,7 @@ class _OneLineErrors(TyperGroup):
     other error, instead of click's boxed usage text."""
 
     def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        args = _bare_readings(sys.argv[1:] if args is None else list(args))
         try:
             rv = super().main(args=args, prog_name=prog_name, complete_var=complete_var,
                               standalone_mode=False, **extra)
@@ -55,6 +56,20 @@ class _OneLineErrors(TyperGroup):
         if not standalone_mode:
             return rv
         sys.exit(rv if isinstance(rv, int) else 0)
+
+
+def _bare_readings(args: list[str]) -> list[str]:
+    """``--readings`` without a value (last, or before another option or a config file) as
+    ``--readings=all``: the option takes NAME,NAME or nothing."""
+    out = list(args)
+    for i, a in enumerate(out):
+        if a == "--":
+            break
+        if a == "--readings":
+            nxt = out[i + 1] if i + 1 < len(out) else None
+            if nxt is None or nxt.startswith("-") or nxt.endswith((".yaml", ".yml")):
+                out[i] = "--readings=all"
+    return out
 
 
 app = typer.Typer(cls=_OneLineErrors, add_completion=False, no_args_is_help=True,
@@ -353,12 +368,11 @@ def run(
     wide: bool = typer.Option(False, "--wide", help="Print every column and note of the table "
                               "(default: our values, the paper's and the verdicts, in 100 "
                               "columns; table.md has the rest)."),
-    readings: Optional[str] = typer.Option(None, "--readings", is_flag=False, flag_value="all",
+    readings: Optional[str] = typer.Option(None, "--readings", metavar="[NAME,NAME]",
                                            help="Then run the readings of the paper's open "
                                            "choices its paper file declares for the table (all, "
                                            "or NAME,NAME) on the same trials, and judge each "
-                                           "claim under each (readings.md); put it after the "
-                                           "config."),
+                                           "claim under each (readings.md)."),
 ):
     """Run an experiment: Monte Carlo trials, then the table beside the paper's values."""
     with _guard():

@@ -430,7 +430,8 @@ def _readings(raw: Any, tables: dict, ids: dict[str, int]) -> dict[str, tuple[Re
                                   f"them, got {describe(item.get('choice'))}")
             for c in chosen:
                 if not isinstance(c, str) or c not in ids:
-                    raise ConfigError(f"{here}.choice", f"no choice with the id {describe(c)}"
+                    raise ConfigError(f"{here}.choice", "no choice with the id "
+                                      + (f"'{c}'" if isinstance(c, str) else describe(c))
                                       + (did_you_mean(c, list(ids)) if isinstance(c, str)
                                          else "") + f"; ids: {', '.join(ids) or 'none'} (give "
                                       "the choice an 'id')")

@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import Callable
 
 from .errors import UserError
+from .fsutil import atomic_write, ensure_folder, own_folder
 from .papers import DEFAULT_READING, Reading
 from .schema import ConfigError, did_you_mean
 
@@ -220,7 +221,6 @@ def run_reading(run: ReadingRun, folder: Path, executor,
     ``folder`` (its trials.csv read for the filter runs the reading leaves as they are): the
     changed filter runs on every trial, then trials.csv (every filter run, as a run of the
     reading's experiment writes it) and meta.json. Returns the folder."""
-    from .fsutil import atomic_write, own_folder, ensure_folder
     from .kinds import reported_metrics
     from .runner import stamp_meta
     from .store import csv_text, read_results, trial_columns, write_json
@@ -537,7 +537,6 @@ def write(runs: list[ReadingRun], folder: Path) -> list[str]:
     returns the robustness lines."""
     import csv
     import io
-    from .fsutil import atomic_write
     rows = judge_folder(runs, folder)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
