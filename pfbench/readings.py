@@ -566,34 +566,64 @@ def family_note(rows: list[dict], readings: int) -> str:
                    "be more cautious than table.md.")
 
 
+LEGEND = ("Each cell: our mean [95% interval] and the verdict (= reproduced, x differs, "
+          "? inconclusive, - not comparable; for a pair of rows, the paired difference low - "
+          "high: < in the paper's order, > in the opposite order, ? unresolved).")
+
+
+def grid(rows: list[dict]) -> tuple[list[str], list[list[str]]]:
+    """The readings table of readings.csv's ``rows``: (header, cells), a row per claim and a
+    column per reading, each cell 'mean [lo, hi] symbol' (SYMBOLS)."""
+    names = list(dict.fromkeys(r["reading"] for r in rows))
+    by_claim: dict[str, dict[str, dict]] = {}
+    for r in rows:
+        by_claim.setdefault(r["claim"], {})[r["reading"]] = r
+    cells = []
+    for rs in by_claim.values():
+        row = [_claim_text(next(iter(rs.values())))]
+        for n in names:
+            r = rs.get(n)
+            row.append("" if r is None else f"{_fmt(r['ours'])} [{_fmt(r['lo'])}, "
+                       f"{_fmt(r['hi'])}] {SYMBOLS.get(r['verdict'], r['verdict'])}")
+        cells.append(row)
+    return ["Claim"] + names, cells
+
+
+def _md_table(head: list[str], cells: list[list[str]]) -> list[str]:
+    return (["| " + " | ".join(head) + " |", "|" + "|".join(" --- " for _ in head) + "|"]
+            + ["| " + " | ".join(c.replace("|", "/") for c in row) + " |" for row in cells])
+
+
+def report_lines(folder: Path, link: str) -> list[str]:
+    """The report's lines on the readings of a results folder (none when it holds none): the
+    robustness lines first, then the readings table in a <details> block; ``link``: where
+    readings.md is, from the report."""
+    rows = read_csv(folder)
+    if not rows:
+        return []
+    names = list(dict.fromkeys(r["reading"] for r in rows))
+    head, cells = grid(rows)
+    return ([f"Under the {len(names)} readings of the paper's open choices ({', '.join(names)}; "
+             f"[readings.md]({link}) has what each reads and why), each claim of the table:", ""]
+            + [f"- {line}" for line in lines_of(rows)]
+            + ["", "<details><summary>Every claim under every reading</summary>", "", LEGEND,
+               ""] + _md_table(head, cells)
+            + ["", family_note(rows, len(names)), "", "</details>", ""])
+
+
 def markdown(runs: list[ReadingRun], rows: list[dict], lines: list[str]) -> str:
     """readings.md: the robustness lines, then every claim under every reading, the readings,
     and the multiplicity rule."""
     exp = runs[0].exp
-    names = [r.name for r in runs]
     out = [f"# {exp.name}: readings of {exp.paper} {exp.table}", "",
            f"{len(runs)} readings of the choices the paper leaves open (the config as it is, "
            f"`{DEFAULT_READING}`, first), each run on the same {exp.trials} trials (seed "
            f"{exp.seed}: common random numbers); a filter run a reading leaves as it is keeps "
            "the config's rows.", "", "## Robustness", ""]
     out += [f"- {line}" for line in lines] or ["No claim of the paper's table is judged."]
-    out += ["", "## Every claim under every reading", "",
-            "Each cell: our mean [95% interval] and the verdict (= reproduced, x differs, "
-            "? inconclusive, - not comparable; for a pair of rows, the paired difference low - "
-            "high: < in the paper's order, > in the opposite order, ? unresolved).", ""]
-    head = ["Claim"] + [f"`{n}`" for n in names]
-    out += ["| " + " | ".join(head) + " |", "|" + "|".join(" --- " for _ in head) + "|"]
-    by_claim: dict[str, dict[str, dict]] = {}
-    for r in rows:
-        by_claim.setdefault(r["claim"], {})[r["reading"]] = r
-    for cid, rs in by_claim.items():
-        first = next(iter(rs.values()))
-        cells = [_claim_text(first).replace("|", "/")]
-        for n in names:
-            r = rs.get(n)
-            cells.append("" if r is None else f"{_fmt(r['ours'])} [{_fmt(r['lo'])}, "
-                         f"{_fmt(r['hi'])}] {SYMBOLS.get(r['verdict'], r['verdict'])}")
-        out.append("| " + " | ".join(cells) + " |")
+    out += ["", "## Every claim under every reading", "", LEGEND, ""]
+    head, cells = grid(rows)
+    out += _md_table(head, cells)
     out += ["", "## The readings", "", "| Reading | What it reads | Sets | Run again | Why |",
             "| --- | --- | --- | --- | --- |"]
     for run in runs:

@@ -287,6 +287,14 @@ def test_run_readings_end_to_end(tmp_path):
     # the PF's rows under the reading that leaves the PF alone are the config's: its cells agree
     pf = [r for r in rows if r["claim"] == "cell:pf@20:rmse_mean"]
     assert len({r["ours"] for r in pf if r["reading"] != "all_neff"}) == 1
+    # the report: the robustness lines first, the readings table on demand
+    from types import SimpleNamespace
+    from pfbench import report_html
+    shown = rd.report_lines(out, "res/readings.md")
+    assert [f"- {line}" for line in lines] == shown[2:2 + len(lines)]
+    assert "<details><summary>Every claim under every reading</summary>" in shown
+    html = report_html._readings(SimpleNamespace(folder=out))
+    assert html["lines"] == lines and len(html["rows"]) == len(lines)
     # again: every reading is up to date, nothing runs
     before = tree(out / "readings")
     r = runner.invoke(app, ["run", str(config), "--out", str(out), "--no-figures",
