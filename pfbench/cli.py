@@ -636,6 +636,10 @@ def tables_(
     max_trials: Optional[int] = typer.Option(None, "--max-trials", min=1, help="With "
                                              "--until-decided: the most trials per config "
                                              "(default: ten times its trials)."),
+    readings: Optional[str] = typer.Option(None, "--readings", metavar="", help="Also run the "
+                                           "readings of the paper's open choices beside each "
+                                           "config whose paper file declares them (see run); "
+                                           "--check checks the committed readings anyway."),
 ):
     """Regenerate every config's results, or check them (--check) against the committed ones."""
     import math
@@ -650,6 +654,12 @@ def tables_(
             raise UserError(f"--z: expected a finite number > 0, got {z}")
         files = _only_configs(regen.config_files(configs), only, configs)
         _check_tables_flags(check, resume, until_decided, max_trials)
+        if readings is not None and readings != "all":
+            raise UserError(f"--readings {readings}: 'tables --readings' runs every reading "
+                            "(it takes no names)")
+        if readings is not None and (check or until_decided):
+            raise UserError("--readings regenerates the readings; --check checks the committed "
+                            "ones anyway, and --until-decided grows the trials they share")
         # every config is valid (and its trial count known) before anything runs, and no two
         # write into one folder, or into another's
         totals = [regen.check_trials(p) if check else regen.total_trials(p) for p in files]
@@ -660,7 +670,8 @@ def tables_(
             rows = _each_config(files, totals, results, ex, bar, z if check else None,
                                 dict(figures=not no_figures, resume=resume,
                                      until_decided=until_decided, max_trials=max_trials,
-                                     figure_format=figure_format))
+                                     figure_format=figure_format,
+                                     readings=readings is not None))
         if not check:
             from . import report as rp
             with _steps("report") as say:

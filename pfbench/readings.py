@@ -167,6 +167,7 @@ def apply(exp, reading: Reading):
     as a config (its values checked by the keys' own rules)."""
     from .config import validate
     raw = copy.deepcopy(exp.raw)
+    raw["trials"], raw["seed"] = exp.trials, exp.seed     # the config's (as run, overrides too)
     for path, value in targets(exp, reading):
         if path[0] == "scenario":
             raw.setdefault("scenario", {})[path[1]] = copy.deepcopy(value)
@@ -211,8 +212,9 @@ def up_to_date(run: ReadingRun, folder: Path) -> bool:
         meta, got = read_results(target)
     except UserError:
         return False
+    made_on = (meta.get("reading") or {}).get("config_trials_sha256")
     return (meta.get("experiment_hash") == run.exp.hash and meta.get("trials") == run.exp.trials
-            and not got.rejected)
+            and not got.rejected and made_on == _digest(folder))
 
 
 def run_reading(run: ReadingRun, folder: Path, executor,
@@ -291,6 +293,40 @@ def run_all(runs: list[ReadingRun], folder: Path, executor,
         cb = progress_for(run, fresh) if progress_for else None
         if not fresh:
             run_reading(run, folder, executor, cb)
+
+
+def carry(old: Path, new: Path, warn: Callable[[str], None] | None = None) -> bool:
+    """Keep the readings of results folder ``old`` in ``new`` (a regeneration's staging folder)
+    when ``new`` holds the same trials file: they were run on those trials. Otherwise they are
+    dropped, and ``warn`` says so. Returns whether they were kept."""
+    import shutil
+    old, new = Path(old), Path(new)
+    if not (old / READINGS).is_dir() or (new / READINGS).exists():
+        return False
+    try:
+        same = (old / "trials.csv").read_bytes() == (new / "trials.csv").read_bytes()
+    except OSError:
+        same = False
+    if not same:
+        if warn:
+            warn(f"{old}: the config's trials changed, so its readings are dropped; "
+                 "'pfbench tables --readings' runs them again")
+        return False
+    own_folder(new / READINGS, new, "readings folder")
+    shutil.copytree(old / READINGS, new / READINGS, symlinks=True)
+    for name in (CSV, MD):
+        if (old / name).is_file():
+            atomic_write(new / name, (old / name).read_bytes())
+    return True
+
+
+def committed(exp, folder: Path) -> list[ReadingRun]:
+    """The readings of ``exp`` (every one its paper file declares) whose trials results folder
+    ``folder`` holds (readings/NAME/trials.csv); [] when it holds none."""
+    if not declared(exp) or not (Path(folder) / READINGS).is_dir():
+        return []
+    return [r for r in plan(exp)[1:]
+            if (reading_folder(folder, r.name) / "trials.csv").is_file()]
 
 
 # ---------------------------------------------------------------- the claims a table judges

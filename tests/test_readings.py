@@ -317,3 +317,28 @@ def test_bad_readings_are_one_line_exit_2_and_nothing_is_written(tmp_path, paper
                       + (flag or ["--readings"]))
     assert words in one_line_exit_2(r)
     assert not out.exists()
+
+
+def test_tables_regenerates_keeps_and_checks_the_readings(tmp_path):
+    from pfbench import regen
+    configs, results = tmp_path / "configs", tmp_path / "results"
+    configs.mkdir()
+    _setup(configs)
+    args = ["tables", "--configs", str(configs), "--results", str(results), "--no-figures"]
+    r = runner.invoke(app, args + ["--readings"])
+    assert r.exit_code == 0, r.output
+    folder = results / "tiny"
+    assert len(rd.robustness_lines(folder)) == 6
+    held = tree(folder / "readings")
+    # a regeneration without --readings keeps them: the config's trials are the same
+    r = runner.invoke(app, args)
+    assert r.exit_code == 0, r.output
+    assert tree(folder / "readings") == held and (folder / "readings.md").is_file()
+    # the check re-runs each committed reading's trials and compares them too
+    ex = LocalExecutor(1)
+    with_readings = regen.check_config(configs / "tiny.yaml", results, ex)
+    assert with_readings.ok and with_readings.identical
+    import shutil
+    shutil.rmtree(folder / "readings")
+    alone = regen.check_config(configs / "tiny.yaml", results, ex)
+    assert with_readings.compared == 3 * alone.compared
