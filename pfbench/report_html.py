@@ -104,12 +104,7 @@ reports, with 95% intervals and a verdict for every value.</p>
 {% endfor %}</table></div>
 {% endfor %}
 {% if s.reasons %}<ul class="notes">{% for r in s.reasons %}<li>Not comparable ({{ loop.index }}): {{ r }}.</li>{% endfor %}</ul>{% endif %}
-{% if s.readings %}<h3>Under every reading of the paper's open choices</h3><p>{{ s.readings.intro }}</p><ul class="notes">{% for n in s.readings.lines %}<li>{{ n }}</li>{% endfor %}</ul>
-<details><summary>Every claim under every reading</summary><p>{{ s.readings.legend }}</p><div class="wrap"><table class="results">
-<tr>{% for h in s.readings.head %}<th>{{ h }}</th>{% endfor %}</tr>
-{% for row in s.readings.rows %}<tr>{% for c in row %}<td>{{ c }}</td>{% endfor %}</tr>
-{% endfor %}</table></div><p>{{ s.readings.note }}</p></details>{% endif %}
-{% if s.notes %}<h3>Measured here</h3><ul class="notes">{% for n in s.notes %}<li>{{ n }}</li>{% endfor %}</ul>{% endif %}
+{% if s.readings %}<h3>Under every reading of the paper's open choices</h3><p>{{ s.readings.intro }}</p><ul class="notes">{% for n in s.readings.lines %}<li>{{ n }}</li>{% endfor %}</ul><details><summary>Every claim under every reading</summary><p>{{ s.readings.legend }}</p><div class="wrap"><table class="results"><tr>{% for h in s.readings.head %}<th>{{ h }}</th>{% endfor %}</tr>{% for row in s.readings.rows %}<tr>{% for c in row %}<td>{{ c }}</td>{% endfor %}</tr>{% endfor %}</table></div><p>{{ s.readings.note }}</p></details>{% endif %}{% if s.notes %}<h3>Measured here</h3><ul class="notes">{% for n in s.notes %}<li>{{ n }}</li>{% endfor %}</ul>{% endif %}
 {% if s.paper_notes %}<h3>The paper's table and how we read it</h3><ul class="notes">{% for n in s.paper_notes %}<li>{{ n }}</li>{% endfor %}</ul>{% endif %}
 {% for f in s.figures %}<figure><img src="{{ f.src }}" alt="{{ f.alt }}"><figcaption>{{ f.alt }}</figcaption></figure>
 {% endfor %}{% endif %}
