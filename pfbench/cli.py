@@ -432,10 +432,11 @@ def _run_readings(plan: list, folder: Path, out_dir, workers: int, where: tuple)
                     bar.console.print(f"{head}: up to date in {folder}/readings/{run.name}",
                                       markup=False)
                     return None
-                again = len(run.changed)
-                bar.console.print(f"{head}: {exp.trials} trials of {again} of "
-                                  f"{len(run.exp.filters)} filter runs (the others' rows are "
-                                  "the config's)", markup=False)
+                again, every = len(run.changed), len(run.exp.filters)
+                bar.console.print(f"{head}: {exp.trials} trials of " + (
+                    f"every filter run ({every})" if again == every else
+                    f"{again} of {every} filter runs (the others' rows are the config's)"),
+                    markup=False)
                 seen["last"] = run.name
                 return _progress(bar, exp.trials, lambda: None, [run.exp],
                                  getattr(ex, "underway", None))
