@@ -29,6 +29,7 @@ class _OneLineErrors(TyperGroup):
     other error, instead of click's boxed usage text."""
 
     def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        args = _bare_readings(sys.argv[1:] if args is None else list(args))
         try:
             rv = super().main(args=args, prog_name=prog_name, complete_var=complete_var,
                               standalone_mode=False, **extra)
@@ -55,6 +56,20 @@ class _OneLineErrors(TyperGroup):
         if not standalone_mode:
             return rv
         sys.exit(rv if isinstance(rv, int) else 0)
+
+
+def _bare_readings(args: list[str]) -> list[str]:
+    """``--readings`` without a value (last, or before another option or a config file) as
+    ``--readings=all``: the option takes NAME,NAME or nothing."""
+    out = list(args)
+    for i, a in enumerate(out):
+        if a == "--":
+            break
+        if a == "--readings":
+            nxt = out[i + 1] if i + 1 < len(out) else None
+            if nxt is None or nxt.startswith("-") or nxt.endswith((".yaml", ".yml")):
+                out[i] = "--readings=all"
+    return out
 
 
 app = typer.Typer(cls=_OneLineErrors, add_completion=False, no_args_is_help=True,
@@ -353,6 +368,11 @@ def run(
     wide: bool = typer.Option(False, "--wide", help="Print every column and note of the table "
                               "(default: our values, the paper's and the verdicts, in 100 "
                               "columns; table.md has the rest)."),
+    readings: Optional[str] = typer.Option(None, "--readings", metavar="[NAME,NAME]",
+                                           help="Then run the readings of the paper's open "
+                                           "choices its paper file declares for the table (all, "
+                                           "or NAME,NAME) on the same trials, and judge each "
+                                           "claim under each (readings.md)."),
 ):
     """Run an experiment: Monte Carlo trials, then the table beside the paper's values."""
     with _guard():
@@ -361,7 +381,14 @@ def run(
         out_dir = _path(out_dir, "--out")
         if max_trials is not None and not until_decided:
             raise UserError("--max-trials goes with --until-decided")
+        if readings is not None and until_decided:
+            raise UserError("--readings runs the config's trials count; --until-decided grows "
+                            "it: run them one after the other")
         exp = _load(config, trials, seed, set_)
+        plan = None
+        if readings is not None:        # every reading valid before anything runs
+            from . import readings as rd
+            plan = rd.plan(exp, rd.parse_names(readings))
         from .api import until_decided_budget
         folder = _results_folder(exp.name, config, out_dir)
         most = until_decided_budget(exp, max_trials) if until_decided else exp.trials
@@ -372,6 +399,63 @@ def run(
                                               figure_format=figure_format, force=force))
         _print_table(res.comparison, wide, folder)
         _say_what_ran(exp, res, folder, until_decided)
+        if plan is not None:
+            _run_readings(plan, folder, out_dir, workers, (executor, scheduler))
+
+
+def _run_readings(plan: list, folder: Path, out_dir, workers: int, where: tuple) -> None:
+    """Run the readings of ``plan`` (pfbench.readings.plan) beside the config's results in
+    ``folder``, a line and a progress bar for each, then judge them (readings.csv,
+    readings.md) and print the robustness lines."""
+    import time
+    from . import readings as rd
+    from .fsutil import FolderLock
+    exp = plan[0].exp
+    n = len(plan) - 1
+    with _executor(where[0], workers, where[1]) as ex, \
+            FolderLock(folder, "--out" if out_dir else "results folder"):
+        with _bar() as bar:
+            seen = {"i": 0, "t0": time.perf_counter(), "last": None}
+
+            def done_line():
+                last = seen["last"]
+                if last is not None:
+                    bar.console.print(f"  {last}: {time.perf_counter() - seen['t0']:.1f} s",
+                                      markup=False)
+
+            def progress_for(run, fresh):
+                done_line()
+                seen["i"] += 1
+                seen["t0"], seen["last"] = time.perf_counter(), None
+                head = f"reading {seen['i']} of {n}, {run.name} ({run.title})"
+                if fresh:
+                    bar.console.print(f"{head}: up to date in {folder}/readings/{run.name}",
+                                      markup=False)
+                    return None
+                again, every = len(run.changed), len(run.exp.filters)
+                bar.console.print(f"{head}: {exp.trials} trials of " + (
+                    f"every filter run ({every})" if again == every else
+                    f"{again} of {every} filter runs (the others' rows are the config's)"),
+                    markup=False)
+                seen["last"] = run.name
+                return _progress(bar, exp.trials, lambda: None, [run.exp],
+                                 getattr(ex, "underway", None))
+            try:
+                rd.run_all(plan, folder, ex, progress_for)
+            except KeyboardInterrupt:
+                bar.stop()
+                err.print("pfbench: readings: interrupted; the readings finished are kept (the "
+                          "same command runs the rest)", markup=False)
+                raise typer.Exit(130) from None
+            done_line()
+        lines = rd.write(plan, folder)
+    out.print(f"Readings of {exp.paper} {exp.table}: {len(plan)} ({', '.join(r.name for r in plan)})"
+              f"; each claim across them (one Holm family over claims x readings; "
+              f"{folder}/readings.md has every value):", markup=False, style="bold")
+    for line in lines:
+        out.print(f"- {line}", markup=False, soft_wrap=True)
+    err.print(f"wrote {folder}/readings/ (trials of each reading), readings.csv and readings.md",
+              markup=False)
 
 
 def _results_folder(name: str, config: Path, out_dir: Path | None) -> Path:
@@ -580,6 +664,10 @@ def tables_(
     max_trials: Optional[int] = typer.Option(None, "--max-trials", min=1, help="With "
                                              "--until-decided: the most trials per config "
                                              "(default: ten times its trials)."),
+    readings: Optional[str] = typer.Option(None, "--readings", metavar="", help="Also run the "
+                                           "readings of the paper's open choices beside each "
+                                           "config whose paper file declares them (see run); "
+                                           "--check checks the committed readings anyway."),
 ):
     """Regenerate every config's results, or check them (--check) against the committed ones."""
     import math
@@ -594,6 +682,12 @@ def tables_(
             raise UserError(f"--z: expected a finite number > 0, got {z}")
         files = _only_configs(regen.config_files(configs), only, configs)
         _check_tables_flags(check, resume, until_decided, max_trials)
+        if readings is not None and readings != "all":
+            raise UserError(f"--readings {readings}: 'tables --readings' runs every reading "
+                            "(it takes no names)")
+        if readings is not None and (check or until_decided):
+            raise UserError("--readings regenerates the readings; --check checks the committed "
+                            "ones anyway, and --until-decided grows the trials they share")
         # every config is valid (and its trial count known) before anything runs, and no two
         # write into one folder, or into another's
         totals = [regen.check_trials(p) if check else regen.total_trials(p) for p in files]
@@ -604,7 +698,8 @@ def tables_(
             rows = _each_config(files, totals, results, ex, bar, z if check else None,
                                 dict(figures=not no_figures, resume=resume,
                                      until_decided=until_decided, max_trials=max_trials,
-                                     figure_format=figure_format))
+                                     figure_format=figure_format,
+                                     readings=readings is not None))
         if not check:
             from . import report as rp
             with _steps("report") as say:

@@ -144,6 +144,10 @@ class Paper:
     # the algorithms the paper proposes or uses, step by step as its text gives them, and where
     # pfbench follows each step (``Algorithm``)
     implementation: tuple = ()
+    # choice id -> its index in ``choices`` (the choices that readings cover have one)
+    choice_ids: dict = field(default_factory=dict)
+    # table name -> the readings of the paper's open choices declared for it (Reading)
+    readings: dict = field(default_factory=dict)
 
 
 # ---------------------------------------------------------------- the schema of a paper file
@@ -536,7 +540,8 @@ def parse(raw: Any, source: str, lines: dict[str, int] | None = None) -> Paper:
     try:
         raw = check_mapping("", raw if raw is not None else {})
         top = check_section(raw, _TOP, "", ignore=("tables", "choices", "findings",
-                                                                "curves", "implementation"))
+                                                                "curves", "implementation",
+                                                                "readings"))
         stem = Path(source).stem
         if source and top["paper"] != stem:
             raise ConfigError("paper", f"'{top['paper']}' in a file named {stem}.yaml: the key "
@@ -547,13 +552,114 @@ def parse(raw: Any, source: str, lines: dict[str, int] | None = None) -> Paper:
         choices = []
         for i, c in enumerate(_list(raw.get("choices"), "choices", True)):
             c = check_mapping(f"choices[{i}]", c)
-            what = check_section(c, _CHOICE, f"choices[{i}]", ignore=("keys",))["what"]
+            what = check_section(c, _CHOICE, f"choices[{i}]", ignore=("keys", "id"))["what"]
             choices.append((what, _strings(c.get("keys"), f"choices[{i}].keys")))
+        ids = _choice_ids(raw.get("choices"))
+        readings = _readings(raw.get("readings"), tables, ids)
         return Paper(top["paper"], top["citation"], tables, tuple(choices),
                      _findings(raw.get("findings"), lines), source, top["about"] or "",
-                     _curves(raw.get("curves")), implementation(raw.get("implementation")))
+                     curves=_curves(raw.get("curves")),
+                     implementation=implementation(raw.get("implementation")),
+                     choice_ids=ids, readings=readings)
     except ConfigError as err:
         raise err.located(source, lines) from None
+
+
+# ---------------------------------------------------------------- readings of the open choices
+
+@dataclass(frozen=True)
+class Reading:
+    """One reading of choices a paper leaves open: config key paths and the values that make it,
+    applied on top of a config of the paper's table (pfbench.readings runs them)."""
+    name: str                       # [a-z0-9_]+, unique within its table
+    title: str                      # a short label for tables
+    choices: tuple[str, ...]        # the ids of the paper's choices it reads
+    set: tuple[tuple[str, Any], ...]    # (key path, value): 'filters.NAME.KEY',
+                                        # 'filters.*.KEY' or 'scenario.KEY'
+    why: str                        # what in the paper's text supports it
+
+
+NAME_RE = re.compile(r"[a-z0-9_]+")
+DEFAULT_READING = "pfbench"         # the config as committed: implicit, never declared
+TITLE_MAX = 40
+_READING = {
+    "name": Key("str", doc="the reading's name, [a-z0-9_]+, unique within the table"),
+    "title": Key("str", doc=f"a short label for tables (under {TITLE_MAX} characters)"),
+    "why": Key("str", doc="one line: what in the paper's text supports this reading"),
+}
+
+
+def _choice_ids(raw: Any) -> dict[str, int]:
+    """The ids of the paper file's choices: id -> index ([a-z0-9_]+, unique)."""
+    ids: dict[str, int] = {}
+    for i, c in enumerate(raw or []):
+        if not isinstance(c, dict) or c.get("id") is None:
+            continue
+        here = f"choices[{i}].id"
+        cid = c["id"]
+        if not isinstance(cid, str) or not NAME_RE.fullmatch(cid):
+            raise ConfigError(here, f"expected lowercase letters, digits and _, got "
+                              f"{describe(cid)}")
+        if cid in ids:
+            raise ConfigError(here, f"'{cid}' is also the id of choices[{ids[cid]}]")
+        ids[cid] = i
+    return ids
+
+
+def _reading_path(path: str, here: str) -> str:
+    """A reading's key path, checked for its form: filters.NAME.KEY (NAME may be *) or
+    scenario.KEY."""
+    parts = path.split(".") if isinstance(path, str) else []
+    if parts[:1] == ["filters"] and len(parts) == 3 and all(parts):
+        return path
+    if parts[:1] == ["scenario"] and len(parts) == 2 and parts[1] and parts[1] != "name":
+        return path
+    raise ConfigError(here, f"'{path}': a reading sets filters.NAME.KEY, filters.*.KEY or "
+                      "scenario.KEY (not the scenario's name, trials or seed)")
+
+
+def _readings(raw: Any, tables: dict, ids: dict[str, int]) -> dict[str, tuple[Reading, ...]]:
+    """The ``readings:`` section: table name -> its readings, each checked for its form (the key
+    paths and values are checked against a config when one runs them: pfbench.readings)."""
+    out: dict[str, tuple[Reading, ...]] = {}
+    for table, items in check_mapping("readings", raw or {}).items():
+        path = f"readings.{table}"
+        _known(str(table), list(tables), path, "table")
+        found: list[Reading] = []
+        for i, item in enumerate(_list(items, path)):
+            here = f"{path}[{i}]"
+            item = check_mapping(here, item)
+            top = check_section(item, _READING, here, ignore=("choice", "set"))
+            name = top["name"]
+            if not NAME_RE.fullmatch(name):
+                raise ConfigError(f"{here}.name", f"'{name}': lowercase letters, digits and _")
+            if name == DEFAULT_READING:
+                raise ConfigError(f"{here}.name", f"'{name}' is the config as it is (implicit, "
+                                  "never declared)")
+            if any(r.name == name for r in found):
+                raise ConfigError(f"{here}.name", f"a second reading named '{name}' in {table}")
+            if len(top["title"]) >= TITLE_MAX:
+                raise ConfigError(f"{here}.title", f"{len(top['title'])} characters; under "
+                                  f"{TITLE_MAX}, please")
+            chosen = item.get("choice")
+            chosen = [chosen] if isinstance(chosen, str) else chosen
+            if not isinstance(chosen, list) or not chosen:
+                raise ConfigError(f"{here}.choice", "expected the id of a choice, or a list of "
+                                  f"them, got {describe(item.get('choice'))}")
+            for c in chosen:
+                if not isinstance(c, str) or c not in ids:
+                    raise ConfigError(f"{here}.choice", "no choice with the id "
+                                      + (f"'{c}'" if isinstance(c, str) else describe(c))
+                                      + (did_you_mean(c, list(ids)) if isinstance(c, str)
+                                         else "") + f"; ids: {', '.join(ids) or 'none'} (give "
+                                      "the choice an 'id')")
+            sets = check_mapping(f"{here}.set", item.get("set"))
+            if not sets:
+                raise ConfigError(f"{here}.set", "expected at least one key path -> value")
+            pairs = tuple((_reading_path(k, f"{here}.set"), v) for k, v in sets.items())
+            found.append(Reading(name, top["title"], tuple(chosen), pairs, top["why"]))
+        out[str(table)] = tuple(found)
+    return out
 
 
 def read(path: str | Path) -> Paper:

@@ -124,7 +124,7 @@ def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int |
                progress: Callable[[int, int], None] | None = None,
                until_decided: bool = False, max_trials: int | None = None,
                figure_format: str = "png", warn: Callable[[str], None] | None = None,
-               status: Callable[[str], None] | None = None) -> Path:
+               status: Callable[[str], None] | None = None, readings: bool = False) -> Path:
     """Run one config (an experiment or a sweep) into results/<name>, replacing what the folder
     held; return the folder. ``progress(done, total)`` is called as trials finish (over every
     cell of a sweep; a run until decided raises the total batch by batch), ``status(line)`` as
@@ -134,7 +134,11 @@ def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int |
 
     The run goes to a staging folder beside it (``.<name>.partial``) that replaces the old folder
     only when everything is written, so an error or Ctrl-C leaves the committed results as they
-    were; ``resume`` keeps the staging folder's finished trials."""
+    were; ``resume`` keeps the staging folder's finished trials.
+
+    The folder's readings (pfbench.readings) are kept when the config's trials are the same;
+    ``readings`` runs every reading its paper file declares (those kept and up to date are not
+    run again) and judges them (readings.csv, readings.md)."""
     sweep = is_sweep(path)
     if sweep:
         name, cells = sw.expand(path, {}, {"trials": trials})
@@ -165,10 +169,28 @@ def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int |
                 res = run_experiment(exp, stage, resume=resume, progress=progress,
                                      executor=executor)
                 write_experiment(exp, res, stage, figures, figure_format)
+                _readings(exp, folder, stage, executor, readings, warn, status)
         with FolderLock(folder, "results folder", root=results):
             keep_provenance(stage, folder)
             replace_tree(stage, folder, results)
     return folder
+
+
+def _readings(exp, folder: Path, stage: Path, executor, run: bool, warn, status) -> None:
+    """The readings of a regenerated experiment: those ``folder`` held, kept in ``stage`` when
+    its trials are the same (pfbench.readings.carry); with ``run``, every reading its paper file
+    declares run into ``stage`` (a reading kept up to date is not) and judged."""
+    from . import readings as rd
+    rd.carry(folder, stage, warn)
+    if not run or not rd.declared(exp):
+        return
+    runs = rd.plan(exp)
+
+    def say(r, fresh):
+        if status:
+            status(f"reading {r.name}" + (" (up to date)" if fresh else ""))
+    rd.run_all(runs, stage, executor, say)
+    rd.write(runs, stage)
 
 
 def total_trials(path: Path, trials: int | None = None) -> int:
@@ -301,8 +323,26 @@ def check_config(path: Path, results: Path, executor: LocalExecutor, z: float = 
             return result
         exp = load(path)
         k = min(exp.check["trials"], exp.trials)
-        committed = _committed(child(Path(results), exp.name, f"{path}: name"), exp)
+        where = child(Path(results), exp.name, f"{path}: name")
+        committed = _committed(where, exp)
         res = run_experiment(replace(exp, trials=k), Path(tmp) / exp.name, progress=progress,
                              executor=executor)
-        return check_against_committed(pd.DataFrame(res.rows), committed, exp.name, z,
-                                       CheckResult(exp.name, k))
+        result = check_against_committed(pd.DataFrame(res.rows), committed, exp.name, z,
+                                         CheckResult(exp.name, k))
+        return _check_readings(replace(exp, trials=k), where, Path(tmp) / exp.name, executor,
+                               z, result)
+
+
+def _check_readings(exp, where: Path, scratch: Path, executor, z: float,
+                    result: CheckResult) -> CheckResult:
+    """The committed readings of results folder ``where`` (pfbench.readings.committed) checked
+    as its trials are: each reading's first trials run again beside the config's in ``scratch``
+    (the filter runs it leaves alone keep their rows) and compared with its committed trials."""
+    from . import readings as rd
+    from .store import read_results as read
+    for run in rd.committed(exp, where):
+        theirs = _committed(rd.reading_folder(where, run.name), run.exp)
+        mine = read(rd.run_reading(run, scratch, executor))[1].rows
+        check_against_committed(pd.DataFrame(mine), theirs, f"{exp.name} [reading {run.name}]",
+                                z, result)
+    return result

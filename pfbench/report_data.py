@@ -422,7 +422,16 @@ def _experiment_section(e: Entry, where: Path) -> list[str]:
             out += [f"- {n}" for n in table.notes] + [""]
     out += [f"Full table with the diagnostics: [{e.name}/table.md]"
             f"({os.path.relpath(e.folder / 'table.md', where).replace(os.sep, '/')}).", ""]
+    out += _readings(e, where)
     return out + _figures(e.folder, where) + [""]
+
+
+def _readings(e: Entry, where: Path) -> list[str]:
+    """The robustness lines of the readings the results folder holds, and their table on
+    demand (pfbench.readings.report_lines); none without readings."""
+    from . import readings as rd
+    link = os.path.relpath(e.folder / rd.MD, where).replace(os.sep, "/")
+    return rd.report_lines(e.folder, link)
 
 
 def _head(e: Entry, title: str, paper: str | None = None) -> list[str]:

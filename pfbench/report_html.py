@@ -120,7 +120,7 @@ reports, with 95% intervals and a verdict for every value.</p>
 {% endfor %}</table></div>
 {% endfor %}
 {% if s.reasons %}<ul class="notes">{% for r in s.reasons %}<li>Not comparable ({{ loop.index }}): {{ r }}.</li>{% endfor %}</ul>{% endif %}
-{% if s.notes %}<h3>Measured here</h3><ul class="notes">{% for n in s.notes %}<li>{{ n }}</li>{% endfor %}</ul>{% endif %}
+{% if s.readings %}<h3>Under every reading of the paper's open choices</h3><p>{{ s.readings.intro }}</p><ul class="notes">{% for n in s.readings.lines %}<li>{{ n }}</li>{% endfor %}</ul><details><summary>Every claim under every reading</summary><p>{{ s.readings.legend }}</p><div class="wrap"><table class="results"><tr>{% for h in s.readings.head %}<th>{{ h }}</th>{% endfor %}</tr>{% for row in s.readings.rows %}<tr>{% for c in row %}<td>{{ c }}</td>{% endfor %}</tr>{% endfor %}</table></div><p>{{ s.readings.note }}</p></details>{% endif %}{% if s.notes %}<h3>Measured here</h3><ul class="notes">{% for n in s.notes %}<li>{{ n }}</li>{% endfor %}</ul>{% endif %}
 {% if s.paper_notes %}<h3>The paper's table and how we read it</h3><ul class="notes">{% for n in s.paper_notes %}<li>{{ n }}</li>{% endfor %}</ul>{% endif %}
 {% for f in s.figures %}<figure><img src="{{ f.src }}" alt="{{ f.alt }}"><figcaption>{{ f.alt }}</figcaption></figure>
 {% endfor %}{% endif %}
@@ -244,7 +244,7 @@ def _section(e: rp.Entry, out_dir: Path, figures: bool, drawing=None) -> dict:
     table = e.exp.reported
     s = {"name": e.name, "status": e.status, "description": e.exp.description,
          "provenance": _provenance_html(e), "tables": [], "reasons": [], "notes": [],
-         "paper_notes": [], "figures": []}
+         "paper_notes": [], "figures": [], "readings": None}
     if e.cells:
         s["title"] = f"Sweep: {e.path.stem}"
         s["caption"] = None
@@ -261,6 +261,7 @@ def _section(e: rp.Entry, out_dir: Path, figures: bool, drawing=None) -> dict:
         s["tables"], s["reasons"] = _comparison_tables(e)
         s["notes"] = [n for n in tb.footnotes(e.comparison) if not n.startswith("'RMSE - ")]
         s["paper_notes"] = list(table.notes)
+        s["readings"] = _readings(e)
     else:
         rows = [[_cell(r["label"]), _cell(rp._n(r["particles"]), True),
                  _cell(int(r["trials"]), True),
@@ -276,6 +277,20 @@ def _section(e: rp.Entry, out_dir: Path, figures: bool, drawing=None) -> dict:
             s["figures"].append({"src": os.path.relpath(p, out_dir).replace(os.sep, "/"),
                                  "alt": f"{e.name}: {p.stem.replace('_', ' ')}"})
     return s
+
+
+def _readings(e: rp.Entry) -> dict | None:
+    """The readings of an experiment's results folder for its section: the robustness lines and
+    the readings table (pfbench.readings); None when it holds none."""
+    from . import readings as rd
+    rows = rd.read_csv(e.folder)
+    if not rows:
+        return None
+    names = list(dict.fromkeys(r["reading"] for r in rows))
+    head, cells = rd.grid(rows)
+    return {"intro": f"{len(names)} readings ({', '.join(names)}); each claim of the table "
+                     "across them:", "lines": rd.lines_of(rows), "legend": rd.LEGEND,
+            "head": head, "rows": cells, "note": rd.family_note(rows, len(names))}
 
 
 def build(configs: Path, results: Path, out_dir: Path, figures: bool = True,
