@@ -28,8 +28,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .fsutil import atomic_write
 from .papers import Curve, Quantity
 from .schema import ConfigError, did_you_mean
+from .store import write_csv
 from .verdicts import ALPHA, Claim, decide_family, percent
 
 FILES = ("curves.csv", "curves.md")
@@ -233,8 +235,6 @@ def markdown(curves: tuple, frame: pd.DataFrame, keys: list[str]) -> str:
 def write(folder: Path, curves: tuple, frame: pd.DataFrame, keys: list[str]) -> list[Path]:
     """curves.csv and curves.md in a sweep's folder (none, and any stale ones removed, when the
     sweep names no curve)."""
-    from .fsutil import atomic_write
-    from .store import write_csv
     paths = [Path(folder) / f for f in FILES]
     if not curves:
         for p in paths:

@@ -28,7 +28,7 @@ LAYERS = {
     "experiment": ("pfbench.kinds", "pfbench.traces", "pfbench.diagnostics", "pfbench.resources",
                    "pfbench.papers", "pfbench.verdicts", "pfbench.compare", "pfbench.config"),
     "running": ("pfbench.workers", "pfbench.store", "pfbench.runner", "pfbench.precompile",
-                "pfbench.sweep", "pfbench.tables", "pfbench.tablecache", "pfbench.plots",
+                "pfbench.sweep", "pfbench.curves", "pfbench.tables", "pfbench.tablecache", "pfbench.plots",
                 "pfbench.contract", "pfbench.traps"),
     "outputs": ("pfbench.outputs", "pfbench.api", "pfbench.readings", "pfbench.regen",
                 "pfbench.report_data",
