@@ -16,7 +16,7 @@ from typer.testing import CliRunner
 from pfbench.cli import app
 from pfbench.config import Params, validate
 from pfbench.errors import UserError
-from pfbench.filters import FILTERS, FilterType
+from pfbench.filters import FILTERS
 from pfbench.models.beacons import (SCAN_LIK_SIG, SCAN_SAMPLE_SIG, mixture_loglik,
                                     mixture_theta)
 from pfbench.models.scalar import MODEL_SIG

@@ -194,6 +194,21 @@ def _typeof_scan_sampler(val, c):
     return ScanSampleFn
 
 
+class ScanModel(NamedTuple):
+    """What weighs a step's observations, as the localization kernels take it: the beacons bc
+    (B, 2), the model's own log-likelihood ``loglik`` (a ``ScanLikelihoodFunction``, or the
+    placeholder), ``use`` 1 to weigh by it (0: the Gaussian sensor, inline) and its parameters
+    theta (``FieldModel.scan_model``)."""
+
+    bc: np.ndarray
+    loglik: object
+    use: int
+    theta: np.ndarray
+
+
+SCAN_MODEL = types.NamedTuple((_F2, ScanLikFn, types.int64, _F), ScanModel)
+
+
 @functools.cache
 def scan_placeholder(cls):
     """The placeholder of a ``cls`` (ScanLikelihoodFunction or ScanSamplerFunction) that the

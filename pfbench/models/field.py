@@ -22,8 +22,8 @@ from .._lazy import kernel
 from ..angles import wrap
 from ..codes import MOTION_ODOMETRY
 from ..rng import STATE, uniform
-from .beacons import (BEACON_SENSOR, BeaconSensor, ScanLikelihoodFunction, ScanSampleFn,
-                      ScanSamplerFunction, scan_placeholder, sense_beacons)
+from .beacons import (BEACON_SENSOR, BeaconSensor, ScanLikelihoodFunction, ScanModel,
+                      ScanSampleFn, ScanSamplerFunction, scan_placeholder, sense_beacons)
 from .scalar import model_function
 from .odometry import MOTION_NOISE, MotionNoise, noisy_odometry
 from .pose import InitialBelief
@@ -90,6 +90,10 @@ class FieldModel:
         if self.loglik is None:
             return scan_placeholder(ScanLikelihoodFunction), 0
         return self.loglik, 1
+
+    def scan_model(self) -> ScanModel:
+        """The beacons and the likelihood (``likelihood``) as the filters' kernels take them."""
+        return ScanModel(self.beacons, *self.likelihood(), self.theta)
 
     def sampler(self) -> tuple:
         """(sample, 1) as ``simulate_field`` takes them, or (a placeholder, 0):
