@@ -105,6 +105,9 @@ class FilterType:
                         if hasattr(module, "PROVIDES") else
                         "it declares no PROVIDES; its model provides: "
                         + (", ".join(sorted(have)) or "none of them"))
+                if hasattr(module, "PROVIDES") and _asked(module, self.needs):
+                    says += ("; its model, with these keys, provides: "
+                             + (", ".join(sorted(have)) or "none of them"))
                 return (f"needs {need_text(lacking)}, which scenario '{scenario}' does not "
                         f"provide ({says})")
             lying = false_claims(module, params, self.needs)
@@ -115,11 +118,13 @@ class FilterType:
 
 
 # What a filter type may need of a scenario beyond its kind (``FilterType.needs``), which a
-# scenario declares it provides (``PROVIDES = ("jacobians", ...)`` in its module). The scalar kind
-# is the only one whose scenarios differ in these: a localization or SLAM scenario builds the
-# kind's own record (pfbench.models.field.FieldModel, pfbench.models.slam.SlamModel), which fixes
-# the motion and the sensor (range, bearing, Gaussian noise) its filters read, so they need
-# nothing beyond the kind.
+# scenario declares it provides (``PROVIDES = ("jacobians", ...)`` in its module). A localization
+# or SLAM scenario builds the kind's own record (pfbench.models.field.FieldModel,
+# pfbench.models.slam.SlamModel), which fixes the motion and the sensor its filters read; its
+# measurement is the Gaussian range (and bearing) sensor, or, for a field model, its own
+# likelihood (``FieldModel.loglik``): such a model says what it provides (its ``provides()``),
+# which a scenario that declares neither of ``MEASUREMENT`` has read from it. FastSLAM's landmark
+# EKFs need the Gaussian measurement and its Jacobians, which the SLAM scenarios declare.
 NEEDS = {
     "jacobians": "the Jacobians of its model (df/dx, dh/dx: ScalarModel's transition_jac, "
                  "observe_jac)",
@@ -161,8 +166,12 @@ def own_likelihood(model) -> bool:
 
 def _model_has(need: str, model) -> bool:
     """Whether ``model`` (a scenario's built model) shows that it provides ``need``: what a
-    scenario without ``PROVIDES`` is credited with. A linear model is never inferred (the model's
+    scenario without ``PROVIDES`` is credited with; a model with a ``provides()`` method (the
+    localization and SLAM kinds' records) says it. A linear model is never inferred (the model's
     functions do not say it); a scenario that has one declares it."""
+    says = getattr(model, "provides", None)
+    if callable(says):
+        return need in says()
     if need == "jacobians":
         return (getattr(model, "transition_jac", None) is not None
                 and getattr(model, "observe_jac", None) is not None)
@@ -232,7 +241,11 @@ def provided(module, params, needs=()) -> set:
 
 def _model_lacks(need: str, model) -> bool:
     """Whether ``model`` shows it lacks ``need`` (only what a model shows: its Jacobians, the
-    observe function and noise of a Gaussian measurement)."""
+    observe function and noise of a Gaussian measurement; a model with ``provides()``, what it
+    says)."""
+    says = getattr(model, "provides", None)
+    if callable(says):
+        return need not in says()
     if need == "jacobians":
         return not _model_has("jacobians", model)
     if need == "gaussian_measurement":

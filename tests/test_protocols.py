@@ -106,10 +106,14 @@ def test_every_builtin_filter_and_scenario_declares_in_the_vocabulary():
     for name in ("ungm", "upf_gamma", "linear_gaussian"):
         assert {"gaussian_measurement", "likelihood", "jacobians"} <= set(
             BUILTIN_SCENARIOS[name].PROVIDES)
-    # every scalar scenario gives its filters a likelihood; the other kinds need nothing
+    # every scalar scenario gives its filters a likelihood; the SLAM scenarios the Gaussian
+    # sensor with its Jacobians (FastSLAM's landmark EKFs); the beacon field's is read from its
+    # model (its keys decide whether the measurement is Gaussian)
     for name, mod in BUILTIN_SCENARIOS.items():
         if mod.KIND == "scalar":
             assert "likelihood" in mod.PROVIDES
+        elif mod.KIND == "slam":
+            assert set(mod.PROVIDES) == {"gaussian_measurement", "jacobians", "likelihood"}
         else:
             assert mod.PROVIDES == ()
     assert "linear" in BUILTIN_SCENARIOS["linear_gaussian"].PROVIDES

@@ -1179,4 +1179,5 @@ def fastslam_keys() -> dict:
 
 FASTSLAM = FilterType("fastslam", "FastSLAM 1.0 with per-landmark EKFs, optional swarm pose "
                       "refinement (FA, IFA, BA, PSO, AFSA)", fastslam_keys(), run, kind="slam",
-                      needs=())
+                      needs=("gaussian_measurement", "jacobians"))   # the landmark EKFs'
+

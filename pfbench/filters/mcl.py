@@ -25,7 +25,10 @@ particle is, with the injection probability, a pose from the field or the sensor
 Particles start uniform over the field and heading (the pose is unknown), or around the start
 (scenario ``initial: known``). Each step every particle
 moves by the odometry with its own draw of the scenario's motion noise; the likelihood is the
-product over the step's observations of Gaussians in range (and wrapped bearing). The estimate is
+product over the step's observations of Gaussians in range (and wrapped bearing), or the model's
+own log-likelihood where it brings one (``FieldModel.loglik``: every weighing, resets and
+KLD-sampling included, goes through it; poses drawn from the sensor model still use the sensor's
+Gaussian, sr and sb, as a proposal). The estimate is
 the weighted mean (circular for the heading) before resampling. A pose drawn from the sensor model
 is consistent with one observation of the step: on its range circle around the beacon (range
 sensor: heading uniform), or, with a bearing, also heading so that the beacon is seen at that
@@ -53,7 +56,7 @@ from ..resampling import ess_threshold, resample, systematic_from_sums
 from ..rng import (STATE, _layer, fill_normal, in_layer_rectangle, load_local, next_local,
                    normal_off_rectangle, store_local, uniform, unit)
 from .. import vecmath as vm
-from ..models.beacons import loglik_const, sensor_pose
+from ..models.beacons import SCAN_MODEL, loglik_const, sensor_pose
 from ..models.odometry import MOTION_NOISE, _odometry, odometry_with
 from ..models.observations import OBSERVATIONS, observations
 from ..models.pose import INITIAL_BELIEF, SNAPSHOTS, init_particles, snapshot, snapshot_arrays
@@ -636,11 +639,26 @@ def move_particles(P, CS, Z, u, o, mnoise):
         _move_rot_trans_rot(P[0], P[1], P[2], CS[0], CS[1], Z, u[0], u[1], u[2], mnoise, o.N)
 
 
+@kernel(types.void(_F2, types.int64, SCAN_MODEL, types.int64, _I, _F2, MCL_OPTIONS, _F),
+        cache=True, error_model="numpy")
+def particle_logliks(P, n, sm, m, ids, zs, o, ll):
+    """ll[:n] = log p(z | particle i) of the step's m observations of the beacons sm.bc: the
+    model's own log-likelihood sm.loglik (``SCAN_LIK_SIG``, parameters sm.theta) where sm.use,
+    else the Gaussian sensor of o (``loglik_pass``)."""
+    if sm.use:
+        sm.loglik(P[0, :n], P[1, :n], P[2, :n], sm.bc, m, ids, zs, sm.theta, ll[:n])
+    else:
+        loglik_pass(P[0], P[1], P[2], n, sm.bc, m, ids, zs, o.sensor, o.sr, o.sb,
+                    loglik_const(m, o.sensor, o.sr, o.sb), ll)
+
+
 @kernel(types.Tuple((types.float64, types.float64, types.float64, types.boolean))(
-    _F2, types.int64, _F2, types.int64, _I, _F2, MCL_OPTIONS, _F, _F, _F, types.boolean),
+    _F2, types.int64, SCAN_MODEL, types.int64, _I, _F2, MCL_OPTIONS, _F, _F, _F, types.boolean),
     cache=True, error_model="numpy")
-def weigh_observations(P, n, bc, m, ids, zs, o, lw, W, ll, equal_weights):
-    """Weigh the n particles by the step's m observations: log-weights lw, weights W (as they
+def weigh_observations(P, n, sm, m, ids, zs, o, lw, W, ll, equal_weights):
+    """Weigh the n particles by the step's m observations of the beacons sm.bc
+    (``particle_logliks``: the model's own log-likelihood where sm.use, else the Gaussian
+    sensor; sm: ``ScanModel``): log-weights lw, weights W (as they
     are: W = exp(lw - max lw), never normalised; ``weighted_sums`` divides by their sum where it
     matters). Returns (1 when every weight underflowed and was reset, else 0; the largest
     log-likelihood lmax; the sum of exp(ll - lmax); whether W holds those very terms). The mean
@@ -650,8 +668,7 @@ def weigh_observations(P, n, bc, m, ids, zs, o, lw, W, ll, equal_weights):
     lw holds), so the likelihoods are the weights, and lw is left as it is: unless every weight
     underflowed (then lw is all zero), the log-weights are ll, and the caller swaps the two
     arrays."""
-    loglik_pass(P[0], P[1], P[2], n, bc, m, ids, zs, o.sensor, o.sr, o.sb,
-                loglik_const(m, o.sensor, o.sr, o.sb), ll)
+    particle_logliks(P, n, sm, m, ids, zs, o, ll)
     # the two maxima in four lanes each (the same maxima: a NaN loses every comparison)
     m0 = m1 = m2 = m3 = -np.inf
     l0 = l1 = l2 = l3 = -np.inf
@@ -880,18 +897,20 @@ def kld_step(P, cum, n, u, o, mnoise, area, kp, wk, prob, bc, m, ids, zs, s, out
 
 
 MCL_SIG = types.int64(
-    _F2, OBSERVATIONS, _F2, _F, MCL_OPTIONS, MOTION_NOISE, RESET_PARAMS, KLD_PARAMS, INITIAL_BELIEF,
-    STATE, _F2, _F, _I, _I, _F, _I, SNAPSHOTS)
+    _F2, OBSERVATIONS, SCAN_MODEL, _F, MCL_OPTIONS, MOTION_NOISE, RESET_PARAMS, KLD_PARAMS,
+    INITIAL_BELIEF, STATE, _F2, _F, _I, _I, _F, _I, SNAPSHOTS)
 
 
 @kernel(MCL_SIG, cache=True, error_model="numpy")
-def mcl_kernel(ctrl, obs, bc, area, o, mnoise, rp, kp, init, s, est, ess, resampled, injected,
+def mcl_kernel(ctrl, obs, sm, area, o, mnoise, rp, kp, init, s, est, ess, resampled, injected,
                pmean, count, snap):
     """Run MCL over one trial (settings o, see ``MclOptions``); est (T+1, 3) the weighted pose
     estimate (est[0]: of the initial cloud), ess / resampled / injected / pmean / count (T,) per
     step. rp: the injection's parameters (``ResetParams``). o.kld: KLD-sampling
     with kp (``KldParams``), o.N the largest count; init: the initial belief (``InitialBelief``).
-    obs: the observations (``Observations``). snap.steps: increasing steps at which the particles
+    obs: the observations (``Observations``); sm: the beacons sm.bc and the model's own
+    log-likelihood, which weighs where sm.use (``ScanModel``, ``FieldModel.scan_model``).
+    snap.steps: increasing steps at which the particles
     (after the step's move, before resampling; step 0: the initial cloud) are copied into
     snap.poses (S, N, 3), their count into snap.counts. Returns
     the steps whose weights all underflowed.
@@ -899,6 +918,7 @@ def mcl_kernel(ctrl, obs, bc, area, o, mnoise, rp, kp, init, s, est, ess, resamp
     Each step: move (sample the motion model), weigh, estimate, resample, inject; KLD-sampling
     resamples and moves in one loop at the start of the next step instead."""
     T, N = ctrl.shape[0], o.N
+    bc = sm.bc
     P, CS = initial_set(area, init, N, s)       # particles as rows, their headings' cos, sin
     P2, CS2 = np.empty((3, N)), np.empty((2, N))    # the next set, swapped in when built
     lw, W, ll, cum = np.zeros(N), np.ones(N), np.empty(N), np.empty(N)
@@ -928,7 +948,7 @@ def mcl_kernel(ctrl, obs, bc, area, o, mnoise, rp, kp, init, s, est, ess, resamp
             move_particles(P, CS, wk.Z, ctrl[t], o, mnoise)
         count[t] = n
         m, ids, zs = obs.n[t], obs.ids[t], obs.z[t]
-        under, lmax, acc, w_is_terms = weigh_observations(P, n, bc, m, ids, zs, o, lw, W, ll,
+        under, lmax, acc, w_is_terms = weigh_observations(P, n, sm, m, ids, zs, o, lw, W, ll,
                                                           equal_weights)
         if equal_weights and under == 0.0:
             lw, ll = ll, lw         # the log-weights of such a set are its log-likelihoods
@@ -993,7 +1013,7 @@ def run(model, data, params, particles, state, diag=True, snapshots=()):
         scheme=SCHEME_CODES[params["resampling"]], reset=RESET[params["reset"]],
         inject_sensor=int(params["inject"] == "sensor"), kld=int(kld))
     out["underflow_steps"] = mcl_kernel(
-        data.ctrl, observations(data), model.beacons, model.area, o, model.mnoise,
+        data.ctrl, observations(data), model.scan_model(), model.area, o, model.mnoise,
         rp, kp, model.init, state, out["pose"], out["ess"], out["resampled"], out["injected"],
         out["pmean"], out["n"], out["snapshots"])
     out["lik_evals_per_step"] = float(np.mean(out["n"]))

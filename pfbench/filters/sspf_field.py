@@ -6,7 +6,9 @@ Each particle i carries a pose x_i and a covariance P_i (3 x 3). Per step an aug
 (x_i, P_i) with the step's odometry and observations gives N(m_i, Pn_i); the particle is drawn from
 it, P_i becomes Pn_i, and the weight is multiplied by p(z | x) p(x | x_prev) / q(x | x_prev, z).
 The measurement noise is additive, so it enters the UKF's innovation covariance directly (the same
-as augmenting it).
+as augmenting it). A field model with its own log-likelihood (``FieldModel.loglik``) weighs the
+particles and the MH moves by it; the UKFs' proposals still take the sensor's Gaussian (sr, sb) as
+the measurement's noise, a proposal that the weights correct.
 
 Choices the paper leaves open, each a key:
 - the transition density p(x | x_prev) in the weight is the motion model linearised in its noise,
@@ -53,7 +55,7 @@ from ..codes import (MOTION_ODOMETRY, SCHEME_CODES, SENSOR_RANGE_BEARING, TRIGGE
 from ..resampling import ess_threshold, resample
 from ..rng import STATE, fill_normal, normal, uniform
 from .. import vecmath as vm
-from ..models.beacons import pose_loglik
+from ..models.beacons import SCAN_MODEL, pose_loglik
 from ..models.observations import OBSERVATIONS, observations
 from ..models.odometry import MOTION_NOISE
 from ..models.pose import (INITIAL_BELIEF, SNAPSHOTS, estimate_pose, init_particles, snapshot,
@@ -229,9 +231,23 @@ def weights_and_change(lw, W, Wprev, mx):
     return under, ess_of(1.0, S2), Kc     # 1 / S2 (normalised weights), exactly
 
 
+@kernel(types.float64(types.float64, types.float64, types.float64, SCAN_MODEL, types.int64, _I,
+                      _F2, FIELD_OPTIONS, _F2), cache=True)
+def field_loglik(x, y, th, sm, m, ids, zs, o, one):
+    """log p(z | pose) of the step's m observations (ids, zs) of the beacons sm.bc seen from
+    (x, y, th): the model's own log-likelihood sm.loglik (``SCAN_LIK_SIG``) where sm.use,
+    called on a set of one particle (one (4, 1): scratch), else the Gaussian sensor's
+    ``pose_loglik``."""
+    if sm.use:
+        one[0, 0], one[1, 0], one[2, 0] = x, y, th
+        sm.loglik(one[0], one[1], one[2], sm.bc, m, ids, zs, sm.theta, one[3])
+        return one[3, 0]
+    return pose_loglik(x, y, th, sm.bc, m, ids, zs, o.sensor, o.sr, o.sb)
+
+
 SSPF_SIG = types.int64(
-    _F2, OBSERVATIONS, _F2, _F, FIELD_OPTIONS, MOTION_NOISE, SIGMA_PARAMS, POSE_STD, POSE_STD,
-    INITIAL_BELIEF, STATE, _F2, _F, _I, _F, SNAPSHOTS)
+    _F2, OBSERVATIONS, SCAN_MODEL, _F, FIELD_OPTIONS, MOTION_NOISE, SIGMA_PARAMS, POSE_STD,
+    POSE_STD, INITIAL_BELIEF, STATE, _F2, _F, _I, _F, SNAPSHOTS)
 
 
 # --- the kernel, in rows -------------------------------------------------------------------------
@@ -573,15 +589,16 @@ def update_covariance(nz, wk, c):
                     Pn[3 * b + a, p] = v
 
 
-@kernel(types.float64(FIELD_ROWS, types.int64, types.int64, _F, _F2, _I, _F2, types.int64,
-                      FIELD_OPTIONS, CHUNK_WORK, _F, POSE_STD, _F, _F, _F, _F3), cache=True,
+@kernel(types.float64(FIELD_ROWS, types.int64, types.int64, _F, SCAN_MODEL, _I, _F2, types.int64,
+                      FIELD_OPTIONS, _F2, CHUNK_WORK, _F, POSE_STD, _F, _F, _F, _F3), cache=True,
         error_model="numpy")
-def draw_particles(pr, i0, c, u, bc, ids, zs, m, o, wk, sd, jit, z, lw, xm, T3):
+def draw_particles(pr, i0, c, u, sm, ids, zs, m, o, one, wk, sd, jit, z, lw, xm, T3):
     """For a chunk's c particles, one at a time (each particle's factor, densities and
     transition are a few scalar steps): particle i0 + p is drawn from N(wk.xm, wk.Pn) (where Pn
     is numerically indefinite, the predicted wk.Pm) with
     the normal draws z[3 i: 3 i + 3], its proposal kept with it, and lw[i] += log p(z | x) +
-    log p(x | x_prev) - log q(x). xm (3,), T3 (5, 3, 3): scratch. Returns the largest lw."""
+    log p(x | x_prev) - log q(x) (p(z | x): ``field_loglik``). xm (3,), T3 (5, 3, 3), one (4, 1):
+    scratch. Returns the largest lw."""
     Pn, Pm, L3, Q, Lt = T3[0], T3[1], T3[2], T3[3], T3[4]
     X = pr.X
     mx = -np.inf
@@ -604,7 +621,7 @@ def draw_particles(pr, i0, c, u, bc, ids, zs, m, o, wk, sd, jit, z, lw, xm, T3):
         transition_cov(X[0, i], X[1, i], X[2, i], u, sd, jit, Q)
         chol(Q, 3, Lt)
         lp = lognormal3(nx - fx, ny - fy, wrap(nt - ft), Lt)
-        ll = pose_loglik(nx, ny, nt, bc, m, ids, zs, o.sensor, o.sr, o.sb)
+        ll = field_loglik(nx, ny, nt, sm, m, ids, zs, o, one)
         X[0, i], X[1, i], X[2, i] = nx, ny, nt
         for a in range(3):
             pr.mprop[a, i] = xm[a]
@@ -660,8 +677,9 @@ def prior_draws(pr, Wprev, s, z, lw):
     return mx
 
 
-@kernel(types.int64(FIELD_ROWS, _F2, _I, _F2, types.int64, FIELD_OPTIONS, STATE, _F3), cache=True)
-def mh_moves(pr, bc, ids, zs, m, o, s, T3):
+@kernel(types.int64(FIELD_ROWS, SCAN_MODEL, _I, _F2, types.int64, FIELD_OPTIONS, _F2, STATE, _F3),
+        cache=True)
+def mh_moves(pr, sm, ids, zs, m, o, one, s, T3):
     """o.mh_steps independence Metropolis-Hastings moves per particle with its ancestor's
     proposal (T3 (5, 3, 3): scratch); returns the moves accepted."""
     acc = 0
@@ -678,7 +696,7 @@ def mh_moves(pr, bc, ids, zs, m, o, s, T3):
             ny = mprop[1, i] + Lp[1, 0] * n0 + Lp[1, 1] * n1
             nt = wrap(mprop[2, i] + Lp[2, 0] * n0 + Lp[2, 1] * n1 + Lp[2, 2] * n2)
             lq = lognormal3(nx - mprop[0, i], ny - mprop[1, i], wrap(nt - mprop[2, i]), Lp)
-            lt = (pose_loglik(nx, ny, nt, bc, m, ids, zs, o.sensor, o.sr, o.sb)
+            lt = (field_loglik(nx, ny, nt, sm, m, ids, zs, o, one)
                   + lognormal3(nx - fpre[0, i], ny - fpre[1, i], wrap(nt - fpre[2, i]), Lq))
             la = (lt - lq) - (pr.ltgt[i] - pr.lqs[i])
             if la >= 0.0 or uniform(s) < math.exp(la):
@@ -689,11 +707,11 @@ def mh_moves(pr, bc, ids, zs, m, o, s, T3):
     return acc
 
 
-@kernel(types.float64(FIELD_ROWS, _F, _F2, _I, _F2, types.int64, types.int64, FIELD_OPTIONS, _F, _I,
-                      CHUNK_WORK, _F, _F, types.float64, _F, POSE_STD, _F, _F, _F, _F3), cache=True,
-        error_model="numpy")
-def propose_and_draw(pr, u, bc, ids, zs, m, nz, o, zobs, isb, wk, Wm, Wc, sq, sd, jit, z, lw, xm3,
-                     T3):
+@kernel(types.float64(FIELD_ROWS, _F, SCAN_MODEL, _I, _F2, types.int64, types.int64,
+                      FIELD_OPTIONS, _F2, _F, _I, CHUNK_WORK, _F, _F, types.float64, _F, POSE_STD,
+                      _F, _F, _F, _F3), cache=True, error_model="numpy")
+def propose_and_draw(pr, u, sm, ids, zs, m, nz, o, one, zobs, isb, wk, Wm, Wc, sq, sd, jit, z, lw,
+                     xm3, T3):
     """Every particle's UKF proposal for the step (odometry u, the m observations as zobs (nz,)),
     a chunk of wk's columns at a time: predict (``predict_moments``), update
     (``sensor_update``; without observations the prediction), then the draws from them and their
@@ -705,10 +723,11 @@ def propose_and_draw(pr, u, bc, ids, zs, m, nz, o, zobs, isb, wk, Wm, Wc, sq, sd
         c = min(CH, N - i0)
         predict_moments(pr, i0, c, u, sq, sd, jit, wk, Wm, Wc)
         if nz > 0:
-            sensor_update(bc, ids, zs, m, nz, o, zobs, isb, wk, Wm, Wc, c)
+            sensor_update(sm.bc, ids, zs, m, nz, o, zobs, isb, wk, Wm, Wc, c)
         else:
             wk.Pn[:, :c] = wk.Pm[:, :c]
-        mx = max(mx, draw_particles(pr, i0, c, u, bc, ids, zs, m, o, wk, sd, jit, z, lw, xm3, T3))
+        mx = max(mx, draw_particles(pr, i0, c, u, sm, ids, zs, m, o, one, wk, sd, jit, z, lw, xm3,
+                                    T3))
     return mx
 
 
@@ -721,17 +740,18 @@ def resample_due(o, ess, Kc):
 
 
 @kernel(SSPF_SIG, cache=True, error_model="numpy")
-def sspf_field_kernel(ctrl, obs, bc, area, o, mnoise, up, init, jit, start, s, est, ess, resampled,
+def sspf_field_kernel(ctrl, obs, sm, area, o, mnoise, up, init, jit, start, s, est, ess, resampled,
                       accepted, snap):
     """Run the SSPF over one trial (settings o, see ``FieldOptions``). up: the sigma points'
     parameters (``SigmaParams``); init: the UKFs' initial standard deviations, jit: the jitter
     (``PoseStd``); obs: the observations (``Observations``); start: the initial belief
-    (``InitialBelief``). Fills est (T+1, 3), ess / resampled / accepted (MH acceptance rate, NaN
+    (``InitialBelief``); sm: the beacons sm.bc and the model's own log-likelihood, which weighs
+    the particles where sm.use (``ScanModel``, ``FieldModel.scan_model``). Fills est (T+1, 3), ess / resampled / accepted (MH acceptance rate, NaN
     without a move) (T,); snapshots as mcl_kernel's. Returns the steps
     whose weights all underflowed, which ignore their observations (``prior_draws``). The particles' UKFs run in passes over chunks of SSPF_CHUNK
     particles (see the section's comment)."""
     T, N = ctrl.shape[0], o.N
-    nzmax = 2 * bc.shape[0]
+    nzmax = 2 * sm.bc.shape[0]
     Wm, Wc = np.empty(13), np.empty(13)
     sq = ut_weights(6, up.alpha, up.beta, up.kappa, Wm, Wc)
     CH = min(SSPF_CHUNK, N)
@@ -752,6 +772,7 @@ def sspf_field_kernel(ctrl, obs, bc, area, o, mnoise, up, init, jit, start, s, e
     z = np.empty(3 * N)
     xm3 = np.empty(3)
     T3 = np.zeros((5, 3, 3))
+    one = np.zeros((4, 1))
     events = 0
     estimate_pose(pr.X, W, N, est[0], True)
     si = snapshot(0, pr.X, N, snap, 0, True)
@@ -760,8 +781,8 @@ def sspf_field_kernel(ctrl, obs, bc, area, o, mnoise, up, init, jit, start, s, e
         noise_sd(u, o.motion, mnoise, sd)
         nz = observation_vector(zs, m, o, zobs, isb)
         fill_normal(s, z)      # the draws of the particles' proposals, in particle order
-        mx = propose_and_draw(pr, u, bc, ids, zs, m, nz, o, zobs, isb, wk, Wm, Wc, sq, sd, jit, z,
-                              lw, xm3, T3)
+        mx = propose_and_draw(pr, u, sm, ids, zs, m, nz, o, one, zobs, isb, wk, Wm, Wc, sq, sd, jit,
+                              z, lw, xm3, T3)
         skip = not np.isfinite(mx)          # the observations are ignored
         if skip:
             mx = prior_draws(pr, Wprev, s, z, lw)
@@ -783,7 +804,7 @@ def sspf_field_kernel(ctrl, obs, bc, area, o, mnoise, up, init, jit, start, s, e
         resampled[t] = 1
         if skip:
             continue
-        acc = mh_moves(pr, bc, ids, zs, m, o, s, T3)
+        acc = mh_moves(pr, sm, ids, zs, m, o, one, s, T3)
         if o.mh_steps > 0:
             accepted[t] = acc / (N * o.mh_steps)
     return events
@@ -812,7 +833,7 @@ def run(model, data, params, particles, state, diag=True, snapshots=()):
         sb=model.sense.sb, N=int(N), trigger=int(trig), threshold=float(threshold),
         scheme=SCHEME_CODES[params["resampling"]], mh_steps=int(params["mh_steps"]))
     out["underflow_steps"] = sspf_field_kernel(
-        data.ctrl, observations(data), model.beacons, model.area, o,
+        data.ctrl, observations(data), model.scan_model(), model.area, o,
         model.mnoise, *sspf_params(params), model.init, state,
         out["pose"], out["ess"], out["resampled"], out["mh_accept"], out["snapshots"])
     out["n"] = np.full(T, N)

@@ -2,19 +2,39 @@
 bc (B, 2), with Gaussian noise of standard deviations sr (m) and sb (rad). A world simulates
 what the robot sees (``sense_beacons``); a filter weighs a pose by the likelihood of a step's
 observations (``pose_loglik``) and draws poses consistent with them (``sensor_pose``).
+
+A field model may bring its own measurement model instead of the Gaussian (``FieldModel.loglik``
+and ``.sample``): numba functions on arrays of particles, of the signatures
+
+- ``SCAN_LIK_SIG``, ``loglik(X, Y, H, bc, m, ids, zs, theta, out)``: out[i] = log p(z | pose i),
+  the log density of the step's m observations (beacons ids[:m], [range, bearing] zs[:m]) seen
+  from the pose (X[i], Y[i], H[i]) (m, m, rad), for i < X.size, with its constants (MCL's
+  resets compare the mean likelihood with thresholds); -inf where a pose cannot have produced
+  them (a step where every particle's is -inf or NaN counts as an underflow step);
+- ``SCAN_SAMPLE_SIG``, ``sample(x, y, th, bc, theta, s, ids, zs) -> n``: the observations seen
+  from the true pose (x, y, th) into ids[:n], zs[:n] (each [range, bearing]; a range sensor's
+  bearing 0), its random numbers from the generator state ``s`` (``pfbench.rng``); returns n.
+
+``theta`` (float64[::1]) is the model's own parameters (``FieldModel.theta``). The built-in
+``mixture_loglik`` / ``mixture_sample`` are Thrun, Burgard and Fox's beam model reduced to its
+hit and random parts: a range is, with probability eps, an outlier uniform over [0, rmax], else
+the true range with Gaussian noise (the beacon field's key ``range_outliers``).
 """
 from __future__ import annotations
 
+import functools
 import math
 from typing import NamedTuple
 
 import numpy as np
 from numba import typeof, types
+from numba.core.typing.typeof import typeof_impl
 from .._lazy import kernel
 
 from ..angles import wrap
 from ..codes import SENSOR_RANGE, SENSOR_RANGE_BEARING
 from ..rng import STATE, normal, uniform
+from .scalar import ModelFunction
 
 _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
@@ -134,3 +154,170 @@ def sensor_pose(area, sensor, bc, n, ids, zs, sr, sb, out, s):
         out[2] = wrap(a - (zs[j, 1] + sb * normal(s)))
     else:
         out[2] = math.pi * (2.0 * uniform(s) - 1.0)
+
+
+# --- a field model's own measurement model (see the module's docstring) ------------------------
+
+SCAN_LIK_SIG = types.void(_F, _F, _F, _F2, types.int64, _I, _F2, _F, _F)
+ScanLikFn = types.FunctionType(SCAN_LIK_SIG)
+SCAN_SAMPLE_SIG = types.int64(types.float64, types.float64, types.float64, _F2, _F, STATE, _I,
+                              _F2)
+ScanSampleFn = types.FunctionType(SCAN_SAMPLE_SIG)
+
+
+class ScanLikelihoodFunction(ModelFunction):
+    """A field model's log-likelihood of a step's observations (``SCAN_LIK_SIG``) as the kernels
+    take it: the address of its compiled entry (see ``pfbench.models.scalar.ModelFunction``)."""
+
+    SIG, SIG_NAME, WHAT = SCAN_LIK_SIG, "SCAN_LIK_SIG", "scan log-likelihood"
+    ARGS = ("(X: float64[::1], Y: float64[::1], H: float64[::1], bc: float64[:, ::1], m: int64, "
+            "ids: int64[::1], zs: float64[:, ::1], theta: float64[::1], out: float64[::1]) "
+            "-> void")
+
+
+class ScanSamplerFunction(ModelFunction):
+    """A field model's sampler of a step's observations (``SCAN_SAMPLE_SIG``) as the kernels
+    take it."""
+
+    SIG, SIG_NAME, WHAT = SCAN_SAMPLE_SIG, "SCAN_SAMPLE_SIG", "scan sampler"
+    ARGS = ("(x: float64, y: float64, th: float64, bc: float64[:, ::1], theta: float64[::1], "
+            "s: uint64[::1], ids: int64[::1], zs: float64[:, ::1]) -> int64")
+
+
+@typeof_impl.register(ScanLikelihoodFunction)
+def _typeof_scan_likelihood(val, c):
+    return ScanLikFn
+
+
+@typeof_impl.register(ScanSamplerFunction)
+def _typeof_scan_sampler(val, c):
+    return ScanSampleFn
+
+
+class ScanModel(NamedTuple):
+    """What weighs a step's observations, as the localization kernels take it: the beacons bc
+    (B, 2), the model's own log-likelihood ``loglik`` (a ``ScanLikelihoodFunction``, or the
+    placeholder), ``use`` 1 to weigh by it (0: the Gaussian sensor, inline) and its parameters
+    theta (``FieldModel.scan_model``)."""
+
+    bc: np.ndarray
+    loglik: object
+    use: int
+    theta: np.ndarray
+
+
+SCAN_MODEL = types.NamedTuple((_F2, ScanLikFn, types.int64, _F), ScanModel)
+
+
+@functools.cache
+def scan_placeholder(cls):
+    """The placeholder of a ``cls`` (ScanLikelihoodFunction or ScanSamplerFunction) that the
+    kernels take where the model has none (and never call), looked up once."""
+    return cls(no_scan_loglik if cls is ScanLikelihoodFunction else no_scan_sample)
+
+
+@kernel(SCAN_LIK_SIG, cache=True)
+def no_scan_loglik(X, Y, H, bc, m, ids, zs, theta, out):
+    """The placeholder of a field model without its own log-likelihood (never called)."""
+    out[:] = np.nan
+
+
+@kernel(SCAN_SAMPLE_SIG, cache=True)
+def no_scan_sample(x, y, th, bc, theta, s, ids, zs):
+    """The placeholder of a field model without its own sampler (never called)."""
+    return 0
+
+
+# theta of the built-in mixture: the sensor, its visibility and noise, the outliers
+MIX_SENSOR, MIX_MAX_RANGE, MIX_HALF_FOV, MIX_SR, MIX_SB, MIX_NEAREST, MIX_EPS, MIX_RMAX = range(8)
+
+
+def mixture_theta(sensor: int, sense: BeaconSensor, eps: float, rmax: float) -> np.ndarray:
+    """theta of ``mixture_loglik`` / ``mixture_sample``: the sensor code, its ``BeaconSensor``,
+    the outlier probability eps and the outliers' largest range rmax (m)."""
+    return np.array([sensor, sense.max_range, sense.half_fov, sense.sr, sense.sb, sense.nearest,
+                     eps, rmax], dtype=np.float64)
+
+
+@kernel(types.float64(types.float64, types.float64, types.float64, types.float64, types.float64),
+        cache=True, inline="always")
+def mixture_range_logpdf(z, r, sr, eps, rmax):
+    """log((1 - eps) N(z; r, sr^2) + eps U(z; 0, rmax)): a measured range z (m) of the true range
+    r under the hit-and-random mixture."""
+    v = (z - r) / sr
+    hit = math.log1p(-eps) - 0.5 * v * v - math.log(sr) - 0.5 * LOG_2PI
+    if not (eps > 0.0 and 0.0 <= z <= rmax):
+        return hit
+    rnd = math.log(eps / rmax)
+    hi, lo = (hit, rnd) if hit > rnd else (rnd, hit)
+    return hi + math.log1p(math.exp(lo - hi))
+
+
+@kernel(SCAN_LIK_SIG, cache=True, error_model="numpy")
+def mixture_loglik(X, Y, H, bc, m, ids, zs, theta, out):
+    """log p(z | pose) of the hit-and-random range mixture (theta: ``mixture_theta``); the
+    bearings of a range-bearing sensor Gaussian as the plain sensor's."""
+    sensor, sr, sb = int(theta[MIX_SENSOR]), theta[MIX_SR], theta[MIX_SB]
+    eps, rmax = theta[MIX_EPS], theta[MIX_RMAX]
+    cb = -math.log(sb) - 0.5 * LOG_2PI
+    for i in range(X.size):
+        acc = 0.0
+        for j in range(m):
+            b = ids[j]
+            dx, dy = bc[b, 0] - X[i], bc[b, 1] - Y[i]
+            acc += mixture_range_logpdf(zs[j, 0], math.sqrt(dx * dx + dy * dy), sr, eps, rmax)
+            if sensor == SENSOR_RANGE_BEARING:
+                u = wrap(zs[j, 1] - (math.atan2(dy, dx) - H[i])) / sb
+                acc += cb - 0.5 * u * u
+        out[i] = acc
+
+
+@kernel(types.float64(types.float64, types.float64, types.float64, types.float64, STATE),
+        cache=True)
+def mixture_range(r, sr, eps, rmax, s):
+    """A range measured of the true range r: with probability eps uniform over [0, rmax], else
+    r + sr N(0, 1)."""
+    if uniform(s) < eps:
+        return rmax * uniform(s)
+    return r + sr * normal(s)
+
+
+@kernel(SCAN_SAMPLE_SIG, cache=True)
+def mixture_sample(x, y, th, bc, theta, s, ids, zs):
+    """``sense_beacons`` (the same beacons seen, the same bearings' noise) with each range drawn
+    from the hit-and-random mixture (``mixture_range``); theta: ``mixture_theta``."""
+    sensor, rmax_see, half_fov = int(theta[MIX_SENSOR]), theta[MIX_MAX_RANGE], theta[MIX_HALF_FOV]
+    sr, sb, nearest = theta[MIX_SR], theta[MIX_SB], theta[MIX_NEAREST] != 0.0
+    eps, rmax = theta[MIX_EPS], theta[MIX_RMAX]
+    n = 0
+    best = -1
+    bd = np.inf
+    cand = 0
+    for b in range(bc.shape[0]):
+        dx, dy = bc[b, 0] - x, bc[b, 1] - y
+        r = math.hypot(dx, dy)
+        if r > rmax_see:
+            continue
+        if sensor == SENSOR_RANGE:
+            if nearest:
+                if r < bd:
+                    bd = r
+                    best = b
+            else:
+                cand += 1
+                if uniform(s) * cand < 1.0:
+                    best = b
+            continue
+        brg = wrap(math.atan2(dy, dx) - th)
+        if abs(brg) > half_fov:
+            continue
+        ids[n] = b
+        zs[n, 0] = mixture_range(r, sr, eps, rmax, s)
+        zs[n, 1] = wrap(brg + sb * normal(s))
+        n += 1
+    if sensor == SENSOR_RANGE and best >= 0:
+        ids[0] = best
+        zs[0, 0] = mixture_range(math.hypot(bc[best, 0] - x, bc[best, 1] - y), sr, eps, rmax, s)
+        zs[0, 1] = 0.0
+        n = 1
+    return n

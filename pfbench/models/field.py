@@ -12,7 +12,8 @@ commanded move as always.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numba import types
@@ -21,7 +22,9 @@ from .._lazy import kernel
 from ..angles import wrap
 from ..codes import MOTION_ODOMETRY
 from ..rng import STATE, uniform
-from .beacons import BEACON_SENSOR, BeaconSensor, sense_beacons
+from .beacons import (BEACON_SENSOR, BeaconSensor, ScanLikelihoodFunction, ScanModel,
+                      ScanSampleFn, ScanSamplerFunction, scan_placeholder, sense_beacons)
+from .scalar import model_function
 from .odometry import MOTION_NOISE, MotionNoise, noisy_odometry
 from .pose import InitialBelief
 from .waypoints import next_waypoint
@@ -38,6 +41,16 @@ class FieldModel:
     steps; kidnap_poses (k, 3) (NaN rows: uniform); bound: the convergence bound; init: the
     filters' initial belief (``InitialBelief``); score_from, report_step, hold
     (converge_hold_steps): see the keys.
+
+    loglik : the model's own log-likelihood of a step's observations, a numba function of
+        ``beacons.SCAN_LIK_SIG`` (held as ``ScanLikelihoodFunction``), or None: the Gaussian
+        range (and bearing) sensor of ``sense`` (sr, sb), computed inline by the filters
+    sample : its own sampler of a step's observations given the true pose (``SCAN_SAMPLE_SIG``),
+        or None: ``sense_beacons``
+    theta : (p,) float64, the parameters handed to both
+    A model with its own loglik keeps ``sensor`` and ``sense``: the filters still read them where
+    they draw poses from the sensor (MCL's resets, the SSPF's UKF proposal), as the Gaussian
+    that best describes the sensor.
     """
 
     area: np.ndarray
@@ -57,6 +70,42 @@ class FieldModel:
     score_from: int = 1
     report_step: int = 0
     hold: int = 10          # converge_hold_steps
+    loglik: Any = None
+    sample: Any = None
+    theta: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def __post_init__(self):
+        object.__setattr__(self, "loglik", model_function(self.loglik, ScanLikelihoodFunction))
+        object.__setattr__(self, "sample", model_function(self.sample, ScanSamplerFunction))
+        object.__setattr__(self, "theta", np.ascontiguousarray(self.theta, dtype=np.float64))
+
+    @property
+    def has_likelihood(self) -> bool:
+        """Whether the model brings its own log-likelihood (else: the Gaussian sensor)."""
+        return self.loglik is not None
+
+    def likelihood(self) -> tuple:
+        """(loglik, 1) as the kernels take them, or (a placeholder, 0) where the model has none
+        (the filters then weigh by the Gaussian sensor inline)."""
+        if self.loglik is None:
+            return scan_placeholder(ScanLikelihoodFunction), 0
+        return self.loglik, 1
+
+    def scan_model(self) -> ScanModel:
+        """The beacons and the likelihood (``likelihood``) as the filters' kernels take them."""
+        return ScanModel(self.beacons, *self.likelihood(), self.theta)
+
+    def sampler(self) -> tuple:
+        """(sample, 1) as ``simulate_field`` takes them, or (a placeholder, 0):
+        ``sense_beacons``."""
+        if self.sample is None:
+            return scan_placeholder(ScanSamplerFunction), 0
+        return self.sample, 1
+
+    def provides(self) -> set:
+        """What the model gives its filters of ``protocols.NEEDS``: a likelihood always, and a
+        Gaussian measurement (the sensor's sr, sb) unless it brings its own likelihood."""
+        return {"likelihood"} | (set() if self.has_likelihood else {"gaussian_measurement"})
 
 
 @dataclass
@@ -81,9 +130,11 @@ _I2 = types.int64[:, ::1]
 
 
 @kernel(types.void(_F, _F2, _F2, _F, _F, types.int64, MOTION_NOISE, types.int64, BEACON_SENSOR, _I,
-                   _F2, STATE, _F2, _F2, _I, _I2, _F3), cache=True)
-def simulate_field(area, bc, wp, start, drive, motion, mnoise, sensor, sense, kid, kpose, s, pose,
-                   ctrl, obs_n, obs_id, obs_z):
+                   _F2, ScanSampleFn, types.int64, _F, STATE, _F2, _F2, _I, _I2, _F3), cache=True)
+def simulate_field(area, bc, wp, start, drive, motion, mnoise, sensor, sense, kid, kpose, sample,
+                   use_sample, theta, s, pose, ctrl, obs_n, obs_id, obs_z):
+    """Drive the path, kidnap, and sense each step: the observations from ``sense_beacons``, or,
+    with ``use_sample``, from the model's own ``sample`` (theta its parameters)."""
     step, maxturn, radius = drive[0], drive[1], drive[2]
     x, y, th = start[0], start[1], start[2]
     pose[0, 0], pose[0, 1], pose[0, 2] = x, y, th
@@ -113,7 +164,10 @@ def simulate_field(area, bc, wp, start, drive, motion, mnoise, sensor, sense, ki
                 x, y, th = kpose[ik, 0], kpose[ik, 1], wrap(kpose[ik, 2])
             ik += 1
         pose[t + 1, 0], pose[t + 1, 1], pose[t + 1, 2] = x, y, th
-        obs_n[t] = sense_beacons(bc, x, y, th, sensor, sense, s, obs_id[t], obs_z[t])
+        if use_sample:
+            obs_n[t] = sample(x, y, th, bc, theta, s, obs_id[t], obs_z[t])
+        else:
+            obs_n[t] = sense_beacons(bc, x, y, th, sensor, sense, s, obs_id[t], obs_z[t])
 
 
 
@@ -125,6 +179,6 @@ def simulate(model: FieldModel, state: np.ndarray) -> tuple[FieldData, FieldData
                   np.zeros((T, B), dtype=np.int64), np.zeros((T, B, 2)))
     simulate_field(model.area, model.beacons, model.waypoints, model.start, model.drive,
                    model.motion, model.mnoise, model.sensor, model.sense, model.kidnaps,
-                   model.kidnap_poses, state, d.pose, d.ctrl, d.obs_n, d.obs_id, d.obs_z)
+                   model.kidnap_poses, *model.sampler(), model.theta, state, d.pose, d.ctrl, d.obs_n, d.obs_id, d.obs_z)
     return d, d
 

@@ -87,6 +87,14 @@ class SlamModel:
     steps : control steps
     motion : SLAM_STEERED, the steered vehicle (noise drive, turn: sigma_V, sigma_G), or
         SLAM_ODOMETRY, the odometry form (sigma_xy, sigma_theta; see simulate_odometry)
+
+    The measurement is the Gaussian range-bearing sensor, with its Jacobians (``provides``). The
+    model takes no log-likelihood of its own, as a field model does: a SLAM filter's landmark
+    EKFs update each landmark's Gaussian by the measurement's mean, Jacobian and noise
+    covariance, which a likelihood function does not give, and a particle weight by another
+    likelihood than the one its landmark updates assume would weigh maps that model a different
+    sensor. A SLAM scenario whose sensor is not that Gaussian declares what it provides
+    (``PROVIDES = ("likelihood",)``), and FastSLAM, which needs both, refuses it.
     """
 
     waypoints: np.ndarray
@@ -101,6 +109,11 @@ class SlamModel:
     def __post_init__(self):
         for name, kind in (("vehicle", Vehicle), ("noise", SlamNoise), ("sensor", SlamSensor)):
             object.__setattr__(self, name, _record(kind, getattr(self, name)))
+
+    def provides(self) -> set:
+        """What the model gives its filters of ``protocols.NEEDS``: the Gaussian range-bearing
+        measurement (noise.range, noise.bearing), its Jacobians and so its likelihood."""
+        return {"gaussian_measurement", "jacobians", "likelihood"}
 
 
 

@@ -19,6 +19,15 @@ Sensor ``range`` (sspf2008's RF beacons): each step one beacon within ``max_rang
 (asrl2008's camera landmarks): range and bearing to every beacon within ``max_range_m`` and the
 field of view.
 
+Range outliers (``range_outliers`` eps > 0): each range is, with probability eps, a random
+reading uniform over [0, max_range_m] (a reflection, a crosstalk, a beacon heard through a wall)
+instead of the true range with its Gaussian noise: Thrun, Burgard and Fox's beam model reduced to
+its "hit" and "random" parts. The world draws them with the model's own sampler
+(pfbench.models.beacons.mixture_sample); the filters weigh by the mixture's log-likelihood
+(``mixture_loglik``), or, with ``outlier_likelihood: gaussian``, by the Gaussian alone, as a
+filter that ignores the outliers does. Without outliers the sensor is the Gaussian one, its draws
+and the filters' arithmetic those of a field without these keys.
+
 Kidnapping: at each step in ``kidnap_steps`` the robot is put, after its move, at a pose drawn
 uniformly over the field (or the next of ``kidnap_poses``), and told nothing: the odometry of that
 step is the commanded move as always.
@@ -41,7 +50,7 @@ from pathlib import Path
 import numpy as np
 
 from ..codes import FIELD_MOTIONS, SENSORS
-from ..models.beacons import BeaconSensor
+from ..models.beacons import BeaconSensor, mixture_loglik, mixture_sample, mixture_theta
 from ..models.field import FieldData, FieldModel, simulate  # noqa: F401  (this module's simulate)
 from ..models.odometry import MotionNoise
 from ..models.pose import InitialBelief
@@ -50,7 +59,9 @@ from .worlds import load_world
 
 NAME = "beacon_field"
 KIND = "localization"
-PROVIDES = ()    # the kind's record fixes what its filters read: they need nothing more
+# What the measurement gives (a likelihood; a Gaussian measurement unless the filters weigh
+# by the outlier mixture) is read from the model (FieldModel.provides), as the keys decide it.
+PROVIDES = ()
 DESCRIPTION = "robot localization among 6 beacons in a 40 m x 40 m field (sspf2008, asrl2008)"
 
 DEG = math.pi / 180.0
@@ -88,6 +99,17 @@ SCHEMA = {
                          min_exclusive=True),
     "bearing_noise_deg": Key("float", 2.0, "range_bearing: bearing noise standard deviation (not "
                              "given)", min=0.0, min_exclusive=True),
+    "range_outliers": Key("float", 0.0, "probability that a range is an outlier, uniform over "
+                          "[0, max_range_m], instead of the true range with Gaussian noise (0: "
+                          "none, the papers' sensor; Thrun, Burgard and Fox's beam model's hit "
+                          "and random parts)", min=0.0,
+                          check=lambda v: None if v < 1.0 else "expected below 1 (some ranges "
+                          "must be the true one)"),
+    "outlier_likelihood": Key("choice", "mixture", "range_outliers > 0: the filters weigh by "
+                              "'mixture', the model's own likelihood of the outlier mixture the "
+                              "data are drawn from, or by 'gaussian', the Gaussian of "
+                              "range_noise_m alone (a filter that ignores the outliers)",
+                              choices=("mixture", "gaussian")),
     "kidnap_steps": Key("ints", (), "steps after whose move the robot is put somewhere else "
                         "without telling the filter", min=1, empty_ok=True),
     "kidnap_poses": Key("floats", (), "x, y, heading (deg) of each kidnapping in turn, flat "
@@ -142,22 +164,29 @@ def build(p) -> FieldModel:
         kp[:, 2] *= DEG
     else:
         kp = np.full((kid.size, 3), np.nan)
+    sense = BeaconSensor(max_range=float(p["max_range_m"]),
+                         half_fov=float(0.5 * p["field_of_view_deg"] * DEG),
+                         sr=float(p["range_noise_m"]), sb=float(p["bearing_noise_deg"] * DEG),
+                         nearest=int(p["answer"] == "nearest"))
+    own = {}
+    eps = float(p.get("range_outliers", 0.0))
+    if eps > 0.0:
+        own = {"sample": mixture_sample,
+               "theta": mixture_theta(SENSORS[p["sensor"]], sense, eps, sense.max_range)}
+        if p.get("outlier_likelihood", "mixture") == "mixture":
+            own["loglik"] = mixture_loglik
     return FieldModel(
         np.asarray(p["area"], dtype=np.float64), np.asarray(p["beacons"], dtype=np.float64),
         np.asarray(p["waypoints"], dtype=np.float64),
         np.asarray(p["start"], dtype=np.float64) * np.array([1.0, 1.0, DEG]),
         np.array([p["step_m"], p["max_turn_deg"] * DEG, p["waypoint_radius_m"]]),
-        FIELD_MOTIONS[p["motion"]], mnoise, SENSORS[p["sensor"]],
-        BeaconSensor(max_range=float(p["max_range_m"]),
-                     half_fov=float(0.5 * p["field_of_view_deg"] * DEG),
-                     sr=float(p["range_noise_m"]), sb=float(p["bearing_noise_deg"] * DEG),
-                     nearest=int(p["answer"] == "nearest")),
+        FIELD_MOTIONS[p["motion"]], mnoise, SENSORS[p["sensor"]], sense,
         int(p["steps"]), kid, kp, float(p["converge_bound_m"]),
         InitialBelief(known=int(p["initial"] == "known"), x=float(p["start"][0]),
                       y=float(p["start"][1]), heading=float(p["start"][2] * DEG),
                       sd_m=float(p["initial_std_m"]), sd_rad=float(p["initial_std_deg"] * DEG)),
         int(p["score_from"]),
-        int(p["report_step"]), int(p["converge_hold_steps"]))
+        int(p["report_step"]), int(p["converge_hold_steps"]), **own)
 
 
 def schema(**defaults) -> dict:

@@ -23,7 +23,8 @@ from .worlds import resolve_course
 
 NAME = "landmark_world"
 KIND = "slam"
-PROVIDES = ()    # the kind's record fixes what its filters read: they need nothing more
+# the Gaussian range-bearing sensor with its Jacobians (FastSLAM's landmark EKFs need both)
+PROVIDES = ("gaussian_measurement", "jacobians", "likelihood")
 DESCRIPTION = "odometry-driven robot in a 50 m x 60 m landmark world (afsa2014)"
 
 SCHEMA = {

@@ -23,7 +23,8 @@ from .worlds import resolve_course
 
 NAME = "waypoint_course"
 KIND = "slam"
-PROVIDES = ()    # the kind's record fixes what its filters read: they need nothing more
+# the Gaussian range-bearing sensor with its Jacobians (FastSLAM's landmark EKFs need both)
+PROVIDES = ("gaussian_measurement", "jacobians", "likelihood")
 DESCRIPTION = "steered vehicle on a waypoint course with point landmarks (ifa2021 Table 3)"
 
 SCHEMA = {
