@@ -58,3 +58,24 @@ NOISE_GAMMA = 1
 BRIGHTNESS_GAUSSIAN = 0     # exp(-d^2 / 2)
 BRIGHTNESS_INVERSE = 1      # 1 / (1 + d)
 BRIGHTNESS = {"gaussian": BRIGHTNESS_GAUSSIAN, "inverse": BRIGHTNESS_INVERSE}
+
+# The stepwise EWA's copies of a kept particle of weight W (key ``ewa_copies``; n = W / delta).
+EWA_COPIES_CEIL = 0             # ceil(n) in all, the kept particle one of them (pfbench's)
+EWA_COPIES_FLOOR_PLUS_ONE = 1   # floor(n) + 1
+EWA_COPIES_CEIL_PLUS_ONE = 2    # the kept particle and ceil(n) copies of it
+EWA_COPIES = {"ceil": EWA_COPIES_CEIL, "floor_plus_one": EWA_COPIES_FLOOR_PLUS_ONE,
+              "ceil_plus_one": EWA_COPIES_CEIL_PLUS_ONE}
+
+# The bat algorithm's acceptance of a candidate (key ``ba_accept``) and local walk (``ba_walk``).
+BA_ACCEPT_FITTER_AND_LOUD = 0   # fitter than its bat, and u < A_i (pfbench's)
+BA_ACCEPT_BETTER_THAN_BEST = 1  # fitter than the best bat, and u < A_i (Yang 2010's text)
+BA_ACCEPT = {"fitter_and_loud": BA_ACCEPT_FITTER_AND_LOUD,
+             "better_than_best": BA_ACCEPT_BETTER_THAN_BEST}
+BA_WALK_GAUSSIAN = 0            # x_best + N(0, 1) mean(A) (pfbench's)
+BA_WALK_UNIFORM = 1             # x_best + U(-1, 1) mean(A) (Yang 2010's epsilon in [-1, 1])
+BA_WALK = {"gaussian_loudness": BA_WALK_GAUSSIAN, "uniform": BA_WALK_UNIFORM}
+
+# AFSA's prey target (key ``prey_target``).
+PREY_FISH = 0                   # another fish within the visual range (pfbench's)
+PREY_RANDOM_POINT = 1           # a random point within the visual range (afsa2014's text)
+PREY_TARGET = {"fish": PREY_FISH, "random_point": PREY_RANDOM_POINT}

@@ -22,7 +22,8 @@ import numpy as np
 from numba import types
 from ._lazy import kernel
 
-from .codes import (SCHEME_CODES, SCHEME_MULTINOMIAL, SCHEME_STRATIFIED, SCHEME_SYSTEMATIC,
+from .codes import (EWA_COPIES_CEIL, EWA_COPIES_FLOOR_PLUS_ONE, SCHEME_CODES, SCHEME_MULTINOMIAL,
+                    SCHEME_STRATIFIED, SCHEME_SYSTEMATIC,
                     STEPWISE_EWA)  # noqa: F401 (STEPWISE_EWA: re-exported)
 from .rng import STATE, normal, uniform
 
@@ -326,8 +327,21 @@ def ancestors(weights, scheme: str, state: np.ndarray) -> np.ndarray:
     return idx
 
 
-@kernel(types.int64(_W, types.float64, types.int64, _IDX, types.int8[::1]), cache=True)
-def stepwise_ewa_plan(W, beta, printed, src, mutant):
+@kernel(types.int64(types.float64, types.int64), cache=True, inline="always")
+def ewa_copies(n, copies):
+    """The copies of a kept particle whose weight is n times the stepwise EWA's delta (n >= 1),
+    itself included, under the reading ``copies`` (codes.EWA_COPIES): ceil(n) (EWA_COPIES_CEIL),
+    floor(n) + 1, or ceil(n) + 1 (the kept particle and ceil(n) copies). A relative guard of
+    1e-12 counts an n within round-off of a whole number as that number."""
+    if copies == EWA_COPIES_CEIL:
+        return int(math.ceil(n - 1e-12))
+    if copies == EWA_COPIES_FLOOR_PLUS_ONE:
+        return int(math.floor(n + 1e-12)) + 1
+    return int(math.ceil(n - 1e-12)) + 1
+
+
+@kernel(types.int64(_W, types.float64, types.int64, types.int64, _IDX, types.int8[::1]), cache=True)
+def stepwise_ewa_plan(W, beta, printed, copies, src, mutant):
     """Stepwise EWA resampling (ifa2021 section 1.2), the deterministic part.
 
     W : (N,) normalised weights. Fills src (N,) with the particle each new particle comes from and
@@ -338,7 +352,9 @@ def stepwise_ewa_plan(W, beta, printed, src, mutant):
        (1 - beta) W_i, delta_i = v_i / (1 - beta^i), i = 1..N (the standard form); with
        ``printed`` = 1 the corrected value feeds the recursion, v_i = delta_i, as ifa2021 prints it;
     3. delta = mean(delta_i); keep the particles with W_i >= delta (at least the heaviest);
-    4. copy each kept particle ceil(W_i / delta) times, heaviest first, at most N in all;
+    4. copy each kept particle ``ewa_copies(W_i / delta, copies)`` times (EWA_COPIES_CEIL:
+       ceil(W_i / delta), the text's "n = w / delta; copied n times, rounded up"), heaviest first,
+       at most N in all;
     5. fill the rest with mutants of the kept particles in descending weight order, cycling.
     Both comparisons with delta carry a relative round-off guard of 1e-12 (the average of equal
     weights must equal them: uniform weights keep every particle once). Unnormalised weights of
@@ -369,7 +385,7 @@ def stepwise_ewa_plan(W, beta, printed, src, mutant):
         kept += 1
     k = 0
     for i in range(kept):
-        c = int(math.ceil(W[order[i]] / delta - 1e-12)) if delta > 0 else N
+        c = ewa_copies(W[order[i]] / delta, copies) if delta > 0 else N
         for _ in range(c):
             if k >= N:
                 break

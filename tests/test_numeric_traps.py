@@ -91,11 +91,13 @@ def test_the_python_entry_refuses_an_unknown_scheme_and_a_bad_state():
 
 
 @settings(max_examples=60, deadline=None)
-@given(_base, st.integers(-962, 1023), st.integers(0, 1))
-@example([1.0] * 12, 1022, 0)
-def test_the_stepwise_ewa_plan_does_not_depend_on_the_scale_of_the_weights(base, k, printed):
+@given(_base, st.integers(-962, 1023), st.integers(0, 1), st.integers(0, 2))
+@example([1.0] * 12, 1022, 0, 0)
+def test_the_stepwise_ewa_plan_does_not_depend_on_the_scale_of_the_weights(base, k, printed,
+                                                                             copies):
     """ifa2021's stepwise EWA plan of weights scaled by 2^k is the plan of the weights (it kept
-    one particle and mutated the rest when their sum overflowed)."""
+    one particle and mutated the rest when their sum overflowed), under every reading of its
+    copies."""
     from pfbench.resampling import stepwise_ewa_plan
     w = np.array(base)
     if not (w > 0).any():
@@ -103,7 +105,7 @@ def test_the_stepwise_ewa_plan_does_not_depend_on_the_scale_of_the_weights(base,
 
     def plan(v):
         src, mut = np.empty(v.size, dtype=np.int64), np.empty(v.size, dtype=np.int8)
-        kept = stepwise_ewa_plan(v, 0.9, printed, src, mut)
+        kept = stepwise_ewa_plan(v, 0.9, printed, copies, src, mut)
         return kept, src.tolist(), mut.tolist()
     assert plan(np.ldexp(w, k)) == plan(w)
 

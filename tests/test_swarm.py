@@ -49,13 +49,13 @@ def _run_move(kind, X, D, s, iters=3):
     elif kind == "ba":
         V, A, r, C = np.zeros_like(X), np.ones(N), np.full(N, 0.5), np.empty_like(X)
         for it in range(iters):
-            swarm.ba_propose(X, V, A, r, C, D, swarm.argmax(fit), 0.0, 1.0, np.ones(D), s)
-            swarm.ba_accept(X, fit, C, fitness(C, D), A, r, D, 0.9, 0.9, 0.5, it + 1, s)
+            swarm.ba_propose(X, V, A, r, C, D, swarm.argmax(fit), 0.0, 1.0, np.ones(D), 0, s)
+            swarm.ba_accept(X, fit, C, fitness(C, D), A, r, D, 0.9, 0.9, 0.5, it + 1, 0, s)
     else:
         Xc, nf, C = np.empty_like(X), np.empty(N), np.empty(3 * X.size)
         for _ in range(iters):
             swarm.afsa_centres(X, fit, D, 1.5, Xc, nf)
-            swarm.afsa_propose(X, fit, Xc, fitness(Xc, D), nf, D, 1.5, 0.3, 0.618, 5, s, C)
+            swarm.afsa_propose(X, fit, Xc, fitness(Xc, D), nf, D, 1.5, 0.3, 0.618, 5, 0, X, fit, s, C)
             swarm.afsa_select(X, fit, C, fitness(C, D), D, 1)
     return fitness(X, D)
 
@@ -97,7 +97,7 @@ def test_greedy_afsa_never_lowers_a_fish():
         Xc, nf, C = np.empty_like(X), np.empty(N), np.empty(3 * X.size)
         s = _state(k)
         swarm.afsa_centres(X, fit, D, 1.5, Xc, nf)
-        swarm.afsa_propose(X, fit, Xc, fitness(Xc, D), nf, D, 1.5, 0.3, 0.618, 5, s, C)
+        swarm.afsa_propose(X, fit, Xc, fitness(Xc, D), nf, D, 1.5, 0.3, 0.618, 5, 0, X, fit, s, C)
         swarm.afsa_select(X, fit, C, fitness(C, D), D, 1)
         assert np.all(fit >= before)
         assert np.allclose(fit, fitness(X, D))
@@ -138,7 +138,7 @@ def test_stepwise_ewa_matches_the_numpy_reference(N, seed, beta, printed):
     W /= W.sum()
     src = np.empty(N, dtype=np.int64)
     mutant = np.empty(N, dtype=np.int8)
-    stepwise_ewa_plan(W, beta, int(printed), src, mutant)
+    stepwise_ewa_plan(W, beta, int(printed), 0, src, mutant)
     ref_src, ref_mutant = ewa_reference(W, beta, printed)
     assert np.array_equal(src, ref_src)
     assert np.array_equal(mutant, ref_mutant)
@@ -151,10 +151,10 @@ def test_stepwise_ewa_on_one_hot_and_uniform_weights():
     src, mutant = np.empty(10, dtype=np.int64), np.empty(10, dtype=np.int8)
     W = np.zeros(10)
     W[4] = 1.0
-    stepwise_ewa_plan(W, 0.8, 0, src, mutant)
+    stepwise_ewa_plan(W, 0.8, 0, 0, src, mutant)
     assert np.all(src == 4)
     W = np.full(10, 0.1)
-    stepwise_ewa_plan(W, 0.8, 0, src, mutant)
+    stepwise_ewa_plan(W, 0.8, 0, 0, src, mutant)
     assert sorted(src) == list(range(10)) and not mutant.any()
 
 

@@ -25,8 +25,8 @@ from ..angles import wrap
 from .. import vecmath as vm
 from ..models.observations import OBSERVATIONS, observations
 from ..models.pose import estimate_pose
-from ..codes import (AFSA, ALGORITHMS, BA, DIRECTIONAL, FA, IFA, NO_SWARM, SCHEME_CODES,
-                     SCHEME_SYSTEMATIC, SLAM_ODOMETRY, SLAM_STEERED, STEPWISE_EWA)
+from ..codes import (DIRECTIONAL, EWA_COPIES, SCHEME_CODES, SCHEME_SYSTEMATIC, SLAM_ODOMETRY,
+                     SLAM_STEERED, STEPWISE_EWA)
 from ..resampling import (SCHEMES, ess_threshold, ewa_mutant, resample,
                           stepwise_ewa_plan)
 from ..rng import STATE, normal
@@ -498,7 +498,7 @@ class Options(NamedTuple):
         1 the gates' distance includes the pose uncertainty since the last update
     refine : a swarm algorithm (swarm.ALGORITHMS) or NO_SWARM; iters : its iterations
     scheme : a resampling code, EWA or DIRECTIONAL; threshold : resample when ESS < threshold;
-        ewa_beta, ewa_mu, ewa_printed : the stepwise EWA's settings
+        ewa_beta, ewa_mu, ewa_printed, ewa_copies : the stepwise EWA's settings
     diag : the diagnostics' flags (pfbench.diagnostics.Diag): DIAG_DISTINCT the fraction of
         distinct poses after each resampling, DIAG_DIVERSITY their mean pairwise L1 distance too,
         DIAG_MAP_TRACE the map-error trace
@@ -528,10 +528,11 @@ class Options(NamedTuple):
     ewa_mu: float
     ewa_printed: int
     diag: int
+    ewa_copies: int
 
 
 OPTIONS = typeof(Options(1, 1, 1, 1.0, 1.0, 0, 1.0, 1.0, 1, 1.0, 1.0, 1, 0, 1.0, 1.0, 1, 0, 1, 0,
-                         1.0, 1.0, 1.0, 0, 1))
+                         1.0, 1.0, 1.0, 0, 1, 0))
 
 
 class ParticleSet(NamedTuple):
@@ -832,7 +833,7 @@ def resample_set(ps, out, pc, pcm, Wn, w, Ssum, o, board, xbar, xbar_prev, dnois
                 pc[i, 5] += dnoise.rad ** 2
         return
     if o.scheme == EWA:
-        stepwise_ewa_plan(Wn, o.ewa_beta, o.ewa_printed, idx, mutant)
+        stepwise_ewa_plan(Wn, o.ewa_beta, o.ewa_printed, o.ewa_copies, idx, mutant)
     else:
         resample(o.scheme, w, Ssum, s, idx)
         mutant[:] = 0
@@ -1080,7 +1081,7 @@ def options(model, params, particles, diag=True) -> Options:
         refine=ALGORITHMS.get(params["refine"], NO_SWARM), iters=int(params["iterations"]),
         scheme=int(scheme), threshold=float(threshold), ewa_beta=float(params["ewa_beta"]),
         ewa_mu=float(params["ewa_mu"]), ewa_printed=int(params["ewa_correction"] == "as_printed"),
-        diag=int(flags(diag)))
+        diag=int(flags(diag)), ewa_copies=EWA_COPIES[params["ewa_copies"]])
 
 
 def directional_noise(params) -> DirectionalNoise:

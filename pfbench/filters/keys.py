@@ -1,6 +1,7 @@
 """Config keys shared by several filter families (each family declares its own in its module)."""
 from __future__ import annotations
 
+from ..codes import EWA_COPIES
 from ..resampling import SCHEMES
 from ..schema import Key
 
@@ -68,4 +69,12 @@ def ewa_keys() -> dict:
         "ewa_correction": Key("choice", "standard", "stepwise EWA: 'standard' bias correction "
                               "delta_i = v_i / (1 - beta^i), or 'as_printed' (ifa2021 puts it "
                               "inside the recursion)", choices=("standard", "as_printed")),
+        "ewa_copies": Key("choice", "ceil", "stepwise EWA: how many particles a kept particle of "
+                          "weight W becomes, n = W / delta (ifa2021: 'n = w / delta; n = 1: copied "
+                          "once; n > 1: rounded up, copied n times'): 'ceil' ceil(n) in all, the "
+                          "kept particle one of them (our reading); 'ceil_plus_one' the kept "
+                          "particle and ceil(n) copies (the text read as 'kept, then copied n "
+                          "times'); 'floor_plus_one' floor(n) + 1 (the kept particle and one copy "
+                          "per whole unit of n; differs from ceil only where n is a whole number)",
+                          choices=tuple(EWA_COPIES)),
     }

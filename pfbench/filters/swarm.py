@@ -30,6 +30,8 @@ from .weights import shifted_exp
 
 # The swarm algorithms, one numbering for every kernel that moves particles with them (codes).
 from ..codes import AFSA, ALGORITHMS, BA, BRIGHTNESS, FA, IFA, NO_SWARM, PSO  # noqa: F401
+from ..codes import (BA_ACCEPT, BA_ACCEPT_FITTER_AND_LOUD, BA_WALK, BA_WALK_GAUSSIAN, PREY_FISH,
+                     PREY_RANDOM_POINT, PREY_TARGET)
 
 
 def keys(algo: str, unit: str = "state units", prefix: bool = False) -> dict:
@@ -51,7 +53,18 @@ def keys(algo: str, unit: str = "state units", prefix: bool = False) -> dict:
                               "the best bat)", min=0.0, max=1.0),
             "loudness_decay": Key("float", 0.9, "A <- decay A on acceptance", min=0.0, max=1.0),
             "pulse_growth": Key("float", 0.9, "r <- r0 (1 - exp(-growth k)) at iteration k on "
-                                "acceptance", min=0.0)},
+                                "acceptance", min=0.0),
+            "ba_accept": Key("choice", "fitter_and_loud", "which candidate a bat takes, with "
+                             "probability its loudness A_i: 'fitter_and_loud' one fitter than the "
+                             "bat itself (our reading, as Yang's demonstration code); "
+                             "'better_than_best' one fitter than the best bat of the iteration "
+                             "(Yang 2010's text: 'if (rand < A_i & f(x_i) < f(x*)) accept')",
+                             choices=tuple(BA_ACCEPT)),
+            "ba_walk": Key("choice", "gaussian_loudness", "the local walk around the best bat, "
+                           "x_best + e mean(A) per coordinate: 'gaussian_loudness' e ~ N(0, 1) "
+                           "(our reading, as Yang's demonstration code's randn); 'uniform' e ~ "
+                           "U(-1, 1) (Yang 2010's text: 'x_new = x_old + epsilon A^t, epsilon in "
+                           "[-1, 1]')", choices=tuple(BA_WALK))},
         "pso": {
             "inertia": Key("float", 0.7, "velocity inertia w", min=0.0),
             "c1": Key("float", 1.5, "pull toward the particle's own best", min=0.0),
@@ -60,8 +73,18 @@ def keys(algo: str, unit: str = "state units", prefix: bool = False) -> dict:
             "visual": Key("float", 1.0, f"visual range ({unit})", min=0.0, min_exclusive=True),
             "step": Key("float", 0.5, f"largest move per behaviour ({unit})", min=0.0),
             "crowding": Key("float", 0.618, "crowding factor delta", min=0.0),
-            "tries": Key("int", 5, "prey: neighbours tried before a random step", min=1),
-            "greedy": Key("bool", True, "keep a fish where it is when no behaviour improves it")},
+            "tries": Key("int", 5, "prey: targets tried before a random step (afsa2014's text "
+                         "tries one)", min=1),
+            "greedy": Key("bool", True, "keep a fish where it is when no behaviour improves it"),
+            "prey_target": Key("choice", "fish", "what the prey behaviour tries: 'fish' a random "
+                               "other fish within the visual range (our reading); 'random_point' "
+                               "a random point within it (afsa2014: 'select at random a state "
+                               "X_j it can perceive, ||X_j - X_i|| < visual'), each try's points "
+                               "one more likelihood evaluation per fish", choices=tuple(PREY_TARGET)),
+            "converge": Key("bool", False, "false: 'iterations' iterations; true: repeat them "
+                            "until an iteration moves no fish to a fitter place, at most "
+                            "'iterations' times (afsa2014: 'repeat until the convergence condition "
+                            "holds', which it does not state)")},
     }
     declared["ifa"] = {k: declared["fa"][k] for k in ("beta0", "gamma")}
     out = declared[algo]
@@ -75,8 +98,10 @@ class SwarmParams(NamedTuple):
     """The swarm algorithms' parameters, one field per config key (``keys``); the fields of the
     algorithms a filter does not run are 0.0. FA: beta0, gamma, alpha; IFA: beta0, gamma and
     brightness (its kind, a code of codes.BRIGHTNESS, as a float); BA: freq_min, freq_max,
-    loudness (A0), pulse_rate (r0), loudness_decay, pulse_growth; PSO: inertia (w), c1, c2; AFSA:
-    visual, step, crowding (delta), tries and greedy (0 or 1), the last two as floats."""
+    loudness (A0), pulse_rate (r0), loudness_decay, pulse_growth, ba_accept and ba_walk (codes of
+    codes.BA_ACCEPT and codes.BA_WALK); PSO: inertia (w), c1, c2; AFSA: visual, step, crowding
+    (delta), tries, greedy (0 or 1), prey_target (a code of codes.PREY_TARGET) and converge (0 or
+    1); codes, counts and flags as floats."""
 
     beta0: float
     gamma: float
@@ -96,6 +121,10 @@ class SwarmParams(NamedTuple):
     crowding: float
     tries: float
     greedy: float
+    ba_accept: float
+    ba_walk: float
+    prey_target: float
+    converge: float
 
 
 SWARM_PARAMS = types.NamedUniTuple(types.float64, len(SwarmParams._fields), SwarmParams)
@@ -103,9 +132,11 @@ SWARM_PARAMS = types.NamedUniTuple(types.float64, len(SwarmParams._fields), Swar
 # The config keys each algorithm reads into its fields (IFA's brightness where the filter has it).
 _READS = {"fa": ("beta0", "gamma", "alpha"), "ifa": ("beta0", "gamma"),
           "ba": ("freq_min", "freq_max", "loudness", "pulse_rate", "loudness_decay",
-                 "pulse_growth"),
+                 "pulse_growth", "ba_accept", "ba_walk"),
           "pso": ("inertia", "c1", "c2"),
-          "afsa": ("visual", "step", "crowding", "tries", "greedy")}
+          "afsa": ("visual", "step", "crowding", "tries", "greedy", "prey_target", "converge")}
+# The choice keys among them, read as their codes.
+_CODES = {"ba_accept": BA_ACCEPT, "ba_walk": BA_WALK, "prey_target": PREY_TARGET}
 
 
 def swarm_params(algo: str, params) -> SwarmParams:
@@ -114,7 +145,7 @@ def swarm_params(algo: str, params) -> SwarmParams:
     algorithm that is not a swarm's, e.g. FastSLAM's ``refine: none``)."""
     vals = dict.fromkeys(SwarmParams._fields, 0.0)
     for key in _READS.get(algo, ()):
-        vals[key] = float(params[key])
+        vals[key] = float(_CODES[key][params[key]] if key in _CODES else params[key])
     if algo == "ifa" and "brightness" in params:
         vals["brightness"] = float(BRIGHTNESS[params["brightness"]])
     return SwarmParams(**vals)
@@ -201,12 +232,12 @@ def pso_accept(X, fit, P, Pfit, D):
 
 
 @kernel(types.void(_F, _F, _F, _F, _F, types.int64, types.int64, types.float64, types.float64,
-                 _F, STATE), cache=True)
-def ba_propose(X, V, A, r, C, D, g, fmin, fmax, scale, s):
+                 _F, types.int64, STATE), cache=True)
+def ba_propose(X, V, A, r, C, D, g, fmin, fmax, scale, walk, s):
     """Bat algorithm (Yang 2010) candidates C (N*D,): frequency f = fmin + (fmax - fmin) u,
     v += (x - x_best) f, c = x + v; with probability 1 - r_i a local walk
-    c = x_best + e mean(A) scale, e ~ N(0, 1) per coordinate, instead. The caller evaluates C and
-    calls ``ba_accept``."""
+    c = x_best + e mean(A) scale instead, per coordinate e ~ N(0, 1) (``walk`` BA_WALK_GAUSSIAN)
+    or e ~ U(-1, 1) (BA_WALK_UNIFORM). The caller evaluates C and calls ``ba_accept``."""
     N = A.size
     meanA = A.sum() / N
     for i in range(N):
@@ -215,16 +246,25 @@ def ba_propose(X, V, A, r, C, D, g, fmin, fmax, scale, s):
         for d in range(D):
             k = i * D + d
             V[k] += (X[k] - X[g * D + d]) * fr
-            C[k] = X[g * D + d] + meanA * scale[d] * normal(s) if local else X[k] + V[k]
+            if not local:
+                C[k] = X[k] + V[k]
+            elif walk == BA_WALK_GAUSSIAN:
+                C[k] = X[g * D + d] + meanA * scale[d] * normal(s)
+            else:
+                C[k] = X[g * D + d] + meanA * scale[d] * (2.0 * uniform(s) - 1.0)
 
 
 @kernel(types.int64(_F, _F, _F, _F, _F, _F, types.int64, types.float64, types.float64,
-                  types.float64, types.int64, STATE), cache=True)
-def ba_accept(X, fit, C, fitc, A, r, D, alpha, gamma, r0, it, s):
-    """Accept candidate i when it is fitter and u < A_i; then A_i *= alpha and
-    r_i = r0 (1 - exp(-gamma it)). Returns the index of the fittest bat."""
+                  types.float64, types.int64, types.int64, STATE), cache=True)
+def ba_accept(X, fit, C, fitc, A, r, D, alpha, gamma, r0, it, rule, s):
+    """Accept candidate i when u < A_i and it is fitter than bat i (``rule``
+    BA_ACCEPT_FITTER_AND_LOUD) or than the fittest bat before this pass
+    (BA_ACCEPT_BETTER_THAN_BEST; u is drawn only for a candidate that passes the fitness test);
+    then A_i *= alpha and r_i = r0 (1 - exp(-gamma it)). Returns the index of the fittest bat."""
+    best = fit[argmax(fit)]
     for i in range(fit.size):
-        if fitc[i] > fit[i] and uniform(s) < A[i]:
+        bar = fit[i] if rule == BA_ACCEPT_FITTER_AND_LOUD else best
+        if fitc[i] > bar and uniform(s) < A[i]:
             fit[i] = fitc[i]
             for d in range(D):
                 X[i * D + d] = C[i * D + d]
@@ -269,13 +309,15 @@ def _toward(X, i, D, tgt, toff, step, u, C, coff):
 
 
 @kernel(types.void(_F, _F, _F, _F, _F, types.int64, types.float64, types.float64, types.float64,
-                 types.int64, STATE, _F), cache=True)
-def afsa_propose(X, fit, Xc, fitc, nf, D, visual, step, delta, tries, s, C):
+                 types.int64, types.int64, _F, _F, STATE, _F), cache=True)
+def afsa_propose(X, fit, Xc, fitc, nf, D, visual, step, delta, tries, prey, Xp, found, s, C):
     """Three candidates per fish (afsa2014's prey, swarm and follow) into C (3 N D,): rows [0, N) prey,
     [N, 2N) swarm, [2N, 3N) follow.
 
-    prey: up to ``tries`` random neighbours j within visual; move a random fraction of ``step``
-        toward the first fitter one, else a random step of length <= step;
+    prey: with ``prey`` PREY_FISH, up to ``tries`` random neighbours j within visual, a random
+        fraction of ``step`` toward the first fitter one; with PREY_RANDOM_POINT, toward the
+        fitter random point Xp[i] its tries found (found[i] = 1, ``afsa_prey_check``); else a
+        random step of length <= step;
     swarm: toward the neighbours' centre if fit(centre) / nf > delta fit_i, else prey;
     follow: toward the fittest neighbour if its fitness / nf > delta fit_i, else prey.
     fitc : (N,) fitness of the centres Xc. The caller evaluates C and calls ``afsa_select``.
@@ -286,12 +328,16 @@ def afsa_propose(X, fit, Xc, fitc, nf, D, visual, step, delta, tries, s, C):
     for i in range(N):
         # prey
         done = False
-        for _ in range(tries):
-            j = int(uniform(s) * N)
-            if j != i and _dist2(X, i, j, D) <= v2 and fit[j] > fit[i]:
-                _toward(X, i, D, X, j * D, step, uniform(s), C, i * D)
-                done = True
-                break
+        if prey == PREY_FISH:
+            for _ in range(tries):
+                j = int(uniform(s) * N)
+                if j != i and _dist2(X, i, j, D) <= v2 and fit[j] > fit[i]:
+                    _toward(X, i, D, X, j * D, step, uniform(s), C, i * D)
+                    done = True
+                    break
+        elif found[i] > 0.0:
+            _toward(X, i, D, Xp, i * D, step, uniform(s), C, i * D)
+            done = True
         if not done:
             n2 = 0.0
             for d in range(D):
@@ -322,20 +368,65 @@ def afsa_propose(X, fit, Xc, fitc, nf, D, visual, step, delta, tries, s, C):
                 C[b + d] = C[prey_row + d]
 
 
-@kernel(types.void(_F, _F, _F, _F, types.int64, types.int64), cache=True)
+@kernel(types.void(_F, types.int64, types.float64, _F, _F, STATE), cache=True)
+def afsa_prey_points(X, D, visual, found, Xq, s):
+    """One try of the prey behaviour toward a random point (PREY_RANDOM_POINT): for each fish i
+    that has not found a fitter point (found[i] = 0), Xq[i] (Xq (N D,)) a point drawn uniformly
+    from the ball of radius ``visual`` around x_i (a direction of D normal draws, a radius visual
+    u^(1/D)); the others' rows are x_i itself. The caller evaluates Xq."""
+    N = found.size
+    for i in range(N):
+        if found[i] > 0.0:
+            for d in range(D):
+                Xq[i * D + d] = X[i * D + d]
+            continue
+        n2 = 0.0
+        for d in range(D):
+            Xq[i * D + d] = normal(s)
+            n2 += Xq[i * D + d] * Xq[i * D + d]
+        n = math.sqrt(n2)
+        rad = visual * uniform(s) ** (1.0 / D)
+        for d in range(D):
+            Xq[i * D + d] = X[i * D + d] + (rad * Xq[i * D + d] / n if n > 0 else 0.0)
+
+
+@kernel(types.int64(_F, _F, _F, _F, _F, types.int64), cache=True)
+def afsa_prey_check(ll, llq, Xq, Xp, found, D):
+    """After a try of ``afsa_prey_points``: each fish still looking whose point Xq[i] is likelier
+    than itself (llq[i] > ll[i], log-likelihoods) keeps it as its target Xp[i], found[i] = 1.
+    Returns the fish still looking."""
+    left = 0
+    for i in range(found.size):
+        if found[i] > 0.0:
+            continue
+        if llq[i] > ll[i]:
+            found[i] = 1.0
+            for d in range(D):
+                Xp[i * D + d] = Xq[i * D + d]
+        else:
+            left += 1
+    return left
+
+
+@kernel(types.int64(_F, _F, _F, _F, types.int64, types.int64), cache=True)
 def afsa_select(X, fit, C, fitC, D, greedy):
     """Each fish takes its fittest behaviour's candidate (C, fitness fitC, rows as in
-    ``afsa_propose``); with ``greedy`` only if that is at least as fit as where it is."""
+    ``afsa_propose``); with ``greedy`` only if that is at least as fit as where it is. Returns the
+    fish that moved to a strictly fitter place."""
     N = fit.size
+    better = 0
     for i in range(N):
         k = i
         for r in (N + i, 2 * N + i):
             if fitC[r] > fitC[k]:
                 k = r
+        if fitC[k] > fit[i]:
+            better += 1
         if not greedy or fitC[k] >= fit[i]:
             fit[i] = fitC[k]
             for d in range(D):
                 X[i * D + d] = C[k * D + d]
+    return better
 
 
 # --- the dispatcher: one swarm iteration, its fitness evaluated by the caller between phases ------
@@ -361,9 +452,13 @@ class SwarmWork(NamedTuple):
     scale: np.ndarray   # (D,) each coordinate's unit for the random steps (1 for a scalar)
     mean: np.ndarray    # (D,) the origin of the particles in units of scale
     Xu: np.ndarray      # (N D,) the particles in those units, mean + scale Xu (a caller's AFSA)
+    Xp: np.ndarray      # (N D,) AFSA's prey toward a random point: the fitter point each fish found
+    found: np.ndarray   # (N,) 1 where it found one
+    ctl: np.ndarray     # (2,) AFSA: [0] the phase its prey's tries ended (-1: still trying);
+                        # [1] 1 once an iteration moved no fish to a fitter place (converge)
 
 
-SWARM_WORK = types.NamedUniTuple(_F, 17, SwarmWork)
+SWARM_WORK = types.NamedUniTuple(_F, 20, SwarmWork)
 
 
 @kernel(SWARM_WORK(types.int64, types.int64), cache=True)
@@ -372,7 +467,8 @@ def new_swarm_work(N, D):
     return SwarmWork(np.empty(N), np.empty(N), np.empty(N * D), np.empty(N * D), np.empty(N),
                      np.empty(N), np.empty(N), np.empty(3 * N * D), np.empty(3 * N),
                      np.empty(3 * N), np.empty(N * D), np.empty(N), np.empty(N), np.empty(N),
-                     np.ones(D), np.zeros(D), np.empty(N * D))
+                     np.ones(D), np.zeros(D), np.empty(N * D), np.empty(N * D), np.empty(N),
+                     np.zeros(2))
 
 
 # What ``swarm_move`` asks its caller to evaluate before it calls it again (the caller's fitness:
@@ -413,9 +509,10 @@ def afsa_joint_shift(phase, X, D, p, wk, s):
         shifted_exp(wk.ll, M, wk.fit)
         shifted_exp(wk.llc, M, wk.fitc)
         afsa_propose(X, wk.fit, wk.Xc, wk.fitc, wk.nf, D, p.visual, p.step, p.crowding,
-                     int(p.tries), s, wk.C)
+                     int(p.tries), int(p.prey_target), wk.Xp, wk.found, s, wk.C)
         return FIT_BEHAVIOURS
-    afsa_select(X, wk.ll, wk.C, wk.llC, D, int(p.greedy))
+    if afsa_select(X, wk.ll, wk.C, wk.llC, D, int(p.greedy)) == 0:
+        wk.ctl[1] = 1.0
     return DONE
 
 
@@ -434,13 +531,35 @@ def afsa_fish_shift(phase, X, D, p, wk, s):
     if phase == 1:
         shifted_exp(wk.llc, M0, wk.fitc)
         afsa_propose(X, wk.fit, wk.Xc, wk.fitc, wk.nf, D, p.visual, p.step, p.crowding,
-                     int(p.tries), s, wk.C)
+                     int(p.tries), int(p.prey_target), wk.Xp, wk.found, s, wk.C)
         return FIT_BEHAVIOURS
     shifted_exp(wk.llC, M0, wk.fitC)
-    afsa_select(X, wk.fit, wk.C, wk.fitC, D, int(p.greedy))
+    if afsa_select(X, wk.fit, wk.C, wk.fitC, D, int(p.greedy)) == 0:
+        wk.ctl[1] = 1.0
     for i in range(wk.ll.size):
         wk.ll[i] = math.log(wk.fit[i]) + M0 if wk.fit[i] > 0.0 else -np.inf
     return DONE
+
+
+@kernel(types.int64(types.int64, _F, types.int64, SWARM_PARAMS, SWARM_WORK, STATE), cache=True,
+        inline="always")
+def afsa_prey_tries(phase, X, D, p, wk, s):
+    """The tries of AFSA's prey toward a random point (PREY_RANDOM_POINT), the first phases of its
+    iteration: each asks FIT_CENTRES for the points ``afsa_prey_points`` drew into wk.Xc (N
+    evaluations), the next keeps the fitter ones (``afsa_prey_check``); after p.tries tries, or
+    once every fish found a fitter point, DONE, wk.ctl[0] the phase it ended at."""
+    if phase == 0:
+        wk.found[:] = 0.0
+        wk.ctl[0] = -1.0
+    elif wk.ctl[0] < 0.0:
+        left = afsa_prey_check(wk.ll, wk.llc, wk.Xc, wk.Xp, wk.found, D)
+        if left == 0 or phase >= int(p.tries):
+            wk.ctl[0] = float(phase)
+            return DONE
+    else:
+        return DONE
+    afsa_prey_points(X, D, p.visual, wk.found, wk.Xc, s)
+    return FIT_CENTRES
 
 
 @kernel(types.int64(types.int64, types.int64, types.int64, _F, types.int64, SWARM_PARAMS,
@@ -454,7 +573,9 @@ def swarm_move(algo, afsa, phase, X, D, p, R, it, wk, s):
 
     FA: fitness exp(ll - max ll), move, FIT_X. IFA: FIT_BRIGHTNESS, move, FIT_X. BA: propose,
     FIT_CANDIDATES, accept. PSO: propose, FIT_X, keep the bests. AFSA: centres, FIT_CENTRES,
-    propose, FIT_BEHAVIOURS, select.
+    propose, FIT_BEHAVIOURS, select; with its prey toward a random point, first the tries
+    (``afsa_prey_tries``: FIT_CENTRES each); with p.converge, an iteration after one that moved
+    no fish to a fitter place is DONE at once (no draws, no evaluations).
 
     Inlined into its caller (call it from one place, in a loop over the phases): the moves then
     see the caller's D as a constant, and their loops over the coordinates compile away (a
@@ -480,10 +601,10 @@ def swarm_move(algo, afsa, phase, X, D, p, R, it, wk, s):
                 wk.A[:] = p.loudness
                 wk.r[:] = p.pulse_rate
             ba_propose(X, wk.V, wk.A, wk.r, wk.C[:N * D], D, argmax(wk.ll), p.freq_min,
-                       p.freq_max, wk.scale, s)
+                       p.freq_max, wk.scale, int(p.ba_walk), s)
             return FIT_CANDIDATES
         ba_accept(X, wk.ll, wk.C[:N * D], wk.llC[:N], wk.A, wk.r, D, p.loudness_decay,
-                  p.pulse_growth, p.pulse_rate, it + 1, s)
+                  p.pulse_growth, p.pulse_rate, it + 1, int(p.ba_accept), s)
         return DONE
     if algo == PSO:
         if phase == 0:
@@ -495,6 +616,15 @@ def swarm_move(algo, afsa, phase, X, D, p, R, it, wk, s):
             return FIT_X
         pso_accept(X, wk.ll, wk.P, wk.Pfit, D)
         return DONE
+    if phase == 0 and it == 0:
+        wk.ctl[1] = 0.0
+    if phase == 0 and p.converge > 0.0 and wk.ctl[1] > 0.0:
+        return DONE
+    if p.prey_target == PREY_RANDOM_POINT:
+        request = afsa_prey_tries(phase, X, D, p, wk, s)
+        if request != DONE:
+            return request
+        phase -= int(wk.ctl[0])
     if afsa == AFSA_JOINT_SHIFT:
         return afsa_joint_shift(phase, X, D, p, wk, s)
     return afsa_fish_shift(phase, X, D, p, wk, s)

@@ -22,7 +22,7 @@ from ..resampling import (SCHEME_CODES, SCHEMES, STEPWISE_EWA, ess_threshold, ew
                           stepwise_ewa_plan)
 from ..rng import STATE
 from ..schema import Key
-from ..codes import BRIGHTNESS, BRIGHTNESS_GAUSSIAN
+from ..codes import BRIGHTNESS, BRIGHTNESS_GAUSSIAN, EWA_COPIES
 from ..models.scalar import NOISE_GAUSSIAN, LikFn, ModelFn, add_process_noise
 from ._common import DIAG_DISTINCT, bound_above, drop_unasked, resampled_step, start, weigh_lanes
 from ..diag import flags
@@ -59,7 +59,8 @@ class SwarmOptions(NamedTuple):
 
     N : particles; algo : the swarm algorithm (swarm.ALGORITHMS); iters : its iterations a step
     scheme : a resampling code, or EWA (stepwise EWA with ewa_beta, mutation ewa_mu, the bias
-    correction inside the recursion when ewa_printed); threshold : resample when ESS < threshold
+    correction inside the recursion when ewa_printed, a kept particle's copies ewa_copies, a code of
+    codes.EWA_COPIES); threshold : resample when ESS < threshold
     estimate_after : 1 to estimate after resampling; diag : the diagnostics' flags
         (``_common.resampled_step``)
     """
@@ -74,9 +75,10 @@ class SwarmOptions(NamedTuple):
     ewa_mu: float
     ewa_printed: int
     diag: int
+    ewa_copies: int
 
 
-SWARM_OPTIONS = typeof(SwarmOptions(1, 0, 1, 0, 1.0, 0, 0.8, 0.01, 0, 1))
+SWARM_OPTIONS = typeof(SwarmOptions(1, 0, 1, 0, 1.0, 0, 0.8, 0.01, 0, 1, 0))
 
 
 @kernel(types.void(ModelFn, _F, types.float64, types.float64, _F, _F, types.float64,
@@ -142,7 +144,7 @@ def resample_swarm(x, xn, w, S, lw, idx, mutant, o, s):
     N = x.size
     if o.scheme == EWA:
         divide(w, S, w)
-        stepwise_ewa_plan(w, o.ewa_beta, o.ewa_printed, idx, mutant)
+        stepwise_ewa_plan(w, o.ewa_beta, o.ewa_printed, o.ewa_copies, idx, mutant)
         for i in range(N):
             v = xn[idx[i]]
             x[i] = ewa_mutant(v, o.ewa_mu, s) if mutant[i] else v
@@ -248,7 +250,8 @@ def make_run(kind: str):
             scheme=int(scheme), threshold=float(threshold),
             estimate_after=int(params["estimate"] == "after_resampling"),
             ewa_beta=float(params["ewa_beta"]), ewa_mu=float(params["ewa_mu"]),
-            ewa_printed=int(params["ewa_correction"] == "as_printed"), diag=diag)
+            ewa_printed=int(params["ewa_correction"] == "as_printed"), diag=diag,
+            ewa_copies=EWA_COPIES[params["ewa_copies"]])
         out["underflow_steps"] = swarm_pf_kernel(
             model.transition, model.observe, *model.likelihood(), model.theta, model.noise, y,
             model.prior_mean, model.prior_var, o, swarm_params(kind, params), state, out["xhat"],
