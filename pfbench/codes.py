@@ -58,3 +58,24 @@ NOISE_GAMMA = 1
 BRIGHTNESS_GAUSSIAN = 0     # exp(-d^2 / 2)
 BRIGHTNESS_INVERSE = 1      # 1 / (1 + d)
 BRIGHTNESS = {"gaussian": BRIGHTNESS_GAUSSIAN, "inverse": BRIGHTNESS_INVERSE}
+
+# FastSLAM's swarm refinement: the unit of the random steps (key ``step_unit``) and IFA's
+# brightness of a pose (key ``pose_brightness``).
+STEP_UNIT_CLOUD = 0         # the predicted cloud's spread per coordinate
+STEP_UNIT_FIXED = 1         # fixed metres and radians (step_unit_m, step_unit_rad)
+STEP_UNITS = {"cloud_spread": STEP_UNIT_CLOUD, "fixed": STEP_UNIT_FIXED}
+POSE_BRIGHTNESS_COMBINED = 0    # exp(ll - max ll - d^2 / 2), d the pose's distance from the cloud
+POSE_BRIGHTNESS_LIKELIHOOD = 1  # exp(ll - max ll): the innovations alone
+POSE_BRIGHTNESS_INVERSE = 2     # 1 / (1 + d), d^2 = -2 (ll - max ll) + the pose's distance^2
+POSE_BRIGHTNESS = {"combined": POSE_BRIGHTNESS_COMBINED, "likelihood": POSE_BRIGHTNESS_LIKELIHOOD,
+                   "inverse": POSE_BRIGHTNESS_INVERSE}
+
+# Directional resampling's copies (afsa2014, key ``directional_map``): the map they carry.
+DIRECTIONAL_MAP_BOARD = 0   # the board particle's, as of the previous observation
+DIRECTIONAL_MAP_BEST = 1    # this observation's highest-weight particle's, updated by it
+DIRECTIONAL_MAPS = {"board": DIRECTIONAL_MAP_BOARD, "best": DIRECTIONAL_MAP_BEST}
+
+# MCL's sensor resetting (key ``srl_rule``): how many particles SRL replaces.
+SRL_FIXED_FRACTION = 0      # srl_fraction of N when p_mean < srl_threshold
+SRL_LENSER_VELOSO = 1       # N (1 - p_mean / srl_threshold) when p_mean < srl_threshold
+SRL_RULES = {"fixed_fraction": SRL_FIXED_FRACTION, "lenser_veloso": SRL_LENSER_VELOSO}
