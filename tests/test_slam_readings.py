@@ -111,7 +111,7 @@ def test_fixed_step_unit_scales_the_random_term_per_coordinate():
     moved = {}
     for unit in ("cloud_spread", "fixed"):
         case = _refine_case(step_unit=unit, step_unit_m=0.5, step_unit_rad=0.1, **over)
-        ps, wk = case[0], case[-1]
+        ps = case[0]
         P0 = ps.P.copy()
         fs.refine_poses(*case, _state(9))
         moved[unit] = ps.P - P0
