@@ -79,3 +79,24 @@ BA_WALK = {"gaussian_loudness": BA_WALK_GAUSSIAN, "uniform": BA_WALK_UNIFORM}
 PREY_FISH = 0                   # another fish within the visual range (pfbench's)
 PREY_RANDOM_POINT = 1           # a random point within the visual range (afsa2014's text)
 PREY_TARGET = {"fish": PREY_FISH, "random_point": PREY_RANDOM_POINT}
+
+# FastSLAM's swarm refinement: the unit of the random steps (key ``step_unit``) and IFA's
+# brightness of a pose (key ``pose_brightness``).
+STEP_UNIT_CLOUD = 0         # the predicted cloud's spread per coordinate
+STEP_UNIT_FIXED = 1         # fixed metres and radians (step_unit_m, step_unit_rad)
+STEP_UNITS = {"cloud_spread": STEP_UNIT_CLOUD, "fixed": STEP_UNIT_FIXED}
+POSE_BRIGHTNESS_COMBINED = 0    # exp(ll - max ll - d^2 / 2), d the pose's distance from the cloud
+POSE_BRIGHTNESS_LIKELIHOOD = 1  # exp(ll - max ll): the innovations alone
+POSE_BRIGHTNESS_INVERSE = 2     # 1 / (1 + d), d^2 = -2 (ll - max ll) + the pose's distance^2
+POSE_BRIGHTNESS = {"combined": POSE_BRIGHTNESS_COMBINED, "likelihood": POSE_BRIGHTNESS_LIKELIHOOD,
+                   "inverse": POSE_BRIGHTNESS_INVERSE}
+
+# Directional resampling's copies (afsa2014, key ``directional_map``): the map they carry.
+DIRECTIONAL_MAP_BOARD = 0   # the board particle's, as of the previous observation
+DIRECTIONAL_MAP_BEST = 1    # this observation's highest-weight particle's, updated by it
+DIRECTIONAL_MAPS = {"board": DIRECTIONAL_MAP_BOARD, "best": DIRECTIONAL_MAP_BEST}
+
+# MCL's sensor resetting (key ``srl_rule``): how many particles SRL replaces.
+SRL_FIXED_FRACTION = 0      # srl_fraction of N when p_mean < srl_threshold
+SRL_LENSER_VELOSO = 1       # N (1 - p_mean / srl_threshold) when p_mean < srl_threshold
+SRL_RULES = {"fixed_fraction": SRL_FIXED_FRACTION, "lenser_veloso": SRL_LENSER_VELOSO}

@@ -121,15 +121,19 @@ def test_the_modules_use_the_one_definition_and_the_config_names_it():
 
 MCL_KEYS = {"srl_fraction": 0.1, "srl_threshold": 0.02, "asrl_mu": 0.8, "asrl_pt": 0.3,
             "alpha_slow": 0.01, "alpha_fast": 0.2, "kld_epsilon": 0.05, "kld_delta": 0.01,
-            "kld_bin_m": 0.5, "kld_bin_deg": 10.0, "kld_min": 40}
+            "kld_bin_m": 0.5, "kld_bin_deg": 10.0, "kld_min": 40, "srl_rule": "lenser_veloso"}
 
 
 def test_mcl_parameters_are_named_records_built_from_the_keys():
     from pfbench.filters.mcl import KldParams, ResetParams, kld_params, reset_params
+    from pfbench.codes import SRL_LENSER_VELOSO, SRL_RULES
 
     rp = reset_params(MCL_KEYS)
     assert isinstance(rp, ResetParams)
-    assert rp._asdict() == {k: MCL_KEYS[k] for k in ResetParams._fields}
+    # every field its key's value, SRL's rule as its code (a float, as the record holds floats)
+    assert rp._asdict() == {k: (float(SRL_RULES[MCL_KEYS[k]]) if k == "srl_rule" else MCL_KEYS[k])
+                            for k in ResetParams._fields}
+    assert rp.srl_rule == SRL_LENSER_VELOSO
     assert all(type(v) is float for v in rp)
     kp = kld_params(MCL_KEYS, 30)
     assert isinstance(kp, KldParams) and all(type(v) is float for v in kp)

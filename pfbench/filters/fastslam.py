@@ -25,8 +25,11 @@ from ..angles import wrap
 from .. import vecmath as vm
 from ..models.observations import OBSERVATIONS, observations
 from ..models.pose import estimate_pose
-from ..codes import (DIRECTIONAL, EWA_COPIES, SCHEME_CODES, SCHEME_SYSTEMATIC, SLAM_ODOMETRY,
-                     SLAM_STEERED, STEPWISE_EWA)
+from ..codes import (DIRECTIONAL, DIRECTIONAL_MAP_BOARD, DIRECTIONAL_MAPS, EWA_COPIES,
+                     POSE_BRIGHTNESS, POSE_BRIGHTNESS_COMBINED,
+                     POSE_BRIGHTNESS_INVERSE, POSE_BRIGHTNESS_LIKELIHOOD, SCHEME_CODES,
+                     SLAM_ODOMETRY, SLAM_STEERED, STEP_UNIT_FIXED, STEP_UNITS,
+                     STEPWISE_EWA)
 from ..resampling import (SCHEMES, ess_threshold, ewa_mutant, resample,
                           stepwise_ewa_plan)
 from ..rng import STATE, normal
@@ -39,7 +42,7 @@ from .swarm import (AFSA, AFSA_FISH_SHIFT, ALGORITHMS, DONE, FIT_BEHAVIOURS, FIT
                     afsa_fish_shift, afsa_joint_shift, evaluations, keys, new_swarm_work,
                     swarm_move, swarm_params)
 from .types import FilterType
-from .weights import divide, ess as ess_of, normalise, shifted_exp_less
+from .weights import divide, ess as ess_of, normalise, shifted_exp, shifted_exp_less
 
 _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
@@ -49,7 +52,6 @@ _I2 = types.int64[:, ::1]
 _B2 = types.int8[:, ::1]
 
 EWA = STEPWISE_EWA
-_SYSTEMATIC = SCHEME_SYSTEMATIC
 
 
 class DirectionalNoise(NamedTuple):
@@ -502,6 +504,11 @@ class Options(NamedTuple):
     diag : the diagnostics' flags (pfbench.diagnostics.Diag): DIAG_DISTINCT the fraction of
         distinct poses after each resampling, DIAG_DIVERSITY their mean pairwise L1 distance too,
         DIAG_MAP_TRACE the map-error trace
+    step_unit : the unit of the swarm's random steps (codes.STEP_UNITS): the predicted cloud's
+        spread per coordinate, or fixed, unit_m (m) in x and y and unit_rad (rad) in the heading
+    brightness : IFA's brightness of a pose (codes.POSE_BRIGHTNESS)
+    dir_scheme : the resampling code of directional resampling's kept half; dir_map : the map its
+        copies carry (codes.DIRECTIONAL_MAPS)
     """
 
     every: int
@@ -529,10 +536,16 @@ class Options(NamedTuple):
     ewa_printed: int
     diag: int
     ewa_copies: int
+    step_unit: int
+    unit_m: float
+    unit_rad: float
+    brightness: int
+    dir_scheme: int
+    dir_map: int
 
 
 OPTIONS = typeof(Options(1, 1, 1, 1.0, 1.0, 0, 1.0, 1.0, 1, 1.0, 1.0, 1, 0, 1.0, 1.0, 1, 0, 1, 0,
-                         1.0, 1.0, 1.0, 0, 1, 0))
+                         1.0, 1.0, 1.0, 0, 1, 0, 0, 1.0, 1.0, 0, 1, 0))
 
 
 class ParticleSet(NamedTuple):
@@ -638,11 +651,18 @@ def cloud_units(P, wk):
         wk.scale[d] = math.sqrt(max(m2 / N - m1 * m1, 1e-12))
 
 
-@kernel(types.void(_F2, _F, types.float64, _F), cache=True)
-def cloud_distance_brightness(P, ll, M0, fit):
-    """IFA's brightness: the innovations' likelihood and the pose's distance from the predicted
-    cloud in units of its spread."""
+@kernel(types.void(_F2, _F, types.float64, _F, types.int64), cache=True)
+def cloud_distance_brightness(P, ll, M0, fit, kind):
+    """IFA's brightness of the poses P (N, 3) into fit, from their log-likelihoods ll (M0 the
+    largest) and their distance d from the predicted cloud's mean in units of its spread per
+    coordinate (codes.POSE_BRIGHTNESS): combined exp(ll - M0 - d^2 / 2) (the innovations'
+    likelihood times the pose's Gaussian distance), likelihood exp(ll - M0) (the innovations
+    alone, d unused), inverse 1 / (1 + D) with D^2 = -2 (ll - M0) + d^2 (the whole distance,
+    smaller brighter)."""
     N = P.shape[0]
+    if kind == POSE_BRIGHTNESS_LIKELIHOOD:
+        shifted_exp(ll, M0, fit)
+        return
     mx = 0.0
     my = 0.0
     mt = 0.0
@@ -662,8 +682,12 @@ def cloud_distance_brightness(P, ll, M0, fit):
         vt += (P[i, 2] - mt) ** 2 / N
     for i in range(N):
         d2 = ((P[i, 0] - mx) ** 2 / vx + (P[i, 1] - my) ** 2 / vy + (P[i, 2] - mt) ** 2 / vt)
-        fit[i] = 0.5 * d2
-    shifted_exp_less(ll, M0, fit, fit)
+        if kind == POSE_BRIGHTNESS_INVERSE:
+            fit[i] = 1.0 / (1.0 + math.sqrt(-2.0 * (ll[i] - M0) + d2))
+        else:
+            fit[i] = 0.5 * d2
+    if kind == POSE_BRIGHTNESS_COMBINED:
+        shifted_exp_less(ll, M0, fit, fit)
 
 
 _OBS = (_I, _F2, types.int64)      # a step's observations: ids, zs (n, 2), n
@@ -689,7 +713,7 @@ def pose_fitness(request, ps, pc, ids, zs, n, o, wk):
         _fitness_scaled(wk.C, wk.mean, wk.scale, ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb,
                         wk.llC, o.assoc, ps.nl, o.gate_augment, pc)
     elif request == FIT_BRIGHTNESS:
-        cloud_distance_brightness(P, wk.ll, wk.ll.max(), wk.fit)
+        cloud_distance_brightness(P, wk.ll, wk.ll.max(), wk.fit, o.brightness)
     return evaluations(request, N)
 
 
@@ -710,10 +734,15 @@ def refine_poses(ps, pc, ids, zs, n, o, sp, wk, s):
     """The swarm refinement of the predicted poses (ifa2021, afsa2014): ``o.iters`` iterations of
     the swarm algorithm ``o.refine`` (parameters sp, a swarm.SwarmParams; ``swarm.swarm_move``), the
     fitness of a pose its observations' likelihood under the particle's own map
-    (``pose_fitness``); AFSA moves the poses in units of the predicted cloud's spread (visual and
-    step too). Returns the likelihood evaluations."""
+    (``pose_fitness``); the random steps (FA's and IFA's random term, BA's local walk) and AFSA's
+    moves (visual and step too) are in units of the predicted cloud's spread per coordinate, or of
+    fixed metres and radians (o.step_unit). Returns the likelihood evaluations."""
     P, N = ps.P, ps.P.shape[0]
     cloud_units(P, wk)
+    if o.step_unit == STEP_UNIT_FIXED:
+        wk.scale[0] = o.unit_m
+        wk.scale[1] = o.unit_m
+        wk.scale[2] = o.unit_rad
     X = P.reshape(3 * N)
     _fitness(P, ps.mu, ps.sig, ps.seen, ids, zs, n, o.Rr, o.Rb, wk.ll, o.assoc, ps.nl,
              o.gate_augment, pc)
@@ -805,23 +834,26 @@ def note_board(Wn, ps, board, xbar):
     copy_particle(ps, b, board, 0)
 
 
-@kernel(types.void(PARTICLES, PARTICLES, _F2, _F, _F, _F, types.float64, OPTIONS, PARTICLES, _F,
-                 _F, DIRECTIONAL_NOISE, _I, types.int8[::1], STATE), cache=True)
-def resample_set(ps, out, pc, pcm, Wn, w, Ssum, o, board, xbar, xbar_prev, dnoise, idx, mutant,
-                 s):
+@kernel(types.void(PARTICLES, PARTICLES, _F2, _F, _F, _F, types.float64, OPTIONS, PARTICLES,
+                 PARTICLES, _F, _F, DIRECTIONAL_NOISE, _I, types.int8[::1], STATE), cache=True)
+def resample_set(ps, out, pc, pcm, Wn, w, Ssum, o, board, best, xbar, xbar_prev, dnoise, idx,
+                 mutant, s):
     """Draw the new particle set into ``out`` (maps copied with their particles): directional
     resampling from the board, the stepwise EWA's plan with its mutations, or a standard scheme.
     pc: the new particles' pose uncertainty (a copy's noise; zero otherwise); pcm: the cloud's
-    mean uncertainty at the update."""
+    mean uncertainty at the update. Directional resampling: the copies' pose from the board (the
+    previous observation's best particle), their map the board's or (o.dir_map) that of ``best``,
+    this observation's best particle; the kept half resampled by the scheme o.dir_scheme."""
     N = Wn.size
     if o.scheme == DIRECTIONAL:
         shift = np.empty(3)
         shift[0] = xbar[0] - xbar_prev[0]
         shift[1] = xbar[1] - xbar_prev[1]
         shift[2] = wrap(xbar[2] - xbar_prev[2])
+        mp = board if o.dir_map == DIRECTIONAL_MAP_BOARD else best
         directional_resample(Wn, ps.P, ps.mu, ps.sig, ps.seen, ps.nl, ps.src, board.P[0],
-                             board.mu[0], board.sig[0], board.seen[0], board.nl[0], board.src[0],
-                             shift, dnoise, _SYSTEMATIC, s, out.P, out.mu, out.sig, out.seen,
+                             mp.mu[0], mp.sig[0], mp.seen[0], mp.nl[0], mp.src[0],
+                             shift, dnoise, o.dir_scheme, s, out.P, out.mu, out.sig, out.seen,
                              out.nl, out.src)
         if o.gate_pose:
             # a copy sits off the board's map by the board's motion since its update and by the
@@ -1004,8 +1036,8 @@ def fastslam_kernel(ctrl, obs, o, start, sp, dnoise, lm_true, s, est, ess,
                     xbar_prev[:] = xbar
                     have_board = True
             if ess[k] < o.threshold:
-                resample_set(ps, spare, pc, pcm, Wn, w, Ssum, o, board, xbar, xbar_prev, dnoise,
-                             idx, mutant, s)
+                resample_set(ps, spare, pc, pcm, Wn, w, Ssum, o, board, next_board, xbar,
+                             xbar_prev, dnoise, idx, mutant, s)
                 ps, spare = spare, ps       # the new set becomes the current one
                 lw[:] = 0.0
                 Wn[:] = 1.0 / N
@@ -1081,7 +1113,12 @@ def options(model, params, particles, diag=True) -> Options:
         refine=ALGORITHMS.get(params["refine"], NO_SWARM), iters=int(params["iterations"]),
         scheme=int(scheme), threshold=float(threshold), ewa_beta=float(params["ewa_beta"]),
         ewa_mu=float(params["ewa_mu"]), ewa_printed=int(params["ewa_correction"] == "as_printed"),
-        diag=int(flags(diag)), ewa_copies=EWA_COPIES[params["ewa_copies"]])
+        diag=int(flags(diag)), ewa_copies=EWA_COPIES[params["ewa_copies"]],
+        step_unit=int(STEP_UNITS[params["step_unit"]]),
+        unit_m=float(params["step_unit_m"]), unit_rad=float(params["step_unit_rad"]),
+        brightness=int(POSE_BRIGHTNESS[params["pose_brightness"]]),
+        dir_scheme=int(SCHEME_CODES[params["directional_scheme"]]),
+        dir_map=int(DIRECTIONAL_MAPS[params["directional_map"]]))
 
 
 def directional_noise(params) -> DirectionalNoise:
@@ -1130,13 +1167,36 @@ def run(model, data, params, particles, state, diag=True):
 def fastslam_keys() -> dict:
     swarm = {}
     for algo in ("fa", "ba", "afsa", "pso"):     # IFA takes FA's keys but alpha
-        swarm.update(keys(algo, unit="in units of the predicted cloud's spread", prefix=True))
+        swarm.update(keys(algo, unit="in units of step_unit: the predicted cloud's spread by "
+                                "default", prefix=True))
     return {
         "refine": Key("choice", "none", "swarm refinement of the predicted poses at each "
                       "observation (ifa2021: BA-, FA-, IFA-FastSLAM; afsa2014: PSO-, AFSA-FastSLAM)",
                       choices=("none",) + tuple(ALGORITHMS)),
         "iterations": Key("int", 1, "swarm iterations per observation", min=0),
         **swarm,
+        "step_unit": Key("choice", "cloud_spread", "the unit of the refinement's random steps "
+                         "(FA's and IFA's random term, BA's local walk, AFSA's visual range and "
+                         "step): 'cloud_spread' the predicted cloud's spread per coordinate (our "
+                         "reading: a heading is not stepped in metres; the dimmest of N fireflies "
+                         "takes up to N - 1 kicks of that size), 'fixed' step_unit_m in x and y and "
+                         "step_unit_rad in the heading (ifa2021 writes the random term in the "
+                         "state's own units)", choices=tuple(STEP_UNITS)),
+        "step_unit_m": Key("float", 1.0, "step_unit fixed: the unit in x and y, m (default 1: "
+                           "the state's own unit, as ifa2021's random term reads)", min=0.0,
+                           min_exclusive=True),
+        "step_unit_rad": Key("float", 1.0, "step_unit fixed: the unit in the heading, rad "
+                             "(default 1: the state's own unit)", min=0.0, min_exclusive=True),
+        "pose_brightness": Key("choice", "combined", "IFA: a pose's brightness, from its "
+                               "innovations' log-likelihood ll (under its own map) and its "
+                               "distance d from the predicted cloud in units of its spread: "
+                               "'combined' exp(ll - max ll - d^2 / 2) (our reading of ifa2021's "
+                               "distance between (predicted observation, predicted state) and "
+                               "(observation, state)), 'likelihood' exp(ll - max ll) (the "
+                               "innovations alone: the fitness a PF weighs with), 'inverse' "
+                               "1 / (1 + D), D^2 = -2 (ll - max ll) + d^2 (the same distance, "
+                               "smaller brighter without a Gaussian); ifa2021 leaves it open",
+                               choices=tuple(POSE_BRIGHTNESS)),
         "predict_noise": Key("bool", True, "each particle draws its own noisy controls (FastSLAM "
                              "1.0 needs it; the classic simulator's default turns it off)"),
         "speed_noise_mps": Key("float", None, "speed noise the particles draw (default: the "
@@ -1171,6 +1231,15 @@ def fastslam_keys() -> dict:
                                    "board's copies (afsa2014 gives none; our default)", min=0.0),
         "directional_noise_deg": Key("float", 0.5, "directional resampling: heading noise of the "
                                      "board's copies", min=0.0),
+        "directional_scheme": Key("choice", "systematic", "directional resampling: how the kept "
+                                  "half is resampled by weight ('systematic' ours; afsa2014 "
+                                  "describes inverse-transform draws of independent uniforms, "
+                                  "'multinomial')", choices=tuple(SCHEME_CODES)),
+        "directional_map": Key("choice", "board", "directional resampling: the map each copy "
+                               "carries, 'board' the board particle's as of the previous "
+                               "observation (ours: the particle eq. 10 moves) or 'best' this "
+                               "observation's highest-weight particle's, updated by it; afsa2014 "
+                               "does not say", choices=tuple(DIRECTIONAL_MAPS)),
         "resample": Key("choice", "neff", "'neff': when ESS < neff_ratio * N; 'always'",
                         choices=("neff", "always")),
         "neff_ratio": pf_keys()["neff_ratio"],

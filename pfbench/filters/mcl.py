@@ -2,9 +2,10 @@
 recover from a wrong belief (review2007, asrl2008):
 
 - ``reset: none``: plain MCL (sample from the motion model, weigh, resample);
-- ``srl``: sensor resetting (Lenser and Veloso): when the mean likelihood of the particles falls
-  below ``srl_threshold``, ``srl_fraction`` of the resampled set is replaced by poses drawn from the
-  sensor model;
+- ``srl``: sensor resetting (Lenser and Veloso): when the mean likelihood p_mean of the particles
+  falls below ``srl_threshold``, ``srl_fraction`` of the resampled set is replaced by poses drawn
+  from the sensor model (``srl_rule: fixed_fraction``), or N (1 - p_mean / srl_threshold) of it
+  (``lenser_veloso``, the original paper's count);
 - ``asrl``: adaptive sensor resetting (asrl2008): n_s = N max(0, 1 - p_mean / (mu p_t^c)) are
   replaced, c the number of measurement components at the step (2 per range-bearing observation,
   1 per range), p_mean the mean likelihood;
@@ -51,7 +52,8 @@ from numba import typeof, types
 from .._lazy import kernel
 
 from ..codes import (MOTION_ODOMETRY, MOTION_ROT_TRANS_ROT, RESET, RESET_ASRL, RESET_AUGMENTED,
-                     RESET_NONE, RESET_SRL, SCHEME_CODES, SCHEME_SYSTEMATIC, SENSOR_RANGE_BEARING)
+                     RESET_NONE, RESET_SRL, SCHEME_CODES, SCHEME_SYSTEMATIC, SENSOR_RANGE_BEARING,
+                     SRL_LENSER_VELOSO, SRL_RULES)
 from ..resampling import ess_threshold, resample, systematic_from_sums
 from ..rng import (STATE, _layer, fill_normal, in_layer_rectangle, load_local, next_local,
                    normal_off_rectangle, store_local, uniform, unit)
@@ -75,7 +77,8 @@ _I2 = types.int64[:, ::1]
 
 class ResetParams(NamedTuple):
     """The injection's parameters (``reset``), as the config names them: SRL's fraction and
-    threshold, ASRL's mu and p_t, augmented MCL's averaging rates alpha_slow, alpha_fast."""
+    threshold, ASRL's mu and p_t, augmented MCL's averaging rates alpha_slow, alpha_fast; SRL's
+    rule (a code of codes.SRL_RULES, as a float)."""
 
     srl_fraction: float
     srl_threshold: float
@@ -83,6 +86,7 @@ class ResetParams(NamedTuple):
     asrl_pt: float
     alpha_slow: float
     alpha_fast: float
+    srl_rule: float
 
 
 class KldParams(NamedTuple):
@@ -97,7 +101,7 @@ class KldParams(NamedTuple):
     n_min: float
 
 
-RESET_PARAMS = typeof(ResetParams(0.0, 0.0, 1.0, 1.0, 0.0, 0.0))
+RESET_PARAMS = typeof(ResetParams(0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0))
 KLD_PARAMS = typeof(KldParams(1.0, 1.0, 1.0, 1.0, 1.0))
 
 
@@ -801,11 +805,25 @@ def gather_rows(P, CS, P2, CS2, idx, n):
         _copy_particle(P, CS, P2, CS2, i, idx[i])
 
 
+@kernel(types.int64(types.int64, types.float64, RESET_PARAMS), cache=True, error_model="numpy")
+def srl_resets(N, pm, rp):
+    """How many of N particles SRL replaces by sensor draws at a step whose mean likelihood is
+    pm: none unless pm < srl_threshold; then srl_fraction of N (fixed_fraction, rounded) or, as
+    Lenser and Veloso (2000) define it, N (1 - pm / srl_threshold) (lenser_veloso, rounded, at
+    most N)."""
+    if not pm < rp.srl_threshold:
+        return 0
+    if rp.srl_rule == SRL_LENSER_VELOSO:
+        return min(int(round(N * (1.0 - pm / rp.srl_threshold))), N)
+    return int(round(rp.srl_fraction * N))
+
+
 @kernel(types.int64(_F2, _F2, _F, _F2, types.int64, _I, _F2, MCL_OPTIONS, RESET_PARAMS,
                     types.float64, types.float64, _I, _F, STATE), cache=True, error_model="numpy")
 def inject(P, CS, area, bc, m, ids, zs, o, rp, pm, prob, perm, pose, s):
     """Replace particles by poses drawn from the sensor model (or the field): augmented MCL each
-    with probability prob; SRL srl_fraction of them when pm < srl_threshold; ASRL
+    with probability prob; SRL when pm < srl_threshold srl_fraction of them (fixed_fraction) or
+    N (1 - pm / srl_threshold) (lenser_veloso, ``srl_resets``); ASRL
     n_s = N max(0, 1 - pm / (mu p_t^c)) of them. Returns how many."""
     N = o.N
     k = 0
@@ -821,7 +839,7 @@ def inject(P, CS, area, bc, m, ids, zs, o, rp, pm, prob, perm, pose, s):
     if m == 0 or not (o.reset == RESET_SRL or o.reset == RESET_ASRL):
         return 0
     if o.reset == RESET_SRL:
-        k = int(round(rp.srl_fraction * N)) if pm < rp.srl_threshold else 0
+        k = srl_resets(N, pm, rp)
     else:
         c = m * (2 if o.sensor == SENSOR_RANGE_BEARING else 1)
         k = min(int(round(N * max(0.0, 1.0 - pm / (rp.asrl_mu * rp.asrl_pt ** c)))), N)
@@ -982,7 +1000,8 @@ def reset_params(params) -> ResetParams:
     return ResetParams(
         srl_fraction=float(params["srl_fraction"]), srl_threshold=float(params["srl_threshold"]),
         asrl_mu=float(params["asrl_mu"]), asrl_pt=float(params["asrl_pt"]),
-        alpha_slow=float(params["alpha_slow"]), alpha_fast=float(params["alpha_fast"]))
+        alpha_slow=float(params["alpha_slow"]), alpha_fast=float(params["alpha_fast"]),
+        srl_rule=float(SRL_RULES[params["srl_rule"]]))
 
 
 def kld_params(params, particles: int) -> KldParams:
@@ -1041,9 +1060,15 @@ def mcl_keys() -> dict:
                      "resetting), 'asrl' (adaptive sensor resetting, asrl2008), 'augmented' "
                      "(augmented MCL with alpha_slow / alpha_fast)",
                      choices=("none", "srl", "asrl", "augmented")),
+        "srl_rule": Key("choice", "fixed_fraction", "srl: how many particles are replaced by "
+                        "sensor draws when the mean likelihood p_mean is below srl_threshold: "
+                        "'fixed_fraction' srl_fraction of them (ours; asrl2008 never defines the "
+                        "SRL it compares with), 'lenser_veloso' N (1 - p_mean / srl_threshold), "
+                        "the count of the original sensor-resetting paper (Lenser and Veloso "
+                        "2000)", choices=tuple(SRL_RULES)),
         "srl_fraction": Key("float", 0.1, "srl: fraction of the particles replaced by sensor "
-                            "draws when the mean likelihood is below srl_threshold", min=0.0,
-                            max=1.0),
+                            "draws when the mean likelihood is below srl_threshold "
+                            "(srl_rule fixed_fraction)", min=0.0, max=1.0),
         "srl_threshold": Key("float", 0.01, "srl: mean-likelihood threshold (a density in the "
                              "measurement's units)", min=0.0),
         "asrl_mu": Key("float", 1.0, "asrl: gain mu of n_s = N max(0, 1 - p_mean / (mu "
