@@ -320,7 +320,7 @@ def parse(raw: Any, source: str, lines: dict[str, int] | None = None) -> Paper:
     lines = lines or {}
     try:
         raw = check_mapping("", raw if raw is not None else {})
-        top = check_section(raw, _TOP, "", ignore=("tables", "choices", "findings"))
+        top = check_section(raw, _TOP, "", ignore=("tables", "choices", "findings", "readings"))
         stem = Path(source).stem
         if source and top["paper"] != stem:
             raise ConfigError("paper", f"'{top['paper']}' in a file named {stem}.yaml: the key "
@@ -331,7 +331,7 @@ def parse(raw: Any, source: str, lines: dict[str, int] | None = None) -> Paper:
         choices = []
         for i, c in enumerate(_list(raw.get("choices"), "choices", True)):
             c = check_mapping(f"choices[{i}]", c)
-            what = check_section(c, _CHOICE, f"choices[{i}]", ignore=("keys",))["what"]
+            what = check_section(c, _CHOICE, f"choices[{i}]", ignore=("keys", "id"))["what"]
             choices.append((what, _strings(c.get("keys"), f"choices[{i}].keys")))
         return Paper(top["paper"], top["citation"], tables, tuple(choices),
                      _findings(raw.get("findings"), lines), source, top["about"] or "")

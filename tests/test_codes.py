@@ -234,12 +234,14 @@ SWARM_KEYS = {"beta0": 1.5, "gamma": 0.25, "alpha": 0.2, "brightness": "inverse"
               "freq_min": 0.1, "freq_max": 2.0, "loudness": 0.8, "pulse_rate": 0.4,
               "loudness_decay": 0.95, "pulse_growth": 0.7, "inertia": 0.6, "c1": 1.25,
               "c2": 1.75, "visual": 2.5, "step": 0.3, "crowding": 0.618, "tries": 4,
-              "greedy": False}
+              "greedy": False, "random_term": "gaussian", "move_toward": "brightest"}
+CHOICE_CODES = {"brightness": codes.BRIGHTNESS, "random_term": codes.RANDOM_TERMS,
+                "move_toward": codes.MOVE_TOWARD}
 
 
 @pytest.mark.parametrize("algo, read", [
-    ("fa", {"beta0", "gamma", "alpha"}),
-    ("ifa", {"beta0", "gamma", "brightness"}),
+    ("fa", {"beta0", "gamma", "alpha", "random_term", "move_toward"}),
+    ("ifa", {"beta0", "gamma", "brightness", "random_term", "move_toward"}),
     ("ba", {"freq_min", "freq_max", "loudness", "pulse_rate", "loudness_decay", "pulse_growth"}),
     ("pso", {"inertia", "c1", "c2"}),
     ("afsa", {"visual", "step", "crowding", "tries", "greedy"}),
@@ -253,9 +255,10 @@ def test_swarm_parameters_are_one_named_record_built_from_the_keys(algo, read):
     sp = swarm_params(algo, SWARM_KEYS)
     assert isinstance(sp, SwarmParams) and all(type(v) is float for v in sp)
     want = {k: 0.0 for k in SwarmParams._fields}
-    want.update({k: float(SWARM_KEYS[k]) for k in read - {"brightness"}})
+    want.update({k: float(SWARM_KEYS[k]) for k in read - set(CHOICE_CODES)})
+    want.update({k: float(CHOICE_CODES[k][SWARM_KEYS[k]]) for k in read & set(CHOICE_CODES)})
     if "brightness" in read:
-        want["brightness"] = float(codes.BRIGHTNESS_INVERSE)
+        assert want["brightness"] == float(codes.BRIGHTNESS_INVERSE)
     assert sp._asdict() == want
     assert SWARM_PARAMS.count == len(SwarmParams._fields)
     # a filter without IFA's brightness key (FastSLAM's IFA) keeps the field's 0.0
