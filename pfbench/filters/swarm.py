@@ -5,7 +5,8 @@ The moves work on particles stored flat, X : (N * D,) in C order (particle i is 
 and never call a model: a move either uses the fitness values it is given, or proposes candidate
 positions that the caller evaluates before the matching ``*_accept``. So the same moves serve the
 scalar filters here (D = 1, fitness = likelihood of the measurement) and robot poses in FastSLAM.
-Fitness is positive and larger is better (the filters use the max-shifted likelihood in (0, 1]).
+Fitness is positive and larger is better (the filters use the max-shifted likelihood in (0, 1]),
+except IFA's brightness read as a distance, -d (``ifa_move``).
 ``swarm_move`` is the one dispatcher: it runs an iteration of any algorithm in phases and
 returns, between them, what its caller evaluates (scratch: ``SwarmWork``).
 Distances are Euclidean over the D coordinates (a caller with angles must wrap them itself); the
