@@ -57,7 +57,37 @@ NOISE_GAMMA = 1
 # IFA's brightness of a particle from its distance d (swarm PFs' key ``brightness``).
 BRIGHTNESS_GAUSSIAN = 0     # exp(-d^2 / 2)
 BRIGHTNESS_INVERSE = 1      # 1 / (1 + d)
-BRIGHTNESS = {"gaussian": BRIGHTNESS_GAUSSIAN, "inverse": BRIGHTNESS_INVERSE}
+BRIGHTNESS_LIKELIHOOD = 2   # exp(ll - max ll): the likelihood of the measurement alone
+BRIGHTNESS_DISTANCE = 3     # -d: the distance itself, smaller brighter (see swarm.ifa_move)
+BRIGHTNESS = {"gaussian": BRIGHTNESS_GAUSSIAN, "inverse": BRIGHTNESS_INVERSE,
+              "likelihood": BRIGHTNESS_LIKELIHOOD, "distance": BRIGHTNESS_DISTANCE}
+
+# The firefly moves' random term (FA's and IFA's key ``random_term``), per coordinate.
+RANDOM_UNIFORM_HALF = 0     # u - 0.5, u ~ U(0, 1): pfbench's
+RANDOM_UNIFORM_SQRT3 = 1    # U(-sqrt 3, sqrt 3): mean 0, variance 1, a uniform (ifa2021's words)
+RANDOM_GAUSSIAN = 2         # N(0, 1)
+RANDOM_NONE = 3             # no random term (no draw)
+RANDOM_TERMS = {"uniform_half": RANDOM_UNIFORM_HALF, "uniform_sqrt3": RANDOM_UNIFORM_SQRT3,
+                "gaussian": RANDOM_GAUSSIAN, "none": RANDOM_NONE}
+
+# Which fireflies a firefly moves toward (FA's and IFA's key ``move_toward``).
+TOWARD_BRIGHTER_IN_PLACE = 0    # every brighter one, in place (later ones see moved ones)
+TOWARD_BRIGHTER_ALL_AT_ONCE = 1  # every brighter one, from the positions at the iteration's start
+TOWARD_BRIGHTEST = 2            # the brightest one only
+MOVE_TOWARD = {"brighter_in_place": TOWARD_BRIGHTER_IN_PLACE,
+               "brighter_all_at_once": TOWARD_BRIGHTER_ALL_AT_ONCE,
+               "brightest": TOWARD_BRIGHTEST}
+
+# The scalar swarm PFs' weights after the move (key ``move_correction``) and the order of the
+# move and the resampling (key ``move_order``).
+CORRECTION_NONE = 0
+CORRECTION_PRIOR_RATIO = 1
+MOVE_CORRECTIONS = {"none": CORRECTION_NONE, "prior_ratio": CORRECTION_PRIOR_RATIO}
+ORDER_MOVE_THEN_RESAMPLE = 0
+ORDER_RESAMPLE_THEN_MOVE = 1
+MOVE_ORDERS = {"move_then_resample": ORDER_MOVE_THEN_RESAMPLE,
+               "resample_then_move": ORDER_RESAMPLE_THEN_MOVE}
+
 
 # The stepwise EWA's copies of a kept particle of weight W (key ``ewa_copies``; n = W / delta).
 EWA_COPIES_CEIL = 0             # ceil(n) in all, the kept particle one of them (pfbench's)

@@ -239,15 +239,17 @@ SWARM_KEYS = {"beta0": 1.5, "gamma": 0.25, "alpha": 0.2, "brightness": "inverse"
               "loudness_decay": 0.95, "pulse_growth": 0.7, "inertia": 0.6, "c1": 1.25,
               "c2": 1.75, "visual": 2.5, "step": 0.3, "crowding": 0.618, "tries": 4,
               "greedy": False, "ba_accept": "better_than_best", "ba_walk": "uniform",
-              "prey_target": "random_point", "converge": True}
+              "prey_target": "random_point", "converge": True, "random_term": "gaussian",
+              "move_toward": "brightest"}
 # the choice keys among them, read as their codes
-SWARM_CODES = {"ba_accept": codes.BA_ACCEPT, "ba_walk": codes.BA_WALK,
-               "prey_target": codes.PREY_TARGET}
+CHOICE_CODES = {"brightness": codes.BRIGHTNESS, "random_term": codes.RANDOM_TERMS,
+                "move_toward": codes.MOVE_TOWARD, "ba_accept": codes.BA_ACCEPT,
+                "ba_walk": codes.BA_WALK, "prey_target": codes.PREY_TARGET}
 
 
 @pytest.mark.parametrize("algo, read", [
-    ("fa", {"beta0", "gamma", "alpha"}),
-    ("ifa", {"beta0", "gamma", "brightness"}),
+    ("fa", {"beta0", "gamma", "alpha", "random_term", "move_toward"}),
+    ("ifa", {"beta0", "gamma", "brightness", "random_term", "move_toward"}),
     ("ba", {"freq_min", "freq_max", "loudness", "pulse_rate", "loudness_decay", "pulse_growth",
             "ba_accept", "ba_walk"}),
     ("pso", {"inertia", "c1", "c2"}),
@@ -262,10 +264,10 @@ def test_swarm_parameters_are_one_named_record_built_from_the_keys(algo, read):
     sp = swarm_params(algo, SWARM_KEYS)
     assert isinstance(sp, SwarmParams) and all(type(v) is float for v in sp)
     want = {k: 0.0 for k in SwarmParams._fields}
-    want.update({k: float(SWARM_CODES[k][SWARM_KEYS[k]] if k in SWARM_CODES else SWARM_KEYS[k])
-                 for k in read - {"brightness"}})
+    want.update({k: float(SWARM_KEYS[k]) for k in read - set(CHOICE_CODES)})
+    want.update({k: float(CHOICE_CODES[k][SWARM_KEYS[k]]) for k in read & set(CHOICE_CODES)})
     if "brightness" in read:
-        want["brightness"] = float(codes.BRIGHTNESS_INVERSE)
+        assert want["brightness"] == float(codes.BRIGHTNESS_INVERSE)
     assert sp._asdict() == want
     assert SWARM_PARAMS.count == len(SwarmParams._fields)
     # a filter without IFA's brightness key (FastSLAM's IFA) keeps the field's 0.0

@@ -34,11 +34,11 @@ def _run_move(kind, X, D, s, iters=3):
     fit = fitness(X, D)
     if kind == "fa":
         for _ in range(iters):
-            swarm.fa_move(X, fit, D, 1.0, 0.5, 0.05, np.ones(D), s)
+            swarm.fa_move(X, fit, D, 1.0, 0.5, 0.05, np.ones(D), s, 0, 0)
             fit = fitness(X, D)
     elif kind == "ifa":
         for _ in range(iters):
-            swarm.ifa_move(X, fit, D, 1.0, 0.5, 0.05, np.ones(D), s)
+            swarm.ifa_move(X, fit, D, 1.0, 0.5, 0.05, np.ones(D), s, 0, 0)
             fit = fitness(X, D)
     elif kind == "pso":
         V, P, Pfit = np.zeros_like(X), X.copy(), fit.copy()

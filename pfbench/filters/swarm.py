@@ -5,7 +5,8 @@ The moves work on particles stored flat, X : (N * D,) in C order (particle i is 
 and never call a model: a move either uses the fitness values it is given, or proposes candidate
 positions that the caller evaluates before the matching ``*_accept``. So the same moves serve the
 scalar filters here (D = 1, fitness = likelihood of the measurement) and robot poses in FastSLAM.
-Fitness is positive and larger is better (the filters use the max-shifted likelihood in (0, 1]).
+Fitness is positive and larger is better (the filters use the max-shifted likelihood in (0, 1]),
+except IFA's brightness read as a distance, -d (``ifa_move``).
 ``swarm_move`` is the one dispatcher: it runs an iteration of any algorithm in phases and
 returns, between them, what its caller evaluates (scratch: ``SwarmWork``).
 Distances are Euclidean over the D coordinates (a caller with angles must wrap them itself); the
@@ -30,8 +31,10 @@ from .weights import shifted_exp
 
 # The swarm algorithms, one numbering for every kernel that moves particles with them (codes).
 from ..codes import AFSA, ALGORITHMS, BA, BRIGHTNESS, FA, IFA, NO_SWARM, PSO  # noqa: F401
-from ..codes import (BA_ACCEPT, BA_ACCEPT_FITTER_AND_LOUD, BA_WALK, BA_WALK_GAUSSIAN, PREY_FISH,
-                     PREY_RANDOM_POINT, PREY_TARGET)
+from ..codes import (BA_ACCEPT, BA_ACCEPT_FITTER_AND_LOUD, BA_WALK, BA_WALK_GAUSSIAN, MOVE_TOWARD,
+                     PREY_FISH, PREY_RANDOM_POINT, PREY_TARGET, RANDOM_GAUSSIAN, RANDOM_TERMS,
+                     RANDOM_UNIFORM_HALF, RANDOM_UNIFORM_SQRT3, TOWARD_BRIGHTER_ALL_AT_ONCE,
+                     TOWARD_BRIGHTEST)
 
 
 def keys(algo: str, unit: str = "state units", prefix: bool = False) -> dict:
@@ -44,7 +47,8 @@ def keys(algo: str, unit: str = "state units", prefix: bool = False) -> dict:
             "gamma": Key("float", 1.0, "light absorption, per squared state unit (ifa2021: 1)",
                          min=0.0),
             "alpha": Key("float", 0.2, "fixed random-step size (FA-PF's reference gives none; "
-                         "our default)", min=0.0)},
+                         "our default)", min=0.0),
+            **firefly_reading_keys()},
         "ba": {
             "freq_min": Key("float", 0.0, "lowest frequency"),
             "freq_max": Key("float", 1.0, "highest frequency"),
@@ -86,12 +90,34 @@ def keys(algo: str, unit: str = "state units", prefix: bool = False) -> dict:
                             "'iterations' times (afsa2014: 'repeat until the convergence condition "
                             "holds', which it does not state)")},
     }
-    declared["ifa"] = {k: declared["fa"][k] for k in ("beta0", "gamma")}
+    declared["ifa"] = {k: declared["fa"][k] for k in ("beta0", "gamma", "random_term",
+                                                       "move_toward")}
     out = declared[algo]
     if prefix:
         from dataclasses import replace
         out = {k: replace(key, doc=f"{algo.upper()}: {key.doc}") for k, key in out.items()}
     return out
+
+
+def firefly_reading_keys() -> dict:
+    """The keys of the firefly moves' readings (FA and IFA): the random term's law and which
+    fireflies a firefly moves toward."""
+    return {
+        "random_term": Key(
+            "choice", "uniform_half", "the random term of a firefly move, per coordinate, times "
+            "the step (FA's alpha, IFA's alpha_i) and the coordinate's unit: 'uniform_half' u - "
+            "0.5, u ~ U(0, 1) (pfbench's reading of ifa2021's 'rand - 0.5'); 'uniform_sqrt3' "
+            "U(-sqrt 3, sqrt 3) (ifa2021's words for rand: 'uniform, mean 0, variance 1', taken "
+            "as the whole term); 'gaussian' N(0, 1); 'none' no random term",
+            choices=tuple(RANDOM_TERMS)),
+        "move_toward": Key(
+            "choice", "brighter_in_place", "which fireflies a firefly moves toward: "
+            "'brighter_in_place' every brighter one in turn, in place, so later fireflies see "
+            "moved ones (pfbench's reading: Yang 2008's double loop; ifa2021 says only 'i is "
+            "attracted by j and moves toward it'); 'brighter_all_at_once' every brighter one, "
+            "each move computed from the positions at the iteration's start (Jacobi); "
+            "'brightest' the brightest one only (the brightest does not move)",
+            choices=tuple(MOVE_TOWARD))}
 
 
 class SwarmParams(NamedTuple):
@@ -101,7 +127,9 @@ class SwarmParams(NamedTuple):
     loudness (A0), pulse_rate (r0), loudness_decay, pulse_growth, ba_accept and ba_walk (codes of
     codes.BA_ACCEPT and codes.BA_WALK); PSO: inertia (w), c1, c2; AFSA: visual, step, crowding
     (delta), tries, greedy (0 or 1), prey_target (a code of codes.PREY_TARGET) and converge (0 or
-    1); codes, counts and flags as floats."""
+    1); FA and IFA: random_term and move_toward (codes of codes.RANDOM_TERMS and
+    codes.MOVE_TOWARD); codes, counts and flags as floats (0.0, pfbench's reading, where a filter
+    lacks the key)."""
 
     beta0: float
     gamma: float
@@ -121,6 +149,8 @@ class SwarmParams(NamedTuple):
     crowding: float
     tries: float
     greedy: float
+    random_term: float
+    move_toward: float
     ba_accept: float
     ba_walk: float
     prey_target: float
@@ -129,7 +159,8 @@ class SwarmParams(NamedTuple):
 
 SWARM_PARAMS = types.NamedUniTuple(types.float64, len(SwarmParams._fields), SwarmParams)
 
-# The config keys each algorithm reads into its fields (IFA's brightness where the filter has it).
+# The config keys each algorithm reads into its fields (IFA's brightness, and FA's and IFA's
+# random_term and move_toward, where the filter has them: codes, ``swarm_params``).
 _READS = {"fa": ("beta0", "gamma", "alpha"), "ifa": ("beta0", "gamma"),
           "ba": ("freq_min", "freq_max", "loudness", "pulse_rate", "loudness_decay",
                  "pulse_growth", "ba_accept", "ba_walk"),
@@ -148,6 +179,10 @@ def swarm_params(algo: str, params) -> SwarmParams:
         vals[key] = float(_CODES[key][params[key]] if key in _CODES else params[key])
     if algo == "ifa" and "brightness" in params:
         vals["brightness"] = float(BRIGHTNESS[params["brightness"]])
+    if algo in ("fa", "ifa"):
+        for key, codes in (("random_term", RANDOM_TERMS), ("move_toward", MOVE_TOWARD)):
+            if key in params:
+                vals[key] = float(codes[params[key]])
     return SwarmParams(**vals)
 
 
@@ -164,38 +199,6 @@ def _dist2(X, i, j, D):
     return acc
 
 
-@kernel(types.void(_F, _F, types.int64, types.float64, types.float64, types.float64, _F, STATE),
-      cache=True)
-def fa_move(X, bright, D, beta0, gamma, alpha, scale, s):
-    """Firefly move (Yang 2008), in place: each i moves toward every brighter j,
-    x_i += beta0 exp(-gamma r_ij^2) (x_j - x_i) + alpha scale (u - 0.5), u ~ U(0, 1) per
-    coordinate; scale (D,) gives each coordinate's unit for the random step. O(N^2)."""
-    N = bright.size
-    for i in range(N):
-        for j in range(N):
-            if bright[j] > bright[i]:
-                b = beta0 * math.exp(-gamma * _dist2(X, i, j, D))
-                for d in range(D):
-                    X[i * D + d] += (b * (X[j * D + d] - X[i * D + d])
-                                     + alpha * scale[d] * (uniform(s) - 0.5))
-
-
-@kernel(types.void(_F, _F, types.int64, types.float64, types.float64, types.float64, _F, STATE),
-      cache=True)
-def ifa_move(X, bright, D, beta0, gamma, R, scale, s):
-    """Improved firefly move (ifa2021): like ``fa_move`` with the adaptive step
-    alpha_i = exp(-R I_i / I_j) toward the brighter firefly j. O(N^2)."""
-    N = bright.size
-    for i in range(N):
-        for j in range(N):
-            if bright[j] > bright[i]:
-                b = beta0 * math.exp(-gamma * _dist2(X, i, j, D))
-                a = math.exp(-R * bright[i] / bright[j])
-                for d in range(D):
-                    X[i * D + d] += (b * (X[j * D + d] - X[i * D + d])
-                                     + a * scale[d] * (uniform(s) - 0.5))
-
-
 @kernel(types.int64(_F), cache=True)
 def argmax(v):
     best = 0
@@ -203,6 +206,73 @@ def argmax(v):
         if v[i] > v[best]:
             best = i
     return best
+
+
+SQRT3 = math.sqrt(3.0)
+
+
+@kernel(types.float64(types.int64, STATE), cache=True, inline="always")
+def random_term(law, s):
+    """One draw of a firefly move's random term of law ``law`` (codes.RANDOM_TERMS): u - 0.5,
+    u ~ U(0, 1); U(-sqrt 3, sqrt 3); N(0, 1); or 0.0 without a draw (RANDOM_NONE)."""
+    if law == RANDOM_UNIFORM_HALF:
+        return uniform(s) - 0.5
+    if law == RANDOM_UNIFORM_SQRT3:
+        return SQRT3 * (2.0 * uniform(s) - 1.0)
+    if law == RANDOM_GAUSSIAN:
+        return normal(s)
+    return 0.0
+
+
+@kernel(types.void(_F, _F, types.int64, types.float64, types.float64, types.float64,
+                   types.float64, types.boolean, types.int64, types.int64, _F, STATE),
+        cache=True, inline="always")
+def _firefly(X, bright, D, beta0, gamma, alpha, R, adaptive, law, toward, scale, s):
+    """The firefly moves, in place: each i toward the brighter j that ``toward`` picks
+    (codes.MOVE_TOWARD), x_i += beta0 exp(-gamma r_ij^2) (x_j - x_i) + a scale e, e a draw of
+    law ``law`` per coordinate, a = alpha, or exp(-R I_i / I_j) when ``adaptive``. In place (the
+    default) r_ij and x_j - x_i are read from the positions as moved so far; all at once, from a
+    copy made at the start; toward the brightest, j is the first of the brightest (which stays
+    where it is). Draws go in the order (i, j, coordinate)."""
+    N = bright.size
+    src = X.copy() if toward == TOWARD_BRIGHTER_ALL_AT_ONCE else X
+    lo, hi = 0, N
+    if toward == TOWARD_BRIGHTEST:
+        lo = argmax(bright)
+        hi = lo + 1
+    for i in range(N):
+        for j in range(lo, hi):
+            if bright[j] > bright[i]:
+                b = beta0 * math.exp(-gamma * _dist2(src, i, j, D))
+                a = math.exp(-R * bright[i] / bright[j]) if adaptive else alpha
+                for d in range(D):
+                    X[i * D + d] += (b * (src[j * D + d] - src[i * D + d])
+                                     + a * scale[d] * random_term(law, s))
+
+
+_MOVE = types.void(_F, _F, types.int64, types.float64, types.float64, types.float64, _F, STATE,
+                   types.int64, types.int64)
+
+
+@kernel(_MOVE, cache=True)
+def fa_move(X, bright, D, beta0, gamma, alpha, scale, s, law, toward):
+    """Firefly move (Yang 2008), in place: each i moves toward every brighter j,
+    x_i += beta0 exp(-gamma r_ij^2) (x_j - x_i) + alpha scale (u - 0.5), u ~ U(0, 1) per
+    coordinate; scale (D,) gives each coordinate's unit for the random step. ``law`` and
+    ``toward`` (codes.RANDOM_TERMS, codes.MOVE_TOWARD; 0 and 0 as written here) choose the random
+    term and which fireflies it moves toward (``_firefly``). O(N^2)."""
+    _firefly(X, bright, D, beta0, gamma, alpha, 0.0, False, law, toward, scale, s)
+
+
+@kernel(_MOVE, cache=True)
+def ifa_move(X, bright, D, beta0, gamma, R, scale, s, law, toward):
+    """Improved firefly move (ifa2021): like ``fa_move`` with the adaptive step
+    alpha_i = exp(-R I_i / I_j) toward the brighter firefly j. O(N^2).
+
+    A brightness that is a distance d (smaller brighter) comes as I = -d: j brighter than i is
+    -d_j > -d_i, and I_i / I_j = d_i / d_j, at least 1, so the step is at most exp(-R) (0 toward a
+    firefly at distance 0)."""
+    _firefly(X, bright, D, beta0, gamma, 0.0, R, True, law, toward, scale, s)
 
 
 @kernel(types.void(_F, _F, _F, _F, types.int64, types.int64, types.float64, types.float64,
@@ -584,14 +654,16 @@ def swarm_move(algo, afsa, phase, X, D, p, R, it, wk, s):
     if algo == FA:
         if phase == 0:
             shifted_exp(wk.ll, wk.ll.max(), wk.fit)
-            fa_move(X, wk.fit, D, p.beta0, p.gamma, p.alpha, wk.scale, s)
+            fa_move(X, wk.fit, D, p.beta0, p.gamma, p.alpha, wk.scale, s, int(p.random_term),
+                    int(p.move_toward))
             return FIT_X
         return DONE
     if algo == IFA:
         if phase == 0:
             return FIT_BRIGHTNESS
         if phase == 1:
-            ifa_move(X, wk.fit, D, p.beta0, p.gamma, R, wk.scale, s)
+            ifa_move(X, wk.fit, D, p.beta0, p.gamma, R, wk.scale, s, int(p.random_term),
+                     int(p.move_toward))
             return FIT_X
         return DONE
     if algo == BA:
