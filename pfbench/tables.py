@@ -414,8 +414,9 @@ def interval_line(cmp: Comparison) -> str:
     return line + "."
 
 
-def markdown(cmp: Comparison, meta: dict | None = None) -> str:
-    """table.md: title, provenance, the table and the paper's notes."""
+def markdown(cmp: Comparison, meta: dict | None = None, rows=None) -> str:
+    """table.md: title, provenance, the table and the paper's notes; with the trial ``rows``,
+    the section "All filters at once" (ranks_section)."""
     exp, tab, table = cmp.exp, cmp.table, cmp.reported
     lines = [f"# {exp.name}", ""]
     if exp.description:
@@ -445,13 +446,26 @@ def markdown(cmp: Comparison, meta: dict | None = None) -> str:
                      f"{until['max_trials']}; looks after {looks}; stopped: {until['stopped']}.")
     if notes:
         lines += ["", "Notes:", ""] + [f"- {n}" for n in notes]
+    lines += ranks_section(rows)
     return "\n".join(lines) + "\n"
 
 
-def write(cmp: Comparison, out_dir: Path, meta: dict | None = None) -> None:
-    """Write table.csv (the comparison's table) and table.md into ``out_dir`` (atomically),
+def ranks_section(rows) -> list[str]:
+    """The lines of table.md's section "All filters at once": the filters ranked on RMSE in
+    every block of runs at one particle count on one trial, the Friedman test, and the groups the
+    pairwise Wilcoxon-Holm tests do not tell apart (pfbench.rank); none without ``rows``, or
+    when fewer than two filters ran at a common particle count."""
+    if not rows:
+        return []
+    from .rank import markdown_section
+    return markdown_section(rows, "rmse")
+
+
+def write(cmp: Comparison, out_dir: Path, meta: dict | None = None, rows=None) -> None:
+    """Write table.csv (the comparison's table) and table.md into ``out_dir`` (atomically; with
+    the trial ``rows``, its ranking of all filters at once),
     without the run times: they hold what the seed determines, the same bytes on any machine
     (the console shows the run times; the timings file holds them)."""
     cmp = cmp.without_timings()
     write_csv(Path(out_dir) / "table.csv", cmp.table)
-    atomic_write(Path(out_dir) / "table.md", markdown(cmp, meta))
+    atomic_write(Path(out_dir) / "table.md", markdown(cmp, meta, rows))
