@@ -198,8 +198,9 @@ def test_the_layout_check_sees_a_broken_word_and_a_wide_image(tmp_path):
     page.write_text('<!DOCTYPE html><html><body><main>'
                     '<table><tr><td style="width:3em;max-width:3em;overflow-wrap:anywhere">'
                     'Reproduced afsa2014</td></tr></table>'
-                    '<figure style="width:100px"><img style="width:300px" src="data:image/gif;'
-                    'base64,R0lGODlhAQABAAAAACw="></figure></main></body></html>')
+                    '<figure style="width:100px"><img style="width:300px" src="data:image/'
+                    'svg+xml,%3Csvg xmlns=%22http://www.w3.org/2000/svg%22 width=%2210%22 '
+                    'height=%2210%22/%3E"></figure></main></body></html>')
     browser = _browser()
     try:
         browser.set_window_size(800, 900)
