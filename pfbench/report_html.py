@@ -20,6 +20,7 @@ from types import SimpleNamespace
 import jinja2
 from markupsafe import Markup, escape
 
+from .figstyle import label
 from .fsutil import FolderLock, atomic_write, make_folders, own_folder
 from .version import __version__
 from . import report_data as rp
@@ -245,7 +246,6 @@ def _sweep_tables(e: rp.Entry) -> list[dict]:
 
 def _key_words(key: str) -> str:
     """A config key path in words ('scenario.speed_mps' -> 'robot speed (m/s)')."""
-    from .figstyle import label
     return label(key)
 
 
@@ -326,7 +326,6 @@ FIGURE_WORDS = {"course": "the course, the landmarks and the estimated paths",
 
 def figure_words(stem: str, e: rp.Entry) -> str:
     """A figure's caption in words: what it shows, and of which experiment."""
-    from .figstyle import label
     if stem in FIGURE_WORDS:
         what = FIGURE_WORDS[stem]
     elif e.cells:

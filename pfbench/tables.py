@@ -331,10 +331,23 @@ def headline_tables(cmp: Comparison) -> list[tuple[str, list[str], list[list[str
     for (to, frm), cells in pairs.items():
         out.append((f"factor {to} / {frm} (paired trials)",
                     ["Quantity", "Paper", "Ours [95% CI]", "Verdict"], cells))
-    head, cells = ranking_table(cmp.rankings)
+    head, cells = ranking_counts_table(cmp.rankings)
     if cells:
-        out.append(("ordered pairs (paired trials)", head, cells))
+        out.append(("ordered pairs, counted (--wide: each pair)", head, cells))
     return out
+
+
+def ranking_counts_table(rankings: list[Ranking]) -> tuple[list[str], list[list[str]]]:
+    """The ordered pairs counted per quantity and particle count, for the console's short
+    tables (ranking_table has each pair): quantity, N, and how many pairs are resolved in the
+    paper's order, against it, and unresolved. ([], []) without pairs."""
+    cells = []
+    for r in rankings:
+        if r.pairs:
+            n = pair_counts([r])
+            cells.append([r.quantity.title, "-" if r.particles is None else str(r.particles),
+                          str(n["same"]), str(n["opposite"]), str(n["unresolved"])])
+    return (["Quantity", "N", "Same", "Opposite", "Unresolved"], cells) if cells else ([], [])
 
 
 def _short_kind(kind: str, needed=None) -> str:

@@ -276,3 +276,17 @@ def test_the_ordered_pairs_are_a_table_of_pair_by_particle_count(write_config):
     head, _ = ranking_table([Ranking(q, None, ["A", "B"], ["A", "B"],
                                      (Pair("A", "B", -1.0, -2.0, -0.5, "same"),))])
     assert head[2:] == ["all rows"]
+
+
+def test_the_console_counts_the_ordered_pairs_per_quantity_and_particle_count():
+    from pfbench.compare import Pair, Ranking
+    from pfbench.papers import Quantity
+    from pfbench.tables import ranking_counts_table
+    q = Quantity("rmse_mean", "RMSE", "rmse", "mean")
+    pairs = (Pair("A", "B", 1.0, 0.5, 1.5, "opposite"), Pair("A", "C", -1.0, -2, 1, "unresolved"),
+             Pair("B", "C", -1.0, -2, -0.5, "same"))
+    head, cells = ranking_counts_table([Ranking(q, 50, ["A", "B", "C"], ["B", "A", "C"], pairs),
+                                        Ranking(q, 100, ["A", "B"], ["A", "B"], pairs[2:])])
+    assert head == ["Quantity", "N", "Same", "Opposite", "Unresolved"]
+    assert cells == [["RMSE", "50", "1", "1", "1"], ["RMSE", "100", "1", "0", "0"]]
+    assert ranking_counts_table([]) == ([], [])
