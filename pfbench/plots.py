@@ -241,6 +241,12 @@ def _legend_under(fig, axes, ncol: int = 2) -> None:
                    frameon=False, bbox_to_anchor=(0.5, 0.0))
 
 
+def _stacked(run, rows) -> str:
+    """A run's name in lines, for a tick under a narrow column: 'KLD-MCL\n(N adaptive:\nmean
+    101, at most 5000)'."""
+    return _run_name(run, rows).replace(" (", "\n(").replace(": ", ":\n")
+
+
 def wilson(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
     """The Wilson score interval of a rate of ``k`` successes in ``n`` trials
     (scipy.stats.binomtest(k, n).proportion_ci, method 'wilson'); (nan, nan) when n = 0."""
@@ -263,7 +269,9 @@ def rates(exp: Experiment, rows: pd.DataFrame) -> list[tuple[str, str, object]]:
             if len(v) and v.isin((0.0, 1.0)).all():
                 out.append((q.metric, fs.label(q.metric).replace(" (fraction of trials)", ""),
                             rows[q.metric].astype(float), q))
-    if "recovery_failures" in rows and rows["recovery_failures"].notna().any():
+    kidnapped = any(c in rows and (rows[c].fillna(0) > 0).any()
+                    for c in ("recovery_failures", "recovery_steps"))   # a kidnapping happened
+    if kidnapped and rows["recovery_failures"].notna().any():
         ok = (rows["recovery_failures"] == 0).astype(float).where(
             rows["recovery_failures"].notna())
         out.append(("recovered", "recovered from every kidnapping", ok, None))
@@ -314,7 +322,7 @@ def rate_figure(exp: Experiment, rows: pd.DataFrame, path: Path,
                     [] if v[0] == v[1] else [100 * v[1]]), "D" if v[0] == v[1] else "-",
                     color="0.55" if apart else "#d62728", ms=8, mfc="none", mew=1.8, lw=4,
                     label=_PAPER_APART if apart else _PAPER, zorder=6)
-        ax.set_xticks(x, [f"{_run_name(r, rows)}\n{row.k} of {row.n}".replace(" (", "\n(", 1)
+        ax.set_xticks(x, [f"{_stacked(r, rows)}\n{row.k} of {row.n}"
                           for r, row in zip(runs, t.itertuples())], fontsize=8)
         ax.set_ylim(0, 105)
         ax.set_title(ylabel)
@@ -390,7 +398,7 @@ def claims_figure(exp: Experiment, table: pd.DataFrame, qs: list, path: Path,
         if ratio:
             ax.set_yscale("log")
         ax.set_xlim(0.4, len(runs) + 0.6)
-        ax.set_xticks(x, [_run_name(r, rows).replace(" (", "\n(") for r in runs])
+        ax.set_xticks(x, [_stacked(r, rows) for r in runs])
         ax.set_title(q.title)
         ax.grid(axis="x", visible=False)
     counted = f"{n[0]} trials" if len(n) == 1 else f"{n[0]} to {n[-1]} trials"

@@ -207,6 +207,8 @@ def redraw(path: Path, results: Path, figure_format: str = "png") -> Path:
         from .outputs import anytime_of
         from .plots import write_figures
         from .tablecache import cached_compare
+        from .store import read_timings, with_timings
+        with_timings(tf.rows, read_timings(folder))     # the run times, for a time ratio
         table = cached_compare(exp, tf.rows, anytime=anytime_of(meta)).table
         write_figures(exp, tf.rows, folder, figure_format, table)
     return folder
