@@ -322,8 +322,13 @@ def rate_figure(exp: Experiment, rows: pd.DataFrame, path: Path,
                     [] if v[0] == v[1] else [100 * v[1]]), "D" if v[0] == v[1] else "-",
                     color="0.55" if apart else "#d62728", ms=8, mfc="none", mew=1.8, lw=4,
                     label=_PAPER_APART if apart else _PAPER, zorder=6)
-        ax.set_xticks(x, [f"{_stacked(r, rows)}\n{row.k} of {row.n}"
-                          for r, row in zip(runs, t.itertuples())], fontsize=8)
+        if len(runs) <= 3:
+            ax.set_xticks(x, [f"{_stacked(r, rows)}\n{row.k} of {row.n}"
+                              for r, row in zip(runs, t.itertuples())], fontsize=8)
+        else:           # many narrow columns: one line each, slanted
+            ax.set_xticks(x, [f"{_run_name(r, rows)}: {row.k} of {row.n}"
+                              for r, row in zip(runs, t.itertuples())], fontsize=8,
+                          rotation=30, ha="right")
         ax.set_ylim(0, 105)
         ax.set_title(ylabel)
         ax.grid(axis="x", visible=False)
