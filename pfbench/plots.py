@@ -399,9 +399,14 @@ def claims_figure(exp: Experiment, table: pd.DataFrame, qs: list, path: Path,
                     mew=1.8, label=_PAPER_APART if apart else _PAPER, zorder=6)
             if v[1] != v[0]:
                 ax.plot([xi] * 2, list(v), "-", color="#d62728", lw=4, alpha=0.6)
-        ax.axhline(1.0 if ratio else 0.0, color="0.4", lw=0.9, ls=":")
-        if ratio:
-            ax.set_yscale("log")
+        shown_v = np.concatenate([lo, hi, m])
+        shown_v = shown_v[np.isfinite(shown_v)]
+        log = ratio or bool(shown_v.size and shown_v.min() > 0
+                            and shown_v.max() / shown_v.min() > 30)
+        if ratio or not log:            # no 0 on a log axis
+            ax.axhline(1.0 if ratio else 0.0, color="0.4", lw=0.9, ls=":")
+        if log:
+            ax.set_yscale("log")        # a ratio; or variances that span decades
         ax.set_xlim(0.4, len(runs) + 0.6)
         ax.set_xticks(x, [_stacked(r, rows) for r in runs])
         ax.set_title(q.title)
