@@ -50,6 +50,14 @@ def write_experiment(exp, res, folder: Path, figures: bool = True,
     return cmp, paths
 
 
+def write_cell_table(exp, rows, meta: dict | None, folder: Path) -> None:
+    """A sweep cell's comparison, table.csv and table.md, in its folder (its rows: the cell's
+    trials, never run again): what a run's folder holds beside its trials."""
+    from . import tables
+    from .tablecache import cached_compare
+    tables.write(cached_compare(exp, rows, anytime=anytime_of(meta)), folder, meta)
+
+
 def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: str,
                 figures: bool = True, figure_format: str = "png", exp=None,
                 missing_only: bool = False, curves: tuple = ()) -> tuple:

@@ -1,7 +1,8 @@
 """Sweeps: one experiment run over the cartesian product of values of some of its keys.
 
 Each cell is an ordinary experiment (same base seed, so cells differ only in the swept values,
-with common random numbers) written to ``<out>/cells/<cell>/`` and resumable like ``run``; the
+with common random numbers) written to ``<out>/cells/<cell>/`` with its table (table.csv, table.md:
+the cell against its paper's table, as a run's) and resumable like ``run``; the
 sweep folder gets a long-form ``trials.csv`` with a column per swept key, ``summary.csv`` (mean,
 its standard error and 95% interval of each metric per cell and filter run) and a figure per
 metric against the first swept key, one line per filter run with its 95% band. A sweep config
@@ -27,6 +28,7 @@ from .config import Experiment, apply_override, locate, read_yaml, validate
 from .curves import resolve as resolve_curves
 from .errors import UserError
 from .fsutil import FolderLock, own_folder
+from .outputs import write_cell_table
 from .runner import run_experiment
 from .store import TIMINGS, write_csv
 from .store import sweep_summary as summary  # noqa: F401  (this module's API)
@@ -205,6 +207,7 @@ def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: boo
             res = run_experiment(cell.exp, folder, workers=workers, resume=resume,
                                  progress=cell_progress, executor=executor, warn=warn,
                                  traces=False, force=force)
+        write_cell_table(cell.exp, res.rows, res.meta, folder)
         done += cell.exp.trials
         fresh &= res.up_to_date
         if progress and res.up_to_date:
