@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 from .errors import UserError
 from .figstyle import FORMATS, prune
 from .fsutil import own_folder
+from .tablecache import anytime_of  # noqa: F401  (api, report_data and regen import it from here)
 
 if TYPE_CHECKING:     # pandas loads with the tables, after a run's workers start
     import pandas as pd
@@ -21,13 +22,6 @@ def check_figure_format(fmt, what: str = "figure_format") -> str:
     if not isinstance(fmt, str) or fmt not in FORMATS:
         raise UserError(f"{what} {fmt}: one of {', '.join(FORMATS)}")
     return fmt
-
-
-def anytime_of(meta: dict | None) -> int | None:
-    """The most trials a run until decided could reach (its confidence sequences are tuned for
-    it), from a results folder's meta; None for a run of a fixed trial count."""
-    until = (meta or {}).get("until_decided")
-    return int(until["max_trials"]) if isinstance(until, dict) and "max_trials" in until else None
 
 
 def write_experiment(exp, res, folder: Path, figures: bool = True,
@@ -48,14 +42,6 @@ def write_experiment(exp, res, folder: Path, figures: bool = True,
         from .plots import write_figures
         paths = write_figures(exp, res.rows, folder, figure_format, cmp.table)
     return cmp, paths
-
-
-def write_cell_table(exp, rows, meta: dict | None, folder: Path) -> None:
-    """A sweep cell's comparison, table.csv and table.md, in its folder (its rows: the cell's
-    trials, never run again): what a run's folder holds beside its trials."""
-    from . import tables
-    from .tablecache import cached_compare
-    tables.write(cached_compare(exp, rows, anytime=anytime_of(meta)), folder, meta)
 
 
 def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: str,

@@ -127,6 +127,44 @@ def _floor_value(exp: Experiment, rows: pd.DataFrame, metric: str, scale: float)
     return float(v.mean()) * scale if v.size else None
 
 
+def _run_means(group, data, quantity, by_key) -> tuple[list, list, list]:
+    """Each run's mean and the distances down and up to its 95% interval's ends: the table's
+    (``by_key``, ours_QUANTITY and its interval) where it has the quantity, else the trials'."""
+    from .metrics import summarize
+    means, los, his = [], [], []
+    for r, v in zip(group, data):
+        q = quantity
+        if by_key is not None and q is not None and f"ours_{q.key}" in by_key:
+            m = by_key.loc[r.key, f"ours_{q.key}"]
+            lo, hi = by_key.loc[r.key, f"ours_lo_{q.key}"], by_key.loc[r.key, f"ours_hi_{q.key}"]
+        else:
+            st = summarize(v)
+            m, lo, hi = st["mean"], st["ci_lo"], st["ci_hi"]
+        means.append(m)
+        los.append(m - lo if lo == lo else 0.0)
+        his.append(hi - m if hi == hi else 0.0)
+    return means, los, his
+
+
+def _paper_marks(ax, exp: Experiment, pos, group, quantity, by_key, shown: set[str]) -> None:
+    """The paper's value of each run on its box (a diamond; a range: a bar), grey where the
+    table calls it not comparable; adds the legend names drawn to ``shown``."""
+    for x, r in zip(pos, group):
+        v = _paper_value(exp, r, quantity)
+        if v is None:
+            continue
+        # a value the table calls not comparable is drawn grey: not the same measure
+        apart = by_key.loc[r.key].get(f"kind_{quantity.key}") == "not comparable"
+        c = "0.55" if apart else "#d62728"
+        name = _PAPER_APART if apart else _PAPER
+        shown.add(name)
+        if v[0] == v[1]:      # on its box: the paper's value and ours, the same x
+            ax.plot([x - 0.1], [v[0]], "D", color=c, ms=7, mfc="none", mew=1.8, label=name,
+                    zorder=6)
+        else:
+            ax.plot([x - 0.1] * 2, list(v), "-", color=c, lw=4, alpha=0.6, label=name, zorder=6)
+
+
 def distribution_figure(exp: Experiment, rows: pd.DataFrame, path: Path, metric: str = "rmse",
                         scale: float = 1.0, ylabel: str = "RMSE", quantity=None,
                         table: pd.DataFrame | None = None) -> None:
@@ -136,7 +174,6 @@ def distribution_figure(exp: Experiment, rows: pd.DataFrame, path: Path, metric:
     floor run's mean as a dashed line. Many runs: small multiples with a shared axis (_panels).
     A log axis where the values span more than a factor of 30. The title counts the trials: a
     run whose metric some trials lack (steps to converge) says under its box how many it has."""
-    from .metrics import summarize
     runs = list(exp.filters)
     data = [rows.loc[rows["filter"] == r.key, metric].dropna().to_numpy(float) * scale
             for r in runs]
@@ -173,37 +210,11 @@ def distribution_figure(exp: Experiment, rows: pd.DataFrame, path: Path, metric:
                    flierprops={"markersize": 2.5, "alpha": 0.5}, medianprops={"color": "0.35"},
                    patch_artist=True, boxprops={"facecolor": "0.93", "edgecolor": "0.45"},
                    whiskerprops={"color": "0.45"}, capprops={"color": "0.45"})
-        means, los, his = [], [], []
-        for r, v in zip(group, d):
-            q = quantity
-            if by_key is not None and q is not None and f"ours_{q.key}" in by_key:
-                m = by_key.loc[r.key, f"ours_{q.key}"]
-                lo, hi = by_key.loc[r.key, f"ours_lo_{q.key}"], by_key.loc[r.key,
-                                                                            f"ours_hi_{q.key}"]
-            else:
-                st = summarize(v)
-                m, lo, hi = st["mean"], st["ci_lo"], st["ci_hi"]
-            means.append(m)
-            los.append(m - lo if lo == lo else 0.0)
-            his.append(hi - m if hi == hi else 0.0)
+        means, los, his = _run_means(group, d, quantity, by_key)
         ax.errorbar(pos + 0.22, means, yerr=[los, his], fmt="o", color="black", ms=4, capsize=3,
                     lw=1.1, label="our mean and its 95% interval")
         if quantity is not None and by_key is not None:
-            for x, r in zip(pos, group):
-                v = _paper_value(exp, r, quantity)
-                if v is None:
-                    continue
-                # a value the table calls not comparable is drawn grey: not the same measure
-                apart = by_key.loc[r.key].get(f"kind_{quantity.key}") == "not comparable"
-                c = "0.55" if apart else "#d62728"
-                name = _PAPER_APART if apart else _PAPER
-                shown.add(name)
-                if v[0] == v[1]:      # on its box: the paper's value and ours, the same x
-                    ax.plot([x - 0.1], [v[0]], "D", color=c, ms=7, mfc="none", mew=1.8,
-                            label=name, zorder=6)
-                else:
-                    ax.plot([x - 0.1] * 2, list(v), "-", color=c, lw=4, alpha=0.6, label=name,
-                            zorder=6)
+            _paper_marks(ax, exp, pos, group, quantity, by_key, shown)
         if floor is not None:
             ax.axhline(floor, color="#2ca02c", ls="--", lw=1.1, zorder=0,
                        label="the floor: mean of the floor run (no filter can do better)")
@@ -833,6 +844,35 @@ def sweep_band(summ: pd.DataFrame, m: str) -> tuple[np.ndarray, np.ndarray]:
     return summ[f"{m}_ci_lo"].to_numpy(float), summ[f"{m}_ci_hi"].to_numpy(float)
 
 
+def _sweep_lines(summ: pd.DataFrame, group: list[str], x: str, others: list[str],
+                 m: str) -> list[tuple]:
+    """The lines of a sweep figure of metric ``m``: (name, x values, means, band's low, band's
+    high) per group of the summary's rows (a filter and the values of the other swept keys)."""
+    lines = []
+    for vals, g in summ.groupby(group, sort=False, dropna=False):
+        vals = vals if isinstance(vals, tuple) else (vals,)
+        g = g.assign(_x=pd.to_numeric(g[x], errors="coerce")).sort_values("_x")
+        n = g["particles"].dropna().unique()
+        name = " ".join([f"{fs.label(k)} = {v}" for k, v in zip(others, vals)]
+                        + [str(vals[len(others)])]
+                        + ([f"(N={int(n[0])})"] if len(n) == 1
+                           and not x.endswith("particles") else []))
+        lo, hi = sweep_band(g, m)
+        lines.append((name, g["_x"].to_numpy(float), g[f"{m}_mean"].to_numpy(float), lo, hi))
+    return lines
+
+
+def _sweep_x_axis(ax, xvalues: pd.Series) -> None:
+    """A sweep panel's x axis: logarithmic, ticked at the swept values, where they span a factor
+    of 8 or more (log_axis); a light grid."""
+    if log_axis(xvalues):
+        ax.set_xscale("log")
+        xs = sorted(pd.to_numeric(xvalues, errors="coerce").dropna().unique())
+        ax.set_xticks(xs, [f"{v:g}" for v in xs])
+        ax.minorticks_off()
+    ax.grid(alpha=0.3)
+
+
 def sweep_figures(summ: pd.DataFrame, keys: list[str], out_dir: Path, title: str,
                   which=None, where: Path | None = None, fmt: str = "png",
                   unit: str = "", into: Path | None = None, curves: tuple = ()) -> list[Path]:
@@ -861,18 +901,7 @@ def sweep_figures(summ: pd.DataFrame, keys: list[str], out_dir: Path, title: str
             if f"{m}_mean" not in summ or summ[f"{m}_mean"].isna().all():
                 continue
             ylabel = fs.label(m, unit if m == "rmse" else "")
-            lines = []
-            for vals, g in summ.groupby(group, sort=False, dropna=False):
-                vals = vals if isinstance(vals, tuple) else (vals,)
-                g = g.assign(_x=pd.to_numeric(g[x], errors="coerce")).sort_values("_x")
-                n = g["particles"].dropna().unique()
-                name = " ".join([f"{fs.label(k)} = {v}" for k, v in zip(others, vals)]
-                                + [str(vals[len(others)])]
-                                + ([f"(N={int(n[0])})"] if len(n) == 1
-                                   and not x.endswith("particles") else []))
-                lo, hi = sweep_band(g, m)
-                lines.append((name, g["_x"].to_numpy(float), g[f"{m}_mean"].to_numpy(float),
-                              lo, hi))
+            lines = _sweep_lines(summ, group, x, others, m)
             many = len(lines) > 2
             ncol = min(len(lines), 2) if many else 1
             nrow = math.ceil(len(lines) / ncol) if many else 1
@@ -898,12 +927,7 @@ def sweep_figures(summ: pd.DataFrame, keys: list[str], out_dir: Path, title: str
                     ax.errorbar(cx, cy, yerr=cerr, color="black", ls="--", lw=1.0,
                                 marker=("s", "D", "^", "v")[k % 4], ms=5, mfc="white",
                                 capsize=3, label=cname, zorder=5)
-                if log_axis(summ[x]):
-                    ax.set_xscale("log")
-                    xs = sorted(pd.to_numeric(summ[x], errors="coerce").dropna().unique())
-                    ax.set_xticks(xs, [f"{v:g}" for v in xs])
-                    ax.minorticks_off()
-                ax.grid(alpha=0.3)
+                _sweep_x_axis(ax, summ[x])
             for i in range(len(lines) if many else 1, nrow * ncol):
                 axes[i // ncol, i % ncol].set_visible(False)
             for j in range(ncol):

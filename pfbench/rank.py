@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 from .errors import UserError
+from .figstyle import pyplot, save, style
 from .metrics import METRICS
 
 if TYPE_CHECKING:
@@ -331,7 +332,6 @@ def draw_cd(r: Ranking, path: Path, title: str | None = None) -> Path:
     """The critical-difference diagram of a ranking (Demsar 2006): the average ranks on an
     axis (1, the best, on the left), each filter's name led to its rank, and a bar under the
     axis joining each group of filters no test tells apart (r.cliques). Returns the path."""
-    from .figstyle import pyplot, save, style
     plt = pyplot()
     k = len(r.filters)
     half = (k + 1) // 2

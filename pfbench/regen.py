@@ -187,7 +187,7 @@ def redraw(path: Path, results: Path, figure_format: str = "png") -> Path:
         name, cells = sw.expand(path, {}, {})
         folder = child(Path(results), name, f"{path}: name")
         with FolderLock(folder, "results folder", root=Path(results)):
-            from .outputs import write_cell_table
+            from .sweep import write_cell_table
             for cell in cells:
                 meta, tf = read_results(folder / "cells" / cell.name)
                 write_cell_table(cell.exp, tf.rows, meta, folder / "cells" / cell.name)

@@ -28,7 +28,6 @@ from .config import Experiment, apply_override, locate, read_yaml, validate
 from .curves import resolve as resolve_curves
 from .errors import UserError
 from .fsutil import FolderLock, own_folder
-from .outputs import write_cell_table
 from .runner import run_experiment
 from .store import TIMINGS, write_csv
 from .store import sweep_summary as summary  # noqa: F401  (this module's API)
@@ -224,3 +223,12 @@ def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: boo
         write_csv(out_dir / TIMINGS, trials[keys + ["trial", "filter", "wall_s"]])
     trials.attrs["up_to_date"] = fresh      # every cell held its trials: nothing ran
     return trials
+
+
+def write_cell_table(exp, rows, meta: dict | None, folder: Path) -> None:
+    """A sweep cell's comparison, table.csv and table.md, in its folder (its rows: the cell's
+    trials, never run again), with the ranking of its filters: what a run's folder holds beside
+    its trials."""
+    from . import tables
+    from .tablecache import anytime_of, cached_compare
+    tables.write(cached_compare(exp, rows, anytime=anytime_of(meta)), folder, meta, rows)

@@ -139,3 +139,10 @@ def settle() -> None:
     """Wait for import_ahead's thread, if one runs (before this process forks)."""
     while _AHEAD:
         _AHEAD.pop().join()
+
+
+def anytime_of(meta: dict | None) -> int | None:
+    """The most trials a run until decided could reach (its confidence sequences are tuned for
+    it), from a results folder's meta; None for a run of a fixed trial count."""
+    until = (meta or {}).get("until_decided")
+    return int(until["max_trials"]) if isinstance(until, dict) and "max_trials" in until else None
