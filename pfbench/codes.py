@@ -79,3 +79,15 @@ BA_WALK = {"gaussian_loudness": BA_WALK_GAUSSIAN, "uniform": BA_WALK_UNIFORM}
 PREY_FISH = 0                   # another fish within the visual range (pfbench's)
 PREY_RANDOM_POINT = 1           # a random point within the visual range (afsa2014's text)
 PREY_TARGET = {"fish": PREY_FISH, "random_point": PREY_RANDOM_POINT}
+
+# Mixture MCL's density estimate of the predicted belief (key ``density``), how its dual samples
+# are weighed (``dual_weight``) and how the two sets' weights are combined (``combine``).
+DENSITY_KDE = 0                 # Gaussian kernel over the pose (pfbench's)
+DENSITY_HISTOGRAM = 1           # piecewise constant over cells (a kd-tree's leaves, made regular)
+DENSITIES = {"kde": DENSITY_KDE, "histogram": DENSITY_HISTOGRAM}
+DUAL_BELIEF = 0                 # the predicted belief at the pose (the paper's)
+DUAL_IMPORTANCE = 1             # belief x likelihood / the sensor draw's density
+DUAL_WEIGHTS = {"belief": DUAL_BELIEF, "importance": DUAL_IMPORTANCE}
+COMBINE_SEPARATE = 0            # each set normalised to its share of the particles (pfbench's)
+COMBINE_JOINT = 1               # the weights as they are (both importance weights of one target)
+COMBINES = {"separate": COMBINE_SEPARATE, "joint": COMBINE_JOINT}
