@@ -64,7 +64,7 @@ from .mcl import (KldParams, MCL_OPTIONS, MclOptions, ancestors, gather_rows, in
                   mean_likelihood, move_particles, new_mcl_work, particle_logliks, trig_pass,
                   weighted_sums)
 from .types import FilterType
-from .weights import exp_pass
+from .weights import exp_pass, exp_sum
 
 _F = types.float64[::1]
 _F2 = types.float64[:, ::1]
@@ -168,10 +168,7 @@ def kde_logdensity(P, N, D, k, bw_m, bw_rad, E, out):
             e = -am * (dx * dx + dy * dy) - ar * dh * dh
             E[i] = e
             mx = max(mx, e)
-        acc = 0.0
-        for i in range(N):
-            acc += math.exp(E[i] - mx)
-        out[r] = mx + math.log(acc) + cst
+        out[r] = mx + math.log(exp_sum(E, mx, N, E)) + cst
 
 
 @kernel(types.float64(types.float64, types.float64, types.float64, types.float64, types.float64,
@@ -228,10 +225,7 @@ def draw_logdensity(x, y, th, bc, m, ids, zs, o, dw):
         mx = max(mx, v)
     if not np.isfinite(mx):
         return mx
-    acc = 0.0
-    for j in range(m):
-        acc += math.exp(vals[j] - mx)
-    return mx + math.log(acc / m)
+    return mx + math.log(exp_sum(vals, mx, m, vals) / m)
 
 
 @kernel(types.float64(_F, types.int64, _U8, types.boolean), cache=True, error_model="numpy")
@@ -290,32 +284,26 @@ def mixture_weights(ll, W, N, k, dw, mp):
             for i in range(N):
                 W[i] *= f
             mx = md
+        exp_pass(dw.logd, mx, k, dw.E)
         for r in range(k):
-            W[dw.didx[r]] = math.exp(dw.logd[r] - mx)
+            W[dw.didx[r]] = dw.E[r]
         return under
-    S_d = 0.0
+    S_d = exp_sum(dw.logd, md, k, dw.E)
+    f = S_m / S_d * k / (N - k) if k < N else 1.0
     for r in range(k):
-        w = math.exp(dw.logd[r] - md)
-        W[dw.didx[r]] = w
-        S_d += w
-    if k < N:
-        f = S_m / S_d * k / (N - k)
-        for r in range(k):
-            W[dw.didx[r]] *= f
+        W[dw.didx[r]] = dw.E[r] * f
     return under
 
 
-@kernel(types.float64(_F, types.int64, types.int64, _F), cache=True, error_model="numpy")
-def mixed_mean_likelihood(ll, N, k, cum):
-    """p_mean, the mean likelihood of the N particles of log-likelihoods ll; with no dual sample
-    (k = 0), MCL's (the weights' sum cum[N - 1] is that of the likelihoods over the largest)."""
+@kernel(types.float64(_F, types.int64, types.int64, _F, _F), cache=True, error_model="numpy")
+def mixed_mean_likelihood(ll, N, k, cum, E):
+    """p_mean, the mean likelihood of the N particles of log-likelihoods ll (E (N,) scratch);
+    with no dual sample (k = 0), MCL's (the weights' sum cum[N - 1] is that of the likelihoods
+    over the largest)."""
     lmax = ll[:N].max()
     if k == 0:
         return mean_likelihood(lmax, cum[N - 1], N)
-    acc = 0.0
-    for i in range(N):
-        acc += math.exp(ll[i] - lmax)
-    return mean_likelihood(lmax, acc, N)
+    return mean_likelihood(lmax, exp_sum(ll, lmax, N, E), N)
 
 
 MIX_SIG = types.int64(
@@ -388,7 +376,7 @@ def mixture_kernel(ctrl, obs, sm, area, o, mnoise, mp, init, s, est, ess, resamp
             importance_correction(P, k, bc, m, ids, zs, o, dw, ll)
         events += min(mixture_weights(ll, W, N, k, dw, mp), 1)
         ess[t] = weighted_sums(P, W, N, CS, cum, est[t + 1])
-        pmean[t] = mixed_mean_likelihood(ll, N, k, cum)
+        pmean[t] = mixed_mean_likelihood(ll, N, k, cum, dw.E)
         si = snapshot(t + 1, P, N, snap, si, True)
         ancestors(W, cum, o, wk.idx, wk.scratch, s)
         gather_rows(P, CS, P2, CS2, wk.idx, N)
