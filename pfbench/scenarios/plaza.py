@@ -58,9 +58,9 @@ OTHER = {"plaza1": "plaza2", "plaza2": "plaza1"}
 SCHEMA = {
     "data": Key("choice", "plaza1", "the data set: 'plaza1' (1933 s, 1859 m driven, 3529 ranges) "
                 "or 'plaza2' (410 s, 1354 m, 1816 ranges)", choices=("plaza1", "plaza2")),
-    "data_dir": Key("str", "", "a folder holding Plaza1_.mat and Plaza2_.mat (relative to the "
-                    "experiment file); empty: the files of the installed extra "
-                    "(pip install '.[data]')"),
+    "data_dir": Key("str", None, "a folder holding Plaza1_.mat and Plaza2_.mat (relative to the "
+                    "experiment file); null: the files of the installed extra "
+                    "(pip install '.[data]')", nullable=True),
     "verify_digest": Key("bool", True, "check each file against the sha256 of gtsam 4.3.0's copy "
                          "(false: a copy of one's own that differs)"),
     "start_s": Key("float", 0.0, "start of the time span, seconds after the first ground-truth "
