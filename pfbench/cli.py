@@ -778,9 +778,14 @@ def _print_check(rows: list, configs: int, results: Path, z: float) -> None:
               "result", "s"):
         t.add_column(h)
     for name, r, sec in rows:
-        t.add_row(name, str(r.trials), str(r.compared), "yes" if r.identical else "no",
-                  "ok" if r.ok else f"{len(r.findings)} moved", f"{sec:.1f}")
+        t.add_row(name, str(r.trials), str(r.compared),
+                  "-" if r.skipped else "yes" if r.identical else "no",
+                  "skipped: data absent" if r.skipped else "ok" if r.ok
+                  else f"{len(r.findings)} moved", f"{sec:.1f}")
     out.print(t)
+    for name, r, _ in rows:
+        if r.skipped:
+            out.print(f"skipped: {name}: {r.skipped}", markup=False, soft_wrap=True)
     for _, r, _ in rows:
         for f in r.findings:
             out.print(f"moved: {f.line()}", markup=False, soft_wrap=True)

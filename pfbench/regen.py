@@ -32,7 +32,7 @@ from .config import load, read_yaml
 from .errors import UserError
 from .metrics import METRICS
 from .fsutil import FolderLock, child, own_folder, recover_aside, remove_tree, replace_tree
-from .runner import LocalExecutor, keep_provenance, run_experiment
+from .runner import LocalExecutor, keep_provenance, missing_data, run_experiment
 from . import sweep as sw
 from .api import run_until_decided
 from .outputs import check_figure_format
@@ -261,10 +261,12 @@ class CheckResult:
     compared: int = 0             # (run, metric) pairs compared
     identical: bool = True        # the re-run trials equal the committed ones bit for bit
     findings: list[MovedMetric] = field(default_factory=list)
+    skipped: str = ""             # why nothing was re-run (the recorded data are absent)
 
     @property
     def ok(self) -> bool:
         return not self.findings
+
 
 
 def check_against_committed(check: pd.DataFrame, committed: pd.DataFrame, where: str,
@@ -360,6 +362,9 @@ def check_config(path: Path, results: Path, executor: LocalExecutor, z: float = 
                                         f"{name} [{cell.name}]", z, result)
             return result
         exp = load(path)
+        why = missing_data(exp)
+        if why is not None:         # nothing to re-run here: said, not failed
+            return CheckResult(exp.name, 0, skipped=why)
         k = min(exp.check["trials"], exp.trials)
         where = child(Path(results), exp.name, f"{path}: name")
         committed = _committed(where, exp)

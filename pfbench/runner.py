@@ -959,7 +959,24 @@ def run_experiment(exp: Experiment, out_dir: Path, *, workers: int = 1, resume: 
         resume, ready = _check_folder(exp, out_dir, resume, force, traces)
         if ready is not None:
             return ready
+        _require_data(exp)
         return _run_locked(exp, out_dir, workers, resume, progress, executor, warn, traces)
+
+
+def _require_data(exp: Experiment) -> None:
+    """Refuse, in one line and before any trial, an experiment whose recorded data are absent
+    (a folder that is up to date needs none: its table prints without them)."""
+    why = missing_data(exp)
+    if why is not None:
+        raise UserError(why)
+
+
+def missing_data(exp: Experiment) -> str | None:
+    """Why the recorded data experiment ``exp``'s scenario reads are not on this machine (its
+    module's ``unavailable(params)``, one line), or None: a simulated scenario, or the data
+    present."""
+    hook = getattr(SCENARIOS[exp.scenario], "unavailable", None)
+    return hook(dict(exp.scenario_params)) if hook is not None else None
 
 
 def _resumed(exp: Experiment, out_dir: Path, warn) -> dict[int, list[dict]]:

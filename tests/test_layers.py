@@ -22,7 +22,7 @@ LAYERS = {
              "pfbench.seeding", "pfbench.rng", "pfbench.vecmath", "pfbench.progress",
              "pfbench.figstyle", "pfbench.metrics", "pfbench.diag", "pfbench.protocols",
              "pfbench.codes"),
-    "models": ("pfbench.models",),
+    "models": ("pfbench.models", "pfbench.datasets"),
     "kernels and worlds": ("pfbench.resampling", "pfbench.filters.*", "pfbench.scenarios.*"),
     "registry": ("pfbench.plugins", "pfbench.filters", "pfbench.scenarios", "pfbench.kernels"),
     "experiment": ("pfbench.kinds", "pfbench.traces", "pfbench.diagnostics", "pfbench.resources",
