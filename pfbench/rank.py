@@ -212,9 +212,9 @@ def rank(trials: pd.DataFrame, metric: str = "rmse", filters: Sequence[str] | No
     """Rank the filters of ``trials`` (pfbench.dataset.load_trials: one folder or many) on
     ``metric``: average ranks, the Friedman test, Wilcoxon signed-rank tests between every two
     filters with Holm's procedure, and the cliques of the critical-difference diagram."""
-    from scipy.stats import friedmanchisquare
     from .verdicts import holm_levels
     values, names, points, left, dropped = block_matrix(trials, metric, filters)
+    from scipy.stats import friedmanchisquare   # (after block_matrix: nothing to rank, no import)
     hb = metric in HIGHER_IS_BETTER
     avg = average_ranks(values, hb)
     order = sorted(range(len(names)), key=lambda i: (avg[i], i))
@@ -259,11 +259,13 @@ def _name(metric: str) -> str:
 
 def point_words(r: Ranking) -> str:
     """The points in words: the particle counts, and how many folders and cells."""
-    ns = sorted({p["particles"] for p in r.points}, key=float)
+    # filters without particles (a Kalman filter's runs) have no particle count
+    ns = sorted({p["particles"] for p in r.points if "particles" in p}, key=float)
     folders = {p.get("folder") for p in r.points}
     cells = {tuple((k, v) for k, v in p.items() if k not in ("folder", "particles"))
              for p in r.points} - {()}
-    words = f"N = {', '.join(str(int(float(n))) for n in ns)}"
+    words = (f"N = {', '.join(str(int(float(n))) for n in ns)}" if ns
+             else "filters without particles")
     if len(cells) > 1:
         words += f", {len(cells)} sweep cells"
     if len(folders) > 1:
@@ -310,6 +312,13 @@ def pair_rows(r: Ranking) -> tuple[list[str], list[list[str]]]:
     rows = [[q.a, q.b, str(q.n), f"{q.median_diff:.4g}", str(q.a_better), str(q.b_better),
              fmt_p(q.p), f"{q.level:.3g}", "yes" if q.differs else "no"] for q in r.pairs]
     return head, rows
+
+
+def ranks_filters(exp) -> bool:
+    """Whether a run of ``exp`` ranks its filters in table.md ("All filters at once"): two
+    filter runs or more at one particle count (filters without particles count as one)."""
+    from collections import Counter
+    return any(n >= 2 for n in Counter(f.particles for f in exp.filters).values())
 
 
 def markdown_section(rows, metric: str = "rmse") -> list[str]:

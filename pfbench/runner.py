@@ -536,11 +536,13 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
     now = mp.RawArray("q", [-1] * (2 * workers))
     if running is not None:
         running.append(lambda: [tuple(now[i:i + 2]) for i in range(0, len(now), 2)])
+    from .rank import ranks_filters
     from .tablecache import import_ahead, settle
     settle()                        # no fork while a thread of this process imports
     with Workers(workers, partial(_run_chunk_in_worker, exp, traces=traces),
                  setup=_worker_init, setup_args=(now,)) as pool:
-        import_ahead()              # the table's modules, while the workers run the trials
+        # the table's modules, while the workers run the trials
+        import_ahead(stats=ranks_filters(exp))
         sizes: list[list[int]] = [[] for _ in range(workers)]   # units each worker holds
 
         def hand_out(slot: int) -> None:

@@ -600,19 +600,20 @@ def markdown(cmp: Comparison, meta: dict | None = None, rows=None) -> str:
                      f"{until['max_trials']}; looks after {looks}; stopped: {until['stopped']}.")
     if notes:
         lines += ["", "Notes:", ""] + [f"- {n}" for n in notes]
-    lines += ranks_section(rows)
+    lines += ranks_section(rows, cmp.exp)
     return "\n".join(lines) + "\n"
 
 
-def ranks_section(rows) -> list[str]:
+def ranks_section(rows, exp) -> list[str]:
     """The lines of table.md's section "All filters at once": the filters ranked on RMSE in
     every block of runs at one particle count on one trial, the Friedman test, and the groups the
-    pairwise Wilcoxon-Holm tests do not tell apart (pfbench.rank); none without ``rows``, or
-    when fewer than two filters ran at a common particle count."""
-    if not rows:
+    pairwise Wilcoxon-Holm tests do not tell apart (pfbench.rank, computed once:
+    tablecache.cached_ranking); none without ``rows``, or when fewer than two filters ran at a
+    common particle count."""
+    if rows is None or len(rows) == 0:
         return []
-    from .rank import markdown_section
-    return markdown_section(rows, "rmse")
+    from .tablecache import cached_ranking
+    return cached_ranking(exp, rows)
 
 
 def write(cmp: Comparison, out_dir: Path, meta: dict | None = None, rows=None) -> None:
