@@ -1,7 +1,7 @@
 """pfbench: reproduce the tables of particle-filter papers for mobile robots."""
 from .version import CACHE_DIR, __version__
 
-_API = ("Result", "load_results", "run_experiment", "run_until_decided")
+_API = ("Result", "load_results", "load_trials", "run_experiment", "run_until_decided")
 
 
 def __getattr__(name):
@@ -12,5 +12,5 @@ def __getattr__(name):
     raise AttributeError(f"module 'pfbench' has no attribute {name!r}")
 
 
-__all__ = ["__version__", "CACHE_DIR", "Result", "load_results", "run_experiment",
-           "run_until_decided"]
+__all__ = ["__version__", "CACHE_DIR", "Result", "load_results", "load_trials",
+           "run_experiment", "run_until_decided"]

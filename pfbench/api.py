@@ -6,7 +6,8 @@
     res.trials.groupby("label")["rmse"].describe()
 
 Nothing is written unless ``out`` names a results folder; then the folder holds what ``pfbench
-run`` writes (the CLI calls this function). ``load_results`` reads such a folder back.
+run`` writes (the CLI calls this function). ``load_results`` reads such a folder back;
+``load_trials`` reads the trials of many folders into one DataFrame.
 """
 from __future__ import annotations
 
@@ -29,7 +30,7 @@ from .schema import ConfigError, describe
 if TYPE_CHECKING:     # pandas loads after a run's workers start (tablecache.import_ahead)
     import pandas as pd
 
-__all__ = ["Result", "load_results", "run_experiment", "run_until_decided"]
+__all__ = ["Result", "load_results", "load_trials", "run_experiment", "run_until_decided"]
 
 
 @dataclass
@@ -410,6 +411,24 @@ def _until_decided(first, folder, batch, most, workers, resume, figures, executo
     cmp, paths = write_experiment(exp, res, folder, figures, figure_format)
     return Result(_frame(res.rows, trial_columns(exp)), cmp.table, res.meta, exp, folder, cmp,
                   paths, run=res.run)
+
+
+def load_trials(*folders: str | Path) -> pd.DataFrame:
+    """The trials of many results folders (of ``pfbench run`` or ``pfbench sweep``) as one
+    DataFrame, one row per trial and filter run, after two columns that say where it comes from:
+    ``folder`` (the path as given) and ``experiment`` (its name). Each folder is read from its
+    trials.parquet where that matches its trials.csv (their checksum), else from trials.csv,
+    checked against its row checksums and meta.json; the folders' metadata (seed, versions,
+    provenance) is ``frame.attrs["meta"]``, by folder. A folder that is no finished results
+    folder, or whose files disagree, is refused with a one-line UserError.
+
+        df = pfbench.load_trials("results/ifa_pf_ungm", "results/sspf_ungm")
+        df.groupby(["experiment", "label"])["rmse"].mean()
+    """
+    from .dataset import load_trials as load
+    for f in folders:
+        _check_args("load_trials", folder=(f, _PATH))
+    return load(*folders)
 
 
 def load_results(folder: str | Path) -> Result:

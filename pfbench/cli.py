@@ -516,7 +516,7 @@ def _say_what_ran(exp, res, folder: Path, until_decided: bool) -> None:
     ran = res.run["trials_run_now"]
     note = f" ({exp.trials - ran} resumed)" if ran < exp.trials else ""
     err.print(f"{ran} trials in {res.run['wall_s']:.1f} s{note}; wrote {folder}/trials.csv, "
-              "table.csv, table.md, meta.json, timings.csv"
+              "trials.parquet, table.csv, table.md, meta.json, timings.csv"
               + (f" and {len(res.figures)} figures" if res.figures else ""), markup=False)
 
 
@@ -778,9 +778,14 @@ def _print_check(rows: list, configs: int, results: Path, z: float) -> None:
               "result", "s"):
         t.add_column(h)
     for name, r, sec in rows:
-        t.add_row(name, str(r.trials), str(r.compared), "yes" if r.identical else "no",
-                  "ok" if r.ok else f"{len(r.findings)} moved", f"{sec:.1f}")
+        t.add_row(name, str(r.trials), str(r.compared),
+                  "-" if r.skipped else "yes" if r.identical else "no",
+                  "skipped: data absent" if r.skipped else "ok" if r.ok
+                  else f"{len(r.findings)} moved", f"{sec:.1f}")
     out.print(t)
+    for name, r, _ in rows:
+        if r.skipped:
+            out.print(f"skipped: {name}: {r.skipped}", markup=False, soft_wrap=True)
     for _, r, _ in rows:
         for f in r.findings:
             out.print(f"moved: {f.line()}", markup=False, soft_wrap=True)
@@ -1184,6 +1189,85 @@ def _check_traps(only: str | None, timeout: float | None = None) -> int:
               + (f"{n} broken" if n else "all kept where they apply")
               + f" ({time.perf_counter() - t0:.0f} s)", markup=False)
     return n
+
+
+@app.command("rank")
+def rank_(
+    folders: List[str] = typer.Argument(..., help="Results folders (of 'pfbench run' or "
+                                        "'pfbench sweep'), one or many."),
+    metric: str = typer.Option("rmse", "--metric", help="The metric the filters are ranked on."),
+    filters: List[str] = typer.Option([], "--filter", help="A filter (its label) to rank; "
+                                      "repeat it (default: every filter that ran at every "
+                                      "particle count where two or more ran)."),
+    out_dir: Optional[str] = typer.Option(None, "--out", help="Folder to draw the "
+                                          "critical-difference diagram into (cd_METRIC.png), "
+                                          "created; nothing is written without it."),
+    as_json: bool = typer.Option(False, "--json", help="Print the ranking as JSON."),
+):
+    """Rank many filters at once: average ranks over blocks (one trial at one particle count),
+    the Friedman test, Wilcoxon signed-rank tests between every two filters with Holm's
+    procedure, and the critical-difference diagram."""
+    with _guard():
+        import json
+        from . import rank as rk
+        from .dataset import load_trials
+        out_path = _path(out_dir, "--out")
+        paths = [_path(f, "FOLDER") for f in folders]
+        if len(set(map(str, paths))) < len(paths):
+            raise UserError("FOLDER: a results folder named twice")
+        r = rk.rank(load_trials(*paths), metric, filters)
+        drawn = None
+        if out_path is not None:
+            if out_path.exists() and not out_path.is_dir():
+                raise UserError(f"--out {out_path}: exists and is not a folder")
+            out_path.mkdir(parents=True, exist_ok=True)
+            drawn = rk.draw_cd(r, out_path / f"cd_{metric}.png")
+        if as_json:
+            d = r.as_dict()
+            d["diagram"] = str(drawn) if drawn else None
+            out.print(json.dumps(d, indent=2), markup=False, soft_wrap=True)
+            return
+        out.print(rk.head_line(r), markup=False, soft_wrap=True)
+        out.print(_rich_table("Average ranks", ["Filter", "Average rank"],
+                              [[f, f"{r.average_ranks[f]:.2f}"] for f in r.filters]))
+        for line in rk.test_lines(r):
+            out.print(line, markup=False, soft_wrap=True)
+        head, cells = rk.pair_rows(r)
+        out.print(_rich_table("Pairs (Wilcoxon signed-rank, Holm)", head, cells), wide=True)
+        if drawn:
+            err.print(f"wrote {drawn}", markup=False)
+
+
+@app.command("compare")
+def compare_(
+    folder_a: str = typer.Argument(..., help="The first results folder (the reference)."),
+    folder_b: str = typer.Argument(..., help="The second results folder."),
+    threshold: float = typer.Option(1.05, "--threshold", help="Flag a change only when B / A "
+                                    "lies outside [1/FACTOR, FACTOR] (and it is significant)."),
+    metrics: List[str] = typer.Option([], "--metric", help="A metric to compare; repeat it "
+                                      "(default: every metric both hold)."),
+    only_changed: bool = typer.Option(False, "--only-changed", help="Print only the "
+                                      "significant changes."),
+    as_json: bool = typer.Option(False, "--json", help="Print the comparison as JSON."),
+):
+    """Compare two results folders: each metric's change per filter run with its interval
+    (paired by trial when the seeds are the same, Welch's otherwise, Holm over every change),
+    flagged when significant and beyond the threshold factor. Exit status 1 when a change is
+    flagged, 0 when none is, 2 on bad input."""
+    with _guard():
+        import json
+        from . import runs_compare as rc
+        a, b = _path(folder_a, "FOLDER_A"), _path(folder_b, "FOLDER_B")
+        cmp = rc.compare_runs(a, b, metrics, threshold)
+        if as_json:
+            out.print(json.dumps(cmp.as_dict(), indent=2), markup=False, soft_wrap=True)
+        else:
+            head, cells = rc.rows(cmp, only_changed)
+            if cells:
+                out.print(_rich_table(f"{b} against {a}", head, cells), wide=True)
+            out.print(rc.summary_line(cmp), markup=False, soft_wrap=True)
+    if cmp.flagged:
+        raise typer.Exit(1)
 
 
 @app.command()

@@ -130,3 +130,15 @@ DIRECTIONAL_MAPS = {"board": DIRECTIONAL_MAP_BOARD, "best": DIRECTIONAL_MAP_BEST
 SRL_FIXED_FRACTION = 0      # srl_fraction of N when p_mean < srl_threshold
 SRL_LENSER_VELOSO = 1       # N (1 - p_mean / srl_threshold) when p_mean < srl_threshold
 SRL_RULES = {"fixed_fraction": SRL_FIXED_FRACTION, "lenser_veloso": SRL_LENSER_VELOSO}
+
+# Mixture MCL's density estimate of the predicted belief (key ``density``), how its dual samples
+# are weighed (``dual_weight``) and how the two sets' weights are combined (``combine``).
+DENSITY_KDE = 0                 # Gaussian kernel over the pose (pfbench's)
+DENSITY_HISTOGRAM = 1           # piecewise constant over cells (a kd-tree's leaves, made regular)
+DENSITIES = {"kde": DENSITY_KDE, "histogram": DENSITY_HISTOGRAM}
+DUAL_BELIEF = 0                 # the predicted belief at the pose (the paper's)
+DUAL_IMPORTANCE = 1             # belief x likelihood / the sensor draw's density
+DUAL_WEIGHTS = {"belief": DUAL_BELIEF, "importance": DUAL_IMPORTANCE}
+COMBINE_SEPARATE = 0            # each set normalised to its share of the particles (pfbench's)
+COMBINE_JOINT = 1               # the weights as they are (both importance weights of one target)
+COMBINES = {"separate": COMBINE_SEPARATE, "joint": COMBINE_JOINT}

@@ -92,6 +92,9 @@ class Comparison:
         defined only on some, such as the convergence step), paper_Q, ratio_Q, verdict_Q (the
         text), kind_Q (reproduced, differs, inconclusive, not comparable, or '' without a paper
         value), the interval the verdict used verdict_lo_Q / verdict_hi_Q at verdict_level_Q,
+        for a quantity judged on another measure (``judged_by``) that measure's value judged_Q
+        and 95% interval judged_lo_Q / judged_hi_Q (the verdict sits beside them, never beside
+        ours_Q),
         how the intervals are made method_Q (verdicts.METHODS), and for an inconclusive cell
         the trials that would likely decide it needed_Q (NaN: none would)
     factors : the paper's factors between two of its rows beside ours (dicts)
@@ -529,6 +532,9 @@ def _put_verdict(r: dict, q: Quantity, judge, v) -> None:
         text = f"{text}, judged on {q.judged_by.replace('_', ' ')} {judge.value:.3g}"
     r[f"verdict_{q.key}"] = text
     r[f"kind_{q.key}"] = v.kind
+    if q.judged_by is not None:     # the measure judged, shown beside its verdict
+        r[f"judged_{q.key}"] = judge.value
+        r[f"judged_lo_{q.key}"], r[f"judged_hi_{q.key}"] = judge.interval(1 - ALPHA)
     r[f"verdict_lo_{q.key}"], r[f"verdict_hi_{q.key}"] = v.lo, v.hi
     r[f"verdict_level_{q.key}"] = v.level
     r[f"needed_{q.key}"] = v.needed if v.needed is not None else math.nan

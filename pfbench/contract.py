@@ -68,15 +68,19 @@ def probes() -> tuple[list[Probe], list[str]]:
     found: list[Probe] = []
     for name, mod in SCENARIOS.items():
         problems += _schema_problems(f"scenario {name}", mod.SCHEMA)
+    # a scenario of recorded data that are not on this machine is not probed (its module's
+    # ``unavailable``, pfbench.scenarios.plaza); the simulated ones always are
+    here = {name: mod for name, mod in SCENARIOS.items()
+            if getattr(mod, "unavailable", None) is None or mod.unavailable({}) is None}
     for name, ft in FILTERS.items():
         problems += _schema_problems(f"filter {name}", ft.schema)
-        fits = [s for s, mod in SCENARIOS.items()
+        fits = [s for s, mod in here.items()
                 if ft.cannot_run_on(s, mod.KIND, mod) is None]
         if not fits:
             problems.append(f"filter {name}: no registered scenario of kind '{ft.kind}' it runs on")
         found += [Probe(name, s, [f"filter {name} on scenario {s}"]) for s in fits]
     covered = {p.scenario for p in found}
-    problems += [f"scenario {name}: no registered filter runs on it" for name in SCENARIOS
+    problems += [f"scenario {name}: no registered filter runs on it" for name in here
                  if name not in covered]
     return found, problems
 

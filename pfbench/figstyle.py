@@ -12,11 +12,15 @@ from .fsutil import write_through_temp
 
 FORMATS = ("png", "svg", "pdf")
 DPI = 150
+# Every figure is read at a page width of 1400 px: at most MAX_WIDTH_IN inches wide (1400 px at
+# DPI), so a page shows it at its size or larger, and no text under MIN_FONT_PT points.
+MAX_WIDTH_IN = 1400 / DPI
+MIN_FONT_PT = 8.0
 
 # The look of every figure (matplotlib's rcParams), applied with ``style()``.
 RC = {
-    "font.size": 9, "axes.titlesize": 9.5, "axes.labelsize": 9, "legend.fontsize": 8,
-    "xtick.labelsize": 8, "ytick.labelsize": 8, "axes.grid": True, "grid.alpha": 0.3,
+    "font.size": 9, "axes.titlesize": 9.5, "axes.labelsize": 9, "legend.fontsize": 8.5,
+    "xtick.labelsize": 8.5, "ytick.labelsize": 8.5, "figure.titlesize": 10, "axes.grid": True, "grid.alpha": 0.3,
     "axes.spines.top": False, "axes.spines.right": False, "figure.dpi": 100,
     "savefig.bbox": "tight", "savefig.pad_inches": 0.08,
     "svg.hashsalt": "pfbench",          # fixed element ids in SVG: the same figure, the same bytes
@@ -73,6 +77,49 @@ def label(key: str, unit: str = "") -> str:
         if last.endswith(suffix):
             return f"{last[:-len(suffix)].replace('_', ' ')} ({u})"
     return re.sub(r"_+", " ", last)
+
+
+def width(inches: float) -> float:
+    """A figure's width in inches, at most MAX_WIDTH_IN (what a 1400 px page shows unscaled)."""
+    return min(float(inches), MAX_WIDTH_IN)
+
+
+def wrap(text: str, inches: float, size: float = 10.0) -> str:
+    """``text`` broken into lines that fit ``inches`` at ``size`` points (a title of a figure
+    that width; a line break already in the text is kept)."""
+    import textwrap
+    chars = max(30, int(inches * 72 / (0.52 * size)))
+    return "\n".join(textwrap.fill(part, chars) for part in text.split("\n"))
+
+
+def legibility(fig) -> list[str]:
+    """What keeps ``fig`` from being read at a 1400 px page width: wider than MAX_WIDTH_IN, or a
+    visible text (title, label, tick label, legend entry, note) under MIN_FONT_PT points; [] when
+    nothing does."""
+    out = []
+    w = fig.get_size_inches()[0]
+    if w > MAX_WIDTH_IN + 1e-9:
+        out.append(f"{w:.2f} in wide, more than {MAX_WIDTH_IN:.2f}")
+    from matplotlib.text import Text
+    for t in fig.findobj(Text):
+        if t.get_visible() and t.get_text().strip() and t.get_fontsize() < MIN_FONT_PT - 1e-9:
+            out.append(f"text {t.get_text()[:30]!r} at {t.get_fontsize():g} pt")
+    return out
+
+
+def lognormal_band(mean, se, level: float = 0.95):
+    """(low, high) of a positive quantity's mean: the interval mean exp(-+z se/mean) (z the
+    normal quantile of ``level``): the normal interval of log(mean), whose standard error is
+    se/mean by the delta method, taken back; it stays above 0 where the normal interval
+    mean -+ z se can dip below it (a run time). Arrays in, arrays out; NaN where mean <= 0."""
+    import numpy as np
+    from scipy.stats import norm
+    mean = np.asarray(mean, dtype=float)
+    se = np.asarray(se, dtype=float)
+    z = norm.ppf(0.5 + level / 2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = np.where(mean > 0, np.exp(z * se / mean), np.nan)
+        return mean / f, mean * f
 
 
 def colour(i: int) -> str:

@@ -1,5 +1,6 @@
-"""What a finished run writes beside its trials: the comparison (table.csv, table.md) and the
-figures of an experiment, the summary and figures of a sweep. ``pfbench run`` (pfbench.api),
+"""What a finished run writes beside its trials: the comparison (table.csv, table.md), the
+figures and trials.parquet (pfbench.dataset) of an experiment, the summary, figures and
+trials.parquet of a sweep. ``pfbench run`` (pfbench.api),
 ``pfbench sweep`` and ``pfbench tables`` (pfbench.regen) all write them through here.
 """
 from __future__ import annotations
@@ -10,6 +11,7 @@ from typing import TYPE_CHECKING
 from .errors import UserError
 from .figstyle import FORMATS, prune
 from .fsutil import own_folder
+from .tablecache import anytime_of  # noqa: F401  (api, report_data and regen import it from here)
 
 if TYPE_CHECKING:     # pandas loads with the tables, after a run's workers start
     import pandas as pd
@@ -22,13 +24,6 @@ def check_figure_format(fmt, what: str = "figure_format") -> str:
     return fmt
 
 
-def anytime_of(meta: dict | None) -> int | None:
-    """The most trials a run until decided could reach (its confidence sequences are tuned for
-    it), from a results folder's meta; None for a run of a fixed trial count."""
-    until = (meta or {}).get("until_decided")
-    return int(until["max_trials"]) if isinstance(until, dict) and "max_trials" in until else None
-
-
 def write_experiment(exp, res, folder: Path, figures: bool = True,
                      figure_format: str = "png") -> tuple:
     """The comparison (table.csv / table.md) and figures of a finished run; returns (comparison,
@@ -38,8 +33,10 @@ def write_experiment(exp, res, folder: Path, figures: bool = True,
     if figures:
         check_figure_format(figure_format)
         own_folder(Path(folder) / "figures", folder, "figures folder")
+    from .dataset import write_parquet
     cmp = cached_compare(exp, res.rows, anytime=anytime_of(res.meta))
-    tables.write(cmp, folder, res.meta)
+    tables.write(cmp, folder, res.meta, res.rows)
+    write_parquet(folder)
     paths = []
     if figures:
         from .plots import write_figures
@@ -61,8 +58,10 @@ def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: st
         own_folder(Path(folder) / "figures", folder, "figures folder")
     from . import curves as cv
     from .store import sweep_summary, write_csv
+    from .dataset import write_parquet
     summ = sweep_summary(trials_df, keys)
     write_csv(folder / "summary.csv", summ)
+    write_parquet(folder)
     judged = cv.judge(curves, trials_df, keys, exp.seed if exp else 0) if curves else None
     cv.write(folder, curves, judged, keys)
     if not figures:

@@ -78,6 +78,9 @@ class Table:
     # (quantity key, from label, to label, margin or None): the paper's factor between two rows
     factors: tuple[tuple[str, str, str, Margin | None], ...] = ()
     runs: int | None = None             # runs behind the values, when the paper states it
+    # what our results show of this table, in a sentence with {CONFIG:RUN:COLUMN} references
+    # (the report's index prints it: ``headline``)
+    headline: Finding | None = None
 
     def row(self, label: str, particles: int | None) -> dict:
         """The paper's values for a filter run: {quantity key: value, or (lo, hi) for a range};
@@ -303,7 +306,8 @@ def _values(raw: Any, path: str, qkeys: tuple[str, ...]) -> dict:
 
 def _table(raw: Any, path: str) -> Table:
     raw = check_mapping(path, raw)
-    parts = ("quantities", "values", "notes", "ranking", "cell_notes", "per_trial", "factors")
+    parts = ("quantities", "values", "notes", "ranking", "cell_notes", "per_trial", "factors",
+             "headline")
     top = check_section(raw, _TABLE, path, ignore=parts)
     if "quantities" not in raw:
         raise ConfigError(f"{path}.quantities", "missing required key (a mapping of column key "
@@ -345,7 +349,7 @@ def _table(raw: Any, path: str) -> Table:
         factors.append((f["quantity"], f["from"], f["to"], margin))
     return Table(top["caption"], quantities, values, _strings(raw.get("notes"), f"{path}.notes"),
                  top["not_comparable"], ranking, cell_notes, per_trial, tuple(factors),
-                 top["runs"])
+                 top["runs"], headline(raw.get("headline"), f"{path}.headline"))
 
 
 def _points(raw: Any, path: str) -> tuple[tuple[float, float], ...]:
@@ -411,6 +415,27 @@ def _findings(raw: Any, lines: dict[str, int]) -> tuple[Finding, ...]:
                               "{CONFIG:RUN:COLUMN} or {CONFIG:RUN:COLUMN:ci}")
         out.append(Finding(text, refs, lines.get(f"findings[{i}]")))
     return tuple(out)
+
+
+def headline(raw: Any, path: str) -> Finding | None:
+    """A table's ``headline:``: what our results show of it, in one sentence whose
+    ``{CONFIG:RUN:COLUMN}`` (or ``:ci``) references the report fills in as a finding's; the
+    report's index prints it beside the table's verdict counts. None where the table has none;
+    a ConfigError for an empty text, a text of several lines, or a brace that is not a
+    reference."""
+    if raw is None:
+        return None
+    if not isinstance(raw, str) or not raw.strip():
+        raise ConfigError(path, f"expected a sentence, got {describe(raw)}")
+    text = " ".join(raw.split())
+    rest = REF.sub("", text)
+    if "{" in rest or "}" in rest:
+        bad = rest[rest.find("{"):][:40] if "{" in rest else rest[:rest.find("}") + 1][-40:]
+        raise ConfigError(path, f"'{bad}...' is not a reference {{CONFIG:RUN:COLUMN}} or "
+                          "{CONFIG:RUN:COLUMN:ci}")
+    refs = tuple(Ref(m.group(0), m.group(1), m.group(2), m.group(3), bool(m.group(4)))
+                 for m in REF.finditer(text))
+    return Finding(text, refs)
 
 
 # ---------------------------------------------------------------- the algorithms, step by step

@@ -25,7 +25,7 @@ from .config import Experiment
 from .errors import UserError
 from .kinds import kind_of
 from .store import Traces, read_traces
-from .traces import error_runs, runs_in, snapshot_runs
+from .traces import SNAPSHOT_PARTICLES, error_runs, runs_in, snapshot_runs
 
 
 def save_figure(fig, path: Path) -> None:
@@ -75,14 +75,105 @@ _PAPER = "the paper's value"
 _PAPER_APART = "the paper's value, not comparable (see the table)"
 
 
+# A distribution figure with more filter runs than this draws small multiples (_panels)
+SINGLE_PANEL_RUNS = 12
+
+
+def _panels(runs: list) -> list[tuple[str, list]]:
+    """How a distribution figure splits its filter runs: [(panel title, runs)]. At most
+    SINGLE_PANEL_RUNS runs: one panel. More: one panel per particle count when a few filters run
+    at many counts (asrl2008's SRL and ASRL at nine), else one per filter (label: its counts side
+    by side)."""
+    if len(runs) <= SINGLE_PANEL_RUNS:
+        return [("", list(runs))]
+    labels = list(dict.fromkeys(r.label for r in runs))
+    counts = list(dict.fromkeys(r.particles for r in runs))
+    if len(labels) <= 3 and len(counts) > len(labels):
+        return [(f"N = {n}" if n is not None else "N not set",
+                 [r for r in runs if r.particles == n]) for n in counts]
+    return [(lab, [r for r in runs if r.label == lab]) for lab in labels]
+
+
+def _tick(run, rows, title: str) -> str:
+    """A run's name under its box: in a panel of one filter, its particle count; in a panel of
+    one count, its filter; else its name (_run_name)."""
+    name = _run_name(run, rows)
+    if title.startswith("N = "):
+        return name.replace(f" (N={run.particles})", "").replace(" (N adaptive:", "\n(adaptive:")
+    if title and title == run.label:
+        return name[len(run.label):].strip(" ()").replace("N adaptive: ", "adaptive\n") or "-"
+    return name
+
+
+def _trial_counts(data: list, total: int) -> tuple[str, list[str]]:
+    """(the title's words on the trials, a note under each box): 'over 100 trials' when every
+    run has a value in each; else 'over the trials with a value' and 'n = 16 of 100' under each
+    box (steps to converge: only the converged trials have one)."""
+    ns = [len(d) for d in data]
+    if all(n == total for n in ns):
+        return f"over {total} trials", [""] * len(ns)
+    return (f"over the trials of {total} with a value (under each box: how many)",
+            [f"\n{n} of {total}" for n in ns])
+
+
+def _floor_value(exp: Experiment, rows: pd.DataFrame, metric: str, scale: float) -> float | None:
+    """The mean of ``metric`` of the config's floor run (compare.floor), for a RMSE figure; None
+    without one."""
+    key = exp.compare["floor"] if hasattr(exp, "compare") else None
+    if key is None or metric != "rmse":
+        return None
+    v = rows.loc[rows["filter"] == key, metric].dropna().to_numpy(float)
+    v = v[np.isfinite(v)]
+    return float(v.mean()) * scale if v.size else None
+
+
+def _run_means(group, data, quantity, by_key) -> tuple[list, list, list]:
+    """Each run's mean and the distances down and up to its 95% interval's ends: the table's
+    (``by_key``, ours_QUANTITY and its interval) where it has the quantity, else the trials'."""
+    from .metrics import summarize
+    means, los, his = [], [], []
+    for r, v in zip(group, data):
+        q = quantity
+        if by_key is not None and q is not None and f"ours_{q.key}" in by_key:
+            m = by_key.loc[r.key, f"ours_{q.key}"]
+            lo, hi = by_key.loc[r.key, f"ours_lo_{q.key}"], by_key.loc[r.key, f"ours_hi_{q.key}"]
+        else:
+            st = summarize(v)
+            m, lo, hi = st["mean"], st["ci_lo"], st["ci_hi"]
+        means.append(m)
+        los.append(m - lo if lo == lo else 0.0)
+        his.append(hi - m if hi == hi else 0.0)
+    return means, los, his
+
+
+def _paper_marks(ax, exp: Experiment, pos, group, quantity, by_key, shown: set[str]) -> None:
+    """The paper's value of each run on its box (a diamond; a range: a bar), grey where the
+    table calls it not comparable; adds the legend names drawn to ``shown``."""
+    for x, r in zip(pos, group):
+        v = _paper_value(exp, r, quantity)
+        if v is None:
+            continue
+        # a value the table calls not comparable is drawn grey: not the same measure
+        apart = by_key.loc[r.key].get(f"kind_{quantity.key}") == "not comparable"
+        c = "0.55" if apart else "#d62728"
+        name = _PAPER_APART if apart else _PAPER
+        shown.add(name)
+        if v[0] == v[1]:      # on its box: the paper's value and ours, the same x
+            ax.plot([x - 0.1], [v[0]], "D", color=c, ms=7, mfc="none", mew=1.8, label=name,
+                    zorder=6)
+        else:
+            ax.plot([x - 0.1] * 2, list(v), "-", color=c, lw=4, alpha=0.6, label=name, zorder=6)
+
+
 def distribution_figure(exp: Experiment, rows: pd.DataFrame, path: Path, metric: str = "rmse",
                         scale: float = 1.0, ylabel: str = "RMSE", quantity=None,
                         table: pd.DataFrame | None = None) -> None:
     """Each filter run's ``metric`` over trials (box: quartiles, whiskers 1.5 IQR, points beyond),
     beside it the mean with its 95% interval as the table reports it (black), and the paper's
-    value (red diamond; a range: a red bar) where ``quantity`` has one. A log axis where the
-    values span more than a factor of 30."""
-    from .metrics import summarize
+    value (red diamond on the box; a range: a red bar) where ``quantity`` has one; the config's
+    floor run's mean as a dashed line. Many runs: small multiples with a shared axis (_panels).
+    A log axis where the values span more than a factor of 30. The title counts the trials: a
+    run whose metric some trials lack (steps to converge) says under its box how many it has."""
     runs = list(exp.filters)
     data = [rows.loc[rows["filter"] == r.key, metric].dropna().to_numpy(float) * scale
             for r in runs]
@@ -91,58 +182,256 @@ def distribution_figure(exp: Experiment, rows: pd.DataFrame, path: Path, metric:
     if not keep:
         return
     runs, data = [runs[i] for i in keep], [data[i] for i in keep]
-    fig, ax = fs.pyplot().subplots(figsize=(max(6.4, 0.62 * len(runs) + 2.4), 4.4))
-    pos = np.arange(1, len(runs) + 1)
-    ax.boxplot(data, positions=pos - 0.12, widths=0.32, showfliers=True,
-               flierprops={"markersize": 2, "alpha": 0.5}, medianprops={"color": "0.35"},
-               patch_artist=True, boxprops={"facecolor": "0.93", "edgecolor": "0.45"},
-               whiskerprops={"color": "0.45"}, capprops={"color": "0.45"})
+    of_run = {r.key: d for r, d in zip(runs, data)}
+    total = int(rows["trial"].nunique())
+    counted, _ = _trial_counts(data, total)
+    panels = _panels(runs)
+    most = max(len(g) for _, g in panels)
+    pw = 0.62 * most + 0.9                        # inches per panel
+    ncol = max(1, min(len(panels), int((fs.MAX_WIDTH_IN - 0.8) // pw)))
+    nrow = math.ceil(len(panels) / ncol)
+    wide = fs.width(max(6.4, pw * ncol + 0.8)) if len(panels) > 1 else fs.width(
+        max(6.4, 0.62 * len(runs) + 2.4))
+    fig, axes = fs.pyplot().subplots(nrow, ncol, figsize=(wide, 3.1 * nrow + 1.3 if nrow > 1
+                                                          else 4.6),
+                                     sharey=True, squeeze=False)
     by_key = table.set_index("filter") if table is not None and len(table) else None
-    means, los, his = [], [], []
-    for r, d in zip(runs, data):
-        q = quantity
-        if by_key is not None and q is not None and f"ours_{q.key}" in by_key:
-            m = by_key.loc[r.key, f"ours_{q.key}"]
-            lo, hi = by_key.loc[r.key, f"ours_lo_{q.key}"], by_key.loc[r.key, f"ours_hi_{q.key}"]
-        else:
-            st = summarize(d)
-            m, lo, hi = st["mean"], st["ci_lo"], st["ci_hi"]
-        means.append(m)
-        los.append(m - lo if lo == lo else 0.0)
-        his.append(hi - m if hi == hi else 0.0)
-    ax.errorbar(pos + 0.16, means, yerr=[los, his], fmt="o", color="black", ms=4, capsize=3,
-                lw=1.1, label="mean and its 95% interval")
     shown: set[str] = set()
-    if quantity is not None and by_key is not None:
-        for x, r in zip(pos, runs):
-            v = _paper_value(exp, r, quantity)
-            if v is None:
-                continue
-            # a value the table calls not comparable is drawn grey: it is not the same measure
-            apart = by_key.loc[r.key].get(f"kind_{quantity.key}") == "not comparable"
-            c = "0.55" if apart else "#d62728"
-            name = _PAPER_APART if apart else _PAPER
-            lab = None if name in shown else name
-            shown.add(name)
-            if v[0] == v[1]:
-                ax.plot([x + 0.34], [v[0]], "D", color=c, ms=6, mfc="none", mew=1.6, label=lab)
-            else:
-                ax.plot([x + 0.34] * 2, list(v), "-", color=c, lw=3, alpha=0.6, label=lab)
+    floor = _floor_value(exp, rows, metric, scale)
     values = np.concatenate(data)
     pos_v = values[values > 0]
-    if len(pos_v) and values.min() > 0 and pos_v.max() / pos_v.min() > 30:
-        ax.set_yscale("log")
-    ax.set_xlim(0.4, len(runs) + 0.6)       # room for the paper's marks beside the last run
-    ax.set_xticks(pos, [_run_name(r, rows) for r in runs], rotation=40, ha="right")
-    ax.set_ylabel(ylabel)
-    n = rows["trial"].nunique()
-    paper = [w for w, name in (("red: the paper", _PAPER),
-                               ("grey: the paper, not comparable", _PAPER_APART))
+    log = bool(len(pos_v) and values.min() > 0 and pos_v.max() / pos_v.min() > 30)
+    for p, (title, group) in enumerate(panels):
+        ax = axes[p // ncol, p % ncol]
+        d = [of_run[r.key] for r in group]
+        _, notes = _trial_counts(d, total)
+        pos = np.arange(1, len(group) + 1)
+        ax.boxplot(d, positions=pos - 0.1, widths=0.36, showfliers=True,
+                   flierprops={"markersize": 2.5, "alpha": 0.5}, medianprops={"color": "0.35"},
+                   patch_artist=True, boxprops={"facecolor": "0.93", "edgecolor": "0.45"},
+                   whiskerprops={"color": "0.45"}, capprops={"color": "0.45"})
+        means, los, his = _run_means(group, d, quantity, by_key)
+        ax.errorbar(pos + 0.22, means, yerr=[los, his], fmt="o", color="black", ms=4, capsize=3,
+                    lw=1.1, label="our mean and its 95% interval")
+        if quantity is not None and by_key is not None:
+            _paper_marks(ax, exp, pos, group, quantity, by_key, shown)
+        if floor is not None:
+            ax.axhline(floor, color="#2ca02c", ls="--", lw=1.1, zorder=0,
+                       label="the floor: mean of the floor run (no filter can do better)")
+        if log:
+            ax.set_yscale("log")
+        ax.set_xlim(0.4, len(group) + 0.6)
+        ax.set_xticks(pos, [_tick(r, rows, title) + n for r, n in zip(group, notes)],
+                      rotation=0 if title else 35, ha="center" if title else "right")
+        if title:
+            ax.set_title(title)
+        if p % ncol == 0:
+            ax.set_ylabel(ylabel)
+        ax.grid(axis="x", visible=False)
+    for p in range(len(panels), nrow * ncol):
+        axes[p // ncol, p % ncol].set_visible(False)
+    paper = [w for w, name in (("red diamond on its box: the paper's value", _PAPER),
+                               ("grey: the paper's, not comparable", _PAPER_APART))
              if name in shown]
-    ax.set_title(f"{exp.name}: {ylabel} over {n} trials (box: quartiles; black: mean, 95% "
-                 "interval" + "".join(f"; {w}" for w in paper) + ")")
-    ax.grid(axis="x", visible=False)
-    fs.legend_outside(ax)
+    fig.suptitle(fs.wrap(f"{exp.name}: {ylabel} {counted} (box: quartiles; black: our mean "
+                         "and its 95% interval" + "".join(f"; {w}" for w in paper) + ")", wide),
+                 fontsize=10)
+    fig.tight_layout()
+    _legend_under(fig, axes.ravel()[:len(panels)])
+    save_figure(fig, path)
+
+
+def _legend_under(fig, axes, ncol: int = 2) -> None:
+    """One legend under the figure: every distinct label of ``axes``' artists, once."""
+    seen: dict = {}
+    for ax in axes:
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            seen.setdefault(lab, h)
+    if seen:
+        fig.legend(list(seen.values()), list(seen), loc="upper center", ncol=ncol,
+                   frameon=False, bbox_to_anchor=(0.5, 0.0))
+
+
+def _stacked(run, rows) -> str:
+    """A run's name in lines, for a tick under a narrow column: 'KLD-MCL\n(N adaptive:\nmean
+    101, at most 5000)'."""
+    return _run_name(run, rows).replace(" (", "\n(").replace(": ", ":\n")
+
+
+def wilson(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
+    """The Wilson score interval of a rate of ``k`` successes in ``n`` trials
+    (scipy.stats.binomtest(k, n).proportion_ci, method 'wilson'); (nan, nan) when n = 0."""
+    if n <= 0:
+        return math.nan, math.nan
+    from scipy.stats import binomtest
+    ci = binomtest(int(k), int(n)).proportion_ci(confidence_level=level, method="wilson")
+    return float(ci.low), float(ci.high)
+
+
+def rates(exp: Experiment, rows: pd.DataFrame) -> list[tuple[str, str, object]]:
+    """The rates a figure draws, as (name, axis label, per-row outcome 0/1 or NaN, the paper's
+    quantity or None): each 0-or-1 metric the paper's table reports as a mean (converged), and
+    with kidnappings, recovering from every one (recovery_failures = 0)."""
+    out = []
+    table = exp.reported
+    for q in (table.quantities if table is not None else ()):
+        if q.stat == "mean" and q.metric in rows and q.scale == 1.0:
+            v = rows[q.metric].dropna()
+            if len(v) and v.isin((0.0, 1.0)).all():
+                out.append((q.metric, fs.label(q.metric).replace(" (fraction of trials)", ""),
+                            rows[q.metric].astype(float), q))
+    kidnapped = any(c in rows and (rows[c].fillna(0) > 0).any()
+                    for c in ("recovery_failures", "recovery_steps"))   # a kidnapping happened
+    if kidnapped and rows["recovery_failures"].notna().any():
+        ok = (rows["recovery_failures"] == 0).astype(float).where(
+            rows["recovery_failures"].notna())
+        out.append(("recovered", "recovered from every kidnapping", ok, None))
+    return out
+
+
+def rate_table(exp: Experiment, rows: pd.DataFrame, outcome: pd.Series) -> pd.DataFrame:
+    """Per filter run: successes k, trials n with an outcome, the rate k/n and its Wilson 95%
+    interval (lo, hi)."""
+    out = []
+    for r in exp.filters:
+        v = outcome[rows["filter"] == r.key].dropna()
+        k, n = int((v == 1.0).sum()), int(len(v))
+        lo, hi = wilson(k, n)
+        out.append({"filter": r.key, "k": k, "n": n, "rate": k / n if n else math.nan,
+                    "lo": lo, "hi": hi})
+    return pd.DataFrame(out)
+
+
+def rate_figure(exp: Experiment, rows: pd.DataFrame, path: Path,
+                table: pd.DataFrame | None = None) -> None:
+    """The rates (rates()): per filter run, the fraction of trials with its Wilson 95% interval,
+    'k of n' under it, and the paper's value (red diamond) at the same x; one panel per rate."""
+    which = rates(exp, rows)
+    if not which:
+        return
+    runs = list(exp.filters)
+    wide = fs.width(max(5.0, (0.75 * len(runs) + 1.2) * len(which) + 0.6))
+    fig, axes = fs.pyplot().subplots(1, len(which), figsize=(wide, 4.4), sharey=True,
+                                     squeeze=False)
+    by_key = table.set_index("filter") if table is not None and len(table) else None
+    ns = set()
+    for ax, (name, ylabel, outcome, q) in zip(axes[0], which):
+        t = rate_table(exp, rows, outcome)
+        ns |= set(t["n"])
+        x = np.arange(1, len(runs) + 1)
+        for i, (r, row) in enumerate(zip(runs, t.itertuples())):
+            ax.bar(x[i], 100 * row.rate, width=0.6, color=fs.colour(i), alpha=0.35)
+            ax.errorbar([x[i]], [100 * row.rate], yerr=[[100 * (row.rate - row.lo)],
+                                                         [100 * (row.hi - row.rate)]],
+                        fmt="o", color="black", ms=4, capsize=4, lw=1.2,
+                        label="our rate and its Wilson 95% interval")
+            v = _paper_value(exp, r, q) if q is not None else None
+            if v is not None:
+                apart = (by_key is not None and r.key in by_key.index
+                         and by_key.loc[r.key].get(f"kind_{q.key}") == "not comparable")
+                ax.plot([x[i]] * (1 if v[0] == v[1] else 2), [100 * v[0]] + (
+                    [] if v[0] == v[1] else [100 * v[1]]), "D" if v[0] == v[1] else "-",
+                    color="0.55" if apart else "#d62728", ms=8, mfc="none", mew=1.8, lw=4,
+                    label=_PAPER_APART if apart else _PAPER, zorder=6)
+        if len(runs) <= 3:
+            ax.set_xticks(x, [f"{_stacked(r, rows)}\n{row.k} of {row.n}"
+                              for r, row in zip(runs, t.itertuples())], fontsize=8)
+        else:           # many narrow columns: one line each, slanted
+            ax.set_xticks(x, [f"{_run_name(r, rows)}: {row.k} of {row.n}"
+                              for r, row in zip(runs, t.itertuples())], fontsize=8,
+                          rotation=30, ha="right")
+        ax.set_ylim(0, 105)
+        ax.set_title(ylabel)
+        ax.grid(axis="x", visible=False)
+    axes[0, 0].set_ylabel("trials (%)")
+    n = f"{ns.pop()} trials" if len(ns) == 1 else "the trials with an outcome"
+    fig.suptitle(fs.wrap(f"{exp.name}: rates over {n} (bar and dot: our rate, with its Wilson "
+                         "95% interval; under each: trials it succeeded of those run)", wide),
+                 fontsize=10)
+    fig.tight_layout()
+    _legend_under(fig, axes[0])
+    save_figure(fig, path)
+
+
+def _families(exp: Experiment) -> dict[str, list]:
+    """The paper's quantities that no distribution figure draws, by family: 'gains' (gains over
+    the baseline), 'ratios' (a cost over the baseline's), else one per quantity (a variance
+    over trials): {file name: [quantity]}."""
+    out: dict[str, list] = {}
+    table = exp.reported
+    drawn = {q.key for *_, q in _distribution_quantities(exp) if q is not None}
+    for q in (table.quantities if table is not None else ()):
+        if q.key in drawn or (q.stat == "mean" and q.metric not in (
+                "time_ratio", "evals_ratio", "gain_mean", "gain_var")):
+            continue
+        fam = ("gains" if q.metric.startswith("gain_") else
+               "ratios" if q.metric.endswith("_ratio") else q.key)
+        out.setdefault(fam, []).append(q)
+    return out
+
+
+def claims_figure(exp: Experiment, table: pd.DataFrame, qs: list, path: Path,
+                  rows: pd.DataFrame | None = None) -> None:
+    """One panel per quantity of ``qs`` (a family: the gains, the cost ratios): per filter run
+    with a value, ours with the 95% interval the table reports (black) and the paper's value at
+    the same x (red diamond; grey where the table calls it not comparable); a line at 0 for a
+    gain, at 1 for a ratio (log axis)."""
+    if table is None or not len(table):
+        return
+    by_key = table.set_index("filter")
+    panels = []
+    for q in qs:
+        if f"ours_{q.key}" not in by_key:
+            continue
+        runs = [r for r in exp.filters if r.key in by_key.index
+                and np.isfinite(float(by_key.loc[r.key, f"ours_{q.key}"]))]
+        if runs:
+            panels.append((q, runs))
+    if not panels:
+        return
+    wide = fs.width(max(5.0, sum(0.7 * len(r) + 1.3 for _, r in panels) + 0.6))
+    ratio = all(q.metric.endswith("_ratio") for q, _ in panels)
+    fig, axes = fs.pyplot().subplots(1, len(panels), figsize=(wide, 4.6), squeeze=False)
+    n = sorted({int(by_key.loc[r.key, "trials"]) for _, runs in panels for r in runs})
+    for ax, (q, runs) in zip(axes[0], panels):
+        x = np.arange(1, len(runs) + 1)
+        m = np.array([float(by_key.loc[r.key, f"ours_{q.key}"]) for r in runs])
+        lo = np.array([float(by_key.loc[r.key, f"ours_lo_{q.key}"]) for r in runs])
+        hi = np.array([float(by_key.loc[r.key, f"ours_hi_{q.key}"]) for r in runs])
+        ax.errorbar(x, m, yerr=[np.nan_to_num(m - lo), np.nan_to_num(hi - m)], fmt="o",
+                    color="black", ms=5, capsize=4, lw=1.2,
+                    label="ours and the table's 95% interval")
+        for xi, r in zip(x, runs):
+            v = _paper_value(exp, r, q)
+            if v is None:
+                continue
+            apart = by_key.loc[r.key].get(f"kind_{q.key}") == "not comparable"
+            ax.plot([xi], [v[0]], "D", color="0.55" if apart else "#d62728", ms=8, mfc="none",
+                    mew=1.8, label=_PAPER_APART if apart else _PAPER, zorder=6)
+            if v[1] != v[0]:
+                ax.plot([xi] * 2, list(v), "-", color="#d62728", lw=4, alpha=0.6)
+        shown_v = np.concatenate([lo, hi, m])
+        shown_v = shown_v[np.isfinite(shown_v)]
+        log = ratio or bool(shown_v.size and shown_v.min() > 0
+                            and shown_v.max() / shown_v.min() > 30)
+        if ratio or not log:            # no 0 on a log axis
+            ax.axhline(1.0 if ratio else 0.0, color="0.4", lw=0.9, ls=":")
+        if log:
+            ax.set_yscale("log")        # a ratio; or variances that span decades
+        ax.set_xlim(0.4, len(runs) + 0.6)
+        ax.set_xticks(x, [_stacked(r, rows) for r in runs])
+        ax.set_title(q.title)
+        ax.grid(axis="x", visible=False)
+    counted = f"{n[0]} trials" if len(n) == 1 else f"{n[0]} to {n[-1]} trials"
+    what = ("over the baseline's, 1 dotted" if ratio else
+            "over the baseline's, 0 dotted" if all(q.metric.startswith("gain_") for q, _ in panels)
+            else "")
+    fig.suptitle(fs.wrap(f"{exp.name}: " + ", ".join(q.title for q, _ in panels)
+                         + (f" ({what})" if what else "") + f", ours over {counted} (black: "
+                         "with the table's 95% interval) beside the paper's value (red diamond, "
+                         "same x)", wide), fontsize=10)
+    fig.tight_layout()
+    _legend_under(fig, axes[0])
     save_figure(fig, path)
 
 
@@ -180,9 +469,10 @@ def slam_trial_figures(exp: Experiment, traces: Traces, folder: Path, trial: int
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    ax.set_title(f"{exp.name}, trial {trial}: true path (grey), estimated paths, and each "
-                 "filter's mapped landmarks (its marker)")
-    fs.legend_outside(ax)
+    ax.set_title(fs.wrap(f"{exp.name}, trial {trial} only (of {exp.trials}): true path (grey), "
+                         "estimated paths, and each filter's mapped landmarks (its marker)", 8.6))
+    fig.tight_layout()
+    _legend_under(fig, [ax])
     course = folder / f"course.{fmt}"
     save_figure(fig, course)
 
@@ -205,8 +495,11 @@ def slam_trial_figures(exp: Experiment, traces: Traces, folder: Path, trial: int
     axes[1].set_ylabel("heading error (rad)" + (f", RMS over {win} steps" if win > 1 else ""))
     axes[2].set_ylabel("landmark error (m)")
     axes[2].set_xlabel("time (s)")
-    axes[0].set_title(f"{exp.name}, trial {trial}: errors over time (landmarks: the "
-                      "highest-weight particle's map)")
+    axes[0].set_title(fs.wrap(f"{exp.name}: errors over time in trial {trial} only, one of "
+                              f"{exp.trials} trials (the run keeps one trial's traces: no "
+                              "median over trials; the tables and the other figures cover "
+                              "every trial); landmarks: the highest-weight particle's map",
+                              fig.get_size_inches()[0]))
     fig.tight_layout(rect=(0, 0.06, 1, 1))
     fs.legend_below(fig, axes, ncol=min(3, len(runs)))
     errors = folder / f"errors.{fmt}"
@@ -222,9 +515,11 @@ def slam_trial_figures(exp: Experiment, traces: Traces, folder: Path, trial: int
                     f"{np.mean(out['ess']):.2f}")
     ax.set_xlabel("time (s)")
     ax.set_ylabel("Neff = 1 / sum W^2")
-    ax.set_title(f"{exp.name}, trial {trial}: effective sample size before resampling"
-                 + (f" (moving mean of {win} observations)" if win > 1 else ""))
-    fs.legend_outside(ax)
+    ax.set_title(fs.wrap(f"{exp.name}, trial {trial} only (of {exp.trials}): effective sample "
+                         "size before resampling"
+                         + (f" (moving mean of {win} observations)" if win > 1 else ""), 8.6))
+    fig.tight_layout()
+    _legend_under(fig, [ax])
     ess = folder / f"ess.{fmt}"
     save_figure(fig, ess)
     return [course, errors, ess]
@@ -232,9 +527,10 @@ def slam_trial_figures(exp: Experiment, traces: Traces, folder: Path, trial: int
 
 def localization_error_figure(exp: Experiment, traces: Traces, path: Path,
                               rows: pd.DataFrame | None = None) -> dict:
-    """Position error per step over the traced trials (median and interquartile band) of each
-    shown run, with the particle count over time when a run adapts it; returns {run key: (T+1,)
-    median}."""
+    """Position error per step over the traced trials, one panel per shown run (a shared log
+    axis): its median with the interquartile band, the other runs' medians in light grey behind
+    it; a last panel with the particle count over time when a run adapts it. Returns {run key:
+    (T+1,) median}."""
     runs = error_runs(exp)
     trials = sorted(traces.trials)
     by_trial = [runs_in(traces.trials[k]) for k in trials]
@@ -244,42 +540,63 @@ def localization_error_figure(exp: Experiment, traces: Traces, path: Path,
     count = {r.key: np.asarray([tr[r.key]["n"] for tr in by_trial if "n" in tr[r.key]])
              for r in runs if any("n" in tr[r.key] for tr in by_trial)}
     adaptive = [r for r in runs if r.key in count and np.ptp(count[r.key]) > 0]
-    fig, axes = fs.pyplot().subplots(2 if adaptive else 1, 1, figsize=(8.6, 6.6 if adaptive else 4.4),
-                             sharex=True, squeeze=False)
-    ax = axes[0, 0]
+    n_panels = len(runs) + (1 if adaptive else 0)
+    ncol = min(n_panels, 3)
+    nrow = math.ceil(n_panels / ncol)
+    wide = fs.width(3.1 * ncol + 0.6)
+    fig, axes = fs.pyplot().subplots(nrow, ncol, figsize=(wide, 2.7 * nrow + 1.2), sharex=True,
+                                     squeeze=False)
     t = np.arange(err[runs[0].key].shape[1])
-    medians = {}
-    for i, r in enumerate(runs):
-        q1, med, q3 = np.percentile(err[r.key], [25, 50, 75], axis=0)
-        medians[r.key] = med
-        c = fs.colour(i)
-        # drawn widest first: a curve that lies on another's stays visible by its style
-        ax.plot(t, med, color=c, ls=fs.linestyle(i), lw=2.4 - 0.35 * i,
-                label=_run_name(r, rows), zorder=3 + i)
-        ax.fill_between(t, q1, q3, color=c, alpha=0.12, lw=0, zorder=1)
+    medians = {r.key: np.percentile(err[r.key], 50, axis=0) for r in runs}
     kidnaps = traces.world["kidnaps"]
-    for kstep in kidnaps:
-        ax.axvline(kstep, color="0.3", ls=":", lw=1)
-    ax.axhline(float(traces.world["bound"]), color="0.5", ls="--", lw=0.8)
-    ax.set_yscale("log")
-    ax.set_ylabel("position error (m)")
-    ax.set_title(f"{exp.name}: position error per step, median and interquartile band over "
-                 f"{len(trials)} trials\n" + ("dotted: kidnappings; " if kidnaps.size else "")
-                 + "dashed: the convergence bound")
-    ax.grid(alpha=0.3, which="both")
-    fs.legend_outside(ax)
+    share = None
+    for i, r in enumerate(runs):
+        ax = axes[i // ncol, i % ncol]
+        if share is None:
+            share = ax
+        else:
+            ax.sharey(share)
+        for other in runs:
+            if other.key != r.key:
+                ax.plot(t, medians[other.key], color="0.78", lw=0.9, zorder=1)
+        q1, q3 = np.percentile(err[r.key], [25, 75], axis=0)
+        c = fs.colour(i)
+        ax.fill_between(t, q1, q3, color=c, alpha=0.25, lw=0, zorder=2,
+                        label="interquartile band")
+        ax.plot(t, medians[r.key], color=c, lw=1.8, zorder=3, label="median")
+        for kstep in kidnaps:
+            ax.axvline(kstep, color="0.3", ls=":", lw=1)
+        ax.axhline(float(traces.world["bound"]), color="0.5", ls="--", lw=0.8)
+        ax.set_yscale("log")
+        ax.set_title(_run_name(r, rows).replace(" (N adaptive:", "\n(N adaptive:"))
+        ax.grid(alpha=0.3, which="both")
+        if i % ncol == 0:
+            ax.set_ylabel("position error (m)")
     if adaptive:
-        ax2 = axes[1, 0]
+        ax2 = axes[(n_panels - 1) // ncol, (n_panels - 1) % ncol]
         for i, r in enumerate(runs):
             if r in adaptive:
                 ax2.plot(t[1:], count[r.key].astype(float).mean(axis=0), color=fs.colour(i),
-                         ls=fs.linestyle(i), lw=1.2, label=f"{r.label}: mean over trials")
+                         lw=1.4, label=f"{r.label}: mean over trials")
         if max(np.ptp(count[r.key]) for r in adaptive) > 1000:
             ax2.set_yscale("log")
+        ax2.set_title("particle count of the adaptive runs")
         ax2.set_ylabel("particles")
         ax2.grid(alpha=0.3, which="both")
-        fs.legend_outside(ax2)
-    axes[-1, 0].set_xlabel("step")
+        ax2.legend(frameon=False)
+    for p in range(n_panels, nrow * ncol):
+        axes[p // ncol, p % ncol].set_visible(False)
+    for j in range(ncol):
+        axes[-1, j].set_xlabel("step")
+        axes[-1, j].xaxis.set_tick_params(labelbottom=True)
+    kept = (f"over {len(trials)} trials" if len(trials) >= exp.trials else
+            f"over the first {len(trials)} of {exp.trials} trials (those whose traces the run "
+            "keeps)")
+    fig.suptitle(fs.wrap(f"{exp.name}: position error per step, median and interquartile band "
+                         f"{kept}; grey: the other filters' medians; "
+                         + ("dotted: kidnappings; " if kidnaps.size else "")
+                         + "dashed: the convergence bound", wide), fontsize=10)
+    fig.tight_layout()
     save_figure(fig, path)
     return medians
 
@@ -314,6 +631,15 @@ def _snapshot_trials(exp: Experiment, traces: Traces, rows: pd.DataFrame, run,
     return out or [(have[0], None)]
 
 
+def _shown_steps(steps: list, kidnaps: list) -> list[int]:
+    """The indices of the kept snapshot steps a particle figure shows, at most 5: the start,
+    step 10 (global localization under way), three steps after each kidnapping, the end."""
+    want = [steps[0]] + [t for t in steps if t == 10] + [int(k) + 3 for k in kidnaps]
+    want.append(steps[-1])
+    idx = [steps.index(t) for t in dict.fromkeys(want) if t in steps]
+    return sorted(idx)[:4] + ([len(steps) - 1] if len(idx) > 4 else [])
+
+
 def particle_figure(exp: Experiment, traces: Traces, path: Path,
                     rows: pd.DataFrame | None = None) -> None:
     """The particles of each filter (one run per label: the largest count) over the field at a few
@@ -327,10 +653,11 @@ def particle_figure(exp: Experiment, traces: Traces, path: Path,
     first = runs_in(traces.trials[panels[0][1]])[""] if panels else None
     if first is None:
         return
-    steps = first["steps"]
-    fig, axes = fs.pyplot().subplots(len(panels), len(steps), figsize=(1.9 * len(steps) + 1.6,
-                                                               1.95 * len(panels) + 0.6),
-                             squeeze=False)
+    cols = _shown_steps(list(first["steps"]), list(np.asarray(world["kidnaps"])))
+    steps = [first["steps"][j] for j in cols]
+    side = min(1.75, (fs.MAX_WIDTH_IN - 1.4) / len(steps))
+    fig, axes = fs.pyplot().subplots(len(panels), len(steps), figsize=(
+        fs.width(side * len(steps) + 1.4), side * len(panels) + 1.0), squeeze=False)
     for i, (r, k, outcome) in enumerate(panels):
         tr = runs_in(traces.trials[k])
         out, truth = tr[r.key], tr[""]["truth_pose_at"]
@@ -344,20 +671,20 @@ def particle_figure(exp: Experiment, traces: Traces, path: Path,
                     if len(c) else "")
         what = ({1.0: "recovered", 0.0: "did not recover", None: ""} if kidnapped else
                 {1.0: "converged", 0.0: "did not converge", None: ""})[outcome]
-        for j, t in enumerate(steps):
+        for j, (t, jt) in enumerate(zip(steps, cols)):
             ax = axes[i, j]
             W, H = float(world["area"][0]), float(world["area"][1])
             ax.plot(world["beacons"][:, 0], world["beacons"][:, 1], "k^", ms=4, zorder=2)
-            ax.plot(*truth[j, :2], "o", mfc="none", mec="red", ms=8, mew=1.2, zorder=3)
-            est = out["pose_at"][j, :2]
+            ax.plot(*truth[jt, :2], "o", mfc="none", mec="red", ms=8, mew=1.2, zorder=3)
+            est = out["pose_at"][jt, :2]
             ax.plot(*est, "x", color="green", ms=6, mew=1.4, zorder=4)
             if has:     # above the markers: a collapsed cloud stays visible
-                P = out["snap_xy"][ends[j] - out["snap_drawn"][j]:ends[j]]
+                P = out["snap_xy"][ends[jt] - out["snap_drawn"][jt]:ends[jt]]
                 ax.plot(P[:, 0], P[:, 1], ".", color="tab:blue", ms=2.4, alpha=0.5, mew=0,
                         zorder=5, rasterized=True)     # in an SVG or PDF: an image, not points
             if not (0 <= est[0] <= W and 0 <= est[1] <= H):
                 ax.text(0.97, 0.97, "estimate off the field", transform=ax.transAxes,
-                        fontsize=6, ha="right", va="top", color="green")
+                        fontsize=8, ha="right", va="top", color="green")
             ax.set_xlim(0, W)
             ax.set_ylim(0, H)
             ax.set_aspect("equal")
@@ -365,28 +692,31 @@ def particle_figure(exp: Experiment, traces: Traces, path: Path,
                 ax.spines[side].set_visible(True)
             ax.set_xticks([0, W / 2, W] if i == len(panels) - 1 else [])
             ax.set_yticks([0, H / 2, H] if j == 0 else [])
-            ax.tick_params(labelsize=6)
+            ax.tick_params(labelsize=8)
             if i == len(panels) - 1:
                 ax.set_xticklabels([f"{v:g}" for v in (0, W / 2, W)])
-                ax.set_xlabel("x (m)", fontsize=7)
+                ax.set_xlabel("x (m)", fontsize=8)
             ax.grid(False)
             if i == 0:
                 ax.set_title(f"step {t}" + (" (kidnapped)" if t in world["kidnaps"] else ""),
                              fontsize=8)
             if j == 0:
                 ax.set_yticklabels([f"{v:g}" for v in (0, H / 2, H)])
-                ax.set_ylabel(f"{r.label}, trial {k}\n{what}{rate}\ny (m)", fontsize=7)
-            if has and (out["snap_count"][j] != r.particles
-                        or out["snap_drawn"][j] != out["snap_count"][j]):
-                drawn, n = out["snap_drawn"][j], out["snap_count"][j]
-                ax.text(0.03, 0.03, f"{n} particles" + (f" ({drawn} drawn)" if drawn < n else ""),
-                        transform=ax.transAxes, fontsize=6)
+                ax.set_ylabel(f"{r.label}, trial {k}\n{what}{rate}", fontsize=8)
+            if has and out["snap_count"][jt] != r.particles:      # an adaptive count
+                ax.text(0.03, 0.03, f"N={out['snap_count'][jt]}", transform=ax.transAxes,
+                        fontsize=8)
     w, h = float(world["area"][0]), float(world["area"][1])
-    fig.suptitle(f"{exp.name}: particles (blue) over the {w:g} m x {h:g} m field, beacons "
-                 "(black), true pose (red circle), estimate (green x); of each filter a trial "
-                 + ("where it recovered from every kidnapping and one where it did not"
-                    if kidnapped else "where it converged and one where it did not"),
-                 fontsize=9)
+    n_snap = sum(1 for tr in traces.trials.values() if "steps" in tr)
+    fig.suptitle(fs.wrap(f"{exp.name}: particles (blue) over the {w:g} m x {h:g} m field "
+                         "(x, y in m), beacons (black), true pose (red circle), estimate (green "
+                         "x); of each filter a trial "
+                         + ("where it recovered from every kidnapping and one where it did not"
+                            if kidnapped else "where it converged and one where it did not")
+                         + f" (among the first {n_snap} of {exp.trials} trials, whose "
+                         f"particles the run keeps; at most {SNAPSHOT_PARTICLES} of a set "
+                         "drawn)",
+                         fig.get_size_inches()[0]), fontsize=10)
     fig.tight_layout()
     save_figure(fig, path)
 
@@ -418,11 +748,19 @@ def write_figures(exp: Experiment, rows: list[dict] | pd.DataFrame, out_dir: Pat
         for metric, scale, ylabel, q in _distribution_quantities(exp):
             values = df[metric].dropna() if metric in df else pd.Series(dtype=float)
             if metric != "rmse" and values.isin((0.0, 1.0)).all():
-                continue        # a rate (0 or 1 a trial): its table cell says all a figure could
+                continue        # a rate (0 or 1 a trial): drawn with the rates
             path = folder / f"{metric}.{fmt}"
             distribution_figure(exp, df, path, metric, scale, ylabel, q, table)
             if path.exists():
                 paths.append(path)
+        if len(df) and rates(exp, df):
+            path = folder / f"rates.{fmt}"
+            rate_figure(exp, df, path, table)
+            paths += [path] if path.exists() else []
+        for fam, qs in _families(exp).items():
+            path = folder / f"{fam}.{fmt}"
+            claims_figure(exp, table, qs, path, df)
+            paths += [path] if path.exists() else []
         if kind.figures:
             paths += globals()[kind.figures](exp, df, traces, folder, fmt)
     fs.prune(folder, paths)
@@ -481,6 +819,60 @@ def sweep_metrics(exp: Experiment) -> list[str]:
     return list(dict.fromkeys(out))
 
 
+# Quantities that are positive by their definition: a sweep draws their band as a log-normal
+# interval (figstyle.lognormal_band), which stays above 0
+POSITIVE = ("rmse", "mse", "heading_rmse", "position_error", "heading_error", "landmark_error",
+            "x_error", "y_error", "final_error", "error_at_step", "wall_s", "mean_ess",
+            "mean_particles", "lik_evals_per_step", "converge_step", "recovery_steps")
+
+
+def log_axis(values) -> bool:
+    """Whether a sweep's x axis is logarithmic: its positive values span a factor of 8 or more
+    (25 to 800 particles), so that doubling N is the same step everywhere."""
+    v = pd.to_numeric(pd.Series(list(values)), errors="coerce").dropna()
+    v = v[v > 0]
+    return bool(len(v) and v.max() / v.min() >= 8)
+
+
+def sweep_band(summ: pd.DataFrame, m: str) -> tuple[np.ndarray, np.ndarray]:
+    """A sweep line's 95% band of metric ``m``: for a positive quantity (POSITIVE) the
+    log-normal interval from the mean and its standard error (it cannot dip below 0); else the
+    summary's normal interval."""
+    if m in POSITIVE and f"{m}_se" in summ:
+        return fs.lognormal_band(summ[f"{m}_mean"].to_numpy(float),
+                                 summ[f"{m}_se"].to_numpy(float))
+    return summ[f"{m}_ci_lo"].to_numpy(float), summ[f"{m}_ci_hi"].to_numpy(float)
+
+
+def _sweep_lines(summ: pd.DataFrame, group: list[str], x: str, others: list[str],
+                 m: str) -> list[tuple]:
+    """The lines of a sweep figure of metric ``m``: (name, x values, means, band's low, band's
+    high) per group of the summary's rows (a filter and the values of the other swept keys)."""
+    lines = []
+    for vals, g in summ.groupby(group, sort=False, dropna=False):
+        vals = vals if isinstance(vals, tuple) else (vals,)
+        g = g.assign(_x=pd.to_numeric(g[x], errors="coerce")).sort_values("_x")
+        n = g["particles"].dropna().unique()
+        name = " ".join([f"{fs.label(k)} = {v}" for k, v in zip(others, vals)]
+                        + [str(vals[len(others)])]
+                        + ([f"(N={int(n[0])})"] if len(n) == 1
+                           and not x.endswith("particles") else []))
+        lo, hi = sweep_band(g, m)
+        lines.append((name, g["_x"].to_numpy(float), g[f"{m}_mean"].to_numpy(float), lo, hi))
+    return lines
+
+
+def _sweep_x_axis(ax, xvalues: pd.Series) -> None:
+    """A sweep panel's x axis: logarithmic, ticked at the swept values, where they span a factor
+    of 8 or more (log_axis); a light grid."""
+    if log_axis(xvalues):
+        ax.set_xscale("log")
+        xs = sorted(pd.to_numeric(xvalues, errors="coerce").dropna().unique())
+        ax.set_xticks(xs, [f"{v:g}" for v in xs])
+        ax.minorticks_off()
+    ax.grid(alpha=0.3)
+
+
 def sweep_figures(summ: pd.DataFrame, keys: list[str], out_dir: Path, title: str,
                   which=None, where: Path | None = None, fmt: str = "png",
                   unit: str = "", into: Path | None = None, curves: tuple = ()) -> list[Path]:
@@ -488,48 +880,68 @@ def sweep_figures(summ: pd.DataFrame, keys: list[str], out_dir: Path, title: str
     sweep draws sweep_metrics of its experiment) against the first swept key, into ``where``
     (default: the folder's figures/METRIC.FMT): a line per filter (and per value of the other
     swept keys; a particle count that the sweep varies is the x axis, not a line of its own) with
-    its 95% band; a log axis where the swept values span two decades or more. The paper's
-    ``curves`` (pfbench.curves) of a metric's mean are drawn on its figure: the points with
-    their reading-error bars, joined by a dashed line."""
+    its 95% band (log-normal for a positive quantity: sweep_band); more than two lines: one
+    panel per line with a shared axis, the other lines in light grey behind it. A log x axis
+    where the swept values span a factor of 8 or more (log_axis). The paper's ``curves``
+    (pfbench.curves) of a metric's mean are drawn on its figure: the points with their
+    reading-error bars, joined by a dashed line."""
     folder = Path(into) if into is not None else out_dir / "figures"
     x = keys[0]
     others = keys[1:]
     paths = []
-    numeric = pd.to_numeric(summ[x], errors="coerce")
     if which is None:
         which = [m for m in SWEEP_FIGURES if f"{m}_mean" in summ]
     group = others + ["label"] + ([] if x.endswith("particles") else ["particles"])
+    n_trials = sorted({int(n) for n in summ["trials"].dropna()}) if "trials" in summ else []
+    counted = ("" if not n_trials else f"{n_trials[0]} trials a cell" if len(n_trials) == 1
+               else f"{n_trials[0]} to {n_trials[-1]} trials a cell")
+    from .curves import figure_points
     with fs.style():
         for m in which:
             if f"{m}_mean" not in summ or summ[f"{m}_mean"].isna().all():
                 continue
             ylabel = fs.label(m, unit if m == "rmse" else "")
-            fig, ax = fs.pyplot().subplots(figsize=(7.8, 4.4))
-            for i, (vals, g) in enumerate(summ.groupby(group, sort=False, dropna=False)):
-                vals = vals if isinstance(vals, tuple) else (vals,)
-                g = g.assign(_x=pd.to_numeric(g[x], errors="coerce")).sort_values("_x")
-                n = g["particles"].dropna().unique()
-                name = " ".join([f"{fs.label(k)} = {v}" for k, v in zip(others, vals)]
-                                + [str(vals[len(others)])]
-                                + ([f"(N={int(n[0])})"] if len(n) == 1
-                                   and not x.endswith("particles") else []))
-                c = fs.colour(i)
-                ax.plot(g["_x"], g[f"{m}_mean"], color=c, ls=fs.linestyle(i),
-                        marker=fs.marker(i), ms=4, lw=1.4, label=name)
-                ax.fill_between(g["_x"], g[f"{m}_ci_lo"], g[f"{m}_ci_hi"], color=c,
-                                alpha=0.15, lw=0)
-            from .curves import figure_points
-            for j, (name, px, py, perr) in enumerate(figure_points(curves, m, x)):
-                ax.errorbar(px, py, yerr=perr, color="black", ls="--", lw=1.0,
-                            marker=("s", "D", "^", "v")[j % 4], ms=5, mfc="white",
-                            capsize=3, label=name, zorder=5)
-            pos = numeric[numeric > 0]
-            if len(pos) and pos.max() / pos.min() >= 100:
-                ax.set_xscale("log")
-            ax.set_xlabel(fs.label(x))
-            ax.set_ylabel(ylabel)
-            ax.set_title(f"{title}: {ylabel}, mean over trials and its 95% interval")
-            fs.legend_outside(ax)
+            lines = _sweep_lines(summ, group, x, others, m)
+            many = len(lines) > 2
+            ncol = min(len(lines), 2) if many else 1
+            nrow = math.ceil(len(lines) / ncol) if many else 1
+            wide = fs.width(4.3 * ncol + 0.6 if many else 7.8)
+            fig, axes = fs.pyplot().subplots(nrow, ncol, figsize=(
+                wide, (2.8 * nrow + 1.4) if many else 4.6), sharex=True, sharey=True,
+                squeeze=False)
+            panels = ([(axes[i // ncol, i % ncol], [i]) for i in range(len(lines))] if many
+                      else [(axes[0, 0], list(range(len(lines))))])
+            for ax, mine in panels:
+                for j, (name, px, py, lo, hi) in enumerate(lines):
+                    if j not in mine:
+                        ax.plot(px, py, color="0.78", lw=1.0, zorder=1)
+                for j in mine:
+                    name, px, py, lo, hi = lines[j]
+                    c = fs.colour(j)
+                    ax.fill_between(px, lo, hi, color=c, alpha=0.2, lw=0, zorder=2)
+                    ax.plot(px, py, color=c, ls=fs.linestyle(0 if many else j),
+                            marker=fs.marker(j), ms=4, lw=1.6, label=name, zorder=3)
+                    if many:
+                        ax.set_title(name)
+                for k, (cname, cx, cy, cerr) in enumerate(figure_points(curves, m, x)):
+                    ax.errorbar(cx, cy, yerr=cerr, color="black", ls="--", lw=1.0,
+                                marker=("s", "D", "^", "v")[k % 4], ms=5, mfc="white",
+                                capsize=3, label=cname, zorder=5)
+                _sweep_x_axis(ax, summ[x])
+            for i in range(len(lines) if many else 1, nrow * ncol):
+                axes[i // ncol, i % ncol].set_visible(False)
+            for j in range(ncol):
+                axes[-1, j].set_xlabel(fs.label(x))
+            for i in range(nrow):
+                axes[i, 0].set_ylabel(ylabel)
+            band = ("log-normal 95% interval" if m in POSITIVE and f"{m}_se" in summ
+                    else "95% interval")
+            fig.suptitle(fs.wrap(f"{title}: {ylabel}, the mean over "
+                                 f"{counted or 'the trials'} with its {band} (band)"
+                                 + ("; grey: the other lines" if many else ""), wide),
+                         fontsize=10)
+            fig.tight_layout()
+            _legend_under(fig, [a for a, _ in panels], ncol=2)
             path = where or folder / f"{m}.{fmt}"
             path.parent.mkdir(parents=True, exist_ok=True)
             save_figure(fig, path)

@@ -364,6 +364,7 @@ def claims(exp, rows) -> list[JudgedClaim]:
     import pandas as pd
     from . import compare as cp
     from .metrics import summarize
+    from .tables import judged_title
     from .verdicts import ALPHA, Claim
     table = exp.reported
     if table is None:
@@ -387,8 +388,10 @@ def claims(exp, rows) -> list[JudgedClaim]:
             lo, hi = judge.interval(1 - ALPHA)
             kind = "gain" if q.metric in ("gain_mean", "gain_var") else "cell"
             paper = r[f"paper_{q.key}"]
+            # a quantity judged on another measure is named by that measure, never by ours
+            title = q.title if q.judged_by is None else judged_title(q, exp)
             out.append(JudgedClaim(f"{kind}:{run.key}:{q.key}", kind, run.label,
-                                   run.particles, q.title, paper, judge.value, lo, hi, claim))
+                                   run.particles, title, paper, judge.value, lo, hi, claim))
     for row, claim in cp.factor_claims(exp, table, by_key):
         out.append(JudgedClaim(f"factor:{row['quantity']}:{row['from']}:{row['to']}", "factor",
                                f"{row['to']} / {row['from']}", None, row["quantity"],

@@ -32,7 +32,7 @@ from .config import load, read_yaml
 from .errors import UserError
 from .metrics import METRICS
 from .fsutil import FolderLock, child, own_folder, recover_aside, remove_tree, replace_tree
-from .runner import LocalExecutor, keep_provenance, run_experiment
+from .runner import LocalExecutor, keep_provenance, missing_data, run_experiment
 from . import sweep as sw
 from .api import run_until_decided
 from .outputs import check_figure_format
@@ -176,6 +176,44 @@ def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int |
     return folder
 
 
+def redraw(path: Path, results: Path, figure_format: str = "png") -> Path:
+    """Draw again the figures of one config's committed results from its trials and traces,
+    running no trial: an experiment's figures (its table.md stays as it is), a sweep's summary,
+    curves and figures, and each cell's table (table.csv, table.md). The trials files are only read. Returns the
+    folder; a UserError when it holds no finished results of the config."""
+    from .store import read_sweep
+    check_figure_format(figure_format)
+    if is_sweep(path):
+        name, cells = sw.expand(path, {}, {})
+        folder = child(Path(results), name, f"{path}: name")
+        with FolderLock(folder, "results folder", root=Path(results)):
+            from .sweep import write_cell_table
+            for cell in cells:
+                meta, tf = read_results(folder / "cells" / cell.name)
+                write_cell_table(cell.exp, tf.rows, meta, folder / "cells" / cell.name)
+            df, _ = read_sweep(folder)      # checked: its trials, summary and cells agree
+            write_sweep(df, list(cells[0].values), folder, name, True, figure_format,
+                        cells[0].exp, curves=cells[0].curves)
+        return folder
+    exp = load(path)
+    folder = child(Path(results), exp.name, f"{path}: name")
+    with FolderLock(folder, "results folder", root=Path(results)):
+        meta, tf = read_results(folder)
+        # as the report: the committed trials as they are (a config edited since, in a way
+        # that keeps its trials, leaves them standing; 'pfbench tables --check' says whether)
+        if meta.get("experiment") != exp.name or tf.rejected:
+            raise UserError(f"{folder}: its trials are not {exp.name}'s, or some fail their "
+                            "checksum (run it again: pfbench tables)")
+        from .outputs import anytime_of
+        from .plots import write_figures
+        from .tablecache import cached_compare
+        from .store import read_timings, with_timings
+        with_timings(tf.rows, read_timings(folder))     # the run times, for a time ratio
+        table = cached_compare(exp, tf.rows, anytime=anytime_of(meta)).table
+        write_figures(exp, tf.rows, folder, figure_format, table)
+    return folder
+
+
 def _readings(exp, folder: Path, stage: Path, executor, run: bool, warn, status) -> None:
     """The readings of a regenerated experiment: those ``folder`` held, kept in ``stage`` when
     its trials are the same (pfbench.readings.carry); with ``run``, every reading its paper file
@@ -223,10 +261,12 @@ class CheckResult:
     compared: int = 0             # (run, metric) pairs compared
     identical: bool = True        # the re-run trials equal the committed ones bit for bit
     findings: list[MovedMetric] = field(default_factory=list)
+    skipped: str = ""             # why nothing was re-run (the recorded data are absent)
 
     @property
     def ok(self) -> bool:
         return not self.findings
+
 
 
 def check_against_committed(check: pd.DataFrame, committed: pd.DataFrame, where: str,
@@ -322,6 +362,9 @@ def check_config(path: Path, results: Path, executor: LocalExecutor, z: float = 
                                         f"{name} [{cell.name}]", z, result)
             return result
         exp = load(path)
+        why = missing_data(exp)
+        if why is not None:         # nothing to re-run here: said, not failed
+            return CheckResult(exp.name, 0, skipped=why)
         k = min(exp.check["trials"], exp.trials)
         where = child(Path(results), exp.name, f"{path}: name")
         committed = _committed(where, exp)

@@ -366,14 +366,15 @@ def comparison(e: Entry) -> list[str]:
     interval, the paper's value and the verdict; reasons for 'not comparable' listed once."""
     table = e.exp.reported
     head = ["Filter", "N", "Trials"]
-    for q in table.quantities:
-        head += [f"{q.title}: ours [95% CI]", "paper", "verdict"]
+    for q in table.quantities:      # a verdict sits beside the measure it judged
+        head += [f"{q.title}: {tb.judged_title(q, e.exp) if q.judged_by else 'ours'} "
+                 "[95% CI]", "paper", "verdict"]
     reasons: list[str] = []
     cells = []
     for _, r in e.table.iterrows():
         row = [r["label"], _n(r["particles"]), str(int(r["trials"]))]
         for q in table.quantities:
-            row += [tb.ours_cell(r, q), tb.fmt(r[f"paper_{q.key}"], 6),
+            row += [tb.shown_cell(r, q), tb.fmt(r[f"paper_{q.key}"], 6),
                     numbered(r[f"verdict_{q.key}"] or "-", reasons)]
         cells.append(row)
     out = _table_md(head, cells)
@@ -413,6 +414,9 @@ def _experiment_section(e: Entry, where: Path) -> list[str]:
         if e.comparison.per_trial is not None:
             title, head, cells = tb.per_trial_cells(e.comparison.per_trial)
             out += [f"{title}:", ""] + _table_md(head, cells) + [""]
+        head, cells = tb.ranking_table(e.comparison.rankings)
+        if cells:
+            out += [f"{tb.RANKING_TITLE}:", ""] + _table_md(head, cells) + [""]
         # the baseline's paired columns are in table.md, not here: their legend goes too
         notes = [n for n in tb.footnotes(e.comparison) if not n.startswith("'RMSE - ")]
         if notes:
@@ -483,7 +487,8 @@ def sweep_cells(e: Entry) -> tuple[list[str], list[list[str]]]:
     from .plots import sweep_metrics
     keys, s = e.sweep_keys, e.table
     metrics = [m for m in sweep_metrics(e.exp) if f"{m}_mean" in s]
-    head = keys + ["Filter", "N"] + [f"{label(m)} [95% CI]" for m in metrics] + ["Evals/step"]
+    head = [label(k) for k in keys] + ["Filter", "N"] + [f"{label(m)} [95% CI]" for m in metrics] \
+        + ["Evals/step"]
     cells = [[_fmt_value(r[k]) for k in keys] + [r["label"], _n(r["particles"])]
              + [f"{tb.fmt(r[f'{m}_mean'])} [{tb.fmt(r[f'{m}_ci_lo'])}, "
                 f"{tb.fmt(r[f'{m}_ci_hi'])}]" for m in metrics]
@@ -619,3 +624,133 @@ def readings_outcome_md(entries: list[Entry]) -> list[str]:
     if not lines:
         return []
     return [f"#### {READINGS_TITLE}", "", READINGS_INTRO, "", *[f"- {x}" for x in lines], ""]
+
+
+# ---- the index: what was found, one line per paper table
+
+INDEX_TITLE = "What was found"
+INDEX_INTRO = ("One line per table of a paper: what our trials show of it (the paper file's "
+               "headline, its numbers filled in from the results), the verdicts of its paper "
+               "values, the ordered pairs of its rows where the paper claims an order, and marks "
+               "for the negatives that hold however the table is read: paper values below the "
+               "model's floor (what no filter can average), claims that differ under every "
+               "reading of the paper's open choices, and tables where no value differs. The "
+               "summary table, the sections of each paper and the verdicts' definitions follow.")
+
+
+@dataclass
+class IndexLine:
+    """One line of the report's index: a paper's table (or a sweep judged against a paper's
+    curve), what our results show of it in words, and per config its verdict counts, ordered
+    pairs and marks."""
+    paper: str
+    table: str                      # 'Table 1', or 'Sweep'
+    headline: str                   # the headline filled in, or the table's caption
+    configs: list                   # [(Entry, counts text, marks)]
+
+
+def index_lines(entries: list[Entry], papers: dict, by_name: dict) -> list[IndexLine]:
+    """The index of a report: for each paper's table with a config among ``entries`` (in
+    ``entries``' order), its headline filled in (``headline:`` of the paper file's table; its
+    caption where it has none, or where the headline names a config not among these) and each
+    of its configs' counts and marks (``entry_counts``, ``entry_marks``); then each sweep judged
+    against a paper's curve. A broken reference in a headline is a UserError naming the paper
+    file (the report is not written)."""
+    out: list[IndexLine] = []
+    seen: dict[tuple, IndexLine] = {}
+    for e in sorted(entries, key=lambda e: (e.exp.paper or "~", e.cells is not None,
+                                            e.exp.table or "", e.path.stem)):
+        p = papers.get(e.exp.paper)
+        if p is None or (e.cells is None and e.exp.reported is None) or \
+                (e.cells is not None and e.curves is None):
+            continue
+        if e.cells is not None:
+            # the curve's caption up to its first colon: what it is, in words
+            line = IndexLine(p.key, "Sweep", "Against the paper's curve: " + "; ".join(
+                c.caption.split(":")[0] for _, c in e.cells[0].curves), [])
+            out.append(line)
+        else:
+            k = (p.key, e.exp.table)
+            line = seen.get(k)
+            if line is None:
+                t = e.exp.reported
+                line = seen[k] = IndexLine(p.key, _table_name(e.exp.table),
+                                           _headline(p, e.exp.table, t, by_name), [])
+                out.append(line)
+        line.configs.append((e, entry_counts(e), entry_marks(e)))
+    return out
+
+
+def _headline(p: pp.Paper, key: str, table: pp.Table, by_name: dict) -> str:
+    h = getattr(table, "headline", None)
+    if h is None or not here(h, by_name):
+        return table.caption
+    try:
+        return fill(h.text, by_name)
+    except UserError as exc:
+        raise UserError(f"{p.source}: tables.{key}.headline: {exc}") from None
+
+
+def entry_counts(e: Entry) -> str:
+    """A config's verdicts in words: '15 paper values: 1 reproduced, 14 differ; ordered pairs:
+    0 same, 18 opposite, 0 unresolved' (what is zero left out, but for the reproduced)."""
+    if e.status != "ok":
+        return f"not reported ({e.status})"
+    c = verdict_counts(e)
+    if not c["values"]:
+        return "no paper values"
+    parts = [f"{c['reproduced']} reproduced"] + [
+        f"{c[k]} {k}" for k in ("differ", "inconclusive", "not comparable") if c[k]]
+    text = f"{c['values']} paper value{'s' if c['values'] != 1 else ''}: {', '.join(parts)}"
+    same, opposite, unresolved = ranking_counts(e)
+    if same + opposite + unresolved:
+        text += (f"; ordered pairs: {same} same, {opposite} opposite, {unresolved} "
+                 "unresolved")
+    return text
+
+
+FLOOR_WORDS = "below the model's floor"
+
+
+def entry_marks(e: Entry) -> list[str]:
+    """The marks of a config's robust findings: paper values below the model's floor (counted
+    over the cells), claims that differ under every reading of the paper's open choices
+    (pfbench.readings.robustness_lines, where readings were run), and 'no value differs' where
+    every judged value is reproduced or inconclusive."""
+    if e.status != "ok":
+        return []
+    marks = []
+    c = verdict_counts(e)
+    table = e.exp.reported
+    if e.comparison is not None and table is not None:
+        texts = [str(v) for q in table.quantities if f"verdict_{q.key}" in e.table
+                 for v in e.table[f"verdict_{q.key}"] if isinstance(v, str) and v]
+        below = sum(FLOOR_WORDS in v for v in texts)
+        if below:
+            marks.append(f"paper {FLOOR_WORDS}: {below} of {c['values']} values")
+    lines = readings_outcome([e])
+    if lines:
+        every = [x for x in lines if re.search(r": differs under all \d+ readings$", x)]
+        n = re.search(r"all (\d+) readings", every[0]).group(1) if every else None
+        if every:
+            marks.append(f"differs under every reading ({n} readings): {len(every)} of "
+                         f"{len(lines)} claims")
+    judged = c["reproduced"] + c["differ"] + c["inconclusive"]
+    if judged and not c["differ"]:
+        marks.append(f"no value differs ({judged} judged)")
+    return marks
+
+
+def index_md(lines: list[IndexLine]) -> list[str]:
+    """The index in Markdown: a heading, the intro, one bullet per line (headline, then each
+    config with its counts and marks)."""
+    if not lines:
+        return []
+    out = [f"## {INDEX_TITLE}", "", INDEX_INTRO, ""]
+    for ln in lines:
+        configs = "; ".join(
+            f"`{e.path.stem}`: {counts}" + (f" ({'; '.join(f'**{m}**' for m in marks)})"
+                                              if marks else "")
+            for e, counts, marks in ln.configs)
+        out.append(f"- **{ln.paper} {ln.table}**: {ln.headline.rstrip('.')}. {configs}.")
+    return out + [""]

@@ -20,6 +20,7 @@ from types import SimpleNamespace
 import jinja2
 from markupsafe import Markup, escape
 
+from .figstyle import label
 from .fsutil import FolderLock, atomic_write, make_folders, own_folder
 from .version import __version__
 from . import report_data as rp
@@ -35,7 +36,9 @@ h1 { font-size: 1.6em; } h2 { font-size: 1.3em; margin-top: 2em; border-bottom: 
 h3 { font-size: 1.1em; margin-top: 1.6em; }
 table { border-collapse: collapse; margin: 0.6em 0 1em; font-size: 0.86em; width: 100%; }
 th, td { border: 1px solid #d5d5d5; padding: 0.25em 0.45em; text-align: left;
-         vertical-align: top; overflow-wrap: anywhere; }
+         vertical-align: top; overflow-wrap: normal; word-break: keep-all; hyphens: manual; }
+table.steps td { word-break: normal; }
+table.results td, table.results th { min-width: 3em; }
 th { background: #f3f3f3; }
 td.num { white-space: nowrap; font-variant-numeric: tabular-nums; }
 .wrap { max-width: 100%; overflow-x: auto; }
@@ -43,7 +46,12 @@ td.num { white-space: nowrap; font-variant-numeric: tabular-nums; }
 .reproduced { background: #e3f4e1; } .differs { background: #fbe3e1; }
 .inconclusive { background: #fff4d6; } .not-comparable { background: #eeeeee; }
 .verdict .mark { font-family: monospace; margin-right: 0.3em; }
-figure { margin: 1em 0; } figure img { max-width: 100%; height: auto; border: 1px solid #eee; }
+figure { margin: 1em 0; } figure img { max-width: 100%; height: auto; border: 1px solid #eee;
+                                        box-sizing: border-box;
+                                        display: block; }
+nav.toc { font-size: 0.92em; background: #f7f7f7; padding: 0.4em 1em; border-left: 3px solid #ccc; }
+nav.toc ol { margin: 0.2em 0; padding-left: 1.4em; } nav.toc li { margin: 0.1em 0; }
+ul.index li { margin-bottom: 0.6em; } .robust { font-weight: 600; }
 figcaption { font-size: 0.85em; color: #555; }
 .prov { font-size: 0.85em; color: #444; }
 code { background: #f5f5f5; padding: 0 0.2em; }
@@ -75,14 +83,18 @@ trials of this project; every table is recomputed from its <code>trials.csv</cod
 <h1>pfbench reproduction report</h1>
 <p>Each paper's tables re-computed from scratch by Monte Carlo trials, beside the values the paper
 reports, with 95% intervals and a verdict for every value.</p>
-<h2>What the verdicts mean</h2>
-<ul class="notes">{% for d in definitions %}<li>{{ d }}</li>{% endfor %}</ul>
-<p>Marks: {% for k, m in marks %}<span class="verdict {{ k|replace(' ', '-') }}"><span class="mark">{{ m }}</span>{{ k }}</span>{% if not loop.last %}, {% endif %}{% endfor %}.</p>
-<h2>Summary</h2>
+{% if index %}<h2 id="found">{{ index_title }}</h2>
+<p>{{ index_intro }}</p>
+<ul class="index">{% for ln in index %}<li><strong>{{ ln.paper }} {{ ln.table }}</strong>: {{ ln.headline }}.{% for c in ln.configs %} <a href="{{ c.page }}">{{ c.name }}</a>: {{ c.counts }}{% for m in c.marks %}; <span class="robust">{{ m }}</span>{% endfor %}{% if not loop.last %};{% else %}.{% endif %}{% endfor %}</li>
+{% endfor %}</ul>{% endif %}
+<h2 id="summary-table">Summary</h2>
 <div class="wrap"><table id="summary">
 <tr>{% for h in summary_head %}<th>{{ h }}</th>{% endfor %}</tr>
 {% for row in summary %}<tr>{% for c in row %}<td{% if loop.index > 3 %} class="num"{% endif %}>{{ c|safe }}</td>{% endfor %}</tr>
 {% endfor %}</table></div>
+<h2>What the verdicts mean</h2>
+<ul class="notes">{% for d in definitions %}<li>{{ d }}</li>{% endfor %}</ul>
+<p>Marks: {% for k, m in marks %}<span class="verdict {{ k|replace(' ', '-') }}"><span class="mark">{{ m }}</span>{{ k }}</span>{% if not loop.last %}, {% endif %}{% endfor %}.</p>
 <h2>Papers</h2>
 <ul>{% for p in papers %}<li><a href="{{ p.page }}">{{ p.key }}</a>: {{ p.citation }}</li>{% endfor %}</ul>
 {% endblock %}
@@ -92,7 +104,13 @@ reports, with 95% intervals and a verdict for every value.</p>
 <p>{{ paper.citation }}</p>
 {% if paper.about %}<p>{{ paper.about }}</p>{% endif %}{% if elsewhere %}
 <p>Not among these configs: {{ elsewhere|join(", ") }} of this paper.</p>{% endif %}
-{% if findings %}<h2>What reproduced and what did not</h2>
+<nav class="toc" aria-label="Contents"><strong>On this page</strong><ol>
+{% if findings %}<li><a href="#findings">What reproduced and what did not</a></li>{% endif %}
+{% if implementation %}<li><a href="#implementation">{{ implementation_title }}</a></li>{% endif %}
+{% for s in sections %}<li><a href="#{{ s.name }}">{{ s.title }}</a>{% if s.figures %} (<a href="#{{ s.name }}-figures">figures</a>){% endif %}</li>
+{% endfor %}{% if choices %}<li><a href="#choices">Choices the paper left open, and the values used</a></li>{% endif %}
+</ol></nav>
+{% if findings %}<h2 id="findings">What reproduced and what did not</h2>
 <ul class="notes">{% for f in findings %}<li>{{ f }}</li>{% endfor %}</ul>{% endif %}
 {% if implementation %}<h2 id="implementation">{{ implementation_title }}</h2>
 <p>{{ implementation_intro }}</p>
@@ -122,10 +140,10 @@ reports, with 95% intervals and a verdict for every value.</p>
 {% if s.reasons %}<ul class="notes">{% for r in s.reasons %}<li>Not comparable ({{ loop.index }}): {{ r }}.</li>{% endfor %}</ul>{% endif %}
 {% if s.readings %}<h3>Under every reading of the paper's open choices</h3><p>{{ s.readings.intro }}</p><ul class="notes">{% for n in s.readings.lines %}<li>{{ n }}</li>{% endfor %}</ul><details><summary>Every claim under every reading</summary><p>{{ s.readings.legend }}</p><div class="wrap"><table class="results"><tr>{% for h in s.readings.head %}<th>{{ h }}</th>{% endfor %}</tr>{% for row in s.readings.rows %}<tr>{% for c in row %}<td>{{ c }}</td>{% endfor %}</tr>{% endfor %}</table></div><p>{{ s.readings.note }}</p></details>{% endif %}{% if s.notes %}<h3>Measured here</h3><ul class="notes">{% for n in s.notes %}<li>{{ n }}</li>{% endfor %}</ul>{% endif %}
 {% if s.paper_notes %}<h3>The paper's table and how we read it</h3><ul class="notes">{% for n in s.paper_notes %}<li>{{ n }}</li>{% endfor %}</ul>{% endif %}
-{% for f in s.figures %}<figure><img src="{{ f.src }}" alt="{{ f.alt }}"><figcaption>{{ f.alt }}</figcaption></figure>
+{% for f in s.figures %}<figure{% if loop.first %} id="{{ s.name }}-figures"{% endif %}><a href="{{ f.src }}" title="the figure at full size"><img src="{{ f.src }}" alt="{{ f.alt }}"></a><figcaption>{{ f.alt }} (click the figure for its full size)</figcaption></figure>
 {% endfor %}{% endif %}
 {% endfor %}
-{% if choices %}<h2>Choices the paper left open, and the values used</h2>
+{% if choices %}<h2 id="choices">Choices the paper left open, and the values used</h2>
 <div class="wrap"><table class="choices"><tr><th>The paper</th><th>Key</th><th>Value (config)</th></tr>
 {% for c in choices %}<tr><td>{{ c[0] }}</td><td><code>{{ c[1] }}</code></td><td>{{ c[2] }}</td></tr>
 {% endfor %}</table></div>{% endif %}
@@ -167,11 +185,14 @@ def _comparison_tables(e: rp.Entry) -> tuple[list[dict], list[str]]:
         for r in ([r for _, r in e.table.iterrows()] if k == 0 or not given else given):
             v = rp.numbered(r[f"verdict_{q.key}"] or "-", reasons)
             rows.append([_cell(r["label"]), _cell(rp._n(r["particles"]), True),
-                         _cell(int(r["trials"]), True), _cell(tb.ours_cell(r, q), True),
+                         _cell(int(r["trials"]), True), _cell(tb.shown_cell(r, q), True),
                          _cell(tb.fmt(r[f"paper_{q.key}"], 6), True),
                          _verdict(r[f"kind_{q.key}"] or "", v)])
-        out.append({"title": q.title, "head": ["Filter", "N", "Trials", "Ours [95% CI]",
-                                              "Paper", "Verdict"], "rows": rows})
+        # a verdict sits beside the measure it judged (judged_by), never beside ours
+        ours = (f"{tb.judged_title(q, e.exp)} [95% CI]" if q.judged_by else "Ours [95% CI]")
+        out.append({"title": q.title + (f", judged on {tb.judged_title(q, e.exp)}"
+                                        if q.judged_by else ""),
+                    "head": ["Filter", "N", "Trials", ours, "Paper", "Verdict"], "rows": rows})
     if e.comparison.factors:
         rows = [[_cell(f"{f['quantity']}: {f['to']} / {f['from']}"),
                  _cell(tb.fmt(f["paper"], 3), True),
@@ -184,14 +205,26 @@ def _comparison_tables(e: rp.Entry) -> tuple[list[dict], list[str]]:
         title, head, cells = tb.per_trial_cells(e.comparison.per_trial)
         out.append({"title": title, "head": head,
                     "rows": [[_cell(c, i > 0) for i, c in enumerate(row)] for row in cells]})
+    head, cells = tb.ranking_table(e.comparison.rankings)
+    if cells:       # each pair's status coloured as a verdict: same, opposite, unresolved
+        kinds = {"same": "reproduced", "opposite": "differs", "unresolved": "inconclusive"}
+        out.append({"title": tb.RANKING_TITLE, "head": head,
+                    "rows": [[_cell(c) if i < 2 or c not in kinds else _pair(kinds[c], c)
+                              for i, c in enumerate(row)] for row in cells]})
     return out, reasons
+
+
+def _pair(kind: str, text: str) -> dict:
+    """An ordered pair's cell, coloured as the verdict it stands for, named in words."""
+    return {"kind": kind, "mark": "", "text": text}
 
 
 def _sweep_tables(e: rp.Entry) -> list[dict]:
     head, cells = rp.sweep_cells(e)
     n = len(e.sweep_keys)
     rows = [[_cell(c, i < n or i > n + 1) for i, c in enumerate(row)] for row in cells]
-    out = [{"title": f"Swept: {', '.join(e.sweep_keys)}", "head": head, "rows": rows}]
+    out = [{"title": f"Swept: {', '.join(_key_words(k) for k in e.sweep_keys)}", "head": head,
+            "rows": rows}]
     from . import curves as cv
     for name, c in (e.cells[0].curves if e.curves is not None else ()):
         g = e.curves[e.curves["curve"] == name]
@@ -206,9 +239,14 @@ def _sweep_tables(e: rp.Entry) -> list[dict]:
                    _cell(r["verdict"])] for _, r in g.iterrows()]
         out.append({"title": f"Against the paper's curve {name}: {cv.counts(e.curves, name)}. "
                              + cv.describe(name, c),
-                    "head": list(e.sweep_keys) + ["Filter", "paper", "ours [95% CI]",
-                                                  "verdict"], "rows": rows})
+                    "head": [_key_words(k) for k in e.sweep_keys]
+                    + ["Filter", "paper", "ours [95% CI]", "verdict"], "rows": rows})
     return out
+
+
+def _key_words(key: str) -> str:
+    """A config key path in words ('scenario.speed_mps' -> 'robot speed (m/s)')."""
+    return label(key)
 
 
 def _provenance_html(e: rp.Entry) -> str:
@@ -275,8 +313,26 @@ def _section(e: rp.Entry, out_dir: Path, figures: bool, drawing=None) -> dict:
         into = out_dir / "figures" / e.name
         for p in sorted(_draw_figures(e, into)):
             s["figures"].append({"src": os.path.relpath(p, out_dir).replace(os.sep, "/"),
-                                 "alt": f"{e.name}: {p.stem.replace('_', ' ')}"})
+                                 "alt": figure_words(p.stem, e)})
     return s
+
+
+# what a figure of a results folder shows, by its file's name (the others: a metric's
+# distribution over the trials, or a sweep's metric against the swept key)
+FIGURE_WORDS = {"course": "the course, the landmarks and the estimated paths",
+                "errors": "the estimation errors over time", "ess": "the effective sample size "
+                "over time", "particles": "the particles at chosen steps"}
+
+
+def figure_words(stem: str, e: rp.Entry) -> str:
+    """A figure's caption in words: what it shows, and of which experiment."""
+    if stem in FIGURE_WORDS:
+        what = FIGURE_WORDS[stem]
+    elif e.cells:
+        what = f"{label(stem)} against {', '.join(label(k) for k in e.sweep_keys)}"
+    else:
+        what = f"{label(stem)} over the trials, per filter run"
+    return f"{what[:1].upper()}{what[1:]} ({e.path.stem})"
 
 
 def _readings(e: rp.Entry) -> dict | None:
@@ -325,7 +381,13 @@ def build(configs: Path, results: Path, out_dir: Path, figures: bool = True,
                     else f"other.html#{e.name}" if e in others else None)
             row[2] = (f'<a href="{page}">{e.path.stem}</a>' if page else e.path.stem)
             summary.append([str(c).replace("`", "") if i != 2 else c for i, c in enumerate(row)])
+        index = [{"paper": ln.paper, "table": ln.table, "headline": ln.headline.rstrip("."),
+                  "configs": [{"name": c.path.stem, "page": f"{c.exp.paper}.html#{c.name}",
+                               "counts": counts, "marks": marks}
+                              for c, counts, marks in ln.configs]}
+                 for ln in rp.index_lines(entries, papers, by_name)]
         files["index.html"] = env.get_template("index.html").render(
+            index=index, index_title=rp.INDEX_TITLE, index_intro=rp.INDEX_INTRO,
             title="pfbench reproduction report", css=CSS, papers=nav, version=__version__,
             definitions=[_emphasis(d) for d in DEFINITIONS], marks=[(k, m) for k, m in MARKS.items() if k],
             summary_head=["Paper", "Table", "Config", "Trials", "Paper values", "Reproduced",

@@ -536,11 +536,13 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
     now = mp.RawArray("q", [-1] * (2 * workers))
     if running is not None:
         running.append(lambda: [tuple(now[i:i + 2]) for i in range(0, len(now), 2)])
+    from .rank import ranks_filters
     from .tablecache import import_ahead, settle
     settle()                        # no fork while a thread of this process imports
     with Workers(workers, partial(_run_chunk_in_worker, exp, traces=traces),
                  setup=_worker_init, setup_args=(now,)) as pool:
-        import_ahead()              # the table's modules, while the workers run the trials
+        # the table's modules, while the workers run the trials
+        import_ahead(stats=ranks_filters(exp))
         sizes: list[list[int]] = [[] for _ in range(workers)]   # units each worker holds
 
         def hand_out(slot: int) -> None:
@@ -959,7 +961,24 @@ def run_experiment(exp: Experiment, out_dir: Path, *, workers: int = 1, resume: 
         resume, ready = _check_folder(exp, out_dir, resume, force, traces)
         if ready is not None:
             return ready
+        _require_data(exp)
         return _run_locked(exp, out_dir, workers, resume, progress, executor, warn, traces)
+
+
+def _require_data(exp: Experiment) -> None:
+    """Refuse, in one line and before any trial, an experiment whose recorded data are absent
+    (a folder that is up to date needs none: its table prints without them)."""
+    why = missing_data(exp)
+    if why is not None:
+        raise UserError(why)
+
+
+def missing_data(exp: Experiment) -> str | None:
+    """Why the recorded data experiment ``exp``'s scenario reads are not on this machine (its
+    module's ``unavailable(params)``, one line), or None: a simulated scenario, or the data
+    present."""
+    hook = getattr(SCENARIOS[exp.scenario], "unavailable", None)
+    return hook(dict(exp.scenario_params)) if hook is not None else None
 
 
 def _resumed(exp: Experiment, out_dir: Path, warn) -> dict[int, list[dict]]:

@@ -1,7 +1,8 @@
 """Sweeps: one experiment run over the cartesian product of values of some of its keys.
 
 Each cell is an ordinary experiment (same base seed, so cells differ only in the swept values,
-with common random numbers) written to ``<out>/cells/<cell>/`` and resumable like ``run``; the
+with common random numbers) written to ``<out>/cells/<cell>/`` with its table (table.csv, table.md:
+the cell against its paper's table, as a run's) and resumable like ``run``; the
 sweep folder gets a long-form ``trials.csv`` with a column per swept key, ``summary.csv`` (mean,
 its standard error and 95% interval of each metric per cell and filter run) and a figure per
 metric against the first swept key, one line per filter run with its 95% band. A sweep config
@@ -205,6 +206,7 @@ def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: boo
             res = run_experiment(cell.exp, folder, workers=workers, resume=resume,
                                  progress=cell_progress, executor=executor, warn=warn,
                                  traces=False, force=force)
+        write_cell_table(cell.exp, res.rows, res.meta, folder)
         done += cell.exp.trials
         fresh &= res.up_to_date
         if progress and res.up_to_date:
@@ -221,3 +223,12 @@ def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: boo
         write_csv(out_dir / TIMINGS, trials[keys + ["trial", "filter", "wall_s"]])
     trials.attrs["up_to_date"] = fresh      # every cell held its trials: nothing ran
     return trials
+
+
+def write_cell_table(exp, rows, meta: dict | None, folder: Path) -> None:
+    """A sweep cell's comparison, table.csv and table.md, in its folder (its rows: the cell's
+    trials, never run again), with the ranking of its filters: what a run's folder holds beside
+    its trials."""
+    from . import tables
+    from .tablecache import anytime_of, cached_compare
+    tables.write(cached_compare(exp, rows, anytime=anytime_of(meta)), folder, meta, rows)

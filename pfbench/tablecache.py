@@ -89,6 +89,35 @@ def cached_compare(exp, rows, anytime: int | None = None):
     return cmp
 
 
+def cached_ranking(exp, rows) -> list[str]:
+    """table.md's section "All filters at once" for ``exp``'s trial ``rows``
+    (``pfbench.rank.markdown_section`` on RMSE), from the cache when it was computed before from
+    the same rows (their run times aside) by the same code: an up-to-date folder's table.md is
+    then written without scipy.stats."""
+    import pandas as pd
+    from .rank import markdown_section
+    df = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(list(rows))
+    df = df.drop(columns=["wall_s"], errors="ignore")
+    where = folder()
+    try:
+        k = key(exp, df, "ranking")
+    except (TypeError, ValueError, RecursionError):
+        where = None
+    if where is not None:
+        path = where / f"{k}.pickle"
+        try:
+            with open(path, "rb") as fh:
+                lines = pickle.load(fh)
+            if isinstance(lines, list) and all(isinstance(x, str) for x in lines):
+                return lines
+        except Exception:       # absent or unreadable: compute it
+            pass
+    lines = markdown_section(df, "rmse")
+    if where is not None:
+        _store(where, path, lines)
+    return lines
+
+
 def _store(where: Path, path: Path, cmp) -> None:
     """Write ``cmp`` to ``path`` through a temporary file; keep the newest KEEP entries. Never an
     error: a cache that cannot be written is no cache."""
@@ -112,14 +141,17 @@ def _store(where: Path, path: Path, cmp) -> None:
 _AHEAD: list = []       # the thread of import_ahead, while it may run
 
 
-def import_ahead() -> None:
+def import_ahead(stats: bool = False) -> None:
     """Import, in a thread of this process, the modules the table of a run needs (scipy.special
-    for its intervals, the comparison and the tables) while this process waits for the trials
-    of its worker processes: a short run's table then starts at once. Call it only after those
-    workers are forked, and ``settle`` before forking others (a fork while a thread imports
-    could copy a held import lock into the child)."""
+    for its intervals, the comparison and the tables; with ``stats``, scipy.stats for the
+    ranking of its filters, pfbench.rank) while this process waits for the trials of its worker
+    processes: a short run's table then starts at once. Call it only after those workers are
+    forked, and ``settle`` before forking others (a fork while a thread imports could copy a
+    held import lock into the child)."""
     import threading
-    if all(m in sys.modules for m in ("scipy.special", "pfbench.compare", "pfbench.tables")):
+    wanted = ("scipy.special", "pfbench.compare", "pfbench.tables") + (
+        ("scipy.stats",) if stats else ())
+    if all(m in sys.modules for m in wanted):
         return
 
     def ahead():
@@ -127,6 +159,8 @@ def import_ahead() -> None:
             import scipy.special  # noqa: F401
 
             from . import compare, tables  # noqa: F401
+            if stats:
+                import scipy.stats  # noqa: F401
         except Exception:       # imported again where needed, and failing there if it must
             pass
     settle()
@@ -139,3 +173,10 @@ def settle() -> None:
     """Wait for import_ahead's thread, if one runs (before this process forks)."""
     while _AHEAD:
         _AHEAD.pop().join()
+
+
+def anytime_of(meta: dict | None) -> int | None:
+    """The most trials a run until decided could reach (its confidence sequences are tuned for
+    it), from a results folder's meta; None for a run of a fixed trial count."""
+    until = (meta or {}).get("until_decided")
+    return int(until["max_trials"]) if isinstance(until, dict) and "max_trials" in until else None

@@ -44,6 +44,47 @@ def ranking_lines(rankings: list[Ranking]) -> list[str]:
     return lines
 
 
+RANKING_TITLE = ("Ordered pairs: each pair of rows the paper orders (the row it puts lower "
+                 "first), judged on paired trials")
+
+
+def ranking_table(rankings: list[Ranking], detail: bool = False
+                  ) -> tuple[list[str], list[list[str]]]:
+    """The paper's ordered pairs as a compact table: a row per pair of rows and quantity, a
+    column per particle count, each cell 'same' (resolved in the paper's order), 'opposite'
+    (resolved against it) or 'unresolved'; ``detail`` adds the paired difference of the means
+    with its interval at its Holm level. Then a row per quantity with our order of the rows
+    (point estimates). ([], []) without rankings."""
+    if not rankings:
+        return [], []
+    ns = list(dict.fromkeys(r.particles for r in rankings))
+    head = ["The paper's order", "Quantity"] + [
+        "all rows" if n is None else f"N = {n}" for n in ns]
+    rows: dict[tuple, list[str]] = {}
+    for r in rankings:
+        for p in r.pairs:
+            row = rows.setdefault((r.quantity.title, p.low, p.high),
+                                  [f"{p.low} < {p.high}", r.quantity.title] + [""] * len(ns))
+            cell = p.status
+            if detail and p.diff == p.diff:
+                cell += (f": {_signed(p.diff)} [{_signed(p.lo)}, {_signed(p.hi)}] "
+                         f"{percent(p.level)}")
+            row[2 + ns.index(r.particles)] = cell
+    ours: dict[str, list[str]] = {}
+    for r in rankings:
+        row = ours.setdefault(r.quantity.title, ["ours, by the means", r.quantity.title]
+                              + [""] * len(ns))
+        row[2 + ns.index(r.particles)] = " < ".join(r.ours)
+    return head, list(rows.values()) + list(ours.values())
+
+
+def ranking_summary(rankings: list[Ranking]) -> list[str]:
+    """The line that counts the ordered pairs (resolved in the paper's order, against it,
+    unresolved) and says how they are judged; [] without pairs."""
+    lines = ranking_lines(rankings)
+    return lines[-1:] if any(r.pairs for r in rankings) else []
+
+
 def _signed(v: float) -> str:
     return f"{v:+.3g}"
 
@@ -91,10 +132,14 @@ def display_columns(cmp: Comparison, se: bool = False) -> tuple[list[str], list[
     quantities = table.quantities if table else ()
     head = ["Filter", "N", "Trials", f"RMSE mean{' +- SE' if se else ''} [95% CI]",
             "RMSE var [95% CI]"]
+    timed = cmp.timed
     for q in quantities:
+        if q.judged_by is not None:     # the verdict beside the measure it judged; ours apart
+            head += [f"{judged_title(q, exp)} [95% CI]", f"Paper {q.title}", "Ratio", "Verdict"]
+            head += [apart_title(q)] if timed else []
+            continue
         head += ([] if _shown_as_rmse(q) else [_ours_head(q)]) + [f"Paper {q.title}", "Ratio",
                                                                    "Verdict"]
-    timed = cmp.timed
     shown = [m for m in CONSISTENCY_METRICS if f"{m}_mean" in tab]
     head += [f"{m.upper()} +- SE [95% bound]" for m in shown]
     head += _paired_head(exp) + ["Mean ESS", "Distinct", "Evals/step"] + (["ms/trial"] if timed
@@ -107,6 +152,11 @@ def display_columns(cmp: Comparison, se: bool = False) -> tuple[list[str], list[
                f"{mean} [{fmt(r['rmse_ci_lo'])}, {fmt(r['rmse_ci_hi'])}]",
                f"{fmt(r['rmse_var'])} [{fmt(r['rmse_var_ci_lo'])}, {fmt(r['rmse_var_ci_hi'])}]"]
         for q in quantities:
+            if q.judged_by is not None:
+                row += [judged_cell(r, q), fmt(r[f"paper_{q.key}"], 6),
+                        fmt(judged_ratio(r, q), 3), r[f"verdict_{q.key}"] or "-"]
+                row += [ours_cell(r, q)] if timed else []
+                continue
             row += (([] if _shown_as_rmse(q) else [ours_cell(r, q)])
                     + [fmt(r[f"paper_{q.key}"], 6), fmt(r[f"ratio_{q.key}"], 3),
                        r[f"verdict_{q.key}"] or "-"])
@@ -140,6 +190,59 @@ def _ours_head(q: Quantity) -> str:
     return f"{what} [95% CI]"
 
 
+# the words of a measure a quantity is judged on instead of ours (Quantity.judged_by)
+JUDGED_WORDS = {"evals_ratio": "likelihood evaluations"}
+
+
+def judged_title(q: Quantity, exp: Experiment) -> str:
+    """The name of the measure a quantity is judged on, over its baseline's ('likelihood
+    evaluations / PF' for a run-time ratio judged on the evaluations per step)."""
+    base = exp.compare["baseline"]
+    who = next((f.label for f in exp.filters if f.name == base or f.key == base), base)
+    what = JUDGED_WORDS.get(q.judged_by, str(q.judged_by).replace("_", " "))
+    return f"{what} / {who}" if who else what
+
+
+def judged_cell(r, q: Quantity, digits: int = 4) -> str:
+    """The measure a quantity is judged on (``judged_by``), with its 95% interval: what its
+    verdict is beside ('-' where the row has none)."""
+    v = r.get(f"judged_{q.key}", math.nan)
+    if v is None or v != v:
+        return "-"
+    return (f"{fmt(v, digits)} [{fmt(r[f'judged_lo_{q.key}'], digits)}, "
+            f"{fmt(r[f'judged_hi_{q.key}'], digits)}]")
+
+
+def judged_ratio(r, q: Quantity) -> float:
+    """The judged measure over the paper's value (NaN without either)."""
+    v, paper = r.get(f"judged_{q.key}", math.nan), r.get(f"paper_{q.key}", math.nan)
+    try:
+        return float(v) / float(paper) if v == v and paper == paper and float(paper) else \
+            math.nan
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def shown_cell(r, q: Quantity, short: bool = False) -> str:
+    """What a quantity's verdict sits beside: the measure it is judged on where it has one
+    (``judged_by``), else our value (``ours_cell``)."""
+    if q.judged_by is not None:
+        return judged_cell(r, q, 3 if short else 4)
+    return ours_cell(r, q, short)
+
+
+def shown_ratio(r, q: Quantity) -> float:
+    """The ratio printed beside a verdict: of the measure judged (ours, or ``judged_by``'s)
+    over the paper's value."""
+    return judged_ratio(r, q) if q.judged_by is not None else r[f"ratio_{q.key}"]
+
+
+def apart_title(q: Quantity) -> str:
+    """The column (or row) of our value of a quantity judged on another measure: shown, never
+    judged."""
+    return f"{q.title}, ours (not judged) [95% CI]"
+
+
 def ours_cell(r, q: Quantity, short: bool = False) -> str:
     """Our value with its 95% interval, and the trials it averages where that is not all of
     them (a convergence step averages the trials that converge; ``short``: '(35 of 100)')."""
@@ -163,9 +266,8 @@ def short_verdict(r, q: Quantity) -> str:
     text = r.get(f"verdict_{q.key}") or ""
     floor = ", below floor" if "below the model's floor" in text else ""
     if kind == "differs":
-        ratio = r.get(f"ratio_{q.key}", math.nan)
-        judged = q.judged_by is not None or ratio != ratio
-        return ("differs" + ("" if judged else f" x{ratio:.2f}")) + floor
+        ratio = shown_ratio(r, q)
+        return ("differs" + ("" if ratio != ratio else f" x{ratio:.2f}")) + floor
     if kind == "inconclusive":
         return _short_kind(kind, r.get(f"needed_{q.key}", math.nan))
     if kind == "reproduced":
@@ -203,6 +305,18 @@ def headline_tables(cmp: Comparison) -> list[tuple[str, list[str], list[list[str
         ours = [r for r in rows if not _missing(r.get(f"ours_{q.key}"))]
         # the first quantity: every row; the others: the rows the paper gives (or, where it gives
         # none, the rows we have a value for)
+        if q.judged_by is not None:     # the verdict beside the measure judged; ours apart
+            judged = [r for r in rows if not _missing(r.get(f"judged_{q.key}"))]
+            cells = [_run_cells(r) + [judged_cell(r, q, 3), fmt(r[f"paper_{q.key}"], 6),
+                                      short_verdict(r, q)] for r in (given or judged)]
+            if cells:
+                out.append((f"{q.title}, judged on {judged_title(q, cmp.exp)}",
+                            ["Filter", "N", "Judged [95% CI]", "Paper", "Verdict"], cells))
+            cells = [_run_cells(r) + [ours_cell(r, q, short=True)] for r in ours]
+            if cells:
+                out.append((f"{q.title}, ours (the machine's: not judged)",
+                            ["Filter", "N", "Ours [95% CI]"], cells))
+            continue
         cells = [_run_cells(r) + [ours_cell(r, q, short=True), fmt(r[f"paper_{q.key}"], 6),
                                   short_verdict(r, q)]
                  for r in (rows if k == 0 else given or ours)]
@@ -217,7 +331,23 @@ def headline_tables(cmp: Comparison) -> list[tuple[str, list[str], list[list[str
     for (to, frm), cells in pairs.items():
         out.append((f"factor {to} / {frm} (paired trials)",
                     ["Quantity", "Paper", "Ours [95% CI]", "Verdict"], cells))
+    head, cells = ranking_counts_table(cmp.rankings)
+    if cells:
+        out.append(("ordered pairs, counted (--wide: each pair)", head, cells))
     return out
+
+
+def ranking_counts_table(rankings: list[Ranking]) -> tuple[list[str], list[list[str]]]:
+    """The ordered pairs counted per quantity and particle count, for the console's short
+    tables (ranking_table has each pair): quantity, N, and how many pairs are resolved in the
+    paper's order, against it, and unresolved. ([], []) without pairs."""
+    cells = []
+    for r in rankings:
+        if r.pairs:
+            n = pair_counts([r])
+            cells.append([r.quantity.title, "-" if r.particles is None else str(r.particles),
+                          str(n["same"]), str(n["opposite"]), str(n["unresolved"])])
+    return (["Quantity", "N", "Same", "Opposite", "Unresolved"], cells) if cells else ([], [])
 
 
 def _short_kind(kind: str, needed=None) -> str:
@@ -238,9 +368,13 @@ def console_tables(cmp: Comparison) -> list[tuple[str, list[str], list[list[str]
     comp_head = ["Filter", "N", "Trials"]
     if not quantities:
         comp_head.append("RMSE mean [95% CI]")
-    for q in quantities:
-        comp_head += [_ours_head(q), f"Paper {q.title}", "Verdict"]
     timed = cmp.timed
+    for q in quantities:
+        if q.judged_by is not None:
+            comp_head += [f"{judged_title(q, exp)} [95% CI]", f"Paper {q.title}", "Verdict"]
+            comp_head += [apart_title(q)] if timed else []
+        else:
+            comp_head += [_ours_head(q), f"Paper {q.title}", "Verdict"]
     diag_head = (["Filter", "N", "RMSE var"] + _paired_head(exp)
                  + ["Mean ESS", "Distinct", "Evals/step"] + (["ms/trial"] if timed else []))
     long = len(quantities) > 2      # one row per filter run and quantity, or the table gets too wide
@@ -252,10 +386,15 @@ def console_tables(cmp: Comparison) -> list[tuple[str, list[str], list[list[str]
             for _, r in tab.iterrows():
                 n = r["particles"]
                 v = r[f"verdict_{q.key}"] or "-"
-                comp.append([q.title, r["label"], "-" if n is None or n != n else str(int(n)),
-                             str(int(r["trials"])), ours_cell(r, q),
-                             fmt(r[f"paper_{q.key}"], 6),
+                who = [r["label"], "-" if n is None or n != n else str(int(n)),
+                       str(int(r["trials"]))]
+                what = (f"{q.title}, judged on {judged_title(q, exp)}" if q.judged_by
+                        else q.title)
+                comp.append([what] + who + [shown_cell(r, q), fmt(r[f"paper_{q.key}"], 6),
                              "not comparable (table.md)" if v.startswith("not comparable") else v])
+                if q.judged_by is not None and timed:   # ours, its own unjudged row
+                    comp.append([f"{q.title}, ours (not judged)"] + who
+                                + [ours_cell(r, q), "-", "-"])
     for _, r in tab.iterrows():
         n = r["particles"]
         who = [r["label"], "-" if n is None or n != n else str(int(n))]
@@ -265,8 +404,9 @@ def console_tables(cmp: Comparison) -> list[tuple[str, list[str], list[list[str]
                 row.append(f"{fmt(r['rmse_mean'])} [{fmt(r['rmse_ci_lo'])}, "
                            f"{fmt(r['rmse_ci_hi'])}]")
             for q in quantities:
-                row += [ours_cell(r, q), fmt(r[f"paper_{q.key}"], 6),
+                row += [shown_cell(r, q), fmt(r[f"paper_{q.key}"], 6),
                         r[f"verdict_{q.key}"] or "-"]
+                row += [ours_cell(r, q)] if q.judged_by is not None and timed else []
             comp.append(row)
         diag.append(who + [fmt(r["rmse_var"])]
                     + (_paired_cells(exp, r) if exp.compare["baseline"] else [])
@@ -276,6 +416,9 @@ def console_tables(cmp: Comparison) -> list[tuple[str, list[str], list[list[str]
     out = [("", comp_head, comp), ("diagnostics", diag_head, diag)]
     if cmp.per_trial is not None:
         out.append(per_trial_cells(cmp.per_trial))
+    head, cells = ranking_table(cmp.rankings, detail=True)
+    if cells:
+        out.append(("ordered pairs (paired trials)", head, cells))
     return out
 
 
@@ -291,7 +434,7 @@ def _counts(rows: pd.DataFrame, column: str, trials: str | None = None) -> str:
 def footnotes(cmp: Comparison) -> list[str]:
     """Lines that explain the table: rankings, factors, the floor row, underflow events."""
     exp, tab = cmp.exp, cmp.table
-    notes = ranking_lines(cmp.rankings)
+    notes = ranking_summary(cmp.rankings)      # the pairs themselves: ranking_table
     for f in cmp.factors:
         notes.append(f"{f['quantity']}, {f['to']} / {f['from']}: paper {fmt(f['paper'], 3)} "
                      f"({fmt(f['paper_from'], 4)} -> {fmt(f['paper_to'], 4)}); ours "
@@ -315,7 +458,12 @@ def footnotes(cmp: Comparison) -> list[str]:
                      "se_ours sqrt(n_ours / runs)); the 95% interval beside our value does not.")
     for q in (table.quantities if table is not None else ()):
         if q.margin is not None:
-            notes.append(f"Margin of '{q.title}': {q.margin.describe()}. {q.margin.why}")
+            m = q.margin
+            zero = (m.absolute if m.absolute is not None else m.relative) == 0
+            head = (f"'{q.title}' is held to the paper's value as printed, with no margin"
+                    if zero else f"Margin of '{q.title}': ours counts as the paper's value "
+                    f"within {m.describe()}")
+            notes.append(f"{head}. {m.why}")
     if exp.compare["baseline"]:
         notes.append(f"'RMSE - {exp.compare['baseline']}': mean per-trial RMSE difference to the "
                      "baseline on the same truth, with its 95% interval; 'Wins': fraction of trials "
@@ -414,8 +562,9 @@ def interval_line(cmp: Comparison) -> str:
     return line + "."
 
 
-def markdown(cmp: Comparison, meta: dict | None = None) -> str:
-    """table.md: title, provenance, the table and the paper's notes."""
+def markdown(cmp: Comparison, meta: dict | None = None, rows=None) -> str:
+    """table.md: title, provenance, the table and the paper's notes; with the trial ``rows``,
+    the section "All filters at once" (ranks_section)."""
     exp, tab, table = cmp.exp, cmp.table, cmp.reported
     lines = [f"# {exp.name}", ""]
     if exp.description:
@@ -437,6 +586,12 @@ def markdown(cmp: Comparison, meta: dict | None = None) -> str:
         lines += ["", f"{title}:", "", "| " + " | ".join(head) + " |",
                   "|" + "|".join(" --- " for _ in head) + "|"]
         lines += ["| " + " | ".join(row) + " |" for row in cells]
+    head, cells = ranking_table(cmp.rankings, detail=True)
+    if cells:
+        lines += ["", f"{RANKING_TITLE} (the paired difference of the means, lower row minus "
+                  "upper, with its interval at the level Holm's procedure tested it):", "",
+                  "| " + " | ".join(head) + " |", "|" + "|".join(" --- " for _ in head) + "|"]
+        lines += ["| " + " | ".join(row) + " |" for row in cells]
     notes = footnotes(cmp) + list(table.notes if table is not None else ())
     until = (meta or {}).get("until_decided")
     if until:
@@ -445,13 +600,27 @@ def markdown(cmp: Comparison, meta: dict | None = None) -> str:
                      f"{until['max_trials']}; looks after {looks}; stopped: {until['stopped']}.")
     if notes:
         lines += ["", "Notes:", ""] + [f"- {n}" for n in notes]
+    lines += ranks_section(rows, cmp.exp)
     return "\n".join(lines) + "\n"
 
 
-def write(cmp: Comparison, out_dir: Path, meta: dict | None = None) -> None:
-    """Write table.csv (the comparison's table) and table.md into ``out_dir`` (atomically),
+def ranks_section(rows, exp) -> list[str]:
+    """The lines of table.md's section "All filters at once": the filters ranked on RMSE in
+    every block of runs at one particle count on one trial, the Friedman test, and the groups the
+    pairwise Wilcoxon-Holm tests do not tell apart (pfbench.rank, computed once:
+    tablecache.cached_ranking); none without ``rows``, or when fewer than two filters ran at a
+    common particle count."""
+    if rows is None or len(rows) == 0:
+        return []
+    from .tablecache import cached_ranking
+    return cached_ranking(exp, rows)
+
+
+def write(cmp: Comparison, out_dir: Path, meta: dict | None = None, rows=None) -> None:
+    """Write table.csv (the comparison's table) and table.md into ``out_dir`` (atomically; with
+    the trial ``rows``, its ranking of all filters at once),
     without the run times: they hold what the seed determines, the same bytes on any machine
     (the console shows the run times; the timings file holds them)."""
     cmp = cmp.without_timings()
     write_csv(Path(out_dir) / "table.csv", cmp.table)
-    atomic_write(Path(out_dir) / "table.md", markdown(cmp, meta))
+    atomic_write(Path(out_dir) / "table.md", markdown(cmp, meta, rows))

@@ -75,10 +75,11 @@ def test_a_config_of_the_wrong_type(tmp_path, monkeypatch, fn, config):
 
 
 @pytest.mark.parametrize("folder", [None, 123, 1.5, ["x"], b"x", object()])
-def test_load_results_refuses_a_folder_of_the_wrong_type(folder):
+@pytest.mark.parametrize("fn", ["load_results", "load_trials"])
+def test_a_loader_refuses_a_folder_of_the_wrong_type(fn, folder):
     with pytest.raises(UserError) as err:
-        pfbench.load_results(folder)
-    assert str(err.value).startswith("load_results: folder: expected")
+        getattr(pfbench, fn)(folder)
+    assert str(err.value).startswith(f"{fn}: folder: expected") and "\n" not in str(err.value)
 
 
 def test_an_iterator_of_overrides_is_read_once(tmp_path, write_config, monkeypatch):
@@ -92,7 +93,7 @@ def test_every_public_name_is_covered():
     """The API's functions are the ones this file checks (a new one needs its own row)."""
     functions = {n for n in pfbench.__all__ if callable(getattr(pfbench, n))
                  and n not in ("Result",)}
-    assert functions == {"load_results", "run_experiment", "run_until_decided"}
+    assert functions == {"load_results", "load_trials", "run_experiment", "run_until_decided"}
 
 
 def test_numpy_integers_are_integers(tmp_path, write_config, monkeypatch):

@@ -127,7 +127,10 @@ def test_shipped_configs_validate():
         raw, _ = read_yaml(p)
         exps = [c.exp for c in expand(p, {}, {})[1]] if "sweep" in raw else [load(p)]
         for exp in exps:
-            assert exp.paper is not None and exp.trials >= minimum.get(p.stem, 20)
+            # every config compares with a paper, but a recorded data set's (plaza): it is the
+            # data's evaluation, with no paper's values to judge (docs/guide/real-data.md)
+            assert exp.paper is not None or exp.scenario == "plaza", p
+            assert exp.trials >= minimum.get(p.stem, 5 if exp.scenario == "plaza" else 20), p
             assert all(f.label for f in exp.filters)
 
 

@@ -19,9 +19,12 @@ PROBES, EARLY = contract.probes()
 
 def test_every_filter_has_a_probe_on_every_scenario_it_runs_on():
     pairs = {(p.filter, p.scenario) for p in PROBES}
-    assert pairs == {(f, s) for f, ft in FILTERS.items() for s, mod in SCENARIOS.items()
+    # a recorded-data scenario whose data are not installed has no probe (pfbench.scenarios.plaza)
+    here = {s: mod for s, mod in SCENARIOS.items()
+            if getattr(mod, "unavailable", None) is None or mod.unavailable({}) is None}
+    assert pairs == {(f, s) for f, ft in FILTERS.items() for s, mod in here.items()
                      if ft.cannot_run_on(s, mod.KIND, mod) is None}
-    assert {f for f, _ in pairs} == set(FILTERS) and {s for _, s in pairs} == set(SCENARIOS)
+    assert {f for f, _ in pairs} == set(FILTERS) and {s for _, s in pairs} == set(here)
     assert EARLY == []
 
 

@@ -69,11 +69,13 @@ def test_the_distribution_marks_the_paper_and_our_mean_with_its_interval(tmp_pat
     saved = _figures_saved(monkeypatch)
     plots.write_figures(exp, res.rows, tmp_path / "u", "png", table)
     fig, path = next((f, p) for f, p in saved if p.stem == "rmse")
-    ax = fig.axes[0]
-    labels = [t.get_text() for t in ax.get_legend().get_texts()]
-    assert "the paper's value" in labels and "mean and its 95% interval" in labels
+    ax = fig.axes[0]                                # the PF's panel: N = 50, 100, 150
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert "the paper's value" in labels and "our mean and its 95% interval" in labels
     paper = next(line for line in ax.get_lines() if line.get_label() == "the paper's value")
     assert paper.get_ydata()[0] == pytest.approx(4.2216)      # PF at N = 50, the first given
+    box = ax.get_xticks()[0] - 0.1                  # on its box: the same x
+    assert paper.get_xdata()[0] == pytest.approx(box)
 
 
 def test_a_sweep_over_particles_draws_a_line_per_filter(tmp_path, write_config, monkeypatch):
@@ -113,3 +115,105 @@ def test_with_kidnappings_the_outcome_is_recovering_from_every_one():
                          "converged": [1.0, 1.0, 1.0], "recovery_failures": [1.0, 0.0, 2.0]})
     assert plots._snapshot_trials(None, T, rows, Run, kidnapped=True) == [(1, 1.0), (0, 0.0)]
     assert plots._snapshot_trials(None, T, rows, Run) == [(0, 1.0)]
+
+
+# --- issue 36: figures for the claims -------------------------------------------------------
+
+def test_a_sweep_axis_is_logarithmic_from_a_factor_of_8():
+    assert plots.log_axis([25, 50, 100, 200]) and plots.log_axis([1, 8])
+    assert not plots.log_axis([1, 2, 3, 4, 5]) and not plots.log_axis([10, 79])
+    assert not plots.log_axis(["a", "b"])
+
+
+@pytest.mark.parametrize("k,n", [(0, 100), (16, 100), (92, 100), (50, 50), (3, 7)])
+def test_rates_carry_scipys_wilson_interval(k, n):
+    from scipy.stats import binomtest
+    ci = binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
+    assert plots.wilson(k, n) == pytest.approx((ci.low, ci.high), rel=0, abs=1e-15)
+    rows = pd.DataFrame({"trial": range(n), "filter": ["a@1"] * n,
+                         "converged": [1.0] * k + [0.0] * (n - k)})
+
+    class Run:
+        key = "a@1"
+
+    class Exp:
+        filters = [Run]
+    t = plots.rate_table(Exp, rows, rows["converged"])
+    assert (t["k"][0], t["n"][0]) == (k, n) and t["rate"][0] == pytest.approx(k / n)
+    assert (t["lo"][0], t["hi"][0]) == pytest.approx((ci.low, ci.high))
+
+
+def test_a_positive_quantitys_band_stays_positive_where_the_normal_one_dips():
+    rng = __import__("numpy").random.default_rng(7)
+    x = rng.lognormal(-3.0, 1.5, size=20)           # run times: skewed, near 0
+    m, se = x.mean(), x.std(ddof=1) / len(x) ** 0.5
+    assert m - 1.96 * se * 3 < 0                      # a normal band of 3 se would dip below 0
+    for k in (1, 3, 10):
+        lo, hi = fs.lognormal_band(m, k * se)
+        assert 0 < lo < m < hi
+    summ = pd.DataFrame({"wall_s_mean": [m], "wall_s_se": [10 * se],
+                         "wall_s_ci_lo": [m - 19.6 * se], "wall_s_ci_hi": [m + 19.6 * se]})
+    lo, hi = plots.sweep_band(summ, "wall_s")
+    assert lo[0] > 0 and hi[0] > m
+
+
+def _committed(name):
+    from pfbench.store import read_results
+    exp = load(ROOT / f"configs/{name}.yaml")
+    meta, tf = read_results(ROOT / "results" / name)
+    return exp, pd.DataFrame(tf.rows)
+
+
+def _titles(fig) -> str:
+    return " ".join([fig._suptitle.get_text() if fig._suptitle else ""]
+                    + [ax.get_title() for ax in fig.axes]
+                    + [t.get_text() for ax in fig.axes for t in ax.get_xticklabels()])
+
+
+def test_titles_count_the_trials_each_figure_shows(tmp_path, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    exp, rows = _committed("sspf_global")
+    saved = _figures_saved(monkeypatch)
+    with fs.style():
+        plots.distribution_figure(exp, rows, tmp_path / "c.png", "converge_step", 1.0,
+                                  "steps to converge")
+    text = _titles(saved[-1][0])
+    for r in exp.filters:
+        n = int(rows.loc[rows["filter"] == r.key, "converge_step"].notna().sum())
+        assert f"{n} of {rows['trial'].nunique()}" in text
+    assert "over 100 trials" not in text
+    with fs.style():
+        plots.rate_figure(exp, rows, tmp_path / "r.png")
+    text = _titles(saved[-1][0])
+    for r in exp.filters:
+        k = int((rows.loc[rows["filter"] == r.key, "converged"] == 1).sum())
+        assert f"{k} of {len(rows[rows['filter'] == r.key])}" in text
+
+
+def test_every_committed_figure_is_legible_at_1400_px(tmp_path, monkeypatch):
+    """Drawn again from the committed trials and traces (no trial runs): no figure wider than
+    1400 px, no text under 8 pt; many runs make small multiples with a shared axis."""
+    monkeypatch.chdir(ROOT)
+    from pfbench.store import read_results
+    saved = _figures_saved(monkeypatch)
+    for name in ("ifa_pf_ungm", "kidnap", "ifa_fastslam", "asrl_vs_srl"):
+        exp = load(ROOT / f"configs/{name}.yaml")
+        meta, tf = read_results(ROOT / "results" / name)
+        monkeypatch.setattr(plots, "read_traces", lambda _: __import__(
+            "pfbench.store", fromlist=["read_traces"]).read_traces(ROOT / "results" / name))
+        plots.write_figures(exp, tf.rows, tmp_path / name, "png")
+    assert len(saved) > 15
+    for fig, path in saved:
+        assert fs.legibility(fig) == [], (path.parent.name, path.name)
+    ungm = next(f for f, p in saved if p.parent.parent.name == "ifa_pf_ungm"
+                and p.stem == "rmse")
+    panels = [ax for ax in ungm.axes if ax.get_visible()]
+    assert len(panels) == 8 and all(len(ax.get_xticks()) <= 3 for ax in panels)
+    assert len({ax.get_ylim() for ax in panels}) == 1          # one shared axis
+
+
+def test_every_committed_sweep_cell_has_its_table():
+    cells = sorted((ROOT / "results").glob("*/cells/*/trials.csv"))
+    assert cells
+    for t in cells:
+        assert (t.parent / "table.md").is_file(), t.parent

@@ -54,7 +54,7 @@ def test_every_paper_file_reads_and_every_config_finds_its_table():
                 named.add(exp.paper)
                 assert exp.reference.key == exp.paper
                 assert (exp.reported is not None) == (exp.table is not None)
-    assert named == {"afsa2014", "asrl2008", "ifa2021", "sspf2008"}
+    assert named == {"afsa2014", "asrl2008", "ifa2021", "review2007", "sspf2008"}
     # the runs behind the values, where the paper states them
     ifa = papers.read(PAPERS / "ifa2021.yaml").tables
     assert (ifa["table1"].runs, ifa["table3"].runs) == (None, 20)
@@ -215,3 +215,21 @@ def test_a_paper_file_too_large_is_refused_without_being_read_whole(tmp_path, mo
     cfg.write_text("paper: smith2024\nscenario: {name: ungm}\nfilters: {ukf: {}}\n")
     with pytest.raises(UserError, match="larger than"):
         load(cfg)
+
+
+def test_a_table_headline_is_read_and_a_bad_one_named(tmp_path):
+    """A table's headline: one sentence whose references are parsed as a finding's; a brace that
+    is not a reference, or a headline that is not text, is named with its key."""
+    from pfbench.papers import _parse_bytes
+    base = ("paper: p\ncitation: c\ntables:\n  t1:\n    caption: x\n    quantities:\n"
+            "      q: {title: RMSE, metric: rmse}\n")
+    p = _parse_bytes((base + "    headline: PF {a:pf@1:rmse_mean:ci} as said\n").encode(),
+                     tmp_path / "p.yaml")
+    h = p.tables["t1"].headline
+    assert h.text == "PF {a:pf@1:rmse_mean:ci} as said" and h.refs[0].ci
+    assert _parse_bytes(base.encode(), tmp_path / "p.yaml").tables["t1"].headline is None
+    for bad, says in (("headline: PF {a:pf}", "is not a reference"),
+                      ("headline: [1, 2]", "expected a sentence")):
+        with pytest.raises(ConfigError, match=says) as exc:
+            _parse_bytes((base + f"    {bad}\n").encode(), tmp_path / "p.yaml")
+        assert "tables.t1.headline" in str(exc.value)

@@ -163,3 +163,94 @@ def test_report_check_fails_when_the_file_is_out_of_date(small_results, tmp_path
     assert r.exit_code == 0 and "up to date" in r.output
     out.write_text(out.read_text().replace("reproduced", "reproduced!", 1))
     assert runner.invoke(app, args + ["--check"]).exit_code == 1
+
+
+def test_the_index_has_a_line_per_paper_table_with_its_counts(small_results, tmp_path):
+    """REPORT.md opens with what was found: a line per paper table, its headline filled in from
+    the results, and each config's counts, the same as the summary table's; the marks of
+    robust findings (here: no value of the Gamma benchmark differs)."""
+    configs, results = small_results
+    out = tmp_path / "REPORT.md"
+    r = runner.invoke(app, ["report", "--configs", str(configs), "--results", str(results),
+                            "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    text = out.read_text()
+    assert text.index("## What was found") < text.index("## Summary") \
+        < text.index("What the verdicts mean:")
+    index = text.split("## What was found")[1].split("## Summary")[0]
+    (line,) = [ln for ln in index.splitlines() if ln.startswith("- **sspf2008 Table 1**: ")]
+    assert "{" not in line and "van der Merwe" in line     # the paper file's headline, filled
+    summary = {ln.split(" | ")[2]: ln.split(" | ")[4:9] for ln in text.splitlines()
+               if ln.startswith("| sspf2008 |")}
+    for name in ("sspf_ungm", "sspf_upf_gamma"):
+        m = re.search(rf"`{name}`: (\d+) paper values: ([^(;.]*)", line)
+        assert m, (name, line)
+        said = {k: int(n) for n, k in re.findall(
+            r"(\d+) (reproduced|differ|inconclusive|not comparable)", m.group(2))}
+        values, rep, differ, inconc, nc = map(int, summary[f"`{name}`"])
+        assert int(m.group(1)) == values
+        assert said.get("reproduced", 0) == rep and said.get("differ", 0) == differ
+        assert said.get("inconclusive", 0) == inconc and said.get("not comparable", 0) == nc
+    # the Gamma benchmark's mark follows from its counts: no value differs
+    entries = {e.name: e for e in report.collect(configs, results)}
+    c = report.verdict_counts(entries["sspf_upf_gamma"])
+    marked = "no value differs" in line.split("`sspf_upf_gamma`")[1]
+    assert marked == (c["differ"] == 0 and c["reproduced"] + c["inconclusive"] > 0)
+    # the HTML index says the same
+    html = (tmp_path / "report" / "index.html").read_text()
+    assert html.index('id="found"') < html.index('id="summary-table"')
+    assert "sspf2008 Table 1" in html
+
+
+def test_the_marks_of_robust_findings(tmp_path):
+    """The floor mark counts the verdicts that say so; readings that differ under every
+    reading are counted from the robustness lines; a table with a differing value is not
+    marked 'no value differs'."""
+    from pfbench import report_data as rd
+
+    class Cmp:
+        factors = []
+
+        def __init__(self, table):
+            self.table = table
+
+        def kinds(self):
+            return list(self.table["kind_q"])
+
+    q = papers.Quantity("q", "RMSE", "rmse", "mean")
+    table = papers.Table("t", (q,), {})
+    exp = type("E", (), {"reported": table, "paper": "p", "table": "t1"})()
+    tab = pd.DataFrame({"kind_q": ["differs", "differs", "inconclusive"],
+                        "verdict_q": ["differs (x2); paper below the model's floor",
+                                      "differs (x1.2)", "inconclusive: about 90 trials"]})
+    e = rd.Entry(tmp_path / "c.yaml", exp, tmp_path, table=tab, comparison=Cmp(tab))
+    assert rd.entry_marks(e) == ["paper below the model's floor: 1 of 3 values"]
+    (tmp_path / "readings.csv").write_text(
+        "reading,claim,kind,label,particles,quantity,paper,ours,lo,hi,verdict,level,verdict_text\n"
+        + "".join(f"{r},cell:{c},cell,PF,{n},RMSE,3.0,4.0,3.9,4.1,{v},0.95,x\n"
+                  for r in ("pfbench", "other") for c, n, v in
+                  (("a", 50, "differs"), ("b", 100, "differs" if r == "pfbench"
+                                          else "inconclusive"))))
+    marks = rd.entry_marks(e)
+    assert "differs under every reading (2 readings): 1 of 2 claims" in marks
+    tab["kind_q"] = ["inconclusive", "reproduced", "inconclusive"]
+    tab["verdict_q"] = ["inconclusive", "reproduced", "inconclusive"]
+    assert "no value differs (3 judged)" in rd.entry_marks(e)
+
+
+@pytest.mark.slow
+def test_every_paper_table_has_a_headline_that_fills_from_the_committed_results():
+    entries = {e.name: e for e in report.collect(ROOT / "configs", ROOT / "results")}
+    assert all(e.status == "ok" for e in entries.values()), \
+        [(e.name, e.status) for e in entries.values()]
+    ps = {p.stem: papers.read(p) for p in sorted((ROOT / "configs" / "papers").glob("*.yaml"))}
+    lines = report.index_lines(list(entries.values()), {k: p for k, p in ps.items() if p.tables},
+                               entries)
+    for key, paper in ps.items():
+        for name, table in paper.tables.items():
+            assert table.headline is not None, (key, name)
+    for ln in lines:
+        assert "{" not in ln.headline and "(not run)" not in ln.headline, ln
+    # the localization rates and the Gamma benchmark are in the index's words
+    text = "\n".join(report.index_md(lines))
+    assert "SSPF localizes from a uniform start" in text and "source benchmark" in text

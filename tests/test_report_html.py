@@ -80,7 +80,7 @@ def test_every_paper_table_and_figure_is_in_the_report(report, monkeypatch):
             assert (report / src).read_bytes().startswith(b"<?xml")
         if e.exp.reported is not None and e.table is not None:
             for q in e.exp.reported.quantities:
-                assert f"<h3>{q.title}</h3>" in text.replace("&#39;", "'"), (e.name, q.title)
+                assert f"<h3>{q.title}" in text.replace("&#39;", "'"), (e.name, q.title)
     # a verdict says itself in words and a mark, not only in colour
     verdicts = [v for p in report.glob("*.html") for v in _parse(p).verdicts]
     assert any(v.startswith("[x]differs") for v in verdicts)
@@ -133,31 +133,83 @@ def _browser():
     return webdriver.Chrome(service=Service(driver), options=opts)
 
 
+# In the page: each image's source, whether it loaded, whether it fits its column (its parent's
+# width) and the window; each table's container within the window (a wide table scrolls inside
+# it); and every word of a table cell (a run of Latin letters and digits) that the layout broke
+# across two lines ('Reprodu|ced', 'afsa20|14'), with its page-wide text for the message.
+LAYOUT = """
+    const W = document.documentElement.clientWidth;
+    const imgs = [...document.images].map(i => {
+        const r = i.getBoundingClientRect(), col = i.closest('figure') || i.parentElement;
+        return [i.getAttribute('src'), i.complete && i.naturalWidth > 0,
+                r.width <= col.clientWidth + 1 && r.right <= W + 1];
+    });
+    const boxes = [...document.querySelectorAll('table')].map(t =>
+        t.parentElement.getBoundingClientRect().right <= W + 1);
+    const broken = [];
+    for (const cell of document.querySelectorAll('td, th')) {
+        const walk = document.createTreeWalker(cell, NodeFilter.SHOW_TEXT);
+        for (let n = walk.nextNode(); n; n = walk.nextNode()) {
+            for (const m of n.data.matchAll(/[A-Za-z0-9]{2,}/g)) {
+                const range = document.createRange();
+                range.setStart(n, m.index);
+                range.setEnd(n, m.index + m[0].length);
+                const tops = new Set([...range.getClientRects()].filter(r => r.width > 0)
+                                     .map(r => Math.round(r.top)));
+                if (tops.size > 1) broken.push(m[0] + ' in: ' + cell.textContent.slice(0, 60));
+            }
+        }
+    }
+    return {page: document.documentElement.scrollWidth <= W + 1, imgs, boxes, broken};
+"""
+
+
 @pytest.mark.slow
-def test_in_a_browser_every_figure_loads_and_nothing_overflows(report):
+@pytest.mark.parametrize("width", [1400, 800])
+def test_in_a_browser_no_word_breaks_in_a_cell_and_every_figure_fits(report, width):
+    """At 1400 and 800 px: every figure loads and is no wider than its column, no table cell
+    breaks a word across lines (a wide table scrolls inside its container instead), and the
+    page itself is no wider than the window."""
     browser = _browser()
     try:
+        browser.set_window_size(width, 900)
         for page in sorted(report.glob("*.html")):
             browser.get(page.resolve().as_uri())
             for _ in range(100):        # images decode after the load event on a busy machine
                 if browser.execute_script("return [...document.images].every(i => i.complete)"):
                     break
                 time.sleep(0.2)
-            got = browser.execute_script("""
-                const W = document.documentElement.clientWidth;
-                const imgs = [...document.images].map(i => [i.getAttribute('src'),
-                    i.complete && i.naturalWidth > 0, i.getBoundingClientRect().right <= W + 1]);
-                const tables = [...document.querySelectorAll('table')].map(t =>
-                    t.getBoundingClientRect().right <= W + 1 &&
-                    t.parentElement.scrollWidth <= t.parentElement.clientWidth + 1);
-                return {page: document.documentElement.scrollWidth <= W + 1, imgs, tables};
-            """)
-            assert got["page"], f"{page.name}: the page is wider than the window"
+            got = browser.execute_script(LAYOUT)
+            assert got["page"], f"{page.name} at {width} px: the page is wider than the window"
             assert all(ok for _, ok, _ in got["imgs"]), (page.name, got["imgs"])
-            assert all(fits for _, _, fits in got["imgs"]), page.name
-            assert got["tables"] and all(got["tables"]), (page.name, got["tables"])
+            assert all(fits for _, _, fits in got["imgs"]), (page.name, width, [
+                src for src, _, fits in got["imgs"] if not fits])
+            assert got["boxes"] and all(got["boxes"]), (page.name, width, got["boxes"])
+            assert not got["broken"], (page.name, width, got["broken"][:10])
     finally:
         browser.quit()
+
+
+@pytest.mark.slow
+def test_the_layout_check_sees_a_broken_word_and_a_wide_image(tmp_path):
+    """The browser check can fail: a narrow cell that breaks inside words, and an image wider
+    than its column, are both found."""
+    page = tmp_path / "bad.html"
+    page.write_text('<!DOCTYPE html><html><body><main>'
+                    '<table><tr><td style="width:3em;max-width:3em;overflow-wrap:anywhere">'
+                    'Reproduced afsa2014</td></tr></table>'
+                    '<figure style="width:100px"><img style="width:300px" src="data:image/'
+                    'svg+xml,%3Csvg xmlns=%22http://www.w3.org/2000/svg%22 width=%2210%22 '
+                    'height=%2210%22/%3E"></figure></main></body></html>')
+    browser = _browser()
+    try:
+        browser.set_window_size(800, 900)
+        browser.get(page.resolve().as_uri())
+        got = browser.execute_script(LAYOUT)
+    finally:
+        browser.quit()
+    assert any(b.startswith(("Reproduced", "afsa2014")) for b in got["broken"]), got["broken"]
+    assert not got["imgs"][0][2]
 
 
 def test_an_experiment_without_a_paper_has_a_page_too(tmp_path, write_config, monkeypatch):

@@ -39,7 +39,8 @@ def counted(monkeypatch):
 def test_an_up_to_date_folder_takes_its_table_from_the_cache(tmp_path, cache, counted):
     out = tmp_path / "r"
     first = pfbench.run_experiment(CONFIG, trials=3, out=out, figures=False)
-    assert counted == ["ifa_pf_ungm"] and len(list(cache.glob("*.pickle"))) == 1
+    # two entries: the comparison and table.md's ranking of all filters at once
+    assert counted == ["ifa_pf_ungm"] and len(list(cache.glob("*.pickle"))) == 2
     files = {k: v for k, v in tree(out).items() if not k.startswith("timings")}
     again = pfbench.run_experiment(CONFIG, trials=3, out=out, figures=False)
     assert again.up_to_date and counted == ["ifa_pf_ungm"]     # not computed again
@@ -117,22 +118,31 @@ print(sorted({m for m in sys.modules if m.startswith(("scipy.stats", "matplotlib
 
 def test_a_run_without_figures_imports_only_what_it_uses(tmp_path):
     """A run that draws no figure imports no matplotlib; its verdicts (t intervals, Holm) need
-    no scipy.stats or statsmodels; run again, its folder up to date, it computes nothing."""
-    out = tmp_path / "r"
-    cmd = [sys.executable, "-c", _MODULES, "run", str(CONFIG), "--trials", "2", "--out",
-           str(out), "--no-figures"]
-    for up_to_date in (False, True):
-        res = subprocess.run(cmd, capture_output=True, text=True, check=True, cwd=tmp_path)
-        assert res.stdout.strip().splitlines()[-1] == "[]", res.stdout + res.stderr
-        assert ("up to date" in res.stderr) == up_to_date
+    no scipy.stats or statsmodels: only the ranking of its filters in table.md ("All filters at
+    once": Friedman's and Wilcoxon's tests) imports scipy.stats, while the trials run. Run
+    again, its folder up to date, it computes nothing."""
+    single = tmp_path / "one.yaml"
+    single.write_text("seed: 1\ntrials: 2\nscenario: {name: ungm, steps: 20}\n"
+                      "filters:\n  pf: {particles: 50}\n  pf_big: {type: pf, particles: 100}\n")
+    for config, ranked in ((CONFIG, True), (single, False)):
+        out = tmp_path / f"r_{ranked}"
+        cmd = [sys.executable, "-c", _MODULES, "run", str(config), "--trials", "2", "--out",
+               str(out), "--no-figures"]
+        for up_to_date in (False, True):
+            res = subprocess.run(cmd, capture_output=True, text=True, check=True, cwd=tmp_path)
+            seen = eval(res.stdout.strip().splitlines()[-1])
+            assert not [m for m in seen if m.startswith(("matplotlib", "statsmodels"))], seen
+            assert bool(seen) == (ranked and not up_to_date), res.stdout + res.stderr
+            assert ("up to date" in res.stderr) == up_to_date
+            assert ("## All filters at once" in (out / "table.md").read_text()) == ranked
 
 
 def test_a_run_with_consistency_bounds_imports_no_scipy_stats(tmp_path):
-    """The NEES and NIS chi-square bounds of a run with Kalman filters come from scipy.special:
-    its table needs no scipy.stats either."""
+    """The NEES and NIS chi-square bounds of a run with a Kalman filter come from
+    scipy.special: its table needs no scipy.stats either."""
     cfg = tmp_path / "kf.yaml"
     cfg.write_text("seed: 1\ntrials: 3\nscenario: {name: linear_gaussian, steps: 5}\n"
-                   "filters:\n  kf: {}\n  ukf: {}\n")
+                   "filters:\n  kf: {}\n")
     out = tmp_path / "r"
     res = subprocess.run([sys.executable, "-c", _MODULES, "run", str(cfg), "--out", str(out),
                           "--no-figures"], capture_output=True, text=True, check=True,

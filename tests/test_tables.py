@@ -180,3 +180,113 @@ def test_table_md_shows_the_standard_errors_and_the_consistency_checks(write_con
     # the console's narrow tables stay as they were: no standard errors, no NEES
     for _, head, _ in headline_tables(cmp) + console_tables(cmp):
         assert not any("+- SE" in h or "NEES" in h for h in head)
+
+
+def _timed_ifa(write_config):
+    """ifa2021 Table 1's PF and IFA-PF at N = 100 on made-up paired trials: IFA-PF takes 25 times
+    the PF's wall time and twice its likelihood evaluations (the paper: a time ratio of 2.08)."""
+    from pfbench.compare import compare
+    from pfbench.config import load
+    cfg = write_config("paper: ifa2021\ntable: table1\ntrials: 30\nscenario: {name: ungm}\n"
+                       "compare: {baseline: pf}\n"
+                       "filters:\n  pf: {label: PF, particles: 100}\n"
+                       "  ifa: {label: IFA-PF, particles: 100}\n")
+    exp = load(cfg)
+    rng = np.random.default_rng(5)
+    rows = _ifa_rows(exp, {"PF": rng.normal(3.4, 0.3, 30), "IFA-PF": rng.normal(6.4, 0.3, 30)})
+    ifa = rows["label"] == "IFA-PF"
+    rows.loc[ifa, "wall_s"] = 25.0 + rng.normal(0, 0.1, int(ifa.sum()))
+    rows.loc[ifa, "lik_evals_per_step"] = 200.0
+    rows.loc[~ifa, "lik_evals_per_step"] = 100.0
+    return compare(exp, rows)
+
+
+def _verdict_neighbours(head, cells):
+    """For each 'Verdict' column: the header and the cells of the column that holds the value
+    it judged (the one before the paper's value, and the ratio where there is one)."""
+    out = []
+    for i, h in enumerate(head):
+        if h.lower() == "verdict":
+            j = i - 1
+            while head[j].lower() in ("ratio", "paper") or head[j].lower().startswith("paper "):
+                j -= 1
+            out.append((head[j], [row[j] for row in cells]))
+    return out
+
+
+def test_a_verdict_on_evaluations_sits_beside_the_evaluations_never_the_time(write_config):
+    from pfbench import tables as tb
+    cmp = _timed_ifa(write_config)
+    assert cmp.timed
+    r = cmp.table[cmp.table["label"] == "IFA-PF"].iloc[0]
+    assert 24 < r["ours_time_ratio"] < 26 and r["judged_time_ratio"] == 2.0
+    # every rendering: the column a verdict follows is the evaluations ratio; the time ratio has
+    # its own column or row, with no verdict
+    views = [tb.display_columns(cmp, se=True), *[(h, c) for _, h, c in tb.console_tables(cmp)
+                                                 if "Verdict" in h]]
+    for head, cells in views:
+        judged = [h for h, _ in _verdict_neighbours(head, cells)]
+        assert not any("time / PF" in h and "evaluations" not in h for h in judged), head
+    head, cells = tb.display_columns(cmp)
+    (apart,) = [i for i, h in enumerate(head) if h == tb.apart_title(
+        next(q for q in cmp.reported.quantities if q.key == "time_ratio"))]
+    assert head[apart + 1] != "Verdict" and 24 < float(cells[1][apart].split()[0]) < 26
+    row = cells[1]
+    assert row[head.index("likelihood evaluations / PF [95% CI]")] == "2 [2, 2]"
+    # the console's short tables: the verdict beside '2 [2, 2]', the 25x apart without one
+    found = {title: (h, c) for title, h, c in tb.headline_tables(cmp)}
+    h, c = found["time / PF, judged on likelihood evaluations / PF"]
+    assert c == [["IFA-PF", "100", "2 [2, 2]", "2.08", c[0][4]]] and "Verdict" in h
+    assert c[0][4].startswith("reproduced")
+    h, c = found["time / PF, ours (the machine's: not judged)"]
+    assert "Verdict" not in h and [x[0] for x in c] == ["IFA-PF"]
+    assert 24 < float(c[0][2].split()[0]) < 26
+    # the report's table: the verdict beside the evaluations, no time
+    from pfbench.report_data import comparison, Entry
+    e = Entry(ROOT / "x.yaml", cmp.exp, ROOT / "x", table=cmp.table, comparison=cmp)
+    md = "\n".join(comparison(e))
+    assert "time / PF: likelihood evaluations / PF [95% CI]" in md and "| 2 [2, 2] | 2.08 |" in md
+    assert "24." not in md and "25." not in md     # the machine's time stays out of it
+
+
+def test_the_ordered_pairs_are_a_table_of_pair_by_particle_count(write_config):
+    from pfbench.compare import Pair, Ranking
+    from pfbench.papers import Quantity
+    from pfbench.tables import ranking_table
+    q = Quantity("rmse_mean", "RMSE", "rmse", "mean")
+    x = Quantity("x_mm", "x error (mm)", "x_error", "mean")
+    rankings = [
+        Ranking(q, 50, ["IFA-PF", "PF"], ["PF", "IFA-PF"],
+                (Pair("IFA-PF", "PF", 1.5, 1.2, 1.8, "opposite", 0.99),)),
+        Ranking(q, 100, ["IFA-PF", "PF"], ["IFA-PF", "PF"],
+                (Pair("IFA-PF", "PF", -0.5, -0.8, -0.2, "same", 0.975),)),
+        Ranking(x, 100, ["ASRL", "SRL"], ["ASRL", "SRL"],
+                (Pair("ASRL", "SRL", -3.0, -9.0, 3.0, "unresolved", 0.95),)),
+    ]
+    head, cells = ranking_table(rankings)
+    assert head == ["The paper's order", "Quantity", "N = 50", "N = 100"]
+    assert cells == [["IFA-PF < PF", "RMSE", "opposite", "same"],
+                     ["ASRL < SRL", "x error (mm)", "", "unresolved"],
+                     ["ours, by the means", "RMSE", "PF < IFA-PF", "IFA-PF < PF"],
+                     ["ours, by the means", "x error (mm)", "", "ASRL < SRL"]]
+    head, cells = ranking_table(rankings, detail=True)
+    assert cells[0][2] == "opposite: +1.5 [+1.2, +1.8] 99%"
+    assert ranking_table([]) == ([], [])
+    # a table without a particle count: one column for all its rows
+    head, _ = ranking_table([Ranking(q, None, ["A", "B"], ["A", "B"],
+                                     (Pair("A", "B", -1.0, -2.0, -0.5, "same"),))])
+    assert head[2:] == ["all rows"]
+
+
+def test_the_console_counts_the_ordered_pairs_per_quantity_and_particle_count():
+    from pfbench.compare import Pair, Ranking
+    from pfbench.papers import Quantity
+    from pfbench.tables import ranking_counts_table
+    q = Quantity("rmse_mean", "RMSE", "rmse", "mean")
+    pairs = (Pair("A", "B", 1.0, 0.5, 1.5, "opposite"), Pair("A", "C", -1.0, -2, 1, "unresolved"),
+             Pair("B", "C", -1.0, -2, -0.5, "same"))
+    head, cells = ranking_counts_table([Ranking(q, 50, ["A", "B", "C"], ["B", "A", "C"], pairs),
+                                        Ranking(q, 100, ["A", "B"], ["A", "B"], pairs[2:])])
+    assert head == ["Quantity", "N", "Same", "Opposite", "Unresolved"]
+    assert cells == [["RMSE", "50", "1", "1", "1"], ["RMSE", "100", "1", "0", "0"]]
+    assert ranking_counts_table([]) == ([], [])

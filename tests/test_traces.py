@@ -119,7 +119,7 @@ def test_figures_draw_from_the_traces_without_running_a_trial(tmp_path, write_co
         paths = plots.write_figures(exp, got[name].rows, tmp_path / name)
         assert all(p.stat().st_size > 5000 for p in paths)
     assert {p.name for p in (tmp_path / "f/figures").iterdir()} == {
-        "rmse.png", "errors.png", "particles.png"}
+        "rmse.png", "errors.png", "particles.png", "rates.png"}    # it has a kidnapping
     assert {p.name for p in (tmp_path / "c/figures").iterdir()} == {
         "rmse.png", "course.png", "errors.png", "ess.png"}
 

@@ -8,7 +8,8 @@ import time
 
 _t0 = time.perf_counter()
 
-from . import ekf, fastslam, kalman, mcl, pf, sspf_field, swarm_pf, ukf, upf  # noqa: E402
+from . import (dead_reckoning, ekf, fastslam, kalman, mcl, mixture_mcl, pf, sspf_field,  # noqa: E402
+               swarm_pf, ukf, upf)
 from ..plugins import FILTER_GROUP, check_filter, discover  # noqa: E402
 from ..protocols import FilterType  # noqa: E402,F401  (part of this package's API)
 
@@ -23,8 +24,8 @@ KIND_TYPES = {("sspf", "localization"): "sspf_field"}
 # group pfbench.filters (pyproject.toml).
 BUILTIN = {f.name: f for f in (
     pf.PF, ukf.UKF, pf.PFMH, upf.UPF, upf.SSPF, swarm_pf.FA_PF, swarm_pf.IFA_PF, swarm_pf.BA_PF,
-    swarm_pf.PSO_PF, swarm_pf.AFSA_PF, fastslam.FASTSLAM, mcl.MCL, sspf_field.SSPF_FIELD,
-    ekf.EKF, kalman.KF)}
+    swarm_pf.PSO_PF, swarm_pf.AFSA_PF, fastslam.FASTSLAM, mcl.MCL, mixture_mcl.MIXTURE_MCL,
+    sspf_field.SSPF_FIELD, ekf.EKF, kalman.KF, dead_reckoning.DEAD_RECKONING)}
 
 # Every filter type: pfbench's own and the plug-ins', found through entry points.
 FILTERS = discover(FILTER_GROUP, check_filter, BUILTIN)

@@ -1164,17 +1164,10 @@ def run(model, data, params, particles, state, diag=True):
     return out
 
 
-def fastslam_keys() -> dict:
-    swarm = {}
-    for algo in ("fa", "ba", "afsa", "pso"):     # IFA takes FA's keys but alpha
-        swarm.update(keys(algo, unit="in units of step_unit: the predicted cloud's spread by "
-                                "default", prefix=True))
+def _refinement_keys() -> dict:
+    """The keys of the swarm refinement's readings: the unit of its random steps and IFA's
+    brightness of a pose."""
     return {
-        "refine": Key("choice", "none", "swarm refinement of the predicted poses at each "
-                      "observation (ifa2021: BA-, FA-, IFA-FastSLAM; afsa2014: PSO-, AFSA-FastSLAM)",
-                      choices=("none",) + tuple(ALGORITHMS)),
-        "iterations": Key("int", 1, "swarm iterations per observation", min=0),
-        **swarm,
         "step_unit": Key("choice", "cloud_spread", "the unit of the refinement's random steps "
                          "(FA's and IFA's random term, BA's local walk, AFSA's visual range and "
                          "step): 'cloud_spread' the predicted cloud's spread per coordinate (our "
@@ -1197,6 +1190,41 @@ def fastslam_keys() -> dict:
                                "1 / (1 + D), D^2 = -2 (ll - max ll) + d^2 (the same distance, "
                                "smaller brighter without a Gaussian); ifa2021 leaves it open",
                                choices=tuple(POSE_BRIGHTNESS)),
+    }
+
+
+def _directional_keys() -> dict:
+    """The keys of afsa2014's directional resampling: its copies' noise, the scheme of the
+    kept half and the map a copy carries."""
+    return {
+        "directional_noise_m": Key("float", 0.05, "directional resampling: position noise of the "
+                                   "board's copies (afsa2014 gives none; our default)", min=0.0),
+        "directional_noise_deg": Key("float", 0.5, "directional resampling: heading noise of the "
+                                     "board's copies", min=0.0),
+        "directional_scheme": Key("choice", "systematic", "directional resampling: how the kept "
+                                  "half is resampled by weight ('systematic' ours; afsa2014 "
+                                  "describes inverse-transform draws of independent uniforms, "
+                                  "'multinomial')", choices=tuple(SCHEME_CODES)),
+        "directional_map": Key("choice", "board", "directional resampling: the map each copy "
+                               "carries, 'board' the board particle's as of the previous "
+                               "observation (ours: the particle eq. 10 moves) or 'best' this "
+                               "observation's highest-weight particle's, updated by it; afsa2014 "
+                               "does not say", choices=tuple(DIRECTIONAL_MAPS)),
+    }
+
+
+def fastslam_keys() -> dict:
+    swarm = {}
+    for algo in ("fa", "ba", "afsa", "pso"):     # IFA takes FA's keys but alpha
+        swarm.update(keys(algo, unit="in units of step_unit: the predicted cloud's spread by "
+                                "default", prefix=True))
+    return {
+        "refine": Key("choice", "none", "swarm refinement of the predicted poses at each "
+                      "observation (ifa2021: BA-, FA-, IFA-FastSLAM; afsa2014: PSO-, AFSA-FastSLAM)",
+                      choices=("none",) + tuple(ALGORITHMS)),
+        "iterations": Key("int", 1, "swarm iterations per observation", min=0),
+        **swarm,
+        **_refinement_keys(),
         "predict_noise": Key("bool", True, "each particle draws its own noisy controls (FastSLAM "
                              "1.0 needs it; the classic simulator's default turns it off)"),
         "speed_noise_mps": Key("float", None, "speed noise the particles draw (default: the "
@@ -1227,19 +1255,7 @@ def fastslam_keys() -> dict:
         "resampling": Key("choice", "systematic", "resampling scheme ('stepwise_ewa': ifa2021's; "
                           "'directional': afsa2014's bulletin-board resampling)",
                           choices=tuple(SCHEMES) + ("stepwise_ewa", "directional")),
-        "directional_noise_m": Key("float", 0.05, "directional resampling: position noise of the "
-                                   "board's copies (afsa2014 gives none; our default)", min=0.0),
-        "directional_noise_deg": Key("float", 0.5, "directional resampling: heading noise of the "
-                                     "board's copies", min=0.0),
-        "directional_scheme": Key("choice", "systematic", "directional resampling: how the kept "
-                                  "half is resampled by weight ('systematic' ours; afsa2014 "
-                                  "describes inverse-transform draws of independent uniforms, "
-                                  "'multinomial')", choices=tuple(SCHEME_CODES)),
-        "directional_map": Key("choice", "board", "directional resampling: the map each copy "
-                               "carries, 'board' the board particle's as of the previous "
-                               "observation (ours: the particle eq. 10 moves) or 'best' this "
-                               "observation's highest-weight particle's, updated by it; afsa2014 "
-                               "does not say", choices=tuple(DIRECTIONAL_MAPS)),
+        **_directional_keys(),
         "resample": Key("choice", "neff", "'neff': when ESS < neff_ratio * N; 'always'",
                         choices=("neff", "always")),
         "neff_ratio": pf_keys()["neff_ratio"],
