@@ -305,52 +305,80 @@ def rate_table(exp: Experiment, rows: pd.DataFrame, outcome: pd.Series) -> pd.Da
 def rate_figure(exp: Experiment, rows: pd.DataFrame, path: Path,
                 table: pd.DataFrame | None = None) -> None:
     """The rates (rates()): per filter run, the fraction of trials with its Wilson 95% interval,
-    'k of n' under it, and the paper's value (red diamond) at the same x; one panel per rate."""
+    'k of n' beside it, and the paper's value (red diamond) on the same run; one panel per rate.
+    Up to three runs: a column each, named under it; more: a row each (horizontal bars), named
+    once on the left, so that every name stays readable."""
     which = rates(exp, rows)
     if not which:
         return
     runs = list(exp.filters)
-    wide = fs.width(max(5.0, (0.75 * len(runs) + 1.2) * len(which) + 0.6))
-    fig, axes = fs.pyplot().subplots(1, len(which), figsize=(wide, 4.4), sharey=True,
-                                     squeeze=False)
+    rows_layout = len(runs) > 3
+    if rows_layout:
+        wide = fs.width(min(fs.MAX_WIDTH_IN, 3.4 + 3.0 * len(which)))
+        fig, axes = fs.pyplot().subplots(1, len(which), figsize=(wide, 0.36 * len(runs) + 1.9),
+                                         sharey=True, squeeze=False)
+    else:
+        wide = fs.width(max(5.0, (0.75 * len(runs) + 1.2) * len(which) + 0.6))
+        fig, axes = fs.pyplot().subplots(1, len(which), figsize=(wide, 4.4), sharey=True,
+                                         squeeze=False)
     by_key = table.set_index("filter") if table is not None and len(table) else None
     ns = set()
-    for ax, (name, ylabel, outcome, q) in zip(axes[0], which):
+    for ax, (name, label, outcome, q) in zip(axes[0], which):
         t = rate_table(exp, rows, outcome)
         ns |= set(t["n"])
-        x = np.arange(1, len(runs) + 1)
-        for i, (r, row) in enumerate(zip(runs, t.itertuples())):
-            ax.bar(x[i], 100 * row.rate, width=0.6, color=fs.colour(i), alpha=0.35)
-            ax.errorbar([x[i]], [100 * row.rate], yerr=[[100 * (row.rate - row.lo)],
-                                                         [100 * (row.hi - row.rate)]],
-                        fmt="o", color="black", ms=4, capsize=4, lw=1.2,
-                        label="our rate and its Wilson 95% interval")
-            v = _paper_value(exp, r, q) if q is not None else None
-            if v is not None:
-                apart = (by_key is not None and r.key in by_key.index
-                         and by_key.loc[r.key].get(f"kind_{q.key}") == "not comparable")
-                ax.plot([x[i]] * (1 if v[0] == v[1] else 2), [100 * v[0]] + (
-                    [] if v[0] == v[1] else [100 * v[1]]), "D" if v[0] == v[1] else "-",
-                    color="0.55" if apart else "#d62728", ms=8, mfc="none", mew=1.8, lw=4,
-                    label=_PAPER_APART if apart else _PAPER, zorder=6)
-        if len(runs) <= 3:
-            ax.set_xticks(x, [f"{_stacked(r, rows)}\n{row.k} of {row.n}"
-                              for r, row in zip(runs, t.itertuples())], fontsize=8)
-        else:           # many narrow columns: one line each, slanted
-            ax.set_xticks(x, [f"{_run_name(r, rows)}: {row.k} of {row.n}"
-                              for r, row in zip(runs, t.itertuples())], fontsize=8,
-                          rotation=30, ha="right")
-        ax.set_ylim(0, 105)
-        ax.set_title(ylabel)
-        ax.grid(axis="x", visible=False)
-    axes[0, 0].set_ylabel("trials (%)")
+        _rate_panel(ax, exp, rows, runs, t, q, by_key, rows_layout)
+        ax.set_title(label)
+    if rows_layout:
+        for ax in axes[0]:
+            ax.set_xlabel("trials (%)")
+    else:
+        axes[0, 0].set_ylabel("trials (%)")
     n = f"{ns.pop()} trials" if len(ns) == 1 else "the trials with an outcome"
     fig.suptitle(fs.wrap(f"{exp.name}: rates over {n} (bar and dot: our rate, with its Wilson "
-                         "95% interval; under each: trials it succeeded of those run)", wide),
+                         f"95% interval; {'beside' if rows_layout else 'under'} each: trials it "
+                         "succeeded of those run)", wide),
                  fontsize=10)
     fig.tight_layout()
     _legend_under(fig, axes[0])
     save_figure(fig, path)
+
+
+def _rate_panel(ax, exp: Experiment, rows: pd.DataFrame, runs: list, t: pd.DataFrame, q,
+                by_key, rows_layout: bool) -> None:
+    """One rate's panel of rate_figure: a bar per run (a row each with ``rows_layout``, else a
+    column), its Wilson interval, 'k of n' and the paper's value where it has one."""
+    pos = np.arange(len(runs), 0, -1) if rows_layout else np.arange(1, len(runs) + 1)
+    for i, (r, row) in enumerate(zip(runs, t.itertuples())):
+        err = [[100 * (row.rate - row.lo)], [100 * (row.hi - row.rate)]]
+        if rows_layout:
+            ax.barh(pos[i], 100 * row.rate, height=0.6, color=fs.colour(i), alpha=0.35)
+            ax.errorbar([100 * row.rate], [pos[i]], xerr=err, fmt="o", color="black", ms=4,
+                        capsize=3, lw=1.2, label="our rate and its Wilson 95% interval")
+            ax.text(106, pos[i], f"{row.k} of {row.n}", va="center", fontsize=8)
+        else:
+            ax.bar(pos[i], 100 * row.rate, width=0.6, color=fs.colour(i), alpha=0.35)
+            ax.errorbar([pos[i]], [100 * row.rate], yerr=err, fmt="o", color="black", ms=4,
+                        capsize=4, lw=1.2, label="our rate and its Wilson 95% interval")
+        v = _paper_value(exp, r, q) if q is not None else None
+        if v is not None:
+            apart = (by_key is not None and r.key in by_key.index
+                     and by_key.loc[r.key].get(f"kind_{q.key}") == "not comparable")
+            vals = [100 * v[0]] + ([] if v[0] == v[1] else [100 * v[1]])
+            at = [pos[i]] * len(vals)
+            xy = (vals, at) if rows_layout else (at, vals)
+            ax.plot(*xy, "D" if v[0] == v[1] else "-", color="0.55" if apart else "#d62728",
+                    ms=8, mfc="none", mew=1.8, lw=4, label=_PAPER_APART if apart else _PAPER,
+                    zorder=6)
+    if rows_layout:
+        ax.set_yticks(pos, [_run_name(r, rows) for r in runs], fontsize=8)
+        ax.set_xticks([0, 25, 50, 75, 100])
+        ax.set_xlim(0, 128)
+        ax.grid(axis="y", visible=False)
+    else:
+        ax.set_xticks(pos, [f"{_stacked(r, rows)}\n{row.k} of {row.n}"
+                            for r, row in zip(runs, t.itertuples())], fontsize=8)
+        ax.set_ylim(0, 105)
+        ax.grid(axis="x", visible=False)
 
 
 def _families(exp: Experiment) -> dict[str, list]:
