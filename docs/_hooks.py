@@ -14,8 +14,8 @@ from pathlib import Path
 from mkdocs.structure.files import File
 
 ROOT = Path(__file__).resolve().parents[1]
-RESULTS = ("results/REPORT.md", "results/*/table.md", "results/*/figures/*.png",
-           "results/report/*.html", "results/report/figures/**/*.svg")
+RESULTS = ("results/REPORT.md", "results/*/table.md", "results/*/readings.md",
+           "results/*/figures/*.png", "results/report/*.html", "results/report/figures/**/*.svg")
 _LINK = re.compile(r"(\]\()((?:\.\./)+results/[^)\s]*)")
 
 

@@ -27,7 +27,7 @@ from .outputs import write_experiment
 from .progress import shown
 from .schema import ConfigError, describe
 
-if TYPE_CHECKING:     # pandas loads after a run's workers start (tablecache.import_ahead)
+if TYPE_CHECKING:     # pandas loads after a run's workers start (runner.import_ahead)
     import pandas as pd
 
 __all__ = ["Result", "load_results", "load_trials", "run_experiment", "run_until_decided"]

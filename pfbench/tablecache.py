@@ -138,43 +138,6 @@ def _store(where: Path, path: Path, cmp) -> None:
         pass
 
 
-_AHEAD: list = []       # the thread of import_ahead, while it may run
-
-
-def import_ahead(stats: bool = False) -> None:
-    """Import, in a thread of this process, the modules the table of a run needs (scipy.special
-    for its intervals, the comparison and the tables; with ``stats``, scipy.stats for the
-    ranking of its filters, pfbench.rank) while this process waits for the trials of its worker
-    processes: a short run's table then starts at once. Call it only after those workers are
-    forked, and ``settle`` before forking others (a fork while a thread imports could copy a
-    held import lock into the child)."""
-    import threading
-    wanted = ("scipy.special", "pfbench.compare", "pfbench.tables") + (
-        ("scipy.stats",) if stats else ())
-    if all(m in sys.modules for m in wanted):
-        return
-
-    def ahead():
-        try:
-            import scipy.special  # noqa: F401
-
-            from . import compare, tables  # noqa: F401
-            if stats:
-                import scipy.stats  # noqa: F401
-        except Exception:       # imported again where needed, and failing there if it must
-            pass
-    settle()
-    thread = threading.Thread(target=ahead, name="pfbench-import-ahead", daemon=True)
-    thread.start()
-    _AHEAD.append(thread)
-
-
-def settle() -> None:
-    """Wait for import_ahead's thread, if one runs (before this process forks)."""
-    while _AHEAD:
-        _AHEAD.pop().join()
-
-
 def anytime_of(meta: dict | None) -> int | None:
     """The most trials a run until decided could reach (its confidence sequences are tuned for
     it), from a results folder's meta; None for a run of a fixed trial count."""
