@@ -504,17 +504,16 @@ def _count(trials) -> int:
     return len(trials) if hasattr(trials, "__len__") else -1
 
 
-_AHEAD: list = []       # the thread of import_ahead, while it may run
-
-
 def import_ahead(stats: bool = False) -> None:
     """Import, in a thread of this process, the modules the table of a run needs (scipy.special
     for its intervals, the comparison and the tables; with ``stats``, scipy.stats for the
     ranking of its filters, pfbench.rank) while this process waits for the trials of its worker
     processes: a short run's table then starts at once. Call it only after those workers are
     forked, and ``settle`` before forking others (a fork while a thread imports could copy a
-    held import lock into the child)."""
+    held import lock into the child: tablecache.settle)."""
     import threading
+
+    from .tablecache import hold, settle
     wanted = ("scipy.special", "pfbench.compare", "pfbench.tables") + (
         ("scipy.stats",) if stats else ())
     if all(m in sys.modules for m in wanted):
@@ -532,13 +531,7 @@ def import_ahead(stats: bool = False) -> None:
     settle()
     thread = threading.Thread(target=ahead, name="pfbench-import-ahead", daemon=True)
     thread.start()
-    _AHEAD.append(thread)
-
-
-def settle() -> None:
-    """Wait for import_ahead's thread, if one runs (before this process forks)."""
-    while _AHEAD:
-        _AHEAD.pop().join()
+    hold(thread)
 
 
 def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | None = None,
@@ -574,6 +567,7 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
     if running is not None:
         running.append(lambda: [tuple(now[i:i + 2]) for i in range(0, len(now), 2)])
     from .rank import ranks_filters
+    from .tablecache import settle
     settle()                        # no fork while a thread of this process imports
     with Workers(workers, partial(_run_chunk_in_worker, exp, traces=traces),
                  setup=_worker_init, setup_args=(now,)) as pool:

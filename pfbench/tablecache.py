@@ -138,6 +138,22 @@ def _store(where: Path, path: Path, cmp) -> None:
         pass
 
 
+_AHEAD: list = []       # the threads of runner.import_ahead, while they may run
+
+
+def hold(thread) -> None:
+    """Note a thread of this process that imports modules (runner.import_ahead): ``settle``
+    waits for it."""
+    _AHEAD.append(thread)
+
+
+def settle() -> None:
+    """Wait for the threads ``hold`` noted, if one runs (before this process forks: a fork while a
+    thread imports could copy a held import lock into the child)."""
+    while _AHEAD:
+        _AHEAD.pop().join()
+
+
 def anytime_of(meta: dict | None) -> int | None:
     """The most trials a run until decided could reach (its confidence sequences are tuned for
     it), from a results folder's meta; None for a run of a fixed trial count."""
