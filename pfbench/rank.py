@@ -315,24 +315,60 @@ def pair_rows(r: Ranking) -> tuple[list[str], list[list[str]]]:
 
 
 def ranks_filters(exp) -> bool:
-    """Whether a run of ``exp`` ranks its filters in table.md ("All filters at once"): two
-    filter runs or more at one particle count (filters without particles count as one)."""
+    """Whether a run of ``exp`` ranks its filters in table.md ("All filters at once") with the
+    tests (which import scipy.stats): two filter runs or more at one particle count (filters
+    without particles count as one), on enough blocks for a test to tell two apart
+    (``min_blocks``), as its trials and shared particle counts promise."""
     from collections import Counter
-    return any(n >= 2 for n in Counter(f.particles for f in exp.filters).values())
+    counts = Counter(f.particles for f in exp.filters)
+    shared = [c for c in counts.values() if c >= 2]
+    return bool(shared) and exp.trials * len(shared) >= min_blocks(max(2, min(shared)))
+
+
+def min_blocks(filters: int, alpha: float = ALPHA) -> int:
+    """The fewest blocks on which Wilcoxon's signed-rank test can tell two of ``filters``
+    filters apart under Holm's procedure at ``alpha``: its smallest two-sided p-value on n
+    blocks is 2 / 2^n (exact, no ties), and Holm's first level alpha / m, m the pairs."""
+    pairs = filters * (filters - 1) // 2
+    return max(1, math.ceil(1 + math.log2(pairs / alpha)))
+
+
+def _too_few(values: np.ndarray, names: list[str], points, left, dropped, metric: str
+             ) -> list[str]:
+    """table.md's section for blocks too few for any test (``min_blocks``): the average ranks
+    (pandas' average ranks of ties), and why no test is run."""
+    import pandas as pd
+    hb = metric in HIGHER_IS_BETTER
+    avg = pd.DataFrame(-values if hb else values).rank(axis=1, method="average").mean()
+    order = sorted(range(len(names)), key=lambda i: (avg[i], i))
+    r = Ranking(metric, hb, [names[i] for i in order], {names[i]: float(avg[i]) for i in order},
+                len(values), points, left, dropped, None, None, [], [], ALPHA)
+    need = min_blocks(len(names))
+    return ([head_line(r), "", "| Filter | Average rank |", "| --- | --- |"]
+            + [f"| {f} | {r.average_ranks[f]:.2f} |" for f in r.filters] + [""]
+            + [f"No test: on {len(values)} blocks Wilcoxon's signed-rank test cannot tell two "
+               f"of {len(names)} filters apart under Holm's procedure at {ALPHA:g} (its smallest "
+               f"p-value, 2 / 2^n, needs {need} blocks); more trials rank them with the tests."])
 
 
 def markdown_section(rows, metric: str = "rmse") -> list[str]:
     """table.md's section "All filters at once" for a run's trial rows (dicts), or [] when
-    fewer than two filters ran at a common particle count or the metric is missing."""
+    fewer than two filters ran at a common particle count or the metric is missing; on blocks
+    too few for any test (``min_blocks``), the average ranks alone (no scipy.stats)."""
     import pandas as pd
     df = pd.DataFrame(rows)
     if metric not in df or df[metric].isna().all():
         return []
+    df = df.drop(columns=["wall_s"], errors="ignore")
     try:
-        r = rank(df.drop(columns=["wall_s"], errors="ignore"), metric)
+        values, names, points, left, dropped = block_matrix(df, metric)
+        if len(values) < min_blocks(len(names)):
+            body = _too_few(values, names, points, left, dropped, metric)
+        else:
+            body = summary_lines(rank(df, metric))
     except UserError:
         return []
-    return (["", "## All filters at once", ""] + summary_lines(r)
+    return (["", "## All filters at once", ""] + body
             + ["", "`pfbench rank FOLDER` prints every pair and draws the critical-difference "
                "diagram."])
 

@@ -153,3 +153,15 @@ def test_rank_refuses_bad_input_in_one_line_and_writes_nothing(tmp_path):
                  ["rank", folder, folder]):
         one_line_exit_2(runner.invoke(app, args))
     assert tree(tmp_path) == before and not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("k", [2, 3, 6, 8])
+def test_min_blocks_is_where_wilcoxon_first_can_reject_under_holm(k):
+    """On min_blocks(k) blocks all one way, scipy's exact Wilcoxon p reaches Holm's first
+    level; on one block fewer it cannot."""
+    from scipy.stats import wilcoxon
+    from pfbench.rank import ALPHA, min_blocks
+    m = k * (k - 1) // 2
+    n = min_blocks(k)
+    assert wilcoxon(np.arange(1.0, n + 1)).pvalue <= ALPHA / m
+    assert wilcoxon(np.arange(1.0, n)).pvalue > ALPHA / m

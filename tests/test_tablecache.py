@@ -118,23 +118,32 @@ print(sorted({m for m in sys.modules if m.startswith(("scipy.stats", "matplotlib
 
 def test_a_run_without_figures_imports_only_what_it_uses(tmp_path):
     """A run that draws no figure imports no matplotlib; its verdicts (t intervals, Holm) need
-    no scipy.stats or statsmodels: only the ranking of its filters in table.md ("All filters at
-    once": Friedman's and Wilcoxon's tests) imports scipy.stats, while the trials run. Run
-    again, its folder up to date, it computes nothing."""
+    no scipy.stats or statsmodels: only the tests of table.md's ranking of its filters ("All
+    filters at once": Friedman's and Wilcoxon's) import scipy.stats, while the trials run, and
+    only on blocks enough for a test to tell two filters apart (two trials of ifa_pf_ungm: 6
+    blocks, the average ranks alone). Run again, its folder up to date, it computes nothing."""
+    tested = tmp_path / "three.yaml"
+    tested.write_text("seed: 1\ntrials: 4\nscenario: {name: ungm, steps: 10}\nfilters:\n"
+                      "  pf: {particles: [20, 30]}\n  pf_b: {type: pf, particles: [20, 30]}\n"
+                      "  pf_c: {type: pf, particles: [20, 30], resampling: multinomial}\n")
     single = tmp_path / "one.yaml"
     single.write_text("seed: 1\ntrials: 2\nscenario: {name: ungm, steps: 20}\n"
                       "filters:\n  pf: {particles: 50}\n  pf_big: {type: pf, particles: 100}\n")
-    for config, ranked in ((CONFIG, True), (single, False)):
-        out = tmp_path / f"r_{ranked}"
-        cmd = [sys.executable, "-c", _MODULES, "run", str(config), "--trials", "2", "--out",
-               str(out), "--no-figures"]
+    for config, ranked, tests in ((CONFIG, True, False), (tested, True, True),
+                                  (single, False, False)):
+        out = tmp_path / f"r_{config.stem}"
+        cmd = [sys.executable, "-c", _MODULES, "run", str(config), "--trials",
+               "4" if config == tested else "2", "--out", str(out), "--no-figures"]
         for up_to_date in (False, True):
             res = subprocess.run(cmd, capture_output=True, text=True, check=True, cwd=tmp_path)
             seen = eval(res.stdout.strip().splitlines()[-1])
             assert not [m for m in seen if m.startswith(("matplotlib", "statsmodels"))], seen
-            assert bool(seen) == (ranked and not up_to_date), res.stdout + res.stderr
+            assert bool(seen) == (tests and not up_to_date), res.stdout + res.stderr
             assert ("up to date" in res.stderr) == up_to_date
-            assert ("## All filters at once" in (out / "table.md").read_text()) == ranked
+            md = (out / "table.md").read_text()
+            assert ("## All filters at once" in md) == ranked
+            assert ("Wilcoxon signed-rank tests, Holm" in md) == tests
+            assert ("No test: on " in md) == (ranked and not tests)
 
 
 def test_a_run_with_consistency_bounds_imports_no_scipy_stats(tmp_path):
