@@ -791,7 +791,8 @@ def _print_check(rows: list, configs: int, results: Path, z: float) -> None:
             out.print(f"moved: {f.line()}", markup=False, soft_wrap=True)
     out.print(f"Tolerance: |mean now - mean committed| <= {z:g} s sqrt(1/n_now + "
               "1/n_committed) per filter run and metric (s: the pooled standard deviation "
-              "of the trials of both); constant metrics to 1e-9 relative.", markup=False,
+              "of the trials of both), never below 1e-9 relative; constant metrics to 1e-9 "
+              "relative.", markup=False,
               soft_wrap=True)
 
 

@@ -10,8 +10,9 @@ with the mean over the committed trials:
     |mean_check - mean_committed| <= z s_pooled sqrt(1/n_check + 1/n_committed)
 
 (s_pooled: the pooled standard deviation over the trials of both, the standard error of the
-difference under the hypothesis that nothing changed; z = 4 by default). Metrics that are constant in both (a
-particle count, the likelihood evaluations) must agree to 1e-9 relative. Trials are pure functions
+difference under the hypothesis that nothing changed; z = 4 by default), and never less than 1e-9
+relative (the rounding of two means over different numbers of trials). Metrics that are constant
+in both (a particle count, the likelihood evaluations) must agree to 1e-9 relative. Trials are pure functions
 of the seed and the index, so on the machine that produced the results the first trials are
 reproduced bit for bit (reported, not required: another platform's floating point may differ in
 the last bits, which a chaotic filter can grow into a different trial, but not into a different
@@ -288,7 +289,9 @@ def check_against_committed(check: pd.DataFrame, committed: pd.DataFrame, where:
             result.compared += 1
             d = float(a.mean() - b.mean())
             se = pooled_se(a, b)
-            tol = z * se if se > 0 else 1e-9 * max(1.0, abs(float(b.mean())))
+            # never below 1e-9 relative: two means over different trial counts round apart by
+            # an ulp or so, which a near-constant metric's tiny spread would call a move
+            tol = max(z * se, 1e-9 * max(1.0, abs(float(b.mean()))))
             if not abs(d) <= tol:
                 result.findings.append(MovedMetric(where, run, metric, float(a.mean()),
                                                float(b.mean()), tol))
