@@ -65,28 +65,37 @@ def folder() -> Path | None:
     return Path(CACHE_DIR).parent / "pfbench-tables"
 
 
-def cached_compare(exp, rows, anytime: int | None = None):
-    """``pfbench.compare.compare(exp, rows, anytime)``, from the cache when it was computed
-    before from the same inputs by the same code."""
-    from .compare import Comparison, compare
+def _cached(exp, rows, salt, compute, valid):
+    """``compute()``, or the entry the cache holds for (``exp``, ``rows``, ``salt``) when it was
+    computed before by the same code and ``valid(entry)`` holds; a new result is stored. Rows that
+    do not serialise, a missing cache folder or an unreadable entry only mean computing it."""
     where = folder()
     try:
-        k = key(exp, rows, anytime)
+        k = key(exp, rows, salt)
     except (TypeError, ValueError, RecursionError):     # rows that do not serialise: no cache
         where = None
     if where is not None:
         path = where / f"{k}.pickle"
         try:
             with open(path, "rb") as fh:
-                cmp = pickle.load(fh)
-            if isinstance(cmp, Comparison):
-                return replace(cmp, exp=exp)
+                entry = pickle.load(fh)
+            if valid(entry):
+                return entry
         except Exception:       # absent, cut short, from another pickle protocol: compute it
             pass
-    cmp = compare(exp, rows, anytime=anytime)
+    result = compute()
     if where is not None:
-        _store(where, path, cmp)
-    return cmp
+        _store(where, path, result)
+    return result
+
+
+def cached_compare(exp, rows, anytime: int | None = None):
+    """``pfbench.compare.compare(exp, rows, anytime)``, from the cache when it was computed
+    before from the same inputs by the same code."""
+    from .compare import Comparison, compare
+    cmp = _cached(exp, rows, anytime, lambda: compare(exp, rows, anytime=anytime),
+                  lambda entry: isinstance(entry, Comparison))
+    return replace(cmp, exp=exp)
 
 
 def cached_ranking(exp, rows) -> list[str]:
@@ -98,24 +107,9 @@ def cached_ranking(exp, rows) -> list[str]:
     from .rank import markdown_section
     df = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(list(rows))
     df = df.drop(columns=["wall_s"], errors="ignore")
-    where = folder()
-    try:
-        k = key(exp, df, "ranking")
-    except (TypeError, ValueError, RecursionError):
-        where = None
-    if where is not None:
-        path = where / f"{k}.pickle"
-        try:
-            with open(path, "rb") as fh:
-                lines = pickle.load(fh)
-            if isinstance(lines, list) and all(isinstance(x, str) for x in lines):
-                return lines
-        except Exception:       # absent or unreadable: compute it
-            pass
-    lines = markdown_section(df, "rmse")
-    if where is not None:
-        _store(where, path, lines)
-    return lines
+    return _cached(exp, df, "ranking", lambda: markdown_section(df, "rmse"),
+                   lambda entry: isinstance(entry, list)
+                   and all(isinstance(x, str) for x in entry))
 
 
 def _store(where: Path, path: Path, cmp) -> None:
