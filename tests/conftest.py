@@ -1,7 +1,9 @@
+import math
 import os
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from pfbench.config import Params
@@ -152,3 +154,34 @@ def pytest_xdist_node_collection_finished(node, ids):
     collected and before any test is handed out (the workers then load every kernel from the
     cache instead of each compiling it, unseen)."""
     _warm_first(node.config, len({i.split("::", 1)[0] for i in ids}))
+
+
+def ewa_reference(W, beta, printed=False, copies="ceil"):
+    """ifa2021 section 1.2 written plainly in numpy; ``copies``: how many copies a kept particle
+    of weight W gets, n = W / delta (the key ``ewa_copies``)."""
+    N = W.size
+    order = np.argsort(-W, kind="stable")
+    Ws = W[order]
+    v, deltas = 0.0, []
+    for i, wi in enumerate(Ws, start=1):
+        v = beta * v + (1 - beta) * wi
+        deltas.append(v / (1 - beta ** i))
+        if printed:
+            v = deltas[-1]
+    delta = np.mean(deltas)
+    kept = max(1, int(np.sum(Ws >= delta * (1 - 1e-12))))   # round-off guard, as documented
+    src, mutant = [], []
+    for i in range(kept):
+        n = Ws[i] / delta
+        c = {"ceil": math.ceil(n - 1e-12), "floor_plus_one": math.floor(n + 1e-12) + 1,
+             "ceil_plus_one": math.ceil(n - 1e-12) + 1}[copies]
+        for _ in range(c):
+            if len(src) < N:
+                src.append(order[i])
+                mutant.append(0)
+    j = 0
+    while len(src) < N:
+        src.append(order[j % kept])
+        mutant.append(1)
+        j += 1
+    return np.array(src), np.array(mutant)

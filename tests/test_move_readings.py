@@ -17,6 +17,8 @@ from pfbench.filters import swarm as sw
 from pfbench.resampling import ewa_copies, stepwise_ewa_plan
 from pfbench.rng import state_from_seed
 
+from .conftest import ewa_reference
+
 
 def _state(k=0):
     return state_from_seed(np.random.SeedSequence(k))
@@ -57,34 +59,6 @@ def test_ewa_copies_n_plus_one_on_uniform_and_one_hot_weights():
     assert _plan(W, EWA_COPIES_CEIL_PLUS_ONE) == (1, [2, 2, 2, 2], [0, 0, 0, 0])
 
 
-def _reference(W, beta, copies):
-    """ifa2021 section 1.2 in numpy, the copies of a kept particle per reading."""
-    N = W.size
-    order = np.argsort(-W, kind="stable")
-    Ws = W[order]
-    v, deltas = 0.0, []
-    for i, wi in enumerate(Ws, start=1):
-        v = beta * v + (1 - beta) * wi
-        deltas.append(v / (1 - beta ** i))
-    delta = np.mean(deltas)
-    kept = max(1, int(np.sum(Ws >= delta * (1 - 1e-12))))
-    src, mutant = [], []
-    for i in range(kept):
-        n = Ws[i] / delta
-        c = {"ceil": math.ceil(n - 1e-12), "floor_plus_one": math.floor(n + 1e-12) + 1,
-             "ceil_plus_one": math.ceil(n - 1e-12) + 1}[copies]
-        for _ in range(c):
-            if len(src) < N:
-                src.append(int(order[i]))
-                mutant.append(0)
-    j = 0
-    while len(src) < N:
-        src.append(int(order[j % kept]))
-        mutant.append(1)
-        j += 1
-    return src, mutant
-
-
 @settings(max_examples=100, deadline=None)
 @given(st.integers(1, 60), st.integers(0, 2 ** 31), st.sampled_from(sorted(EWA_COPIES)))
 def test_ewa_copies_match_the_numpy_reference(N, seed, copies):
@@ -92,7 +66,8 @@ def test_ewa_copies_match_the_numpy_reference(N, seed, copies):
     W = rng.gamma(rng.uniform(0.1, 3), size=N)
     W /= W.sum()
     _, src, mutant = _plan(W, EWA_COPIES[copies])
-    assert (src, mutant) == _reference(W, 0.8, copies)
+    ref_src, ref_mutant = ewa_reference(W, 0.8, copies=copies)
+    assert (src, mutant) == ([int(i) for i in ref_src], [int(m) for m in ref_mutant])
 
 
 # --- the bat algorithm --------------------------------------------------------------------------

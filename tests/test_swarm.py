@@ -10,6 +10,8 @@ from pfbench.filters import swarm
 from pfbench.resampling import stepwise_ewa_plan
 from pfbench.rng import state_from_seed
 
+from .conftest import ewa_reference
+
 OPT = np.array([1.0, -2.0])
 
 
@@ -101,33 +103,6 @@ def test_greedy_afsa_never_lowers_a_fish():
         swarm.afsa_select(X, fit, C, fitness(C, D), D, 1)
         assert np.all(fit >= before)
         assert np.allclose(fit, fitness(X, D))
-
-
-def ewa_reference(W, beta, printed=False):
-    """ifa2021 section 1.2 written plainly in numpy."""
-    N = W.size
-    order = np.argsort(-W, kind="stable")
-    Ws = W[order]
-    v, deltas = 0.0, []
-    for i, wi in enumerate(Ws, start=1):
-        v = beta * v + (1 - beta) * wi
-        deltas.append(v / (1 - beta ** i))
-        if printed:
-            v = deltas[-1]
-    delta = np.mean(deltas)
-    kept = max(1, int(np.sum(Ws >= delta * (1 - 1e-12))))   # round-off guard, as documented
-    src, mutant = [], []
-    for i in range(kept):
-        for _ in range(int(np.ceil(Ws[i] / delta - 1e-12))):
-            if len(src) < N:
-                src.append(order[i])
-                mutant.append(0)
-    j = 0
-    while len(src) < N:
-        src.append(order[j % kept])
-        mutant.append(1)
-        j += 1
-    return np.array(src), np.array(mutant)
 
 
 @settings(max_examples=150, deadline=None)
