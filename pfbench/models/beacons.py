@@ -64,41 +64,7 @@ LOG_2PI = math.log(2.0 * math.pi)
                     STATE, _I, _F2), cache=True)
 def sense_beacons(bc, x, y, th, sensor, sense, s, ids, zs):
     """Fill the observations seen from (x, y, th) into ids / zs; return how many."""
-    rmax, half_fov, sr, sb, nearest = (sense.max_range, sense.half_fov, sense.sr, sense.sb,
-                                       sense.nearest)
-    n = 0
-    best = -1
-    bd = np.inf
-    cand = 0
-    for b in range(bc.shape[0]):
-        dx, dy = bc[b, 0] - x, bc[b, 1] - y
-        r = math.hypot(dx, dy)
-        if r > rmax:
-            continue
-        if sensor == SENSOR_RANGE:
-            # one answer: the nearest, or uniformly among those in range (reservoir sampling)
-            if nearest:
-                if r < bd:
-                    bd = r
-                    best = b
-            else:
-                cand += 1
-                if uniform(s) * cand < 1.0:
-                    best = b
-            continue
-        brg = wrap(math.atan2(dy, dx) - th)
-        if abs(brg) > half_fov:
-            continue
-        ids[n] = b
-        zs[n, 0] = r + sr * normal(s)
-        zs[n, 1] = wrap(brg + sb * normal(s))
-        n += 1
-    if sensor == SENSOR_RANGE and best >= 0:
-        ids[0] = best
-        zs[0, 0] = math.hypot(bc[best, 0] - x, bc[best, 1] - y) + sr * normal(s)
-        zs[0, 1] = 0.0
-        n = 1
-    return n
+    return _scan(bc, x, y, th, sensor, sense, 0, 0.0, 0.0, s, ids, zs)
 
 
 @kernel(types.float64(types.float64, types.float64, types.float64, _F2, types.int64, _I, _F2,
@@ -282,13 +248,15 @@ def mixture_range(r, sr, eps, rmax, s):
     return r + sr * normal(s)
 
 
-@kernel(SCAN_SAMPLE_SIG, cache=True)
-def mixture_sample(x, y, th, bc, theta, s, ids, zs):
-    """``sense_beacons`` (the same beacons seen, the same bearings' noise) with each range drawn
-    from the hit-and-random mixture (``mixture_range``); theta: ``mixture_theta``."""
-    sensor, rmax_see, half_fov = int(theta[MIX_SENSOR]), theta[MIX_MAX_RANGE], theta[MIX_HALF_FOV]
-    sr, sb, nearest = theta[MIX_SR], theta[MIX_SB], theta[MIX_NEAREST] != 0.0
-    eps, rmax = theta[MIX_EPS], theta[MIX_RMAX]
+@kernel(types.int64(_F2, types.float64, types.float64, types.float64, types.int64, BEACON_SENSOR,
+                    types.int64, types.float64, types.float64, STATE, _I, _F2), cache=True,
+        inline="always")
+def _scan(bc, x, y, th, sensor, sense, mix, eps, rmax, s, ids, zs):
+    """The observations seen from (x, y, th) into ids / zs (``sense_beacons``); each range r
+    measured as r + sr N(0, 1), or with ``mix`` from the hit-and-random mixture
+    (``mixture_range``: eps, rmax). Returns how many."""
+    rmax_see, half_fov, sr, sb, nearest = (sense.max_range, sense.half_fov, sense.sr, sense.sb,
+                                           sense.nearest)
     n = 0
     best = -1
     bd = np.inf
@@ -299,6 +267,7 @@ def mixture_sample(x, y, th, bc, theta, s, ids, zs):
         if r > rmax_see:
             continue
         if sensor == SENSOR_RANGE:
+            # one answer: the nearest, or uniformly among those in range (reservoir sampling)
             if nearest:
                 if r < bd:
                     bd = r
@@ -312,12 +281,23 @@ def mixture_sample(x, y, th, bc, theta, s, ids, zs):
         if abs(brg) > half_fov:
             continue
         ids[n] = b
-        zs[n, 0] = mixture_range(r, sr, eps, rmax, s)
+        zs[n, 0] = mixture_range(r, sr, eps, rmax, s) if mix else r + sr * normal(s)
         zs[n, 1] = wrap(brg + sb * normal(s))
         n += 1
     if sensor == SENSOR_RANGE and best >= 0:
         ids[0] = best
-        zs[0, 0] = mixture_range(math.hypot(bc[best, 0] - x, bc[best, 1] - y), sr, eps, rmax, s)
+        r = math.hypot(bc[best, 0] - x, bc[best, 1] - y)
+        zs[0, 0] = mixture_range(r, sr, eps, rmax, s) if mix else r + sr * normal(s)
         zs[0, 1] = 0.0
         n = 1
     return n
+
+
+@kernel(SCAN_SAMPLE_SIG, cache=True)
+def mixture_sample(x, y, th, bc, theta, s, ids, zs):
+    """``sense_beacons`` (the same beacons seen, the same bearings' noise) with each range drawn
+    from the hit-and-random mixture (``mixture_range``); theta: ``mixture_theta``."""
+    sense = BeaconSensor(theta[MIX_MAX_RANGE], theta[MIX_HALF_FOV], theta[MIX_SR], theta[MIX_SB],
+                         1 if theta[MIX_NEAREST] != 0.0 else 0)
+    return _scan(bc, x, y, th, int(theta[MIX_SENSOR]), sense, 1, theta[MIX_EPS],
+                 theta[MIX_RMAX], s, ids, zs)
