@@ -1219,10 +1219,8 @@ def rank_(
         r = rk.rank(load_trials(*paths), metric, filters)
         drawn = None
         if out_path is not None:
-            if out_path.exists() and not out_path.is_dir():
-                raise UserError(f"--out {out_path}: exists and is not a folder")
-            out_path.mkdir(parents=True, exist_ok=True)
-            drawn = rk.draw_cd(r, out_path / f"cd_{metric}.png")
+            from .fsutil import ensure_folder
+            drawn = rk.draw_cd(r, ensure_folder(out_path, "--out") / f"cd_{metric}.png")
         if as_json:
             d = r.as_dict()
             d["diagram"] = str(drawn) if drawn else None
