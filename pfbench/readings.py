@@ -628,15 +628,11 @@ def grid(rows: list[dict]) -> tuple[list[str], list[list[str]]]:
     return ["Claim"] + names, cells
 
 
-def _md_table(head: list[str], cells: list[list[str]]) -> list[str]:
-    return (["| " + " | ".join(head) + " |", "|" + "|".join(" --- " for _ in head) + "|"]
-            + ["| " + " | ".join(c.replace("|", "/") for c in row) + " |" for row in cells])
-
-
 def report_lines(folder: Path, link: str) -> list[str]:
     """The report's lines on the readings of a results folder (none when it holds none): the
     robustness lines first, then the readings table in a <details> block; ``link``: where
     readings.md is, from the report."""
+    from .tables import md_table
     rows = read_csv(folder)
     if not rows:
         return []
@@ -646,13 +642,14 @@ def report_lines(folder: Path, link: str) -> list[str]:
              f"[readings.md]({link}) has what each reads and why), each claim of the table:", ""]
             + [f"- {line}" for line in lines_of(rows)]
             + ["", "<details><summary>Every claim under every reading</summary>", "", LEGEND,
-               ""] + _md_table(head, cells)
+               ""] + md_table(head, cells)
             + ["", family_note(rows, len(names)), "", "</details>", ""])
 
 
 def markdown(runs: list[ReadingRun], rows: list[dict], lines: list[str]) -> str:
     """readings.md: the robustness lines, then every claim under every reading, the readings,
     and the multiplicity rule."""
+    from .tables import md_table
     exp = runs[0].exp
     out = [f"# {exp.name}: readings of {exp.paper} {exp.table}", "",
            f"{len(runs)} readings of the choices the paper leaves open (the config as it is, "
@@ -662,7 +659,7 @@ def markdown(runs: list[ReadingRun], rows: list[dict], lines: list[str]) -> str:
     out += [f"- {line}" for line in lines] or ["No claim of the paper's table is judged."]
     out += ["", "## Every claim under every reading", "", LEGEND, ""]
     head, cells = grid(rows)
-    out += _md_table(head, cells)
+    out += md_table(head, cells)
     out += ["", "## The readings", "", "| Reading | What it reads | Sets | Run again | Why |",
             "| --- | --- | --- | --- | --- |"]
     for run in runs:

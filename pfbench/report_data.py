@@ -341,9 +341,7 @@ def ranking_counts(e: Entry) -> tuple[int, int, int]:
 
 # ---- the document
 
-def _table_md(head: list[str], cells: list[list[str]]) -> list[str]:
-    out = ["| " + " | ".join(head) + " |", "|" + "|".join(" --- " for _ in head) + "|"]
-    return out + ["| " + " | ".join(str(c).replace("|", "/") for c in row) + " |" for row in cells]
+_table_md = tb.md_table
 
 
 def _n(v) -> str:

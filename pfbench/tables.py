@@ -14,6 +14,13 @@ from .verdicts import METHODS, percent
 from .store import atomic_write, write_csv
 
 
+def md_table(head: list[str], cells: list[list]) -> list[str]:
+    """A Markdown table's lines: the head, its rule, a row per cell list (a '|' in a cell
+    written '/', so that it cannot split the cell)."""
+    out = ["| " + " | ".join(head) + " |", "|" + "|".join(" --- " for _ in head) + "|"]
+    return out + ["| " + " | ".join(str(c).replace("|", "/") for c in row) + " |" for row in cells]
+
+
 def ranking_lines(rankings: list[Ranking]) -> list[str]:
     """Rankings as lines: the paper's order and ours (point estimates) at each particle count
     (for each ranked quantity), then each pair of rows judged on paired trials, and the count of
