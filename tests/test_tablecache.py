@@ -3,6 +3,7 @@ it again, and never a stale one."""
 import subprocess
 import sys
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -187,3 +188,29 @@ def test_the_workers_start_before_the_tables_modules_import(tmp_path):
            str(tmp_path / "r"), "--no-figures"]
     res = subprocess.run(cmd, capture_output=True, text=True, check=True, cwd=tmp_path)
     assert res.stdout.strip().splitlines()[-1] == "[[]]", res.stdout + res.stderr
+
+
+def test_a_frame_of_rows_is_keyed_on_every_value():
+    """The rows as a DataFrame (what a run passes) are keyed on every bit of every number and on
+    each other value's type: one ulp, a -0.0, 1 against "1" in a column of objects, a column's
+    name or dtype each give another key."""
+    exp = load(CONFIG, {"trials": 2})
+    rows = pd.DataFrame({"filter": ["pf", "ifa"], "trial": [0, 1], "rmse": [1.5, 2.0],
+                         "note": pd.Series([1, None], dtype=object)})
+    k = tablecache.key(exp, rows, None)
+    assert tablecache.key(exp, rows.copy(), None) == k
+
+    def changed(edit):
+        other = rows.copy()
+        edit(other)
+        return tablecache.key(exp, other, None)
+
+    assert changed(lambda d: d.__setitem__("rmse", [1.5, np.nextafter(2.0, 3.0)])) != k
+    assert changed(lambda d: d.__setitem__("rmse", [1.5, 2.0])) == k
+    zero = rows.assign(rmse=[0.0, 2.0])
+    assert tablecache.key(exp, zero.assign(rmse=[-0.0, 2.0]), None) != tablecache.key(
+        exp, zero, None)
+    assert changed(lambda d: d.__setitem__("note", pd.Series(["1", None], dtype=object))) != k
+    assert changed(lambda d: d.__setitem__("trial", [0.0, 1.0])) != k          # the dtype
+    assert tablecache.key(exp, rows.rename(columns={"rmse": "mae"}), None) != k
+    assert tablecache.key(exp, rows.iloc[::-1], None) != k                     # the order
