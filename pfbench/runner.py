@@ -196,7 +196,10 @@ def run_filter(exp: Experiment, trial: int, run, model, y, diag: Diag | None = N
         raise FilterError(f"{_who(run, trial)} raised {_exception_text(exc)}", exc) from None
     wall = time.perf_counter() - t0
     if isinstance(out, Mapping):        # anything else is checked_output's to name
-        unasked = {o for f, o in DIAGNOSTIC_NAMES.values() if not f & diag}
+        # a diagnostic's output that the filter type reports on its own (the Kalman family's
+        # 'pvar', FilterType.reports) is its, asked or not
+        own = FILTERS[run.type].reports
+        unasked = {o for n, (f, o) in DIAGNOSTIC_NAMES.items() if not f & diag and n not in own}
         if any(o in out for o in unasked):
             out = {k: v for k, v in out.items() if k not in unasked}
     return out, wall
