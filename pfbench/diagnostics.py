@@ -120,3 +120,13 @@ def plan(exp) -> Plan:
                 need(name, f"the {kind.name} figures")
                 traced |= NAMES[name][0]
     return Plan(every, traced, {n: why[n] for n in NAMES if n in why}, have)
+
+
+def reported_metrics(exp) -> tuple[str, ...]:
+    """The metric columns of experiment ``exp``'s trials: its scenario kind's metrics, and the
+    consistency metrics (NEES, NIS) its kind has when one of its filters reports them
+    (``FilterType.reports``) or when the experiment computes one as a per-step diagnostic (the
+    particle filters' NEES, ``plan``)."""
+    from .filters import FILTERS
+    reports = {m for f in exp.filters for m in getattr(FILTERS.get(f.type), "reports", ())}
+    return kind_of(exp.scenario).experiment_metrics(reports | set(plan(exp).names))
