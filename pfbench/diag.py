@@ -14,14 +14,16 @@ class Diag(enum.IntFlag):
     DISTINCT = 1        # distinct_frac: output 'distinct'
     DIVERSITY = 2       # diversity_l1: output 'div_l1'
     MAP_TRACE = 4       # lm_trace (SLAM): output 'lm_trace'
+    SPREAD = 8          # nees (scalar PFs): output 'pvar', the particles' posterior variance
 
 
-ALL = Diag.DISTINCT | Diag.DIVERSITY | Diag.MAP_TRACE
+ALL = Diag.DISTINCT | Diag.DIVERSITY | Diag.MAP_TRACE | Diag.SPREAD
 
 # name (a metric column, or the SLAM output lm_trace) -> (flag, the filter output holding it)
 NAMES = {"distinct_frac": (Diag.DISTINCT, "distinct"),
          "diversity_l1": (Diag.DIVERSITY, "div_l1"),
-         "lm_trace": (Diag.MAP_TRACE, "lm_trace")}
+         "lm_trace": (Diag.MAP_TRACE, "lm_trace"),
+         "nees": (Diag.SPREAD, "pvar")}
 
 # What the ``diagnostics`` config key takes besides a list of NAMES.
 KEY_WORDS = ("auto", "all")

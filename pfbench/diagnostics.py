@@ -14,9 +14,18 @@ Some outputs of a filter run cost time at every step and are read only by some e
 - ``lm_trace`` (SLAM): the map error after each observation, which the SLAM figures draw. It is
   computed in the trials whose trace is kept for the figures (trial 0), and in every trial when
   the ``diagnostics`` key asks for it.
+- ``nees`` (scalar; output ``pvar``): a particle filter's posterior variance at each step, the
+  variance of the cloud its estimate is the mean of (the weighted particles before resampling,
+  or the resampled ones with ``estimate: after_resampling``), from which its NEES is scored. It
+  costs a pass over the particles per step, so it is computed only where something reads it:
+  the paper file (a quantity, a per-run table, a finding on the nees column) or the config's
+  ``diagnostics`` key; an experiment that computes it has the nees column in its trials (with
+  the chi-square bounds in its table.csv). The Kalman family (kf, ekf, ukf) reports its
+  variance on its own (``FilterType.reports``), asked or not.
 
 A diagnostic not computed is absent from the filter's output, so its metric is NaN: blank in
-trials.csv and table.csv, '-' in the tables. A filter's ``run`` receives the diagnostics as a
+trials.csv and table.csv, '-' in the tables (the nees column is absent altogether where no
+filter reports it and nothing asks for it). A filter's ``run`` receives the diagnostics as a
 :class:`Diag` (an ``int`` of flags): ``bool(diag)`` is whether any is asked, so a filter written
 for the older ``run(..., diag: bool)`` still works; the runner drops the diagnostic outputs a run
 returns that were not asked for, so that what an experiment holds never depends on the filter.
@@ -111,3 +120,13 @@ def plan(exp) -> Plan:
                 need(name, f"the {kind.name} figures")
                 traced |= NAMES[name][0]
     return Plan(every, traced, {n: why[n] for n in NAMES if n in why}, have)
+
+
+def reported_metrics(exp) -> tuple[str, ...]:
+    """The metric columns of experiment ``exp``'s trials: its scenario kind's metrics, and the
+    consistency metrics (NEES, NIS) its kind has when one of its filters reports them
+    (``FilterType.reports``) or when the experiment computes one as a per-step diagnostic (the
+    particle filters' NEES, ``plan``)."""
+    from .filters import FILTERS
+    reports = {m for f in exp.filters for m in getattr(FILTERS.get(f.type), "reports", ())}
+    return kind_of(exp.scenario).experiment_metrics(reports | set(plan(exp).names))

@@ -10,7 +10,9 @@ filter's output must hold and how a trial is scored:
   variance ``pvar`` (T+1,), the posterior variance (its NEES), and one that predicts the
   measurement ``innov`` and ``innov_var`` (T+1,), the innovation and its predicted variance (its
   NIS). The NEES and NIS columns are in an experiment's trials file when one of its filters
-  declares it reports them (``FilterType.reports``; ``reported_metrics``).
+  declares it reports them (``FilterType.reports``), and the NEES column too when the
+  experiment computes the per-step diagnostic ``nees`` (a particle filter's ``pvar``, the
+  variance of its particles): pfbench.diagnostics.reported_metrics.
 - ``slam``: a robot's pose (x, y, heading) and a landmark map. The truth has ``pose`` (T+1, 3); a
   filter returns ``pose`` (T+1, 3), ``lm_est`` (M, 2), ``lm_seen`` (M,), ``lik_evals_per_step``;
   optionally ``ess``, ``resampled``, ``div_l1``, ``distinct``, ``lm_trace`` per observation (K,)
@@ -73,7 +75,8 @@ class Kind:
         pfbench.diagnostics.NAMES (which of them a run computes: pfbench.diagnostics.plan)
     figure_diagnostics : those its figures read, from the trials whose trace ``tracer`` keeps
     reported : metrics of pfbench.metrics.METRICS its trials have only in an experiment with a
-        filter that reports them (``FilterType.reports``): the consistency metrics
+        filter that reports them (``FilterType.reports``) or that computes them as a per-step
+        diagnostic (the particle filters' nees): the consistency metrics
 
     A trials file of the kind has the columns ``columns``: the trial, the filter run, its
     ``metrics`` (in the order of pfbench.metrics.METRICS) and the row's checksum.
@@ -228,7 +231,7 @@ SCALAR = Kind(
     unit="",
     particle_floats=lambda params, scen: 24,
     step_floats=lambda scen: 8,
-    outputs=_scalar_outputs, diagnostics=("distinct_frac", "diversity_l1"),
+    outputs=_scalar_outputs, diagnostics=("distinct_frac", "diversity_l1", "nees"),
     reported=("nees", "nis"))
 
 SLAM = Kind(
@@ -268,11 +271,3 @@ def kind_of(scenario: str) -> Kind:
     """The kind of the registered scenario ``scenario``."""
     from .scenarios import SCENARIOS    # the registry: every scenario and filter, numba's types
     return KINDS[SCENARIOS[scenario].KIND]
-
-
-def reported_metrics(exp) -> tuple[str, ...]:
-    """The metric columns of experiment ``exp``'s trials: its scenario kind's metrics, and the
-    consistency metrics (NEES, NIS) its kind has when one of its filters reports them."""
-    from .filters import FILTERS
-    reports = {m for f in exp.filters for m in getattr(FILTERS.get(f.type), "reports", ())}
-    return kind_of(exp.scenario).experiment_metrics(reports)

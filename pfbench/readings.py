@@ -223,7 +223,7 @@ def run_reading(run: ReadingRun, folder: Path, executor,
     ``folder`` (its trials.csv read for the filter runs the reading leaves as they are): the
     changed filter runs on every trial, then trials.csv (every filter run, as a run of the
     reading's experiment writes it) and meta.json. Returns the folder."""
-    from .kinds import reported_metrics
+    from .diagnostics import reported_metrics
     from .runner import stamp_meta
     from .store import csv_text, read_results, trial_columns, write_json
     exp, folder = run.exp, Path(folder)

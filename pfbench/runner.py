@@ -37,10 +37,11 @@ from .diagnostics import NAMES as DIAGNOSTIC_NAMES
 from .diagnostics import Diag
 from .diagnostics import flags as diag_flags
 from .diagnostics import plan as plan_diagnostics
+from .diagnostics import reported_metrics
 from .errors import UserError
 from .fsutil import FolderLock, remove_tree, require_regular
 from .filters import FILTERS, LOAD_SECONDS
-from .kinds import check_outputs, kind_of, reported_metrics
+from .kinds import check_outputs, kind_of
 from .plugins import FILTER_GROUP, SCENARIO_GROUP
 from .precompile import compile_ahead, uncompiled  # noqa: F401  (uncompiled: this module's API)
 from .rng import state_from_seed
@@ -172,7 +173,7 @@ def _who(run, trial: int) -> str:
 
 def metrics_of(exp: Experiment, model, truth, out) -> dict:
     """A filter run's metrics for the experiment's kind of scenario (and the consistency metrics
-    its trials file has, pfbench.kinds.reported_metrics)."""
+    its trials file has, pfbench.diagnostics.reported_metrics)."""
     return kind_of(exp.scenario).row(model, truth, out, reported_metrics(exp))
 
 
@@ -196,7 +197,10 @@ def run_filter(exp: Experiment, trial: int, run, model, y, diag: Diag | None = N
         raise FilterError(f"{_who(run, trial)} raised {_exception_text(exc)}", exc) from None
     wall = time.perf_counter() - t0
     if isinstance(out, Mapping):        # anything else is checked_output's to name
-        unasked = {o for f, o in DIAGNOSTIC_NAMES.values() if not f & diag}
+        # a diagnostic's output that the filter type reports on its own (the Kalman family's
+        # 'pvar', FilterType.reports) is its, asked or not
+        own = FILTERS[run.type].reports
+        unasked = {o for n, (f, o) in DIAGNOSTIC_NAMES.items() if not f & diag and n not in own}
         if any(o in out for o in unasked):
             out = {k: v for k, v in out.items() if k not in unasked}
     return out, wall

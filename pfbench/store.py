@@ -39,7 +39,8 @@ from .errors import UserError
 from .fsutil import atomic_write, is_regular, remove_tree, require_regular
 from .schema import describe
 from .version import __version__
-from .kinds import END_COLUMNS, ID_COLUMNS, reported_metrics
+from .diagnostics import reported_metrics
+from .kinds import END_COLUMNS, ID_COLUMNS
 from .metrics import METRICS, summarize
 
 __all__ = ["META", "check_meta", "check_trials", "read_meta", "read_results", "read_sweep",
@@ -75,7 +76,7 @@ def write_csv(path: Path, df) -> None:
 
 def trial_columns(exp: Experiment) -> tuple[str, ...]:
     """The columns of ``exp``'s trials file: those of its scenario's kind, with the consistency
-    metrics (NEES, NIS) when one of its filters reports them (pfbench.kinds.reported_metrics)."""
+    metrics (NEES, NIS) when one of its filters reports them (pfbench.diagnostics.reported_metrics)."""
     return (*ID_COLUMNS, *reported_metrics(exp), *END_COLUMNS)
 
 

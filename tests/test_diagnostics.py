@@ -109,7 +109,7 @@ def test_the_key_adds_diagnostics_and_is_checked(tmp_path):
     assert plan(load(_config(tmp_path, "diagnostics: [diversity_l1]"))).names == (
         "distinct_frac", "diversity_l1")
     assert plan(load(_config(tmp_path, "diagnostics: all"))).names == (
-        "distinct_frac", "diversity_l1")
+        "distinct_frac", "diversity_l1", "nees")
     assert plan(load(_config(tmp_path, "diagnostics: []"))).names == ("distinct_frac",)
     for bad, says in (("diagnostics: [lm_trace]", "no diagnostic 'lm_trace'"),
                       ("diagnostics: every", "'auto' or 'all' or a list"),
@@ -138,7 +138,8 @@ def test_slam_figures_get_the_map_trace_in_the_trials_they_draw(monkeypatch):
     exp = load("configs/afsa_fastslam.yaml", sets=["scenario.steps=40", "trials=2"])
     p = plan(exp)
     assert p.every == Diag.DISTINCT | Diag.DIVERSITY and p.traced == Diag.MAP_TRACE
-    assert p.for_trial(True) == ALL and p.for_trial(False) == p.every
+    assert p.for_trial(True) == Diag.DISTINCT | Diag.DIVERSITY | Diag.MAP_TRACE
+    assert p.for_trial(False) == p.every
     assert any("per-run table" in w for w in p.why["distinct_frac"])
     t0 = runner_mod.trial_result(exp, 0, traces=True)
     assert any(k.endswith("/lm_trace") for k in t0.trace)
@@ -239,4 +240,5 @@ def test_every_scalar_pf_computes_what_it_is_asked_and_the_filter_stays_the_same
         full = ft.run(model, y, Params(p), 30, state_from_seed(np.random.SeedSequence(2)), ALL)
         np.testing.assert_array_equal(full["distinct"], on["distinct"])
         assert np.isfinite(full["div_l1"][1:]).all()
+        assert "pvar" not in on and np.isfinite(full["pvar"]).all()
         np.testing.assert_array_equal(full["xhat"], off["xhat"])

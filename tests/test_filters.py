@@ -212,11 +212,11 @@ def test_model_functions_are_handed_over_by_address_and_stay_the_functions():
 
     def trial(f, h):
         T1 = y.size
-        xhat, ess, d1, d2 = (np.empty(T1) for _ in range(4))
+        xhat, ess, d1, d2, d3 = (np.empty(T1) for _ in range(5))
         res = np.empty(T1, dtype=np.int64)
         pf_kernel(f, h, *m.likelihood(), m.theta, m.noise, y, m.prior_mean, m.prior_var, 300, 1,
                   np.inf, 0, 0, -np.inf, 0, np.random.SeedSequence(3).generate_state(4, np.uint64),
-                  xhat, ess, res, d1, d2)
+                  xhat, ess, res, d1, d2, d3)
         return xhat
 
     assert np.array_equal(trial(m.transition, m.observe),

@@ -121,7 +121,10 @@ MALFORMED = {
 def test_a_malformed_output_is_one_line_naming_the_filter(case, monkeypatch, write_config):
     out, expected = MALFORMED[case]
     _register(monkeypatch, "shabby", _returning(out), package="pfbench-shabby")
-    exp = load(write_config(BASE + PF + "  odd: {type: shabby, label: Odd}\n"))
+    # a filter's 'pvar' unasked, without reports=('nees',), is dropped unread: the experiment
+    # asks for it (the per-step diagnostic nees) for its shape to be checked
+    asks = "diagnostics: [nees]\n" if case == "short pvar" else ""
+    exp = load(write_config(asks + BASE + PF + "  odd: {type: shabby, label: Odd}\n"))
     with pytest.raises(UserError) as info:
         run_trial(exp, 1)
     text = str(info.value)

@@ -43,11 +43,11 @@ def pfbench_single(model, y, N, state):
     """pfbench's bootstrap PF kernel (the one ``pfbench run`` uses, diagnostics off) on the
     measurements y at N particles with systematic resampling every step; the estimates."""
     T1 = y.size
-    xhat, ess, d1, d2 = (np.empty(T1) for _ in range(4))
+    xhat, ess, d1, d2, d3 = (np.empty(T1) for _ in range(5))
     res = np.empty(T1, dtype=np.int64)
     pf_kernel(model.transition, model.observe, *model.likelihood(), model.theta, model.noise, y,
               model.prior_mean, model.prior_var, N, SCHEME_SYSTEMATIC, np.inf, 0, 0, -np.inf, 0, state, xhat, ess,
-              res, d1, d2)
+              res, d1, d2, d3)
     return xhat
 
 

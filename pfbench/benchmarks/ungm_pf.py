@@ -33,8 +33,9 @@ def pf_batch(f, h, lik, theta, noise, Y, prior_mean, prior_var, N, S, XH):
         res = np.empty(T1, dtype=np.int64)
         d1 = np.empty(T1)
         d2 = np.empty(T1)
+        d3 = np.empty(T1)
         pf_kernel(f, h, lik, 0, theta, noise, Y[k], prior_mean, prior_var, N, SCHEME_SYSTEMATIC,
-                  np.inf, 0, 0, -np.inf, 0, S[k], XH[k], ess, res, d1, d2)
+                  np.inf, 0, 0, -np.inf, 0, S[k], XH[k], ess, res, d1, d2, d3)
 
 
 def numpy_pf(y: np.ndarray, N: int, rng, resample=None) -> np.ndarray:

@@ -99,6 +99,54 @@ def mean_abs_pairwise(x):
 DIAG_DISTINCT = 1       # the fraction of distinct particles after each resampling
 DIAG_DIVERSITY = 2      # their mean pairwise |x_i - x_j| (a sort at each resampling)
 DIAG_MAP_TRACE = 4      # SLAM: the map error after each observation
+DIAG_SPREAD = 8         # the posterior variance of the cloud the estimate is the mean of (NEES)
+
+
+@kernel(types.float64(_F, _F, types.float64, types.float64), cache=True, error_model="numpy")
+def weighted_var(w, x, S, m):
+    """sum_i w_i (x_i - m)^2 / S: the variance about m (their weighted mean) of particles x (N,)
+    of weights w (N,) summing to S, the posterior variance the weighted mean m estimates with.
+    Four partial sums (a loop the compiler vectorises); a particle of weight 0 counts for
+    nothing even at +-inf or NaN (as in the weighted mean, ``weights._finite_sum``)."""
+    N = x.size
+    a0 = a1 = a2 = a3 = 0.0
+    top = N - N % 4
+    for i in range(0, top, 4):
+        d0, d1, d2, d3 = x[i] - m, x[i + 1] - m, x[i + 2] - m, x[i + 3] - m
+        a0 += w[i] * d0 * d0
+        a1 += w[i + 1] * d1 * d1
+        a2 += w[i + 2] * d2 * d2
+        a3 += w[i + 3] * d3 * d3
+    for i in range(top, N):
+        d = x[i] - m
+        a0 += w[i] * d * d
+    v = (a0 + a1) + (a2 + a3)
+    if not math.isfinite(v):
+        v = 0.0
+        for i in range(N):
+            if w[i] > 0.0:
+                d = x[i] - m
+                v += w[i] * d * d
+    return v / S
+
+
+@kernel(types.float64(_F, types.float64), cache=True, error_model="numpy")
+def plain_var(x, m):
+    """sum_i (x_i - m)^2 / N: the variance about m (their plain mean) of equally weighted
+    particles x (N,), a resampled set's."""
+    N = x.size
+    a0 = a1 = a2 = a3 = 0.0
+    top = N - N % 4
+    for i in range(0, top, 4):
+        d0, d1, d2, d3 = x[i] - m, x[i + 1] - m, x[i + 2] - m, x[i + 3] - m
+        a0 += d0 * d0
+        a1 += d1 * d1
+        a2 += d2 * d2
+        a3 += d3 * d3
+    for i in range(top, N):
+        d = x[i] - m
+        a0 += d * d
+    return ((a0 + a1) + (a2 + a3)) / N
 
 
 @kernel(types.int64(_F, _F, _I, types.int8[::1]), cache=True)
@@ -156,27 +204,56 @@ def distinct_count(x, xn, idx, mark):
 
 
 @kernel(types.float64(_F, _F, _I, types.int8[::1], types.int64, types.float64, types.int64,
-                      types.int64, _I, _F, _F), cache=True)
-def resampled_step(x, xn, idx, mark, t, est, estimate_after, diag, resampled, div_l1, distinct):
+                      types.int64, _I, _F, _F, _F), cache=True)
+def resampled_step(x, xn, idx, mark, t, est, estimate_after, diag, resampled, div_l1, distinct,
+                   pvar):
     """Record that step t resampled xn (N,) into x (N,) through the ancestors idx (then perhaps
     moved): with ``diag`` & DIAG_DISTINCT its fraction of distinct particles (``distinct_count``;
-    mark (N,) its scratch, empty without it), with & DIAG_DIVERSITY its mean pairwise |x_i - x_j| (a sort); returns the
-    estimate, the plain mean of x when ``estimate_after``, else ``est`` unchanged."""
+    mark (N,) its scratch, empty without it), with & DIAG_DIVERSITY its mean pairwise
+    |x_i - x_j| (a sort); returns the estimate, the plain mean of x when ``estimate_after``,
+    else ``est`` unchanged. With ``estimate_after`` and & DIAG_SPREAD, pvar[t] becomes the
+    variance of x about that mean (``plain_var``: the cloud the estimate is the mean of); else
+    pvar[t] keeps what the step put there (the weighted variance before resampling)."""
     resampled[t] = 1
     if diag & DIAG_DIVERSITY:
         div_l1[t] = mean_abs_pairwise(x)
     if diag & DIAG_DISTINCT:
         distinct[t] = distinct_count(x, xn, idx, mark) / x.size
-    return x.sum() / x.size if estimate_after else est
+    if not estimate_after:
+        return est
+    est = x.sum() / x.size
+    if diag & DIAG_SPREAD:
+        pvar[t] = plain_var(x, est)
+    return est
+
+
+@kernel(types.void(types.int64, types.int64, _F, _F, types.float64, types.float64, _F),
+        cache=True, inline="always")
+def record_spread(diag, t, w, x, S, est, pvar):
+    """With ``diag`` & DIAG_SPREAD, pvar[t] = the weighted variance of the particles x (N,) of
+    weights w (N,, sum S) about their weighted mean ``est`` (``weighted_var``); nothing
+    otherwise."""
+    if diag & DIAG_SPREAD:
+        pvar[t] = weighted_var(w, x, S, est)
+
+
+def spread_trace(T1: int, prior_var: float):
+    """The (T+1,) output 'pvar' of a scalar PF, its entry for t = 0 the prior's variance (the
+    kernel fills the others where DIAG_SPREAD asks)."""
+    pvar = np.empty(T1)
+    pvar[0] = prior_var
+    return pvar
 
 
 def drop_unasked(out: dict, diag: int) -> dict:
-    """``out`` without the diagnostic outputs ``diag`` does not ask for ('div_l1', 'distinct'):
-    a metric without its output is NaN."""
+    """``out`` without the diagnostic outputs ``diag`` does not ask for ('div_l1', 'distinct',
+    'pvar'): a metric without its output is NaN."""
     if not diag & DIAG_DIVERSITY:
         out.pop("div_l1", None)
     if not diag & DIAG_DISTINCT:
         out.pop("distinct", None)
+    if not diag & DIAG_SPREAD:
+        out.pop("pvar", None)
     return out
 
 

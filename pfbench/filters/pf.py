@@ -18,7 +18,7 @@ from ..resampling import SCHEME_CODES, ess_threshold, resample
 from ..rng import STATE
 from ..models.scalar import LikFn, ModelFn, add_process_noise
 from ._common import (DIAG_DISTINCT, add_own_loglik, drop_unasked, floored, mh_step,
-                      resampled_step, start, weigh_lanes)
+                      record_spread, resampled_step, spread_trace, start, weigh_lanes)
 from ..diag import flags
 from .keys import pf_keys
 from .types import FilterType
@@ -28,13 +28,13 @@ _I = types.int64[::1]
 
 PF_SIG = types.int64(ModelFn, ModelFn, LikFn, types.int64, _F, _F, _F, types.float64,
                      types.float64, types.int64, types.int64, types.float64, types.int64,
-                     types.int64, types.float64, types.int64, STATE, _F, _F, _I, _F, _F)
+                     types.int64, types.float64, types.int64, STATE, _F, _F, _I, _F, _F, _F)
 
 
 @kernel(PF_SIG, cache=True)
 def pf_kernel(f, h, lik, use_lik, theta, noise, y, prior_mean, prior_var, N, scheme, threshold,
               estimate_after, mh_steps, log_floor, diag, s, xhat, ess, resampled, div_l1,
-              distinct):
+              distinct, pvar):
     """Run a bootstrap PF over y (T+1,) and fill the (T+1,) traces; return the underflow count.
 
     lik, use_lik : the model's log-likelihood (``LIK_SIG``) and 1 to weigh by it, or 0 to weigh by
@@ -47,7 +47,9 @@ def pf_kernel(f, h, lik, use_lik, theta, noise, y, prior_mean, prior_var, N, sch
     diag : flags (pfbench.diagnostics.Diag): DIAG_DISTINCT fills distinct (the fraction of
         distinct particles, from the ancestors: ``distinct_count``), DIAG_DIVERSITY div_l1 (mean
         pairwise |x_i - x_j|, a sort) after each resampling; NaN at steps without resampling and
-        where not asked
+        where not asked; DIAG_SPREAD pvar[1:], the variance of the cloud xhat is the mean of (the
+        weighted particles before resampling, or the resampled ones with ``estimate_after``;
+        untouched where not asked)
     An underflow step (every log-weight -inf or NaN) resets the weights to uniform: the measurement
     of that step is ignored rather than turned into NaN.
     """
@@ -92,6 +94,7 @@ def pf_kernel(f, h, lik, use_lik, theta, noise, y, prior_mean, prior_var, N, sch
                 mx = max(mx, l)
         S, est, under = weigh_lanes(lw, w, xn, mx, t, ess, resampled, div_l1, distinct)
         events += int(under)
+        record_spread(diag, t, w, xn, S, est, pvar)
         if ess[t] < threshold:
             resample(scheme, w, S, s, idx)
             if m:
@@ -105,7 +108,7 @@ def pf_kernel(f, h, lik, use_lik, theta, noise, y, prior_mean, prior_var, N, sch
                 mh_step(f, h, lik, use_lik, theta, noise, xprev, x, hcur, yt, tt, log_floor, s,
                         prop, hprop)
             est = resampled_step(x, xn, idx, mark, t, est, estimate_after, diag, resampled,
-                                 div_l1, distinct)
+                                 div_l1, distinct, pvar)
         else:
             x, xn = xn, x
         xhat[t] = est
@@ -121,18 +124,19 @@ def log_floor(params) -> float:
 def run(model, y, params, particles, state, diag=True):
     """Run the bootstrap PF; return a dict of traces and counters (see :func:`pf_kernel`).
     ``diag``: the per-step diagnostics (pfbench.diagnostics.flags; True: all), whose outputs
-    'distinct' and 'div_l1' it returns only when asked."""
+    'distinct', 'div_l1' and 'pvar' it returns only when asked."""
     diag = int(flags(diag))
     T1 = y.size
     out = {"xhat": np.empty(T1), "ess": np.empty(T1), "resampled": np.empty(T1, dtype=np.int64),
-           "div_l1": np.empty(T1), "distinct": np.empty(T1)}
+           "div_l1": np.empty(T1), "distinct": np.empty(T1),
+           "pvar": spread_trace(T1, model.prior_var)}
     threshold = ess_threshold(params, particles)
     mh = int(params.get("mh_steps", 0))
     out["underflow_steps"] = pf_kernel(
         model.transition, model.observe, *model.likelihood(), model.theta, model.noise, y,
         model.prior_mean, model.prior_var, particles, SCHEME_CODES[params["resampling"]], threshold,
         int(params["estimate"] == "after_resampling"), mh, log_floor(params), diag, state,
-        out["xhat"], out["ess"], out["resampled"], out["div_l1"], out["distinct"])
+        out["xhat"], out["ess"], out["resampled"], out["div_l1"], out["distinct"], out["pvar"])
     drop_unasked(out, diag)
     # each MH sweep evaluates the likelihood once more per particle (at the proposal), at the
     # steps that resample

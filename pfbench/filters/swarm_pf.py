@@ -41,7 +41,8 @@ from ..codes import (BRIGHTNESS, BRIGHTNESS_DISTANCE, BRIGHTNESS_GAUSSIAN, BRIGH
                      CORRECTION_PRIOR_RATIO, EWA_COPIES, MOVE_CORRECTIONS, MOVE_ORDERS,
                      ORDER_RESAMPLE_THEN_MOVE)
 from ..models.scalar import NOISE_GAUSSIAN, LikFn, ModelFn, add_process_noise, process_logpdf
-from ._common import DIAG_DISTINCT, bound_above, drop_unasked, resampled_step, start, weigh_lanes
+from ._common import (DIAG_DISTINCT, bound_above, drop_unasked, record_spread, resampled_step,
+                      spread_trace, start, weigh_lanes)
 from ..diag import flags
 from .keys import ewa_keys, pf_keys
 from .swarm import (AFSA_JOINT_SHIFT, ALGORITHMS, DONE, FIT_BEHAVIOURS, FIT_BRIGHTNESS,
@@ -240,10 +241,10 @@ def add_loglik(lw, ll):
 
 
 @kernel(types.int64(ModelFn, ModelFn, LikFn, types.int64, _F, _F, _F, SWARM_OPTIONS, SWARM_PARAMS,
-                    STATE, _F, _F, _F, _I, _F, _F, _F, _F, _F, _F, _I, types.int8[::1],
+                    STATE, _F, _F, _F, _I, _F, _F, _F, _F, _F, _F, _F, _I, types.int8[::1],
                     types.int8[::1], SWARM_WORK, _F, _F), cache=True)
 def resample_then_move(f, h, lik, use_lik, theta, noise, y, o, p, s, x, xhat, ess, resampled,
-                       div_l1, distinct, evals, xn, lw, w, idx, mutant, mark, wk, hx, pt):
+                       div_l1, distinct, pvar, evals, xn, lw, w, idx, mutant, mark, wk, hx, pt):
     """``swarm_pf_kernel``'s steps in the order predict, weigh, resample, move, weigh again (the
     module's ``resample_then_move``; x the particles drawn from the prior, the rest its traces
     and scratch); returns the underflow count."""
@@ -269,7 +270,8 @@ def resample_then_move(f, h, lik, use_lik, theta, noise, y, o, p, s, x, xhat, es
         events += int(under)
         if ess[t] < o.threshold:
             resample_swarm(x, xn, w, S, lw, idx, mutant, o, s)
-            resampled_step(x, xn, idx, mark, t, est, 0, o.diag, resampled, div_l1, distinct)
+            resampled_step(x, xn, idx, mark, t, est, 0, o.diag, resampled, div_l1, distinct,
+                           pvar)
             for i in range(N):
                 fxr[i] = fx[idx[i]]
                 if o.scheme == EWA and mutant[i]:
@@ -293,21 +295,24 @@ def resample_then_move(f, h, lik, use_lik, theta, noise, y, o, p, s, x, xhat, es
         S, S2, sx, under = normalise_lanes(lw, w, x, mx)
         events += int(under)
         xhat[t] = sx / S
+        record_spread(o.diag, t, w, x, S, xhat[t], pvar)
         evals[t] = nev
     return events
 
 
 SWARM_SIG = types.int64(ModelFn, ModelFn, LikFn, types.int64, _F, _F, _F, types.float64,
-                        types.float64, SWARM_OPTIONS, SWARM_PARAMS, STATE, _F, _F, _I, _F, _F, _F)
+                        types.float64, SWARM_OPTIONS, SWARM_PARAMS, STATE, _F, _F, _I, _F, _F, _F,
+                        _F)
 
 
 @kernel(SWARM_SIG, cache=True)
 def swarm_pf_kernel(f, h, lik, use_lik, theta, noise, y, prior_mean, prior_var, o, p, s, xhat, ess,
-                    resampled, div_l1, distinct, evals):
+                    resampled, div_l1, distinct, pvar, evals):
     """Run a swarm-optimised PF over y (T+1,) (settings o, see ``SwarmOptions``; the swarm's
     parameters p, a ``swarm.SwarmParams``; the likelihood: the model's ``lik`` with ``use_lik``,
     else the Gaussian of y - h(x)); fill the (T+1,) traces and evals, the likelihood
-    evaluations of each step; return the underflow count. Each step: predict, refine (the
+    evaluations of each step (pvar, the variance of the cloud xhat is the mean of, where o.diag
+    asks: ``_common.record_spread``, ``resampled_step``); return the underflow count. Each step: predict, refine (the
     swarm), weigh, estimate, resample."""
     T, N = y.size - 1, o.N
     x = np.empty(N)
@@ -329,8 +334,8 @@ def swarm_pf_kernel(f, h, lik, use_lik, theta, noise, y, prior_mean, prior_var, 
     evals[0] = 0.0
     if o.order == ORDER_RESAMPLE_THEN_MOVE:
         return resample_then_move(f, h, lik, use_lik, theta, noise, y, o, p, s, x, xhat, ess,
-                                  resampled, div_l1, distinct, evals, xn, lw, w, idx, mutant,
-                                  mark, wk, hx, pt)
+                                  resampled, div_l1, distinct, pvar, evals, xn, lw, w, idx,
+                                  mutant, mark, wk, hx, pt)
     for t in range(1, T + 1):
         tt, yt = float(t), y[t]
         f(x, tt, theta, xn)
@@ -349,10 +354,11 @@ def swarm_pf_kernel(f, h, lik, use_lik, theta, noise, y, prior_mean, prior_var, 
             mx = add_loglik(lw, wk.ll)
         S, est, under = weigh_lanes(lw, w, xn, mx, t, ess, resampled, div_l1, distinct)
         events += int(under)
+        record_spread(o.diag, t, w, xn, S, est, pvar)
         if ess[t] < o.threshold:
             resample_swarm(x, xn, w, S, lw, idx, mutant, o, s)
             est = resampled_step(x, xn, idx, mark, t, est, o.estimate_after, o.diag, resampled,
-                                 div_l1, distinct)
+                                 div_l1, distinct, pvar)
         else:
             x[:] = xn
         xhat[t] = est
@@ -366,7 +372,7 @@ def make_run(kind: str):
         T1 = y.size
         out = {"xhat": np.empty(T1), "ess": np.empty(T1),
                "resampled": np.empty(T1, dtype=np.int64), "div_l1": np.empty(T1),
-               "distinct": np.empty(T1)}
+               "distinct": np.empty(T1), "pvar": spread_trace(T1, model.prior_var)}
         evals = np.empty(T1)
         threshold = ess_threshold(params, particles)
         scheme = EWA if params["resampling"] == "stepwise_ewa" else SCHEME_CODES[params["resampling"]]
@@ -382,7 +388,7 @@ def make_run(kind: str):
         out["underflow_steps"] = swarm_pf_kernel(
             model.transition, model.observe, *model.likelihood(), model.theta, model.noise, y,
             model.prior_mean, model.prior_var, o, swarm_params(kind, params), state, out["xhat"],
-            out["ess"], out["resampled"], out["div_l1"], out["distinct"], evals)
+            out["ess"], out["resampled"], out["div_l1"], out["distinct"], out["pvar"], evals)
         out["lik_evals_per_step"] = float(np.mean(evals[1:]))
         return drop_unasked(out, diag)
     return run

@@ -31,7 +31,8 @@ from ..resampling import SCHEME_CODES, SCHEMES, ess_threshold, resample
 from ..rng import STATE, normal, uniform
 from ..codes import NOISE_GAUSSIAN
 from ..models.scalar import ModelFn, add_process_noise, process_logpdf
-from ._common import DIAG_DISTINCT, drop_unasked, floored, resampled_step, start, weigh
+from ._common import (DIAG_DISTINCT, drop_unasked, floored, record_spread, resampled_step,
+                      spread_trace, start, weigh)
 from ..diag import flags
 from .ekf import noise_moments
 from .pf import log_floor
@@ -256,13 +257,15 @@ def independence_mh_moves(h, theta, tt, yt, noise, x, P, am, fa, ha, prop, hprop
 
 
 UPF_SIG = types.int64(ModelFn, ModelFn, _F, _F, _F, types.float64, types.float64, UPF_OPTIONS,
-                      STATE, _F, _F, _I, _F, _F)
+                      STATE, _F, _F, _I, _F, _F, _F)
 
 
 @kernel(UPF_SIG, cache=True)
 def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, s, xhat, ess, resampled, div_l1,
-               distinct):
-    """Run the UPF/SSPF over y (T+1,) (settings o, see ``UpfOptions``); fill the (T+1,) traces;
+               distinct, pvar):
+    """Run the UPF/SSPF over y (T+1,) (settings o, see ``UpfOptions``); fill the (T+1,) traces
+    (pvar, the variance of the cloud xhat is the mean of, where o.diag asks:
+    ``_common.record_spread``, ``resampled_step``);
     return the underflow count: the steps whose log-weights were all -inf or NaN, which ignore
     their measurement (``prior_step``; no MH move)."""
     T, N = y.size - 1, o.N
@@ -298,6 +301,7 @@ def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, s, xhat, ess, re
             mx = prior_step(f, theta, tt, noise, x, sg, s, Wprev, xn, pv, lw)
             events += 1
         Ssum, est, _ = weigh(lw, w, xn, mx, t, ess, resampled, div_l1, distinct)
+        record_spread(o.diag, t, w, xn, Ssum, est, pvar)
         if o.trigger == TRIGGER_ESS:
             go = ess[t] < o.threshold
         else:
@@ -326,7 +330,7 @@ def upf_kernel(f, h, theta, noise, y, prior_mean, prior_var, o, s, xhat, ess, re
         if not skip:
             independence_mh_moves(h, theta, tt, yt, noise, x, P, am, fa, ha, prop, hprop, o, s)
         xhat[t] = resampled_step(x, xn, idx, mark, t, est, o.estimate_after, o.diag, resampled,
-                                 div_l1, distinct)
+                                 div_l1, distinct, pvar)
     return events
 
 
@@ -336,7 +340,8 @@ def run(model, y, params, particles, state, diag=True):
     diag = int(flags(diag))
     T1 = y.size
     out = {"xhat": np.empty(T1), "ess": np.empty(T1), "resampled": np.empty(T1, dtype=np.int64),
-           "div_l1": np.empty(T1), "distinct": np.empty(T1)}
+           "div_l1": np.empty(T1), "distinct": np.empty(T1),
+           "pvar": spread_trace(T1, model.prior_var)}
     q_mean, Qp, Rp = noise_moments(model, params)
     if params["resample"] == "weight_change":
         trigger, threshold = TRIGGER_WEIGHT_CHANGE, params["sigma"] / particles ** 2
@@ -353,7 +358,7 @@ def run(model, y, params, particles, state, diag=True):
     out["underflow_steps"] = upf_kernel(
         model.transition, model.observe, model.theta, model.noise, y, model.prior_mean,
         model.prior_var, o, state, out["xhat"], out["ess"], out["resampled"], out["div_l1"],
-        out["distinct"])
+        out["distinct"], out["pvar"])
     # 7 sigma points through h per particle, plus the particle itself; an MH sweep adds one more
     out["lik_evals_per_step"] = particles * (8.0 + mh * float(np.mean(out["resampled"][1:])))
     return drop_unasked(out, diag)
