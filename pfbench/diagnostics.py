@@ -47,6 +47,7 @@ class Plan:
     traced: Diag
     why: dict = field(default_factory=dict)
     offered: tuple = ()
+    own: tuple = ()         # of those not computed, what some filters report of their own
 
     def for_trial(self, keeps_trace: bool) -> Diag:
         """The diagnostics of a trial (``keeps_trace``: its kind keeps its trace)."""
@@ -67,8 +68,10 @@ class Plan:
         left = [n for n in self.offered if n not in self.names]
         text = "per-step diagnostics: " + (", ".join(parts) or "none")
         if left:
-            text += (f"; not computed: {', '.join(left)} (blank in the tables; the "
-                     "'diagnostics' key adds them)")
+            text += "; not computed: " + ", ".join(
+                f"{n} (the filters that report their own {n} give it)" if n in self.own else n
+                for n in left)
+            text += " (blank in the tables; the 'diagnostics' key adds them)"
         elif not self.offered:
             text += " (its kind has none)"
         return text
@@ -119,7 +122,15 @@ def plan(exp) -> Plan:
             if not every & NAMES[name][0]:
                 need(name, f"the {kind.name} figures")
                 traced |= NAMES[name][0]
-    return Plan(every, traced, {n: why[n] for n in NAMES if n in why}, have)
+    own = tuple(n for n in have if n not in why and n in _reported_by_filters(exp))
+    return Plan(every, traced, {n: why[n] for n in NAMES if n in why}, have, own)
+
+
+def _reported_by_filters(exp) -> set[str]:
+    """The metrics some filter of ``exp`` reports of its own (``FilterType.reports``: the
+    Kalman family's NEES)."""
+    from .filters import FILTERS
+    return {m for f in exp.filters for m in getattr(FILTERS.get(f.type), "reports", ())}
 
 
 def reported_metrics(exp) -> tuple[str, ...]:
@@ -127,6 +138,5 @@ def reported_metrics(exp) -> tuple[str, ...]:
     consistency metrics (NEES, NIS) its kind has when one of its filters reports them
     (``FilterType.reports``) or when the experiment computes one as a per-step diagnostic (the
     particle filters' NEES, ``plan``)."""
-    from .filters import FILTERS
-    reports = {m for f in exp.filters for m in getattr(FILTERS.get(f.type), "reports", ())}
-    return kind_of(exp.scenario).experiment_metrics(reports | set(plan(exp).names))
+    return kind_of(exp.scenario).experiment_metrics(_reported_by_filters(exp)
+                                                    | set(plan(exp).names))

@@ -153,11 +153,14 @@ def test_validate_says_which_diagnostics_and_why(monkeypatch):
     assert res.exit_code == 0, res.output
     line = next(l for l in res.output.splitlines() if "per-step diagnostics" in l)
     assert "distinct_frac (the tables' Distinct column)" in line
-    assert "not computed: diversity_l1" in line
+    assert "not computed: diversity_l1, nees (blank" in line     # no filter of its own NEES
     res = cli.invoke(app, ["validate", "configs/afsa_fastslam.yaml"])
     line = next(l for l in res.output.splitlines() if "per-step diagnostics" in l)
     assert "diversity_l1 (paper afsa2014 table1: quantity diversity_mean" in line
     assert "lm_trace in the trials kept for the figures (the slam figures)" in line
+    res = cli.invoke(app, ["validate", "configs/sspf_upf_gamma.yaml"])    # EKF and UKF
+    line = next(l for l in res.output.splitlines() if "per-step diagnostics" in l)
+    assert "nees (the filters that report their own nees give it)" in line
     res = cli.invoke(app, ["validate", "configs/kidnap.yaml"])
     line = next(l for l in res.output.splitlines() if "per-step diagnostics" in l)
     assert "none (its kind has none)" in line
