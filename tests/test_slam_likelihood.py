@@ -149,10 +149,13 @@ def test_a_function_of_the_wrong_signature_is_refused_in_one_line():
     def scan_like(X, Y, H, bc, m, ids, zs, theta, out):
         out[:] = 0.0
 
-    with pytest.raises(UserError) as err:
-        dataclasses.replace(_world(), loglik=scan_like)
-    assert "\n" not in str(err.value) and "SLAM_LIK_SIG" in str(err.value)
-    assert SLAM_SAMPLE_SIG is not None
+    for field, sig in (("loglik", "SLAM_LIK_SIG"), ("sample", "SLAM_SAMPLE_SIG")):
+        with pytest.raises(UserError) as err:
+            dataclasses.replace(_world(), **{field: scan_like})
+        assert "\n" not in str(err.value) and sig in str(err.value)
+    # the built-in pair is of the signatures
+    assert slam_mixture_loglik.get_compile_result(SLAM_LIK_SIG) is not None
+    assert lw.slam_mixture_sample.get_compile_result(SLAM_SAMPLE_SIG) is not None
 
 
 # --- what FastSLAM needs -----------------------------------------------------------------------
@@ -372,4 +375,3 @@ def test_the_beacon_fields_bearing_outliers_need_bearings():
                   "filters": {"mcl": {"particles": 10}}})
     plain = _field(sensor="range_bearing")
     assert plain.loglik is None and plain.sample is None
-    assert SLAM_LIK_SIG != SCAN_LIK_SIG
