@@ -105,7 +105,8 @@ class FilterType:
                         if hasattr(module, "PROVIDES") else
                         "it declares no PROVIDES; its model provides: "
                         + (", ".join(sorted(have)) or "none of them"))
-                if hasattr(module, "PROVIDES") and _asked(module, self.needs):
+                if hasattr(module, "PROVIDES") and (_asked(module, self.needs)
+                                                    or _keyed(module, params, self.needs)):
                     says += ("; its model, with these keys, provides: "
                              + (", ".join(sorted(have)) or "none of them"))
                 return (f"needs {need_text(lacking)}, which scenario '{scenario}' does not "
@@ -121,10 +122,12 @@ class FilterType:
 # scenario declares it provides (``PROVIDES = ("jacobians", ...)`` in its module). A localization
 # or SLAM scenario builds the kind's own record (pfbench.models.field.FieldModel,
 # pfbench.models.slam.SlamModel), which fixes the motion and the sensor its filters read; its
-# measurement is the Gaussian range (and bearing) sensor, or, for a field model, its own
-# likelihood (``FieldModel.loglik``): such a model says what it provides (its ``provides()``),
-# which a scenario that declares neither of ``MEASUREMENT`` has read from it. FastSLAM's landmark
-# EKFs need the Gaussian measurement and its Jacobians, which the SLAM scenarios declare.
+# measurement is the Gaussian range (and bearing) sensor, or its own likelihood
+# (``FieldModel.loglik``, ``SlamModel.loglik``): such a model says what it provides (its
+# ``provides()``), which a scenario that declares neither of ``MEASUREMENT`` has read from it, and
+# which withdraws, for a config's keys, what a scenario declares for its keys' defaults.
+# FastSLAM's landmark EKFs need the Gaussian measurement and its Jacobians, which the SLAM
+# scenarios declare (landmark_world's outliers weighed by their mixture take the first away).
 NEEDS = {
     "jacobians": "the Jacobians of its model (df/dx, dh/dx: ScalarModel's transition_jac, "
                  "observe_jac)",
@@ -225,17 +228,38 @@ def _asked(module, needs) -> list:
     return [n for n in needs if n in MEASUREMENT]
 
 
+# The kinds whose models are the kind's own record (FieldModel, SlamModel), which says what it
+# provides (its ``provides()``) as a config's keys build it.
+RECORD_KINDS = ("slam", "localization")
+
+
+def _keyed(module, params, needs) -> list:
+    """The needs of ``needs`` of the measurement's (``MEASUREMENT``) that a localization or SLAM
+    scenario ``module`` declares in its ``PROVIDES``, when a config gives its keys (``params``):
+    its ``PROVIDES`` says what its keys' defaults provide, and keys may take the Gaussian
+    measurement away (outliers weighed by their mixture), which its model, the kind's record,
+    says (see ``provided``)."""
+    if params is None or getattr(module, "KIND", None) not in RECORD_KINDS:
+        return []
+    return [n for n in needs if n in MEASUREMENT and n in declared(module)]
+
+
 def provided(module, params, needs=()) -> set:
     """What the scenario ``module`` provides of ``needs``: what its ``PROVIDES`` declares. What
     it does not declare is read from its model, built from ``params`` (its validated keys; None:
     its keys' defaults): every need for a module without ``PROVIDES`` (a plug-in written before
-    it), the measurement's (``MEASUREMENT``) for one whose ``PROVIDES`` names neither."""
+    it), the measurement's (``MEASUREMENT``) for one whose ``PROVIDES`` names neither. A
+    localization or SLAM scenario's ``PROVIDES`` is what its keys' defaults provide: given its
+    keys, the measurement's needs it declares are also asked of its model (the kind's record),
+    which withdraws those its keys take away (``_keyed``)."""
     have = set(declared(module))
     ask = _asked(module, needs)
-    if ask:
+    keyed = _keyed(module, params, needs)
+    if ask or keyed:
         model = _build(module, params)
         if model is not None:
             have |= {n for n in ask if _model_has(n, model)}
+            have -= {n for n in keyed if not _model_has(n, model)}
     return have
 
 

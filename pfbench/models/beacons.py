@@ -18,7 +18,9 @@ and ``.sample``): numba functions on arrays of particles, of the signatures
 ``theta`` (float64[::1]) is the model's own parameters (``FieldModel.theta``). The built-in
 ``mixture_loglik`` / ``mixture_sample`` are Thrun, Burgard and Fox's beam model reduced to its
 hit and random parts: a range is, with probability eps, an outlier uniform over [0, rmax], else
-the true range with Gaussian noise (the beacon field's key ``range_outliers``).
+the true range with Gaussian noise (the beacon field's key ``range_outliers``); a range-bearing
+sensor's bearing, independently, with probability eps_b uniform over the field of view, else the
+true bearing with Gaussian noise (``bearing_outliers``).
 """
 from __future__ import annotations
 
@@ -64,7 +66,7 @@ LOG_2PI = math.log(2.0 * math.pi)
                     STATE, _I, _F2), cache=True)
 def sense_beacons(bc, x, y, th, sensor, sense, s, ids, zs):
     """Fill the observations seen from (x, y, th) into ids / zs; return how many."""
-    return _scan(bc, x, y, th, sensor, sense, 0, 0.0, 0.0, s, ids, zs)
+    return _scan(bc, x, y, th, sensor, sense, 0, 0.0, 0.0, 0.0, s, ids, zs)
 
 
 @kernel(types.float64(types.float64, types.float64, types.float64, _F2, types.int64, _I, _F2,
@@ -195,14 +197,17 @@ def no_scan_sample(x, y, th, bc, theta, s, ids, zs):
 
 
 # theta of the built-in mixture: the sensor, its visibility and noise, the outliers
-MIX_SENSOR, MIX_MAX_RANGE, MIX_HALF_FOV, MIX_SR, MIX_SB, MIX_NEAREST, MIX_EPS, MIX_RMAX = range(8)
+(MIX_SENSOR, MIX_MAX_RANGE, MIX_HALF_FOV, MIX_SR, MIX_SB, MIX_NEAREST, MIX_EPS, MIX_RMAX,
+ MIX_EPS_B) = range(9)
 
 
-def mixture_theta(sensor: int, sense: BeaconSensor, eps: float, rmax: float) -> np.ndarray:
+def mixture_theta(sensor: int, sense: BeaconSensor, eps: float, rmax: float,
+                  eps_b: float = 0.0) -> np.ndarray:
     """theta of ``mixture_loglik`` / ``mixture_sample``: the sensor code, its ``BeaconSensor``,
-    the outlier probability eps and the outliers' largest range rmax (m)."""
+    the range outlier probability eps, the outliers' largest range rmax (m) and the bearing
+    outlier probability eps_b (a range-bearing sensor's)."""
     return np.array([sensor, sense.max_range, sense.half_fov, sense.sr, sense.sb, sense.nearest,
-                     eps, rmax], dtype=np.float64)
+                     eps, rmax, eps_b], dtype=np.float64)
 
 
 @kernel(types.float64(types.float64, types.float64, types.float64, types.float64, types.float64),
@@ -219,12 +224,29 @@ def mixture_range_logpdf(z, r, sr, eps, rmax):
     return hi + math.log1p(math.exp(lo - hi))
 
 
+@kernel(types.float64(types.float64, types.float64, types.float64, types.float64, types.float64),
+        cache=True, inline="always")
+def mixture_bearing_logpdf(z, b, sb, eps, half_fov):
+    """log((1 - eps) N(wrap(z - b); 0, sb^2) + eps U(z; -half_fov, half_fov)): a measured
+    bearing z (rad) of the true bearing b under the hit-and-random mixture over the field of
+    view [-half_fov, half_fov]."""
+    u = wrap(z - b) / sb
+    hit = math.log1p(-eps) - 0.5 * u * u - math.log(sb) - 0.5 * LOG_2PI
+    if not (eps > 0.0 and abs(z) <= half_fov):
+        return hit
+    rnd = math.log(eps / (2.0 * half_fov))
+    hi, lo = (hit, rnd) if hit > rnd else (rnd, hit)
+    return hi + math.log1p(math.exp(lo - hi))
+
+
 @kernel(SCAN_LIK_SIG, cache=True, error_model="numpy")
 def mixture_loglik(X, Y, H, bc, m, ids, zs, theta, out):
     """log p(z | pose) of the hit-and-random range mixture (theta: ``mixture_theta``); the
-    bearings of a range-bearing sensor Gaussian as the plain sensor's."""
+    bearings of a range-bearing sensor Gaussian as the plain sensor's, or with bearing outliers
+    (eps_b > 0) their mixture (``mixture_bearing_logpdf``)."""
     sensor, sr, sb = int(theta[MIX_SENSOR]), theta[MIX_SR], theta[MIX_SB]
     eps, rmax = theta[MIX_EPS], theta[MIX_RMAX]
+    eps_b, half_fov = theta[MIX_EPS_B], theta[MIX_HALF_FOV]
     cb = -math.log(sb) - 0.5 * LOG_2PI
     for i in range(X.size):
         acc = 0.0
@@ -232,7 +254,10 @@ def mixture_loglik(X, Y, H, bc, m, ids, zs, theta, out):
             b = ids[j]
             dx, dy = bc[b, 0] - X[i], bc[b, 1] - Y[i]
             acc += mixture_range_logpdf(zs[j, 0], math.sqrt(dx * dx + dy * dy), sr, eps, rmax)
-            if sensor == SENSOR_RANGE_BEARING:
+            if sensor == SENSOR_RANGE_BEARING and eps_b > 0.0:
+                acc += mixture_bearing_logpdf(zs[j, 1], math.atan2(dy, dx) - H[i], sb, eps_b,
+                                              half_fov)
+            elif sensor == SENSOR_RANGE_BEARING:
                 u = wrap(zs[j, 1] - (math.atan2(dy, dx) - H[i])) / sb
                 acc += cb - 0.5 * u * u
         out[i] = acc
@@ -249,12 +274,13 @@ def mixture_range(r, sr, eps, rmax, s):
 
 
 @kernel(types.int64(_F2, types.float64, types.float64, types.float64, types.int64, BEACON_SENSOR,
-                    types.int64, types.float64, types.float64, STATE, _I, _F2), cache=True,
-        inline="always")
-def _scan(bc, x, y, th, sensor, sense, mix, eps, rmax, s, ids, zs):
+                    types.int64, types.float64, types.float64, types.float64, STATE, _I, _F2),
+        cache=True, inline="always")
+def _scan(bc, x, y, th, sensor, sense, mix, eps, rmax, eps_b, s, ids, zs):
     """The observations seen from (x, y, th) into ids / zs (``sense_beacons``); each range r
     measured as r + sr N(0, 1), or with ``mix`` from the hit-and-random mixture
-    (``mixture_range``: eps, rmax). Returns how many."""
+    (``mixture_range``: eps, rmax); each bearing b as b + sb N(0, 1), or with probability eps_b
+    (> 0) uniform over the field of view. Returns how many."""
     rmax_see, half_fov, sr, sb, nearest = (sense.max_range, sense.half_fov, sense.sr, sense.sb,
                                            sense.nearest)
     n = 0
@@ -282,7 +308,10 @@ def _scan(bc, x, y, th, sensor, sense, mix, eps, rmax, s, ids, zs):
             continue
         ids[n] = b
         zs[n, 0] = mixture_range(r, sr, eps, rmax, s) if mix else r + sr * normal(s)
-        zs[n, 1] = wrap(brg + sb * normal(s))
+        if eps_b > 0.0 and uniform(s) < eps_b:
+            zs[n, 1] = half_fov * (2.0 * uniform(s) - 1.0)
+        else:
+            zs[n, 1] = wrap(brg + sb * normal(s))
         n += 1
     if sensor == SENSOR_RANGE and best >= 0:
         ids[0] = best
@@ -296,8 +325,9 @@ def _scan(bc, x, y, th, sensor, sense, mix, eps, rmax, s, ids, zs):
 @kernel(SCAN_SAMPLE_SIG, cache=True)
 def mixture_sample(x, y, th, bc, theta, s, ids, zs):
     """``sense_beacons`` (the same beacons seen, the same bearings' noise) with each range drawn
-    from the hit-and-random mixture (``mixture_range``); theta: ``mixture_theta``."""
+    from the hit-and-random mixture (``mixture_range``), and each bearing with probability eps_b
+    uniform over the field of view; theta: ``mixture_theta``."""
     sense = BeaconSensor(theta[MIX_MAX_RANGE], theta[MIX_HALF_FOV], theta[MIX_SR], theta[MIX_SB],
                          1 if theta[MIX_NEAREST] != 0.0 else 0)
     return _scan(bc, x, y, th, int(theta[MIX_SENSOR]), sense, 1, theta[MIX_EPS],
-                 theta[MIX_RMAX], s, ids, zs)
+                 theta[MIX_RMAX], theta[MIX_EPS_B], s, ids, zs)

@@ -25,8 +25,11 @@ instead of the true range with its Gaussian noise: Thrun, Burgard and Fox's beam
 its "hit" and "random" parts. The world draws them with the model's own sampler
 (pfbench.models.beacons.mixture_sample); the filters weigh by the mixture's log-likelihood
 (``mixture_loglik``), or, with ``outlier_likelihood: gaussian``, by the Gaussian alone, as a
-filter that ignores the outliers does. Without outliers the sensor is the Gaussian one, its draws
-and the filters' arithmetic those of a field without these keys.
+filter that ignores the outliers does. Bearing outliers (``bearing_outliers`` eps_b > 0, the
+range_bearing sensor's): each bearing is, with probability eps_b, uniform over the field of view
+instead of the true bearing with its Gaussian noise, drawn and weighed the same way. Without
+outliers the sensor is the Gaussian one, its draws and the filters' arithmetic those of a field
+without these keys.
 
 Kidnapping: at each step in ``kidnap_steps`` the robot is put, after its move, at a pose drawn
 uniformly over the field (or the next of ``kidnap_poses``), and told nothing: the odometry of that
@@ -105,11 +108,16 @@ SCHEMA = {
                           "and random parts)", min=0.0,
                           check=lambda v: None if v < 1.0 else "expected below 1 (some ranges "
                           "must be the true one)"),
-    "outlier_likelihood": Key("choice", "mixture", "range_outliers > 0: the filters weigh by "
-                              "'mixture', the model's own likelihood of the outlier mixture the "
-                              "data are drawn from, or by 'gaussian', the Gaussian of "
-                              "range_noise_m alone (a filter that ignores the outliers)",
-                              choices=("mixture", "gaussian")),
+    "bearing_outliers": Key("float", 0.0, "range_bearing: probability that a bearing is an "
+                            "outlier, uniform over the field of view, instead of the true bearing "
+                            "with Gaussian noise (0: none, the papers' sensor; our addition)",
+                            min=0.0, check=lambda v: None if v < 1.0 else "expected below 1 "
+                            "(some bearings must be the true one)"),
+    "outlier_likelihood": Key("choice", "mixture", "range_outliers or bearing_outliers > 0: the "
+                              "filters weigh by 'mixture', the model's own likelihood of the "
+                              "outlier mixture the data are drawn from, or by 'gaussian', the "
+                              "Gaussian of range_noise_m (and bearing_noise_deg) alone (a filter "
+                              "that ignores the outliers)", choices=("mixture", "gaussian")),
     "kidnap_steps": Key("ints", (), "steps after whose move the robot is put somewhere else "
                         "without telling the filter", min=1, empty_ok=True),
     "kidnap_poses": Key("floats", (), "x, y, heading (deg) of each kidnapping in turn, flat "
@@ -147,6 +155,9 @@ def resolve(params: dict, base_dir) -> dict:
         if params[key] > params["steps"]:
             raise ConfigError(f"scenario.{key}", f"expected a step within the {params['steps']} "
                               f"steps, got {params[key]}")
+    if params.get("bearing_outliers", 0.0) > 0.0 and params["sensor"] != "range_bearing":
+        raise ConfigError("scenario.bearing_outliers", "a range sensor has no bearings: "
+                          "bearing_outliers needs sensor: range_bearing")
     if any(k > params["steps"] for k in params["kidnap_steps"]):
         raise ConfigError("scenario.kidnap_steps", f"every step must be within the "
                           f"{params['steps']} steps")
@@ -170,9 +181,10 @@ def build(p) -> FieldModel:
                          nearest=int(p["answer"] == "nearest"))
     own = {}
     eps = float(p.get("range_outliers", 0.0))
-    if eps > 0.0:
+    eps_b = float(p.get("bearing_outliers", 0.0))
+    if eps > 0.0 or eps_b > 0.0:
         own = {"sample": mixture_sample,
-               "theta": mixture_theta(SENSORS[p["sensor"]], sense, eps, sense.max_range)}
+               "theta": mixture_theta(SENSORS[p["sensor"]], sense, eps, sense.max_range, eps_b)}
         if p.get("outlier_likelihood", "mixture") == "mixture":
             own["loglik"] = mixture_loglik
     return FieldModel(

@@ -9,21 +9,35 @@ waypoint at ``speed_mps`` (the paper's top speed, 0.3 m/s), turning at most ``ma
 Sensor: range and bearing to every landmark within ``max_range_m`` (15 m) every ``obs_every``
 steps, with the paper's noise. afsa2014 calls its noise values "variance"; they are read as
 standard deviations unless ``noise_values`` is 'variance'.
+
+Outliers (``range_outliers`` eps_r, ``bearing_outliers`` eps_b, both 0 by default, as afsa2014):
+each range is, with probability eps_r, uniform over [0, max_range_m], and each bearing,
+independently, with probability eps_b uniform over the field of view, instead of the true value
+with its Gaussian noise. The world draws them with the model's own sampler
+(pfbench.models.slam.slam_mixture_sample); the model's own likelihood is their mixture
+(``slam_mixture_loglik``), and it then provides no Gaussian measurement: FastSLAM, whose landmark
+EKFs need one, is refused; a particle SLAM filter weighs by it. With ``outlier_likelihood:
+gaussian`` the model keeps the Gaussian sensor (FastSLAM runs, on a sensor it mis-models).
+Without outliers the draws and every filter's arithmetic are those of a world without these keys.
 """
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
 from ..codes import SLAM_ODOMETRY
-from ..models.slam import CourseData, SlamModel, simulate  # noqa: F401  (this module's simulate)
+from ..models.slam import (CourseData, SlamModel, simulate,  # noqa: F401  (this module's simulate)
+                           slam_mixture_loglik, slam_mixture_sample, slam_mixture_theta)
 from ..schema import Key
 from .worlds import resolve_course
 
 NAME = "landmark_world"
 KIND = "slam"
-# the Gaussian range-bearing sensor with its Jacobians (FastSLAM's landmark EKFs need both)
+# the Gaussian range-bearing sensor with its Jacobians (FastSLAM's landmark EKFs need both), with
+# the keys' defaults; outliers weighed by their mixture take the Gaussian measurement away (the
+# model, built from a config's keys, says so: SlamModel.provides)
 PROVIDES = ("gaussian_measurement", "jacobians", "likelihood")
 DESCRIPTION = "odometry-driven robot in a 50 m x 60 m landmark world (afsa2014)"
 
@@ -56,6 +70,22 @@ SCHEMA = {
     "obs_every": Key("int", 1, "steps between observations (not given: every step)", min=1),
     "field_of_view_deg": Key("float", 360.0, "sensor field of view centred on the heading (not "
                              "given: all around)", min=0.0, max=360.0, min_exclusive=True),
+    "range_outliers": Key("float", 0.0, "probability that a range is an outlier, uniform over "
+                          "[0, max_range_m], instead of the true range with Gaussian noise (0: "
+                          "none, afsa2014's sensor; our addition)", min=0.0,
+                          check=lambda v: None if v < 1.0 else "expected below 1 (some ranges "
+                          "must be the true one)"),
+    "bearing_outliers": Key("float", 0.0, "probability that a bearing is an outlier, uniform "
+                            "over the field of view, instead of the true bearing with Gaussian "
+                            "noise (0: none, afsa2014's sensor; our addition)", min=0.0,
+                            check=lambda v: None if v < 1.0 else "expected below 1 (some "
+                            "bearings must be the true one)"),
+    "outlier_likelihood": Key("choice", "mixture", "range_outliers or bearing_outliers > 0: the "
+                              "model's likelihood is 'mixture', its own of the outlier mixture "
+                              "the data are drawn from (it then provides no Gaussian measurement: "
+                              "FastSLAM is refused), or 'gaussian', the Gaussian sensor of "
+                              "range_noise_m and bearing_noise_deg alone (FastSLAM runs, ignoring "
+                              "the outliers)", choices=("mixture", "gaussian")),
 }
 
 
@@ -73,13 +103,22 @@ def build(p) -> SlamModel:
         noise = np.array([math.sqrt(p["process_noise_xy_m"]),
                           math.sqrt(p["process_noise_heading_deg"]) * deg,
                           math.sqrt(p["range_noise_m"]), math.sqrt(p["bearing_noise_deg"]) * deg])
-    return SlamModel(
+    model = SlamModel(
         np.asarray(p["waypoints"], dtype=np.float64), np.asarray(p["landmarks"], dtype=np.float64),
         np.asarray(p["start"], dtype=np.float64),
         np.array([p["speed_mps"], p["dt_s"], 1.0, p["max_turn_dps"] * deg, 0.0,
                   p["waypoint_radius_m"], float(p["laps"])]),
         noise, np.array([p["max_range_m"], 0.5 * p["field_of_view_deg"] * deg,
                          float(p["obs_every"])]), int(p["steps"]), motion=SLAM_ODOMETRY)
+    eps_r = float(p.get("range_outliers", 0.0))
+    eps_b = float(p.get("bearing_outliers", 0.0))
+    if eps_r == 0.0 and eps_b == 0.0:
+        return model
+    own = {"sample": slam_mixture_sample,
+           "theta": slam_mixture_theta(model.sensor, model.noise, eps_r, eps_b)}
+    if p.get("outlier_likelihood", "mixture") == "mixture":
+        own["loglik"] = slam_mixture_loglik
+    return replace(model, **own)
 
 
 
