@@ -767,7 +767,8 @@ def _trial_words(rows: pd.DataFrame | None, run, trial: int, kidnapped: bool,
                       {1.0: "converged", 0.0: "did not converge"})[float(ok.iloc[0])])
         at = converge_times(mine, run, times)
         if not kidnapped and at.size:
-            words[-1] += f" at {at[0]:.0f} s" if times is not None else f" at step {at[0]:.0f}"
+            words[-1] += (f" at {at[0]:.{0 if at[0] >= 10 else 1}f} s" if times is not None
+                          else f" at step {at[0]:.0f}")
     return ", ".join(words)
 
 
@@ -789,7 +790,7 @@ def _span_words(world: dict, steps: np.ndarray) -> str:
         words = f"{float(t[int(steps[0])]):.0f} to {float(t[T]):.0f} s of the span ({T} steps)"
     else:
         words = f"steps {int(steps[0])} to {T}"
-    stride = int(np.median(np.diff(steps))) if len(steps) > 1 else 1
+    stride = int(np.max(np.diff(steps))) if len(steps) > 1 else 1   # kidnappings add steps
     return words + (f", one step in {stride} drawn" if stride > 1 else "")
 
 
@@ -896,6 +897,14 @@ def converge_times(rows: pd.DataFrame, run, times: np.ndarray | None) -> np.ndar
     return np.asarray(times, dtype=float)[np.clip(k.astype(np.int64), 0, len(times) - 1)]
 
 
+def _horizontal() -> dict:
+    """The keyword that lays a box plot on its side: ``orientation`` from matplotlib 3.10 (where
+    ``vert`` is deprecated), ``vert=False`` before."""
+    import matplotlib
+    new = tuple(int(v) for v in matplotlib.__version__.split(".")[:2]) >= (3, 10)
+    return {"orientation": "horizontal"} if new else {"vert": False}
+
+
 def draws_convergence(exp: Experiment, rows: pd.DataFrame, traces: Traces) -> bool:
     """Whether a localization experiment gets a convergence figure: its filters start uniform
     over the area (global localization), its rows say whether each converged, and no rates
@@ -922,14 +931,15 @@ def convergence_figure(exp: Experiment, rows: pd.DataFrame, traces: Traces,
     a1.set_xlabel("trials that converged (%)")
     a1.set_title("convergence rate")
     pos = np.arange(len(runs), 0, -1)
-    end = (float(times[-1]) if times is not None else
+    last = [int(tr["path_step"][-1]) for tr in traces.trials.values() if "path_step" in tr]
+    end = (float(times[-1]) if times is not None else float(last[0]) if last else
            float(np.nanmax(rows["converge_step"])) if rows["converge_step"].notna().any()
            else 1.0)
     for i, r in enumerate(runs):
         v = converge_times(rows, r, times)
         if v.size:
-            a2.boxplot([v], positions=[pos[i]], vert=False, widths=0.5, showfliers=False,
-                       manage_ticks=False,
+            a2.boxplot([v], positions=[pos[i]], widths=0.5, showfliers=False, manage_ticks=False,
+                       **_horizontal(),
                        medianprops={"color": "0.2"}, patch_artist=True,
                        boxprops={"facecolor": fs.colour(i), "alpha": 0.35, "edgecolor": "0.4"},
                        whiskerprops={"color": "0.45"}, capprops={"color": "0.45"})
