@@ -8,9 +8,11 @@ with the true and estimated paths and the mapped landmarks, the position, headin
 errors over time (ifa2021 Fig. 6, afsa2014 Fig. 3), and the effective sample size over time
 (afsa2014 Fig. 5). Localization experiments: the position error per step, median and interquartile
 band over the first FIGURE_TRIALS trials (sspf2008's error figure), with the particle count over
-time when KLD-sampling adapts it, and each filter's particles over the field at a few steps of a
-trial where it converged and one where it did not. Figures never run a trial: they draw the rows
-and the traces the run kept (``traces.npz``, pfbench.traces).
+time when KLD-sampling adapts it, each filter's particles over the field at a few steps of a
+trial where it converged and one where it did not, the paths of one trial over the map with the
+beacons (the true path, dead reckoning, each filter's estimate), and from a uniform start without
+a paper's convergence rate, the convergence rate and time. Figures never run a trial: they draw
+the rows and the traces the run kept (``traces.npz``, pfbench.traces).
 """
 from __future__ import annotations
 
@@ -25,7 +27,7 @@ from .config import Experiment
 from .errors import UserError
 from .kinds import kind_of
 from .store import Traces, read_traces
-from .traces import SNAPSHOT_PARTICLES, error_runs, runs_in, snapshot_runs
+from .traces import SNAPSHOT_PARTICLES, error_runs, path_runs, runs_in, snapshot_runs
 
 
 def save_figure(fig, path: Path) -> None:
@@ -749,6 +751,217 @@ def particle_figure(exp: Experiment, traces: Traces, path: Path,
     save_figure(fig, path)
 
 
+def _trial_words(rows: pd.DataFrame | None, run, trial: int, kidnapped: bool,
+                 times: np.ndarray | None = None) -> str:
+    """What the rows say of ``run`` in ``trial``: 'RMSE 0.37 m, converged at 95 s' (at a step
+    without the steps' ``times``; with kidnappings: recovered or not); '' without rows."""
+    if rows is None or "rmse" not in rows:
+        return ""
+    mine = rows[(rows["filter"] == run.key) & (rows["trial"] == trial)]
+    if not len(mine):
+        return ""
+    words = [f"RMSE {float(mine['rmse'].iloc[0]):.3g} m"]
+    ok = _outcome(mine, kidnapped)
+    if ok is not None and ok.notna().iloc[0]:
+        words.append(({1.0: "recovered", 0.0: "did not recover"} if kidnapped else
+                      {1.0: "converged", 0.0: "did not converge"})[float(ok.iloc[0])])
+        at = converge_times(mine, run, times)
+        if not kidnapped and at.size:
+            words[-1] += (f" at {at[0]:.{0 if at[0] >= 10 else 1}f} s" if times is not None
+                          else f" at step {at[0]:.0f}")
+    return ", ".join(words)
+
+
+def _broken(xy: np.ndarray, steps: np.ndarray, kidnaps) -> np.ndarray:
+    """A path's points (n, 2) with a NaN row before each kidnapping's step: no line across the
+    jump of a robot that was moved."""
+    cut = np.searchsorted(steps, np.asarray(kidnaps, dtype=np.int64))
+    cut = cut[(cut > 0) & (cut < len(steps))]
+    return np.insert(np.asarray(xy, dtype=float), cut, np.nan, axis=0)
+
+
+def _span_words(world: dict, steps: np.ndarray) -> str:
+    """The span a paths figure shows: 'steps 0 to 150' or, with the steps' times (recorded data),
+    '0 to 600 s of the span (2986 steps)'; 'one step in 5 drawn' where the trace thinned the
+    path."""
+    T = int(steps[-1])
+    if "times" in world:
+        t = world["times"]
+        words = f"{float(t[int(steps[0])]):.0f} to {float(t[T]):.0f} s of the span ({T} steps)"
+    else:
+        words = f"steps {int(steps[0])} to {T}"
+    stride = int(np.max(np.diff(steps))) if len(steps) > 1 else 1   # kidnappings add steps
+    return words + (f", one step in {stride} drawn" if stride > 1 else "")
+
+
+def path_figure(exp: Experiment, traces: Traces, path: Path,
+                rows: pd.DataFrame | None = None) -> None:
+    """The paths of the first traced trial over the map, one panel per filter (path_runs; dead
+    reckoning is no panel of its own but drawn in each, dashed grey): the true path (black), the
+    filter's estimate (its colour), the start and end of the true path and the estimate's end,
+    the beacons with their ids; shared axes in metres over the area, equal aspect. The true path
+    breaks at each kidnapping. Each panel's title: the run and what its rows say of that trial."""
+    have = sorted(k for k, tr in traces.trials.items() if "truth_path" in tr)
+    if not have:
+        return
+    trial = have[0]
+    tr = runs_in(traces.trials[trial])
+    world = traces.world
+    runs = [r for r in path_runs(exp) if "path" in tr.get(r.key, {})]
+    baseline = [r for r in runs if r.type == "dead_reckoning"]
+    shown = [r for r in runs if r.type != "dead_reckoning"] or baseline
+    if not shown:
+        return
+    steps, truth = tr[""]["path_step"], tr[""]["truth_path"]
+    kidnaps = np.asarray(world["kidnaps"], dtype=np.int64)
+    kidnapped = bool(kidnaps.size)
+    W, H = float(world["area"][0]), float(world["area"][1])
+    ncol = min(len(shown), 3)
+    nrow = math.ceil(len(shown) / ncol)
+    side = min(4.2, (fs.MAX_WIDTH_IN - 0.9) / ncol)
+    fig, axes = fs.pyplot().subplots(nrow, ncol, figsize=(
+        fs.width(side * ncol + 0.9), side * H / W * nrow + 2.0), sharex=True, sharey=True,
+        squeeze=False)
+    line = fs.pyplot().Line2D
+    true_xy = _broken(truth, steps, kidnaps)
+    dense = len(steps) > 2000          # in an SVG or PDF, thousands of vertices a line: an image
+    for i, r in enumerate(shown):
+        ax = axes[i // ncol, i % ncol]
+        c = fs.colour(i)
+        ax.plot(true_xy[:, 0], true_xy[:, 1], "-", color="black", lw=1.0, alpha=0.55,
+                zorder=2, rasterized=dense)
+        for b in baseline:
+            dr = tr[b.key]["path"]
+            ax.plot(dr[:, 0], dr[:, 1], "--", color="0.5", lw=0.9, zorder=1, rasterized=dense)
+        est = tr[r.key]["path"]
+        ax.plot(est[:, 0], est[:, 1], "-", color=c, lw=0.9, alpha=0.85, zorder=3,
+                rasterized=dense)
+        ax.plot(*truth[0], "o", mfc="white", mec="black", ms=7, mew=1.5, zorder=5)
+        ax.plot(*truth[-1], "s", color="black", ms=6, zorder=5)
+        ax.plot(*est[-1], "X", color=c, mec="black", mew=0.6, ms=8, zorder=6)
+        for (bx, by), bid in zip(world["beacons"], world["beacon_ids"]):
+            ax.plot(bx, by, "^", color="0.15", ms=8, zorder=4)
+            ax.annotate(f"B{int(bid)}", (bx, by), xytext=(4, 4), textcoords="offset points",
+                        fontsize=8, color="0.15", zorder=7)
+        off = ~((est[:, 0] >= 0) & (est[:, 0] <= W) & (est[:, 1] >= 0) & (est[:, 1] <= H))
+        if off.any():
+            ax.text(0.98, 0.02, f"off the area: {off.sum()} of {off.size} steps",
+                    transform=ax.transAxes, fontsize=8, ha="right", va="bottom", color=c)
+        words = _trial_words(rows, r, trial, kidnapped, world.get("times"))
+        ax.set_title(_run_name(r, rows).replace(" (N adaptive: mean", " (N: mean")
+                     + (f"\n{words}" if words else ""), fontsize=9)
+        ax.set_xlim(0, W)
+        ax.set_ylim(0, H)
+        ax.set_aspect("equal")
+        ax.grid(alpha=0.25)
+        for side_ in ("top", "right"):
+            ax.spines[side_].set_visible(True)
+        if i % ncol == 0:
+            ax.set_ylabel("y (m)")
+        if i // ncol == nrow - 1 or i + ncol >= len(shown):
+            ax.set_xlabel("x (m)")
+            ax.xaxis.set_tick_params(labelbottom=True)
+    for p in range(len(shown), nrow * ncol):
+        axes[p // ncol, p % ncol].set_visible(False)
+    handles = [line([], [], color="black", alpha=0.55, lw=1.2, label="true path"),
+               line([], [], color=fs.colour(0), lw=1.2, label="the panel's filter's estimate")]
+    handles += [line([], [], color="0.5", ls="--", lw=1.1, label=b.label) for b in baseline]
+    handles += [line([], [], ls="", marker="o", mfc="white", mec="black", ms=7, mew=1.5,
+                     label="start (true)"),
+                line([], [], ls="", marker="s", color="black", ms=6, label="end (true)"),
+                line([], [], ls="", marker="X", color=fs.colour(0), mec="black", mew=0.6, ms=8,
+                     label="end of the estimate"),
+                line([], [], ls="", marker="^", color="0.15", ms=8,
+                     label="beacon (B: its id)")]
+    wide = fig.get_size_inches()[0]
+    which = (f"trial {trial} (the first of {exp.trials})" if exp.trials > 1 and trial == 0
+             else f"trial {trial} of {exp.trials}")
+    fig.suptitle(fs.wrap(f"{exp.name}: paths over the {W:.0f} m x {H:.0f} m area in {which}, "
+                         f"{_span_words(world, steps)}; one panel per "
+                         "filter at its largest particle count"
+                         + (", the true path broken at each kidnapping" if kidnapped else ""),
+                         wide), fontsize=10)
+    fig.tight_layout(rect=(0, 0.07 if nrow > 1 else 0.1, 1, 1))
+    fig.legend(handles=handles, loc="lower center", ncol=4, frameon=False,
+               bbox_to_anchor=(0.5, 0.0), fontsize=8)
+    save_figure(fig, path)
+
+
+def converge_times(rows: pd.DataFrame, run, times: np.ndarray | None) -> np.ndarray:
+    """When ``run`` converged in each trial where it did: its converge_step, in seconds from the
+    span's start where the scenario gives each step's ``times`` (recorded data), else in steps."""
+    mine = rows[(rows["filter"] == run.key) & (rows["converged"] == 1.0)]
+    k = mine["converge_step"].dropna().to_numpy(float)
+    if times is None:
+        return k
+    return np.asarray(times, dtype=float)[np.clip(k.astype(np.int64), 0, len(times) - 1)]
+
+
+def _horizontal() -> dict:
+    """The keyword that lays a box plot on its side: ``orientation`` from matplotlib 3.10 (where
+    ``vert`` is deprecated), ``vert=False`` before."""
+    import matplotlib
+    new = tuple(int(v) for v in matplotlib.__version__.split(".")[:2]) >= (3, 10)
+    return {"orientation": "horizontal"} if new else {"vert": False}
+
+
+def draws_convergence(exp: Experiment, rows: pd.DataFrame, traces: Traces) -> bool:
+    """Whether a localization experiment gets a convergence figure: its filters start uniform
+    over the area (global localization), its rows say whether each converged, and no rates
+    figure already draws the convergence rate (a paper's table that reports it)."""
+    return (bool(np.asarray(traces.world.get("global_start", False)))
+            and "converged" in rows and rows["converged"].notna().any()
+            and "converged" not in [name for name, *_ in rates(exp, rows)])
+
+
+def convergence_figure(exp: Experiment, rows: pd.DataFrame, traces: Traces,
+                       path: Path) -> None:
+    """Global localization without a paper's rate: per filter run (a row each), the fraction of
+    trials that converged with its Wilson 95% interval and 'k of n' (left), and when the converged
+    trials converged (right: box of quartiles, a dot a trial; s into the span on recorded data,
+    else steps; the axis spans the whole run)."""
+    runs = list(exp.filters)
+    world = traces.world
+    times = world["times"] if "times" in world else None
+    t = rate_table(exp, rows, rows["converged"].astype(float))
+    wide = fs.MAX_WIDTH_IN
+    fig, (a1, a2) = fs.pyplot().subplots(1, 2, figsize=(wide, 0.36 * len(runs) + 2.3),
+                                         sharey=True, gridspec_kw={"width_ratios": [1, 1.25]})
+    _rate_panel(a1, exp, rows, runs, t, None, None, rows_layout=True)
+    a1.set_xlabel("trials that converged (%)")
+    a1.set_title("convergence rate")
+    pos = np.arange(len(runs), 0, -1)
+    last = [int(tr["path_step"][-1]) for tr in traces.trials.values() if "path_step" in tr]
+    end = (float(times[-1]) if times is not None else float(last[0]) if last else
+           float(np.nanmax(rows["converge_step"])) if rows["converge_step"].notna().any()
+           else 1.0)
+    for i, r in enumerate(runs):
+        v = converge_times(rows, r, times)
+        if v.size:
+            a2.boxplot([v], positions=[pos[i]], widths=0.5, showfliers=False, manage_ticks=False,
+                       **_horizontal(),
+                       medianprops={"color": "0.2"}, patch_artist=True,
+                       boxprops={"facecolor": fs.colour(i), "alpha": 0.35, "edgecolor": "0.4"},
+                       whiskerprops={"color": "0.45"}, capprops={"color": "0.45"})
+            a2.plot(v, np.full(v.size, pos[i]), "o", color="black", ms=3, alpha=0.7, zorder=4)
+        else:
+            a2.text(0.01 * end, pos[i], "none converged", va="center", fontsize=8, color="0.4")
+    a1.set_yticks(pos, [_run_name(r, rows) for r in runs], fontsize=8)
+    a2.set_xlim(0, end * 1.02)
+    a2.set_xlabel("converged at (s into the span)" if times is not None else "converged at (step)")
+    a2.set_title("when: the converged trials")
+    a2.grid(axis="y", visible=False)
+    n = sorted(set(t["n"]))
+    counted = f"{n[0]} trials" if len(n) == 1 else "the trials"
+    fig.suptitle(fs.wrap(f"{exp.name}: global localization from a uniform start over {counted}; "
+                         "converged: the position error under "
+                         f"{float(world['bound']):g} m from then to the end (left: the rate with "
+                         "its Wilson 95% interval, k of n beside it; right: when each converged "
+                         "trial converged, box: quartiles, dots: trials)", wide), fontsize=10)
+    fig.tight_layout()
+    save_figure(fig, path)
+
+
 def write_figures(exp: Experiment, rows: list[dict] | pd.DataFrame, out_dir: Path,
                   fmt: str = "png", table: pd.DataFrame | None = None,
                   into: Path | None = None) -> list[Path]:
@@ -822,11 +1035,17 @@ def slam_figures(exp: Experiment, rows: pd.DataFrame, traces: Traces, folder: Pa
 
 def localization_figures(exp: Experiment, rows: pd.DataFrame, traces: Traces, folder: Path,
                          fmt: str = "png") -> list[Path]:
-    """A localization experiment's error curves over the traced trials and its particles in a
-    converged and a failed trial of each filter."""
-    paths = [folder / f"errors.{fmt}", folder / f"particles.{fmt}"]
+    """A localization experiment's error curves over the traced trials, its particles in a
+    converged and a failed trial of each filter, the paths of its first trial over the map, and
+    from a uniform start without a paper's rate the convergence rate and time
+    (draws_convergence)."""
+    paths = [folder / f"errors.{fmt}", folder / f"particles.{fmt}", folder / f"paths.{fmt}"]
     localization_error_figure(exp, traces, paths[0], rows)
     particle_figure(exp, traces, paths[1], rows)
+    path_figure(exp, traces, paths[2], rows)
+    if rows is not None and len(rows) and draws_convergence(exp, rows, traces):
+        paths.append(folder / f"convergence.{fmt}")
+        convergence_figure(exp, rows, traces, paths[-1])
     return [p for p in paths if p.exists()]
 
 

@@ -321,7 +321,11 @@ def _section(e: rp.Entry, out_dir: Path, figures: bool, drawing=None) -> dict:
 # distribution over the trials, or a sweep's metric against the swept key)
 FIGURE_WORDS = {"course": "the course, the landmarks and the estimated paths",
                 "errors": "the estimation errors over time", "ess": "the effective sample size "
-                "over time", "particles": "the particles at chosen steps"}
+                "over time", "particles": "the particles at chosen steps",
+                "paths": "the true path, dead reckoning and each filter's estimated path over "
+                "the map with the beacons, in one trial",
+                "convergence": "the convergence rate of each filter run with its Wilson "
+                "interval, and when the converged trials converged"}
 
 
 def figure_words(stem: str, e: rp.Entry) -> str:

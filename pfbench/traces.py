@@ -2,7 +2,8 @@
 
 Figures never run a trial again: a scenario kind names the trials whose traces it keeps (the
 SLAM figures draw trial 0; the localization error curves the first FIGURE_TRIALS trials, its
-particle snapshots the first SNAPSHOT_TRIALS) and what it keeps of them. A trace is a flat mapping of names to
+particle snapshots the first SNAPSHOT_TRIALS, its paths the first PATH_TRIALS) and what it keeps of
+them. A trace is a flat mapping of names to
 arrays: ``FIELD`` for what the trial shares (``truth_pose``), ``RUN_KEY/FIELD`` for one filter run;
 the world every trial shares (landmarks, beacons) is kept once. Plotted values are stored as
 float32. The runner writes them to ``traces.npz`` in the results folder (pfbench.store) and the
@@ -27,6 +28,10 @@ SNAPSHOT_TRIALS = 10
 # particles kept per snapshot (evenly strided over the set: after resampling their order is
 # arbitrary, so every k-th particle is a fair sample)
 SNAPSHOT_PARTICLES = 600
+# The trials whose paths (the true one, each path_runs run's estimate) are kept for the paths
+# figure, and the most points of a path kept: a longer span keeps every k-th step (and the last)
+PATH_TRIALS = 1
+PATH_POINTS = 2000
 
 
 def _f32(a) -> np.ndarray:
@@ -84,11 +89,7 @@ def error_runs(exp) -> list:
 def snapshot_runs(exp) -> list:
     """The filter runs whose particles a snapshot figure shows: one per label (its largest
     particle count), at most 6."""
-    runs = {}
-    for r in exp.filters:
-        if r.label not in runs or (r.particles or 0) > (runs[r.label].particles or 0):
-            runs[r.label] = r
-    return list(runs.values())[:6]
+    return path_runs(exp)[:6]
 
 
 def snapshot_steps(T: int, kidnaps) -> list[int]:
@@ -100,11 +101,34 @@ def snapshot_steps(T: int, kidnaps) -> list[int]:
     return sorted({min(t, T) for t in steps} | {T})[:8]
 
 
+def path_runs(exp) -> list:
+    """The filter runs a paths figure draws: of each label its largest particle count (a run
+    without particles, dead reckoning, as it is), in the config's order."""
+    runs = {}
+    for r in exp.filters:
+        if r.label not in runs or (r.particles or 0) > (runs[r.label].particles or 0):
+            runs[r.label] = r
+    return list(runs.values())
+
+
+def path_steps(T: int, kidnaps=()) -> np.ndarray:
+    """The steps (int32, ascending) a kept path holds of a trial of ``T`` steps: every one up to
+    PATH_POINTS, else every k-th (k the smallest that keeps at most PATH_POINTS) and the last;
+    with each kidnapping's step and the one before, so that the figure can break the true path
+    where the robot was moved."""
+    stride = max(1, -(-(T + 1) // PATH_POINTS))
+    keep = set(range(0, T + 1, stride)) | {T}
+    for k in kidnaps:
+        keep |= {t for t in (int(k) - 1, int(k)) if 0 <= t <= T}
+    return np.asarray(sorted(keep), dtype=np.int32)
+
+
 class LocalizationTracer:
     """The first FIGURE_TRIALS trials: each shown run's position error per step and particle
     count per step (error_runs). The first SNAPSHOT_TRIALS also: the particles of snapshot_runs at
     snapshot_steps (at most SNAPSHOT_PARTICLES of each), their estimates and the true pose
-    there."""
+    there. The first PATH_TRIALS also: the true path and each path_runs run's estimated path
+    (x, y in m) at path_steps (``path_step``, ``truth_path``, ``RUN_KEY/path``)."""
 
     def keeps(self, exp, trial: int) -> bool:
         return trial < FIGURE_TRIALS
@@ -142,12 +166,29 @@ class LocalizationTracer:
                     trace[f"{r.key}/snap_xy"] = _f32(np.concatenate(kept))
                     trace[f"{r.key}/snap_drawn"] = np.array([len(p) for p in kept])
                     trace[f"{r.key}/snap_count"] = np.asarray(counts, dtype=np.int64)
+        if trial < PATH_TRIALS:
+            at = path_steps(truth.pose.shape[0] - 1, model.kidnaps)
+            trace["path_step"] = at
+            trace["truth_path"] = _f32(truth.pose[at, :2])
+            for r in path_runs(exp):
+                trace[f"{r.key}/path"] = _f32(outs[r.key]["pose"][at, :2])
         return trace
 
     def world(self, exp, model) -> dict:
-        return {"beacons": _f32(model.beacons), "area": np.asarray(model.area, dtype=float),
-                "kidnaps": np.asarray(model.kidnaps, dtype=np.int64),
-                "bound": np.asarray(float(model.bound))}
+        """The beacons (B, 2) m and their ids (the data set's, else 0 to B-1), the area (2,) m,
+        the kidnapping steps, the convergence bound (m), whether the filters start uniform over
+        the area (``global_start``: global localization) and, where the scenario has them
+        (recorded data), each step's time ``times`` (T+1,) s from the span's start."""
+        world = {"beacons": _f32(model.beacons),
+                 "beacon_ids": np.asarray(getattr(model, "beacon_ids",
+                                                  np.arange(len(model.beacons))), dtype=np.int64),
+                 "area": np.asarray(model.area, dtype=float),
+                 "kidnaps": np.asarray(model.kidnaps, dtype=np.int64),
+                 "bound": np.asarray(float(model.bound)),
+                 "global_start": np.asarray(int(model.init.known) == 0)}
+        if getattr(model, "times", None) is not None:
+            world["times"] = np.asarray(model.times, dtype=float)
+        return world
 
 
 def runs_in(trace: dict) -> dict[str, dict]:

@@ -196,7 +196,7 @@ def test_every_committed_figure_is_legible_at_1400_px(tmp_path, monkeypatch):
     monkeypatch.chdir(ROOT)
     from pfbench.store import read_results
     saved = _figures_saved(monkeypatch)
-    for name in ("ifa_pf_ungm", "kidnap", "ifa_fastslam", "asrl_vs_srl"):
+    for name in ("ifa_pf_ungm", "kidnap", "ifa_fastslam", "asrl_vs_srl", "plaza_global"):
         exp = load(ROOT / f"configs/{name}.yaml")
         meta, tf = read_results(ROOT / "results" / name)
         monkeypatch.setattr(plots, "read_traces", lambda _: __import__(
@@ -210,6 +210,8 @@ def test_every_committed_figure_is_legible_at_1400_px(tmp_path, monkeypatch):
     panels = [ax for ax in ungm.axes if ax.get_visible()]
     assert len(panels) == 8 and all(len(ax.get_xticks()) <= 3 for ax in panels)
     assert len({ax.get_ylim() for ax in panels}) == 1          # one shared axis
+    drawn = {(p.parent.parent.name, p.stem) for _, p in saved}
+    assert {("kidnap", "paths"), ("plaza_global", "paths"), ("plaza_global", "convergence")} <= drawn
 
 
 def test_every_committed_sweep_cell_has_its_table():
@@ -217,3 +219,114 @@ def test_every_committed_sweep_cell_has_its_table():
     assert cells
     for t in cells:
         assert (t.parent / "table.md").is_file(), t.parent
+
+
+# --- issue 35: paths over the map, convergence from a uniform start -------------------------
+
+PATHS = f"""\
+seed: 1
+trials: 3
+scenario: {{name: beacon_field, world: {ROOT / 'configs/worlds/beacon_field.yaml'}, steps: 40,
+            initial: unknown}}
+filters:
+  dr: {{type: dead_reckoning, label: Dead reckoning}}
+  mcl: {{label: MCL, particles: [100, 300]}}
+  srl: {{type: mcl, label: SRL, particles: 300, reset: srl}}
+  sspf: {{label: SSPF, particles: 60}}
+"""
+
+
+def _generated(exp, T=40, kidnaps=()):
+    """A trace as the tracer keeps it, generated (no trial run): trial 0's paths on a circle,
+    each filter's estimate off by a constant; rows with the converged trials."""
+    from pfbench.store import Traces
+    from pfbench.traces import path_runs, path_steps
+    np = __import__("numpy")
+    at = path_steps(T, kidnaps)
+    a = np.linspace(0, 2 * np.pi, len(at))
+    truth = np.c_[20 + 10 * np.cos(a), 20 + 10 * np.sin(a)].astype(np.float32)
+    trial = {"path_step": at, "truth_path": truth}
+    for i, r in enumerate(path_runs(exp)):
+        trial[f"{r.key}/path"] = truth + np.float32(0.5 * i)
+    world = {"beacons": np.array([[4, 20], [30, 6], [26, 37]], np.float32),
+             "beacon_ids": np.array([0, 5, 6]), "area": np.array([40.0, 40.0]),
+             "kidnaps": np.asarray(kidnaps, dtype=np.int64), "bound": np.asarray(2.0),
+             "global_start": np.asarray(True)}
+    rows = pd.DataFrame([{"trial": k, "filter": r.key, "rmse": 1.0 + k, "converged": float(k < 2),
+                          "converge_step": 10.0 + k if k < 2 else float("nan")}
+                         for r in exp.filters for k in range(3)])
+    return Traces(world, {0: trial}), rows
+
+
+def test_the_paths_figure_has_a_panel_per_filter_with_the_beacons_and_shared_axes(
+        tmp_path, write_config, monkeypatch):
+    exp = load(write_config(PATHS))
+    traces, rows = _generated(exp)
+    saved = _figures_saved(monkeypatch)
+    with fs.style():
+        plots.path_figure(exp, traces, tmp_path / "paths.png", rows)
+    fig, _ = saved[-1]
+    panels = [ax for ax in fig.axes if ax.get_visible()]
+    assert [ax.get_title().split("\n")[0] for ax in panels] == [
+        "MCL (N=300)", "SRL (N=300)", "SSPF (N=60)"]     # dead reckoning: in each, no panel
+    assert "RMSE 1 m, converged at step 10" in panels[0].get_title()
+    for ax in panels:
+        labels = {t.get_text() for t in ax.texts}
+        assert {"B0", "B5", "B6"} <= labels
+        assert ax.get_xlim() == (0.0, 40.0) and ax.get_ylim() == (0.0, 40.0)
+        assert ax.get_aspect() == 1.0
+        dashed = [ln for ln in ax.get_lines() if ln.get_linestyle() == "--"]
+        assert len(dashed) == 1                           # the dead-reckoning path
+    assert panels[0].get_shared_x_axes().joined(panels[0], panels[2])
+    assert {ax.get_xlabel() for ax in panels} == {"x (m)"}
+    title = fig._suptitle.get_text().replace("\n", " ")
+    assert "trial 0 (the first of 3)" in title and "steps 0 to 40" in title
+    assert fs.legibility(fig) == []
+
+
+def test_the_paths_break_at_a_kidnapping_and_say_a_thinned_span():
+    np = __import__("numpy")
+    steps = np.array([0, 5, 9, 10, 15], dtype=np.int32)
+    xy = np.arange(10, dtype=float).reshape(5, 2)
+    got = plots._broken(xy, steps, [10])
+    assert got.shape == (6, 2) and np.isnan(got[3]).all()
+    np.testing.assert_array_equal(got[4], xy[3])
+    words = plots._span_words({"times": np.arange(16) * 0.2}, steps)
+    assert words.startswith("0 to 3 s of the span (15 steps)") and "one step in 5" in words
+
+
+def test_the_convergence_figure_draws_each_runs_wilson_rate_and_its_times(
+        tmp_path, write_config, monkeypatch):
+    exp = load(write_config(PATHS))
+    traces, rows = _generated(exp)
+    assert plots.draws_convergence(exp, rows, traces)
+    saved = _figures_saved(monkeypatch)
+    with fs.style():
+        plots.convergence_figure(exp, rows, traces, tmp_path / "c.png")
+    fig, _ = saved[-1]
+    rate, when = fig.axes
+    assert [t.get_text() for t in rate.get_yticklabels()] == [
+        plots._run_name(r) for r in exp.filters]
+    assert sum(t.get_text() == "2 of 3" for t in rate.texts) == len(exp.filters)
+    lo, hi = plots.wilson(2, 3)                   # each run's bar: its Wilson interval in %
+    ends = [tuple(seg[:, 0]) for c in rate.collections for seg in c.get_segments()]
+    assert len(ends) == len(exp.filters)
+    assert all(e == pytest.approx((100 * lo, 100 * hi)) for e in ends)
+    dots = [ln for ln in when.get_lines() if ln.get_marker() == "o"]
+    assert len(dots) == len(exp.filters)
+    assert sorted(dots[0].get_xdata()) == [10.0, 11.0]        # steps: no times in the world
+    assert when.get_xlabel() == "converged at (step)"
+    assert fs.legibility(fig) == []
+    # from the known start, or where the paper's table draws the rate: none
+    traces.world["global_start"] = __import__("numpy").asarray(False)
+    assert not plots.draws_convergence(exp, rows, traces)
+
+
+def test_convergence_times_are_seconds_on_recorded_data():
+    class Run:
+        key = "mcl@100"
+    rows = pd.DataFrame({"trial": [0, 1, 2], "filter": ["mcl@100"] * 3,
+                         "converged": [1.0, 0.0, 1.0], "converge_step": [5.0, float("nan"), 20.0]})
+    times = __import__("numpy").arange(30) * 0.25
+    assert list(plots.converge_times(rows, Run, times)) == [1.25, 5.0]
+    assert list(plots.converge_times(rows, Run, None)) == [5.0, 20.0]

@@ -8,7 +8,8 @@ from pfbench.config import load
 from pfbench.errors import UserError
 from pfbench.runner import run_experiment, run_filter, trial_data
 from pfbench.store import TRACES, TRACES_PARTIAL, read_traces, stage_trace
-from pfbench.traces import FIGURE_TRIALS, SNAPSHOT_PARTICLES, error_runs, snapshot_runs
+from pfbench.traces import (FIGURE_TRIALS, PATH_POINTS, PATH_TRIALS, SNAPSHOT_PARTICLES,
+                            error_runs, path_runs, path_steps, snapshot_runs)
 
 from .conftest import ROOT, TINY
 
@@ -84,6 +85,31 @@ def test_localization_traces_hold_what_the_trials_gave(tmp_path, write_config):
         assert first[f"{r.key}/snap_xy"].shape == (drawn.sum(), 2)
     np.testing.assert_array_equal(traces.world["kidnaps"], [12])
     assert float(traces.world["bound"]) == model.bound
+    # the paths of the first PATH_TRIALS trials: every step of a short trial, as float32
+    assert PATH_TRIALS == 1 and "truth_path" not in traces.trials[1]
+    np.testing.assert_array_equal(first["path_step"], np.arange(26))
+    model, truth, data = trial_data(exp, 0)
+    np.testing.assert_array_equal(first["truth_path"], truth.pose[:, :2].astype(np.float32))
+    assert [r.label for r in path_runs(exp)] == ["MCL", "KLD-MCL", "SSPF"]
+    for r in path_runs(exp):
+        out, _ = run_filter(exp, 0, r, model, data)
+        assert first[f"{r.key}/path"].shape == (26, 2)
+        assert first[f"{r.key}/path"].dtype == np.float32
+        np.testing.assert_array_equal(first[f"{r.key}/path"],
+                                      out["pose"][:, :2].astype(np.float32))
+    np.testing.assert_array_equal(traces.world["beacon_ids"], np.arange(len(model.beacons)))
+    assert not bool(traces.world["global_start"]) and "times" not in traces.world
+
+
+def test_a_long_path_is_thinned_to_path_points_keeping_the_end_and_each_kidnapping():
+    T = 9665                                      # Plaza 1's 1933 s in steps of 0.2 s
+    at = path_steps(T, kidnaps=[1001, 5003])
+    assert at[0] == 0 and at[-1] == T and len(at) <= PATH_POINTS + 5
+    assert np.all(np.diff(at) > 0) and at.dtype == np.int32
+    stride = -(-(T + 1) // PATH_POINTS)
+    assert set(range(0, T + 1, stride)) <= set(at.tolist())
+    assert {1000, 1001, 5002, 5003} <= set(at.tolist())
+    np.testing.assert_array_equal(path_steps(30), np.arange(31))      # short: every step
 
 
 def test_snapshots_of_a_large_set_are_thinned_evenly(tmp_path, write_config):
@@ -119,7 +145,8 @@ def test_figures_draw_from_the_traces_without_running_a_trial(tmp_path, write_co
         paths = plots.write_figures(exp, got[name].rows, tmp_path / name)
         assert all(p.stat().st_size > 5000 for p in paths)
     assert {p.name for p in (tmp_path / "f/figures").iterdir()} == {
-        "rmse.png", "errors.png", "particles.png", "rates.png"}    # it has a kidnapping
+        "rmse.png", "errors.png", "particles.png", "rates.png",   # it has a kidnapping
+        "paths.png"}                 # from the known start: no convergence figure
     assert {p.name for p in (tmp_path / "c/figures").iterdir()} == {
         "rmse.png", "course.png", "errors.png", "ess.png"}
 

@@ -255,13 +255,15 @@ def build(p) -> FieldModel:
     object.__setattr__(model, "record", data)
     object.__setattr__(model, "times", times - times[0])
     object.__setattr__(model, "calibration", (a, b))
+    object.__setattr__(model, "beacon_ids", rec.beacons[:, 0].astype(np.int64))
     object.__setattr__(model, "dropped", dropped)
     return model
 
 
 class PlazaModel(FieldModel):
     """A FieldModel with the recorded trial: ``record`` (FieldData), ``times`` (T+1,) s from the
-    span's start, ``calibration`` (a, b) and ``dropped`` (ranges left out)."""
+    span's start, ``calibration`` (a, b), ``dropped`` (ranges left out) and ``beacon_ids`` (B,)
+    (the data set's ids of the beacons)."""
 
 
 def simulate(model: FieldModel, state: np.ndarray) -> tuple[FieldData, FieldData]:
