@@ -3,10 +3,10 @@
 
 Every experiment: the distribution over trials of each filter run's RMSE, and of each other metric
 the paper's table reports as a mean, beside the mean with its 95% interval (what the tables
-report) and the paper's value where it gives one. SLAM experiments also, for one trial: the course
-with the true and estimated paths and the mapped landmarks, the position, heading and landmark
-errors over time (ifa2021 Fig. 6, afsa2014 Fig. 3), and the effective sample size over time
-(afsa2014 Fig. 5). Localization experiments: the position error per step, median and interquartile
+report) and the paper's value where it gives one. SLAM experiments also: for trial 0, the course
+with the true and estimated paths and the mapped landmarks, and the effective sample size over
+time (afsa2014 Fig. 5); the position, heading and landmark errors over time (ifa2021 Fig. 6,
+afsa2014 Fig. 3), median and interquartile band over the first FIGURE_TRIALS trials. Localization experiments: the position error per step, median and interquartile
 band over the first FIGURE_TRIALS trials (sspf2008's error figure), with the particle count over
 time when KLD-sampling adapts it, and each filter's particles over the field at a few steps of a
 trial where it converged and one where it did not. Figures never run a trial: they draw the rows
@@ -25,7 +25,8 @@ from .config import Experiment
 from .errors import UserError
 from .kinds import kind_of
 from .store import Traces, read_traces
-from .traces import SNAPSHOT_PARTICLES, error_runs, runs_in, snapshot_runs
+from .traces import (SNAPSHOT_PARTICLES, error_runs, runs_in, slam_error_curves,
+                     snapshot_runs)
 
 
 def save_figure(fig, path: Path) -> None:
@@ -473,8 +474,9 @@ def _moving(x: np.ndarray, win: int, rms: bool = False) -> np.ndarray:
 
 def slam_trial_figures(exp: Experiment, traces: Traces, folder: Path, trial: int = 0,
                        fmt: str = "png", rows: pd.DataFrame | None = None) -> list[Path]:
-    """The course with true and estimated paths and maps, the errors over time and the effective
-    sample size over time, for one trial of a SLAM experiment (from its trace)."""
+    """The course with true and estimated paths and maps and the effective sample size over
+    time, for one trial of a SLAM experiment (from its trace), and the errors over time over the
+    traced trials (slam_error_figure)."""
     tr = runs_in(traces.trials[trial])
     shared, world = tr[""], traces.world
     truth = shared["truth_pose"]
@@ -504,35 +506,10 @@ def slam_trial_figures(exp: Experiment, traces: Traces, folder: Path, trial: int
     course = folder / f"course.{fmt}"
     save_figure(fig, course)
 
-    t, t_obs = shared["time"], shared["obs_time"]
-    T = len(t)
-    win = max(1, T // 100)          # a moving RMS: a heading error per step is mostly noise
-    fig, axes = fs.pyplot().subplots(3, 1, figsize=(8.6, 8.2), sharex=True)
-    for i, (r, out) in enumerate(runs):
-        c, ls = fs.colour(i), fs.linestyle(i)
-        err = np.hypot(*(out["pose"][:, :2] - truth[:, :2]).T)
-        dth = (out["pose"][:, 2] - truth[:, 2] + np.pi) % (2 * np.pi) - np.pi
-        dense = T > 2000        # in an SVG or PDF, thousands of vertices a line: an image
-        axes[0].plot(t, err, lw=1.0, color=c, ls=ls, label=_run_name(r, rows), rasterized=dense)
-        axes[1].plot(t[win - 1:], _moving(dth, win, rms=True), lw=1.0, color=c, ls=ls,
-                     rasterized=dense)
-        if "lm_trace" in out:
-            axes[2].plot(t_obs, out["lm_trace"], lw=1.0, color=c, ls=ls,
-                         rasterized=len(t_obs) > 2000)
-    axes[0].set_ylabel("position error (m)")
-    axes[1].set_ylabel("heading error (rad)" + (f", RMS over {win} steps" if win > 1 else ""))
-    axes[2].set_ylabel("landmark error (m)")
-    axes[2].set_xlabel("time (s)")
-    axes[0].set_title(fs.wrap(f"{exp.name}: errors over time in trial {trial} only, one of "
-                              f"{exp.trials} trials (the run keeps one trial's traces: no "
-                              "median over trials; the tables and the other figures cover "
-                              "every trial); landmarks: the highest-weight particle's map",
-                              fig.get_size_inches()[0]))
-    fig.tight_layout(rect=(0, 0.06, 1, 1))
-    fs.legend_below(fig, axes, ncol=min(3, len(runs)))
     errors = folder / f"errors.{fmt}"
-    save_figure(fig, errors)
+    slam_error_figure(exp, traces, errors, rows)
 
+    t_obs = shared["obs_time"]
     fig, ax = fs.pyplot().subplots(figsize=(8.6, 3.8))
     K = t_obs.shape[0]
     win = max(1, K // 50)           # a moving mean, or thousands of jumps hide each other
@@ -551,6 +528,107 @@ def slam_trial_figures(exp: Experiment, traces: Traces, folder: Path, trial: int
     ess = folder / f"ess.{fmt}"
     save_figure(fig, ess)
     return [course, errors, ess]
+
+
+def _quartiles(a: np.ndarray) -> np.ndarray:
+    """(3, S) the first quartile, median and third quartile over the rows (trials) of ``a`` (R, S)
+    at each column, NaN ignored (NaN where a column has no number)."""
+    a = np.asarray(a, dtype=float)
+    if not np.isnan(a).any():
+        return np.percentile(a, [25, 50, 75], axis=0)
+    import warnings
+    with warnings.catch_warnings():             # a column of NaN only: NaN, as said
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return np.nanpercentile(a, [25, 50, 75], axis=0)
+
+
+def _median_band(ax, x: np.ndarray, quart: np.ndarray, c: str, others=()) -> None:
+    """On ``ax``: a run's median over trials (a line in colour ``c``) with its interquartile band
+    (``quart``, from _quartiles; a light fill), the other runs' medians ``others`` in light grey
+    behind them."""
+    for m in others:
+        ax.plot(x, m, color="0.78", lw=0.9, zorder=1)
+    ax.fill_between(x, quart[0], quart[2], color=c, alpha=0.25, lw=0, zorder=2,
+                    label="interquartile band")
+    ax.plot(x, quart[1], color=c, lw=1.8, zorder=3, label="median")
+
+
+def _kept_trials_text(exp: Experiment, n: int) -> str:
+    """'over 20 trials', or 'over the first 50 of 100 trials (...)' when the run kept fewer."""
+    return (f"over {n} trials" if n >= exp.trials else
+            f"over the first {n} of {exp.trials} trials (those whose traces the run keeps)")
+
+
+def slam_error_figure(exp: Experiment, traces: Traces, path: Path,
+                      rows: pd.DataFrame | None = None) -> dict:
+    """The errors over time of a SLAM experiment over its traced trials: one row of panels per
+    filter run (its name over the row), one column per error (position, heading as an RMS over
+    the last w steps, the landmark error of the highest-weight particle's map), each its median
+    over the trials with the interquartile band, the other runs' medians in light grey behind; a
+    column shares its axis, from 0.
+    Returns {run key: {error name: median}}."""
+    trials = sorted(traces.trials)
+    by_trial = [runs_in(traces.trials[k]) for k in trials]
+    runs = exp.filters
+
+    def curves(tr: dict) -> dict:
+        if "error_time" in tr[""]:
+            return tr
+        # a trace written before the error curves were kept (trial 0 only): from its paths
+        out = {"": {}}
+        for r in runs:
+            got = slam_error_curves(tr[r.key]["pose"], tr[""]["truth_pose"], tr[""]["time"],
+                                    tr[r.key].get("lm_trace"), tr[""]["obs_time"])
+            out[""].update({n: got.pop(n) for n in ("error_time", "heading_window_s", "map_time")
+                            if n in got})
+            out[r.key] = got
+        return out
+
+    by_trial = [curves(tr) for tr in by_trial]
+    shared = by_trial[0][""]
+    cols = [("error", "error_time", "position error (m)")]
+    w = float(shared["heading_window_s"])
+    cols.append(("heading_error", "error_time", "heading error (rad)"
+                 + (f",\nRMS over the last {w:.3g} s" if w > 0 else "")))
+    if "map_time" in shared and any("map_error" in tr[r.key] for tr in by_trial for r in runs):
+        cols.append(("map_error", "map_time", "landmark error (m)"))
+    quart = {}
+    for r in runs:
+        for name, _, _ in cols:
+            have = [tr[r.key][name] for tr in by_trial if name in tr[r.key]]
+            if have:
+                quart[r.key, name] = _quartiles(np.asarray(have, dtype=float))
+    ncol, nrow = len(cols), len(runs)
+    wide = fs.width(3.0 * ncol + 0.6)
+    fig, axes = fs.pyplot().subplots(nrow, ncol, figsize=(wide, 1.75 * nrow + 1.3), sharex=True,
+                                     squeeze=False)
+    for j, (name, tname, ylabel) in enumerate(cols):
+        t = shared[tname]
+        for i, r in enumerate(runs):
+            ax = axes[i, j]
+            if i:
+                ax.sharey(axes[0, j])
+            if (r.key, name) in quart:
+                _median_band(ax, t, quart[r.key, name], fs.colour(i),
+                             [quart[o.key, name][1] for o in runs
+                              if o.key != r.key and (o.key, name) in quart])
+            else:
+                ax.text(0.5, 0.5, "not given by this filter", ha="center", va="center",
+                        transform=ax.transAxes, color="0.4")
+            if j == 0:              # the run's name once, over its row
+                ax.set_title(_run_name(r, rows), loc="left", fontweight="bold")
+            ax.set_ylabel(ylabel)
+            ax.grid(alpha=0.3)
+        axes[0, j].set_ylim(bottom=0)       # the column's axis, from every run's band
+        axes[-1, j].set_xlabel("time (s)")
+    fig.suptitle(fs.wrap(f"{exp.name}: errors over time, median and interquartile band "
+                         f"{_kept_trials_text(exp, len(trials))}; grey: the other filters' "
+                         "medians; landmark error: the highest-weight particle's map",
+                         wide), fontsize=10)
+    fig.tight_layout()
+    save_figure(fig, path)
+    return {r.key: {name: quart[r.key, name][1] for name, _, _ in cols if (r.key, name) in quart}
+            for r in runs}
 
 
 def localization_error_figure(exp: Experiment, traces: Traces, path: Path,
@@ -575,7 +653,8 @@ def localization_error_figure(exp: Experiment, traces: Traces, path: Path,
     fig, axes = fs.pyplot().subplots(nrow, ncol, figsize=(wide, 2.7 * nrow + 1.2), sharex=True,
                                      squeeze=False)
     t = np.arange(err[runs[0].key].shape[1])
-    medians = {r.key: np.percentile(err[r.key], 50, axis=0) for r in runs}
+    quart = {r.key: _quartiles(err[r.key]) for r in runs}
+    medians = {r.key: quart[r.key][1] for r in runs}
     kidnaps = traces.world["kidnaps"]
     share = None
     for i, r in enumerate(runs):
@@ -584,14 +663,8 @@ def localization_error_figure(exp: Experiment, traces: Traces, path: Path,
             share = ax
         else:
             ax.sharey(share)
-        for other in runs:
-            if other.key != r.key:
-                ax.plot(t, medians[other.key], color="0.78", lw=0.9, zorder=1)
-        q1, q3 = np.percentile(err[r.key], [25, 75], axis=0)
-        c = fs.colour(i)
-        ax.fill_between(t, q1, q3, color=c, alpha=0.25, lw=0, zorder=2,
-                        label="interquartile band")
-        ax.plot(t, medians[r.key], color=c, lw=1.8, zorder=3, label="median")
+        _median_band(ax, t, quart[r.key], fs.colour(i),
+                     [medians[o.key] for o in runs if o.key != r.key])
         for kstep in kidnaps:
             ax.axvline(kstep, color="0.3", ls=":", lw=1)
         ax.axhline(float(traces.world["bound"]), color="0.5", ls="--", lw=0.8)
@@ -617,9 +690,7 @@ def localization_error_figure(exp: Experiment, traces: Traces, path: Path,
     for j in range(ncol):
         axes[-1, j].set_xlabel("step")
         axes[-1, j].xaxis.set_tick_params(labelbottom=True)
-    kept = (f"over {len(trials)} trials" if len(trials) >= exp.trials else
-            f"over the first {len(trials)} of {exp.trials} trials (those whose traces the run "
-            "keeps)")
+    kept = _kept_trials_text(exp, len(trials))
     fig.suptitle(fs.wrap(f"{exp.name}: position error per step, median and interquartile band "
                          f"{kept}; grey: the other filters' medians; "
                          + ("dotted: kidnappings; " if kidnaps.size else "")

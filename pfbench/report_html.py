@@ -320,8 +320,8 @@ def _section(e: rp.Entry, out_dir: Path, figures: bool, drawing=None) -> dict:
 # what a figure of a results folder shows, by its file's name (the others: a metric's
 # distribution over the trials, or a sweep's metric against the swept key)
 FIGURE_WORDS = {"course": "the course, the landmarks and the estimated paths",
-                "errors": "the estimation errors over time", "ess": "the effective sample size "
-                "over time", "particles": "the particles at chosen steps"}
+                "errors": "the estimation errors over time (median and interquartile band over the "
+                "first trials)", "ess": "trial 0's effective sample size over time", "particles": "the particles at chosen steps"}
 
 
 def figure_words(stem: str, e: rp.Entry) -> str:
