@@ -6,10 +6,11 @@ the paper's table reports as a mean, beside the mean with its 95% interval (what
 report) and the paper's value where it gives one. SLAM experiments also: for trial 0, the course
 with the true and estimated paths and the mapped landmarks, and the effective sample size over
 time (afsa2014 Fig. 5); the position, heading and landmark errors over time (ifa2021 Fig. 6,
-afsa2014 Fig. 3), median and interquartile band over the first FIGURE_TRIALS trials. Localization experiments: the position error per step, median and interquartile
-band over the first FIGURE_TRIALS trials (sspf2008's error figure), with the particle count over
-time when KLD-sampling adapts it, and each filter's particles over the field at a few steps of a
-trial where it converged and one where it did not. Figures never run a trial: they draw the rows
+afsa2014 Fig. 3), median and interquartile band over the first FIGURE_TRIALS trials.
+Localization experiments: the position error per step, median and interquartile band over the
+first FIGURE_TRIALS trials (sspf2008's error figure), with the particle count over time when
+KLD-sampling adapts it, and each filter's particles over the field at a few steps of a trial
+where it converged and one where it did not. Figures never run a trial: they draw the rows
 and the traces the run kept (``traces.npz``, pfbench.traces).
 """
 from __future__ import annotations
@@ -24,7 +25,9 @@ from . import figstyle as fs
 from .config import Experiment
 from .errors import UserError
 from .kinds import kind_of
+from .compare import MACHINE_METRICS
 from .store import Traces, read_traces
+from .tables import judged_title
 from .traces import (SNAPSHOT_PARTICLES, error_runs, runs_in, slam_error_curves,
                      snapshot_runs)
 
@@ -385,7 +388,11 @@ def _rate_panel(ax, exp: Experiment, rows: pd.DataFrame, runs: list, t: pd.DataF
 def _families(exp: Experiment) -> dict[str, list]:
     """The paper's quantities that no distribution figure draws, by family: 'gains' (gains over
     the baseline), 'ratios' (a cost over the baseline's), else one per quantity (a variance
-    over trials): {file name: [quantity]}."""
+    over trials): {file name: [(quantity, measure)]}, measure 'ours' the quantity as measured,
+    'judged' the measure its verdict is judged on (``judged_by``). A cost that depends on the
+    machine (a run-time ratio) judged on such a measure: that measure in 'ratios' (drawn from
+    the trials, the same on every machine), the cost itself in 'time_ratios' (drawn only where a
+    timings file gives the run times)."""
     out: dict[str, list] = {}
     table = exp.reported
     drawn = {q.key for *_, q in _distribution_quantities(exp) if q is not None}
@@ -395,38 +402,59 @@ def _families(exp: Experiment) -> dict[str, list]:
             continue
         fam = ("gains" if q.metric.startswith("gain_") else
                "ratios" if q.metric.endswith("_ratio") else q.key)
-        out.setdefault(fam, []).append(q)
+        if q.judged_by is not None:
+            out.setdefault(fam, []).append((q, "judged"))
+            if q.metric in MACHINE_METRICS:
+                fam = f"time_{fam}"
+        out.setdefault(fam, []).append((q, "ours"))
     return out
+
+
+def _ticks_touch(names: list[str], pitch: float) -> bool:
+    """Whether ``names`` (each in lines), under ticks ``pitch`` inches apart, would touch: a line
+    of one and the same line of the next wider together than twice the pitch (a character of the
+    8.5 pt tick labels about 0.059 in wide)."""
+    lines = [n.splitlines() for n in names]
+    return any((len(la) + len(lb)) / 2 * 0.059 > pitch
+               for a, b in zip(lines, lines[1:]) for la, lb in zip(a, b))
 
 
 def claims_figure(exp: Experiment, table: pd.DataFrame, qs: list, path: Path,
                   rows: pd.DataFrame | None = None) -> None:
-    """One panel per quantity of ``qs`` (a family: the gains, the cost ratios): per filter run
-    with a value, ours with the 95% interval the table reports (black) and the paper's value at
-    the same x (red diamond; grey where the table calls it not comparable); a line at 0 for a
-    gain, at 1 for a ratio (log axis)."""
+    """One panel per (quantity, measure) of ``qs`` (a family of _families: the gains, the cost
+    ratios): per filter run with a value, ours with the 95% interval the table reports (black;
+    measure 'judged': the measure its verdict is judged on) and the paper's value at the same x
+    (red diamond; grey where the table calls it not comparable); a line at 0 for a gain, at 1
+    for a ratio (log axis)."""
     if table is None or not len(table):
         return
     by_key = table.set_index("filter")
     panels = []
-    for q in qs:
-        if f"ours_{q.key}" not in by_key:
+    for q, measure in qs:
+        if f"{measure}_{q.key}" not in by_key:
             continue
         runs = [r for r in exp.filters if r.key in by_key.index
-                and np.isfinite(float(by_key.loc[r.key, f"ours_{q.key}"]))]
+                and np.isfinite(float(by_key.loc[r.key, f"{measure}_{q.key}"]))]
         if runs:
-            panels.append((q, runs))
+            title = (q.title if measure == "ours" else
+                     f"{judged_title(q, exp)} (judges {q.title})")
+            panels.append((q, measure, title, runs))
     if not panels:
         return
-    wide = fs.width(max(5.0, sum(0.7 * len(r) + 1.3 for _, r in panels) + 0.6))
-    ratio = all(q.metric.endswith("_ratio") for q, _ in panels)
+    wide = fs.width(max(5.0, sum(0.7 * len(r) + 1.3 for *_, r in panels) + 0.6))
+    # names stacked in lines under ticks this far apart (inches) that would touch: each name on
+    # one slanted line instead
+    crowded = any(_ticks_touch([_stacked(r, rows) for r in runs],
+                               ((wide - 0.6) / len(panels) - 0.7) / (len(runs) + 0.2))
+                  for *_, runs in panels)
+    ratio = all(q.metric.endswith("_ratio") for q, *_ in panels)
     fig, axes = fs.pyplot().subplots(1, len(panels), figsize=(wide, 4.6), squeeze=False)
-    n = sorted({int(by_key.loc[r.key, "trials"]) for _, runs in panels for r in runs})
-    for ax, (q, runs) in zip(axes[0], panels):
+    n = sorted({int(by_key.loc[r.key, "trials"]) for *_, runs in panels for r in runs})
+    for ax, (q, measure, title, runs) in zip(axes[0], panels):
         x = np.arange(1, len(runs) + 1)
-        m = np.array([float(by_key.loc[r.key, f"ours_{q.key}"]) for r in runs])
-        lo = np.array([float(by_key.loc[r.key, f"ours_lo_{q.key}"]) for r in runs])
-        hi = np.array([float(by_key.loc[r.key, f"ours_hi_{q.key}"]) for r in runs])
+        m = np.array([float(by_key.loc[r.key, f"{measure}_{q.key}"]) for r in runs])
+        lo = np.array([float(by_key.loc[r.key, f"{measure}_lo_{q.key}"]) for r in runs])
+        hi = np.array([float(by_key.loc[r.key, f"{measure}_hi_{q.key}"]) for r in runs])
         ax.errorbar(x, m, yerr=[np.nan_to_num(m - lo), np.nan_to_num(hi - m)], fmt="o",
                     color="black", ms=5, capsize=4, lw=1.2,
                     label="ours and the table's 95% interval")
@@ -447,15 +475,23 @@ def claims_figure(exp: Experiment, table: pd.DataFrame, qs: list, path: Path,
             ax.axhline(1.0 if ratio else 0.0, color="0.4", lw=0.9, ls=":")
         if log:
             ax.set_yscale("log")        # a ratio; or variances that span decades
+            if ratio:                   # plain numbers (2, 3, 4), not 2 x 10^0
+                from matplotlib.ticker import FormatStrFormatter
+                ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
+                ax.yaxis.set_minor_formatter(FormatStrFormatter("%g"))
         ax.set_xlim(0.4, len(runs) + 0.6)
-        ax.set_xticks(x, [_stacked(r, rows) for r in runs])
-        ax.set_title(q.title)
+        if crowded:
+            ax.set_xticks(x, [_run_name(r, rows) for r in runs], rotation=35, ha="right",
+                          rotation_mode="anchor")
+        else:
+            ax.set_xticks(x, [_stacked(r, rows) for r in runs])
+        ax.set_title(fs.wrap(title, wide / len(panels), 9.5))
         ax.grid(axis="x", visible=False)
     counted = f"{n[0]} trials" if len(n) == 1 else f"{n[0]} to {n[-1]} trials"
     what = ("over the baseline's, 1 dotted" if ratio else
-            "over the baseline's, 0 dotted" if all(q.metric.startswith("gain_") for q, _ in panels)
+            "over the baseline's, 0 dotted" if all(q.metric.startswith("gain_") for q, *_ in panels)
             else "")
-    fig.suptitle(fs.wrap(f"{exp.name}: " + ", ".join(q.title for q, _ in panels)
+    fig.suptitle(fs.wrap(f"{exp.name}: " + ", ".join(t for _, _, t, _ in panels)
                          + (f" ({what})" if what else "") + f", ours over {counted} (black: "
                          "with the table's 95% interval) beside the paper's value (red diamond, "
                          "same x)", wide), fontsize=10)

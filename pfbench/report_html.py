@@ -322,7 +322,11 @@ def _section(e: rp.Entry, out_dir: Path, figures: bool, drawing=None) -> dict:
 # distribution over the trials, or a sweep's metric against the swept key)
 FIGURE_WORDS = {"course": "the course, the landmarks and the estimated paths",
                 "errors": "the estimation errors over time, median and interquartile band over the "
-                f"trials (the first {FIGURE_TRIALS} at most)", "ess": "trial 0's effective sample size over time", "particles": "the particles at chosen steps"}
+                f"trials (the first {FIGURE_TRIALS} at most)",
+                "ess": "trial 0's effective sample size over time",
+                "particles": "the particles at chosen steps",
+                "ratios": "each cost over the baseline's as the verdicts judge it (a run time on "
+                "the likelihood evaluations), per filter run, beside the paper's value"}
 
 
 def figure_words(stem: str, e: rp.Entry) -> str:

@@ -296,3 +296,35 @@ filters:
         old = plots.slam_error_figure(exp, Traces(traces.world, {0: one}), tmp_path / "o.png")
     np.testing.assert_allclose(old["fastslam@10"]["error"][1:], np.sqrt(2), rtol=1e-6)
     assert "over the first 1 of 9 trials" in saved[-1][0]._suptitle.get_text().replace("\n", " ")
+
+
+def test_a_run_time_ratio_is_drawn_from_what_judges_it_and_its_times_only_with_timings(
+        tmp_path, monkeypatch):
+    """ifa_pf_ungm's time over the PF is judged on the likelihood evaluations over the PF's:
+    ratios.png draws those from the committed trials (no run times there), beside the paper's
+    time ratio; time_ratios.png the run times' ratio, only where the rows have them."""
+    import numpy as np
+    monkeypatch.chdir(ROOT)
+    exp, rows = _committed("ifa_pf_ungm")
+    fams = plots._families(exp)
+    assert [(q.key, m) for q, m in fams["ratios"]] == [("time_ratio", "judged")]
+    assert [(q.key, m) for q, m in fams["time_ratios"]] == [("time_ratio", "ours")]
+    assert "wall_s" not in rows
+    saved = _figures_saved(monkeypatch)
+    plots.write_figures(exp, rows, tmp_path / "u", "png")
+    names = [p.name for _, p in saved]          # drawn (save_figure is replaced: not written)
+    assert "ratios.png" in names and "time_ratios.png" not in names
+    fig = next(f for f, p in saved if p.name == "ratios.png")
+    assert fs.legibility(fig) == []
+    ax = fig.axes[0]
+    assert ax.get_title().startswith("likelihood evaluations / PF")
+    dots = next(ln for ln in ax.lines if ln.get_marker() == "o")      # ours: 2 or 5, PF's own 1
+    assert set(np.round(dots.get_ydata(), 9)) == {1.0, 2.0, 5.0}
+    assert [t.get_rotation() for t in ax.get_xticklabels()][0] == 35   # 16 names: slanted
+    timed = rows.assign(wall_s=np.where(rows["label"] == "PF", 1.0, 3.0))
+    saved.clear()
+    plots.write_figures(exp, timed, tmp_path / "t", "png")
+    assert {"ratios.png", "time_ratios.png"} <= {p.name for _, p in saved}
+    fig = next(f for f, p in saved if p.name == "time_ratios.png")
+    dots = next(ln for ln in fig.axes[0].lines if ln.get_marker() == "o")
+    np.testing.assert_allclose(dots.get_ydata(), 3.0)
