@@ -12,8 +12,9 @@ Some outputs of a filter run cost time at every step and are read only by some e
   paper file's table (a quantity, its per-run table or that table's ``also``, a finding that
   cites the column) or the config's ``diagnostics`` key.
 - ``lm_trace`` (SLAM): the map error after each observation, which the SLAM figures draw. It is
-  computed in the trials whose trace is kept for the figures (trial 0), and in every trial when
-  the ``diagnostics`` key asks for it.
+  computed in the trials whose trace is kept for the figures (the first FIGURE_TRIALS), and in
+  every trial when the ``diagnostics`` key asks for it. It reads the particles and draws no
+  random number, and no metric reads it: a traced trial's metrics are those it has untraced.
 - ``nees`` (scalar; output ``pvar``): a particle filter's posterior variance at each step, the
   variance of the cloud its estimate is the mean of (the weighted particles before resampling,
   or the resampled ones with ``estimate: after_resampling``), from which its NEES is scored. It

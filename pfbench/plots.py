@@ -3,15 +3,16 @@
 
 Every experiment: the distribution over trials of each filter run's RMSE, and of each other metric
 the paper's table reports as a mean, beside the mean with its 95% interval (what the tables
-report) and the paper's value where it gives one. SLAM experiments also, for one trial: the course
-with the true and estimated paths and the mapped landmarks, the position, heading and landmark
-errors over time (ifa2021 Fig. 6, afsa2014 Fig. 3), and the effective sample size over time
-(afsa2014 Fig. 5). Localization experiments: the position error per step, median and interquartile
-band over the first FIGURE_TRIALS trials (sspf2008's error figure), with the particle count over
-time when KLD-sampling adapts it, each filter's particles over the field at a few steps of a
-trial where it converged and one where it did not, the paths of one trial over the map with the
-beacons (the true path, dead reckoning, each filter's estimate), and from a uniform start without
-a paper's convergence rate, the convergence rate and time. Figures never run a trial: they draw
+report) and the paper's value where it gives one. SLAM experiments also: for trial 0, the course
+with the true and estimated paths and the mapped landmarks, and the effective sample size over
+time (afsa2014 Fig. 5); the position, heading and landmark errors over time (ifa2021 Fig. 6,
+afsa2014 Fig. 3), median and interquartile band over the first FIGURE_TRIALS trials.
+Localization experiments: the position error per step, median and interquartile band over the
+first FIGURE_TRIALS trials (sspf2008's error figure), with the particle count over time when
+KLD-sampling adapts it, each filter's particles over the field at a few steps of a trial where
+it converged and one where it did not, the paths of one trial over the map with the beacons
+(the true path, dead reckoning, each filter's estimate), and from a uniform start without a
+paper's convergence rate, the convergence rate and time. Figures never run a trial: they draw
 the rows and the traces the run kept (``traces.npz``, pfbench.traces).
 """
 from __future__ import annotations
@@ -26,8 +27,11 @@ from . import figstyle as fs
 from .config import Experiment
 from .errors import UserError
 from .kinds import kind_of
+from .compare import MACHINE_METRICS
 from .store import Traces, read_traces
-from .traces import SNAPSHOT_PARTICLES, error_runs, path_runs, runs_in, snapshot_runs
+from .tables import judged_title
+from .traces import (SNAPSHOT_PARTICLES, error_runs, path_runs, runs_in, slam_error_curves,
+                     snapshot_runs)
 
 
 def save_figure(fig, path: Path) -> None:
@@ -386,7 +390,11 @@ def _rate_panel(ax, exp: Experiment, rows: pd.DataFrame, runs: list, t: pd.DataF
 def _families(exp: Experiment) -> dict[str, list]:
     """The paper's quantities that no distribution figure draws, by family: 'gains' (gains over
     the baseline), 'ratios' (a cost over the baseline's), else one per quantity (a variance
-    over trials): {file name: [quantity]}."""
+    over trials): {file name: [(quantity, measure)]}, measure 'ours' the quantity as measured,
+    'judged' the measure its verdict is judged on (``judged_by``). A cost that depends on the
+    machine (a run-time ratio) judged on such a measure: that measure in 'ratios' (drawn from
+    the trials, the same on every machine), the cost itself in 'time_ratios' (drawn only where a
+    timings file gives the run times)."""
     out: dict[str, list] = {}
     table = exp.reported
     drawn = {q.key for *_, q in _distribution_quantities(exp) if q is not None}
@@ -396,38 +404,59 @@ def _families(exp: Experiment) -> dict[str, list]:
             continue
         fam = ("gains" if q.metric.startswith("gain_") else
                "ratios" if q.metric.endswith("_ratio") else q.key)
-        out.setdefault(fam, []).append(q)
+        if q.judged_by is not None:
+            out.setdefault(fam, []).append((q, "judged"))
+            if q.metric in MACHINE_METRICS:
+                fam = f"time_{fam}"
+        out.setdefault(fam, []).append((q, "ours"))
     return out
+
+
+def _ticks_touch(names: list[str], pitch: float) -> bool:
+    """Whether ``names`` (each in lines), under ticks ``pitch`` inches apart, would touch: a line
+    of one and the same line of the next wider together than twice the pitch (a character of the
+    8.5 pt tick labels about 0.059 in wide)."""
+    lines = [n.splitlines() for n in names]
+    return any((len(la) + len(lb)) / 2 * 0.059 > pitch
+               for a, b in zip(lines, lines[1:]) for la, lb in zip(a, b))
 
 
 def claims_figure(exp: Experiment, table: pd.DataFrame, qs: list, path: Path,
                   rows: pd.DataFrame | None = None) -> None:
-    """One panel per quantity of ``qs`` (a family: the gains, the cost ratios): per filter run
-    with a value, ours with the 95% interval the table reports (black) and the paper's value at
-    the same x (red diamond; grey where the table calls it not comparable); a line at 0 for a
-    gain, at 1 for a ratio (log axis)."""
+    """One panel per (quantity, measure) of ``qs`` (a family of _families: the gains, the cost
+    ratios): per filter run with a value, ours with the 95% interval the table reports (black;
+    measure 'judged': the measure its verdict is judged on) and the paper's value at the same x
+    (red diamond; grey where the table calls it not comparable); a line at 0 for a gain, at 1
+    for a ratio (log axis)."""
     if table is None or not len(table):
         return
     by_key = table.set_index("filter")
     panels = []
-    for q in qs:
-        if f"ours_{q.key}" not in by_key:
+    for q, measure in qs:
+        if f"{measure}_{q.key}" not in by_key:
             continue
         runs = [r for r in exp.filters if r.key in by_key.index
-                and np.isfinite(float(by_key.loc[r.key, f"ours_{q.key}"]))]
+                and np.isfinite(float(by_key.loc[r.key, f"{measure}_{q.key}"]))]
         if runs:
-            panels.append((q, runs))
+            title = (q.title if measure == "ours" else
+                     f"{judged_title(q, exp)} (judges {q.title})")
+            panels.append((q, measure, title, runs))
     if not panels:
         return
-    wide = fs.width(max(5.0, sum(0.7 * len(r) + 1.3 for _, r in panels) + 0.6))
-    ratio = all(q.metric.endswith("_ratio") for q, _ in panels)
+    wide = fs.width(max(5.0, sum(0.7 * len(r) + 1.3 for *_, r in panels) + 0.6))
+    # names stacked in lines under ticks this far apart (inches) that would touch: each name on
+    # one slanted line instead
+    crowded = any(_ticks_touch([_stacked(r, rows) for r in runs],
+                               ((wide - 0.6) / len(panels) - 0.7) / (len(runs) + 0.2))
+                  for *_, runs in panels)
+    ratio = all(q.metric.endswith("_ratio") for q, *_ in panels)
     fig, axes = fs.pyplot().subplots(1, len(panels), figsize=(wide, 4.6), squeeze=False)
-    n = sorted({int(by_key.loc[r.key, "trials"]) for _, runs in panels for r in runs})
-    for ax, (q, runs) in zip(axes[0], panels):
+    n = sorted({int(by_key.loc[r.key, "trials"]) for *_, runs in panels for r in runs})
+    for ax, (q, measure, title, runs) in zip(axes[0], panels):
         x = np.arange(1, len(runs) + 1)
-        m = np.array([float(by_key.loc[r.key, f"ours_{q.key}"]) for r in runs])
-        lo = np.array([float(by_key.loc[r.key, f"ours_lo_{q.key}"]) for r in runs])
-        hi = np.array([float(by_key.loc[r.key, f"ours_hi_{q.key}"]) for r in runs])
+        m = np.array([float(by_key.loc[r.key, f"{measure}_{q.key}"]) for r in runs])
+        lo = np.array([float(by_key.loc[r.key, f"{measure}_lo_{q.key}"]) for r in runs])
+        hi = np.array([float(by_key.loc[r.key, f"{measure}_hi_{q.key}"]) for r in runs])
         ax.errorbar(x, m, yerr=[np.nan_to_num(m - lo), np.nan_to_num(hi - m)], fmt="o",
                     color="black", ms=5, capsize=4, lw=1.2,
                     label="ours and the table's 95% interval")
@@ -448,15 +477,23 @@ def claims_figure(exp: Experiment, table: pd.DataFrame, qs: list, path: Path,
             ax.axhline(1.0 if ratio else 0.0, color="0.4", lw=0.9, ls=":")
         if log:
             ax.set_yscale("log")        # a ratio; or variances that span decades
+            if ratio:                   # plain numbers (2, 3, 4), not 2 x 10^0
+                from matplotlib.ticker import FormatStrFormatter
+                ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
+                ax.yaxis.set_minor_formatter(FormatStrFormatter("%g"))
         ax.set_xlim(0.4, len(runs) + 0.6)
-        ax.set_xticks(x, [_stacked(r, rows) for r in runs])
-        ax.set_title(q.title)
+        if crowded:
+            ax.set_xticks(x, [_run_name(r, rows) for r in runs], rotation=35, ha="right",
+                          rotation_mode="anchor")
+        else:
+            ax.set_xticks(x, [_stacked(r, rows) for r in runs])
+        ax.set_title(fs.wrap(title, wide / len(panels), 9.5))
         ax.grid(axis="x", visible=False)
     counted = f"{n[0]} trials" if len(n) == 1 else f"{n[0]} to {n[-1]} trials"
     what = ("over the baseline's, 1 dotted" if ratio else
-            "over the baseline's, 0 dotted" if all(q.metric.startswith("gain_") for q, _ in panels)
+            "over the baseline's, 0 dotted" if all(q.metric.startswith("gain_") for q, *_ in panels)
             else "")
-    fig.suptitle(fs.wrap(f"{exp.name}: " + ", ".join(q.title for q, _ in panels)
+    fig.suptitle(fs.wrap(f"{exp.name}: " + ", ".join(t for _, _, t, _ in panels)
                          + (f" ({what})" if what else "") + f", ours over {counted} (black: "
                          "with the table's 95% interval) beside the paper's value (red diamond, "
                          "same x)", wide), fontsize=10)
@@ -475,8 +512,9 @@ def _moving(x: np.ndarray, win: int, rms: bool = False) -> np.ndarray:
 
 def slam_trial_figures(exp: Experiment, traces: Traces, folder: Path, trial: int = 0,
                        fmt: str = "png", rows: pd.DataFrame | None = None) -> list[Path]:
-    """The course with true and estimated paths and maps, the errors over time and the effective
-    sample size over time, for one trial of a SLAM experiment (from its trace)."""
+    """The course with true and estimated paths and maps and the effective sample size over
+    time, for one trial of a SLAM experiment (from its trace), and the errors over time over the
+    traced trials (slam_error_figure)."""
     tr = runs_in(traces.trials[trial])
     shared, world = tr[""], traces.world
     truth = shared["truth_pose"]
@@ -506,35 +544,10 @@ def slam_trial_figures(exp: Experiment, traces: Traces, folder: Path, trial: int
     course = folder / f"course.{fmt}"
     save_figure(fig, course)
 
-    t, t_obs = shared["time"], shared["obs_time"]
-    T = len(t)
-    win = max(1, T // 100)          # a moving RMS: a heading error per step is mostly noise
-    fig, axes = fs.pyplot().subplots(3, 1, figsize=(8.6, 8.2), sharex=True)
-    for i, (r, out) in enumerate(runs):
-        c, ls = fs.colour(i), fs.linestyle(i)
-        err = np.hypot(*(out["pose"][:, :2] - truth[:, :2]).T)
-        dth = (out["pose"][:, 2] - truth[:, 2] + np.pi) % (2 * np.pi) - np.pi
-        dense = T > 2000        # in an SVG or PDF, thousands of vertices a line: an image
-        axes[0].plot(t, err, lw=1.0, color=c, ls=ls, label=_run_name(r, rows), rasterized=dense)
-        axes[1].plot(t[win - 1:], _moving(dth, win, rms=True), lw=1.0, color=c, ls=ls,
-                     rasterized=dense)
-        if "lm_trace" in out:
-            axes[2].plot(t_obs, out["lm_trace"], lw=1.0, color=c, ls=ls,
-                         rasterized=len(t_obs) > 2000)
-    axes[0].set_ylabel("position error (m)")
-    axes[1].set_ylabel("heading error (rad)" + (f", RMS over {win} steps" if win > 1 else ""))
-    axes[2].set_ylabel("landmark error (m)")
-    axes[2].set_xlabel("time (s)")
-    axes[0].set_title(fs.wrap(f"{exp.name}: errors over time in trial {trial} only, one of "
-                              f"{exp.trials} trials (the run keeps one trial's traces: no "
-                              "median over trials; the tables and the other figures cover "
-                              "every trial); landmarks: the highest-weight particle's map",
-                              fig.get_size_inches()[0]))
-    fig.tight_layout(rect=(0, 0.06, 1, 1))
-    fs.legend_below(fig, axes, ncol=min(3, len(runs)))
     errors = folder / f"errors.{fmt}"
-    save_figure(fig, errors)
+    slam_error_figure(exp, traces, errors, rows)
 
+    t_obs = shared["obs_time"]
     fig, ax = fs.pyplot().subplots(figsize=(8.6, 3.8))
     K = t_obs.shape[0]
     win = max(1, K // 50)           # a moving mean, or thousands of jumps hide each other
@@ -553,6 +566,107 @@ def slam_trial_figures(exp: Experiment, traces: Traces, folder: Path, trial: int
     ess = folder / f"ess.{fmt}"
     save_figure(fig, ess)
     return [course, errors, ess]
+
+
+def _quartiles(a: np.ndarray) -> np.ndarray:
+    """(3, S) the first quartile, median and third quartile over the rows (trials) of ``a`` (R, S)
+    at each column, NaN ignored (NaN where a column has no number)."""
+    a = np.asarray(a, dtype=float)
+    if not np.isnan(a).any():
+        return np.percentile(a, [25, 50, 75], axis=0)
+    import warnings
+    with warnings.catch_warnings():             # a column of NaN only: NaN, as said
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return np.nanpercentile(a, [25, 50, 75], axis=0)
+
+
+def _median_band(ax, x: np.ndarray, quart: np.ndarray, c: str, others=()) -> None:
+    """On ``ax``: a run's median over trials (a line in colour ``c``) with its interquartile band
+    (``quart``, from _quartiles; a light fill), the other runs' medians ``others`` in light grey
+    behind them."""
+    for m in others:
+        ax.plot(x, m, color="0.78", lw=0.9, zorder=1)
+    ax.fill_between(x, quart[0], quart[2], color=c, alpha=0.25, lw=0, zorder=2,
+                    label="interquartile band")
+    ax.plot(x, quart[1], color=c, lw=1.8, zorder=3, label="median")
+
+
+def _kept_trials_text(exp: Experiment, n: int) -> str:
+    """'over 20 trials', or 'over the first 50 of 100 trials (...)' when the run kept fewer."""
+    return (f"over {n} trials" if n >= exp.trials else
+            f"over the first {n} of {exp.trials} trials (those whose traces the run keeps)")
+
+
+def slam_error_figure(exp: Experiment, traces: Traces, path: Path,
+                      rows: pd.DataFrame | None = None) -> dict:
+    """The errors over time of a SLAM experiment over its traced trials: one row of panels per
+    filter run (its name over the row), one column per error (position, heading as an RMS over
+    the last w steps, the landmark error of the highest-weight particle's map), each its median
+    over the trials with the interquartile band, the other runs' medians in light grey behind; a
+    column shares its axis, from 0.
+    Returns {run key: {error name: median}}."""
+    trials = sorted(traces.trials)
+    by_trial = [runs_in(traces.trials[k]) for k in trials]
+    runs = exp.filters
+
+    def curves(tr: dict) -> dict:
+        if "error_time" in tr[""]:
+            return tr
+        # a trace written before the error curves were kept (trial 0 only): from its paths
+        out = {"": {}}
+        for r in runs:
+            got = slam_error_curves(tr[r.key]["pose"], tr[""]["truth_pose"], tr[""]["time"],
+                                    tr[r.key].get("lm_trace"), tr[""]["obs_time"])
+            out[""].update({n: got.pop(n) for n in ("error_time", "heading_window_s", "map_time")
+                            if n in got})
+            out[r.key] = got
+        return out
+
+    by_trial = [curves(tr) for tr in by_trial]
+    shared = by_trial[0][""]
+    cols = [("error", "error_time", "position error (m)")]
+    w = float(shared["heading_window_s"])
+    cols.append(("heading_error", "error_time", "heading error (rad)"
+                 + (f",\nRMS over the last {w:.3g} s" if w > 0 else "")))
+    if "map_time" in shared and any("map_error" in tr[r.key] for tr in by_trial for r in runs):
+        cols.append(("map_error", "map_time", "landmark error (m)"))
+    quart = {}
+    for r in runs:
+        for name, _, _ in cols:
+            have = [tr[r.key][name] for tr in by_trial if name in tr[r.key]]
+            if have:
+                quart[r.key, name] = _quartiles(np.asarray(have, dtype=float))
+    ncol, nrow = len(cols), len(runs)
+    wide = fs.width(3.0 * ncol + 0.6)
+    fig, axes = fs.pyplot().subplots(nrow, ncol, figsize=(wide, 1.75 * nrow + 1.3), sharex=True,
+                                     squeeze=False)
+    for j, (name, tname, ylabel) in enumerate(cols):
+        t = shared[tname]
+        for i, r in enumerate(runs):
+            ax = axes[i, j]
+            if i:
+                ax.sharey(axes[0, j])
+            if (r.key, name) in quart:
+                _median_band(ax, t, quart[r.key, name], fs.colour(i),
+                             [quart[o.key, name][1] for o in runs
+                              if o.key != r.key and (o.key, name) in quart])
+            else:
+                ax.text(0.5, 0.5, "not given by this filter", ha="center", va="center",
+                        transform=ax.transAxes, color="0.4")
+            if j == 0:              # the run's name once, over its row
+                ax.set_title(_run_name(r, rows), loc="left", fontweight="bold")
+            ax.set_ylabel(ylabel)
+            ax.grid(alpha=0.3)
+        axes[0, j].set_ylim(bottom=0)       # the column's axis, from every run's band
+        axes[-1, j].set_xlabel("time (s)")
+    fig.suptitle(fs.wrap(f"{exp.name}: errors over time, median and interquartile band "
+                         f"{_kept_trials_text(exp, len(trials))}; grey: the other filters' "
+                         "medians; landmark error: the highest-weight particle's map",
+                         wide), fontsize=10)
+    fig.tight_layout()
+    save_figure(fig, path)
+    return {r.key: {name: quart[r.key, name][1] for name, _, _ in cols if (r.key, name) in quart}
+            for r in runs}
 
 
 def localization_error_figure(exp: Experiment, traces: Traces, path: Path,
@@ -577,7 +691,8 @@ def localization_error_figure(exp: Experiment, traces: Traces, path: Path,
     fig, axes = fs.pyplot().subplots(nrow, ncol, figsize=(wide, 2.7 * nrow + 1.2), sharex=True,
                                      squeeze=False)
     t = np.arange(err[runs[0].key].shape[1])
-    medians = {r.key: np.percentile(err[r.key], 50, axis=0) for r in runs}
+    quart = {r.key: _quartiles(err[r.key]) for r in runs}
+    medians = {r.key: quart[r.key][1] for r in runs}
     kidnaps = traces.world["kidnaps"]
     share = None
     for i, r in enumerate(runs):
@@ -586,14 +701,8 @@ def localization_error_figure(exp: Experiment, traces: Traces, path: Path,
             share = ax
         else:
             ax.sharey(share)
-        for other in runs:
-            if other.key != r.key:
-                ax.plot(t, medians[other.key], color="0.78", lw=0.9, zorder=1)
-        q1, q3 = np.percentile(err[r.key], [25, 75], axis=0)
-        c = fs.colour(i)
-        ax.fill_between(t, q1, q3, color=c, alpha=0.25, lw=0, zorder=2,
-                        label="interquartile band")
-        ax.plot(t, medians[r.key], color=c, lw=1.8, zorder=3, label="median")
+        _median_band(ax, t, quart[r.key], fs.colour(i),
+                     [medians[o.key] for o in runs if o.key != r.key])
         for kstep in kidnaps:
             ax.axvline(kstep, color="0.3", ls=":", lw=1)
         ax.axhline(float(traces.world["bound"]), color="0.5", ls="--", lw=0.8)
@@ -619,9 +728,7 @@ def localization_error_figure(exp: Experiment, traces: Traces, path: Path,
     for j in range(ncol):
         axes[-1, j].set_xlabel("step")
         axes[-1, j].xaxis.set_tick_params(labelbottom=True)
-    kept = (f"over {len(trials)} trials" if len(trials) >= exp.trials else
-            f"over the first {len(trials)} of {exp.trials} trials (those whose traces the run "
-            "keeps)")
+    kept = _kept_trials_text(exp, len(trials))
     fig.suptitle(fs.wrap(f"{exp.name}: position error per step, median and interquartile band "
                          f"{kept}; grey: the other filters' medians; "
                          + ("dotted: kidnappings; " if kidnaps.size else "")

@@ -22,6 +22,7 @@ from markupsafe import Markup, escape
 
 from .figstyle import label
 from .fsutil import FolderLock, atomic_write, make_folders, own_folder
+from .traces import FIGURE_TRIALS
 from .version import __version__
 from . import report_data as rp
 from . import tables as tb
@@ -320,8 +321,12 @@ def _section(e: rp.Entry, out_dir: Path, figures: bool, drawing=None) -> dict:
 # what a figure of a results folder shows, by its file's name (the others: a metric's
 # distribution over the trials, or a sweep's metric against the swept key)
 FIGURE_WORDS = {"course": "the course, the landmarks and the estimated paths",
-                "errors": "the estimation errors over time", "ess": "the effective sample size "
-                "over time", "particles": "the particles at chosen steps",
+                "errors": "the estimation errors over time, median and interquartile band over the "
+                f"trials (the first {FIGURE_TRIALS} at most)",
+                "ess": "trial 0's effective sample size over time",
+                "particles": "the particles at chosen steps",
+                "ratios": "each cost over the baseline's as the verdicts judge it (a run time on "
+                "the likelihood evaluations), per filter run, beside the paper's value",
                 "paths": "the true path, dead reckoning and each filter's estimated path over "
                 "the map with the beacons, in one trial",
                 "convergence": "the convergence rate of each filter run with its Wilson "

@@ -1,9 +1,9 @@
 """What a figure needs from a trial, kept while the trial runs.
 
 Figures never run a trial again: a scenario kind names the trials whose traces it keeps (the
-SLAM figures draw trial 0; the localization error curves the first FIGURE_TRIALS trials, its
-particle snapshots the first SNAPSHOT_TRIALS, its paths the first PATH_TRIALS) and what it keeps of
-them. A trace is a flat mapping of names to
+error curves of both kinds the first FIGURE_TRIALS trials; SLAM's course, map and effective
+sample size trial 0; localization's particle snapshots the first SNAPSHOT_TRIALS and its paths
+the first PATH_TRIALS) and what it keeps of them. A trace is a flat mapping of names to
 arrays: ``FIELD`` for what the trial shares (``truth_pose``), ``RUN_KEY/FIELD`` for one filter run;
 the world every trial shares (landmarks, beacons) is kept once. Plotted values are stored as
 float32. The runner writes them to ``traces.npz`` in the results folder (pfbench.store) and the
@@ -20,8 +20,11 @@ from __future__ import annotations
 
 import numpy as np
 
-# localization error curves are drawn over at most this many trials
+# error curves (localization and SLAM) are drawn over at most this many trials
 FIGURE_TRIALS = 50
+# a SLAM error curve keeps at most about this many points of a trial (every k-th step or
+# observation): a median over trials drawn at page width needs no more, and traces.npz stays small
+SLAM_CURVE_POINTS = 300
 # The trials whose particle snapshots are kept: a snapshot figure shows, of each filter, a trial
 # where it converged and one where it did not, found among them.
 SNAPSHOT_TRIALS = 10
@@ -38,12 +41,47 @@ def _f32(a) -> np.ndarray:
     return np.asarray(a, dtype=np.float32)
 
 
+def curve_stride(n: int) -> int:
+    """The stride k that keeps at most about SLAM_CURVE_POINTS of ``n`` values (every k-th, the
+    first included); 1 when they are that few."""
+    return max(1, -(-(n - 1) // SLAM_CURVE_POINTS))
+
+
+def slam_error_curves(pose, truth_pose, time, lm_trace, obs_time) -> dict:
+    """A SLAM run's error curves as its figures draw them, every k-th step (k =
+    curve_stride(T+1)): 'error' the position error (m) at those steps, 'heading_error' the
+    RMS heading error (rad) over the w = max(k, (T+1) // 100) steps up to each (the heading
+    error of one step is mostly noise), 'error_time' their times (s), 'heading_window_s' w steps
+    in seconds; with ``lm_trace`` (K,) (the map error after each
+    observation, m; None without), 'map_error' every k'-th of it (k' = curve_stride(K)) and
+    'map_time' its times. Float32 arrays."""
+    pose, truth_pose = np.asarray(pose, dtype=float), np.asarray(truth_pose, dtype=float)
+    k = curve_stride(pose.shape[0])
+    d = pose - truth_pose
+    dth = (d[:, 2] + np.pi) % (2 * np.pi) - np.pi
+    cum = np.concatenate([[0.0], np.cumsum(dth * dth)])
+    at = np.arange(0, pose.shape[0], k)
+    w = max(k, pose.shape[0] // 100)
+    lo = np.maximum(at - w + 1, 0)
+    out = {"error": _f32(np.hypot(d[at, 0], d[at, 1])),
+           "heading_error": _f32(np.sqrt((cum[at + 1] - cum[lo]) / (at + 1 - lo))),
+           "error_time": _f32(np.asarray(time)[at]),
+           "heading_window_s": np.asarray(w * (time[1] - time[0]) if len(time) > 1 else 0.0)}
+    if lm_trace is not None:
+        kk = curve_stride(len(lm_trace))
+        out["map_error"] = _f32(np.asarray(lm_trace)[::kk])
+        out["map_time"] = _f32(np.asarray(obs_time)[::kk])
+    return out
+
+
 class SlamTracer:
-    """Trial 0: the true path; each run's path, final map, landmark error per observation and
+    """The first FIGURE_TRIALS trials: each run's error curves (slam_error_curves: position and
+    heading error every k-th step, map error every k'-th observation) and their times. Trial 0
+    also: the true path; each run's path, final map, landmark error per observation and
     effective sample size per update; the time of each step and observation."""
 
     def keeps(self, exp, trial: int) -> bool:
-        return trial == 0
+        return trial < FIGURE_TRIALS
 
     def extras(self, exp, model, data, trial: int) -> dict:
         return {}
@@ -54,16 +92,25 @@ class SlamTracer:
         vehicle, sensor = getattr(model, "vehicle", None), getattr(model, "sensor", None)
         dt = float(vehicle[1]) if vehicle is not None else 1.0
         every = int(sensor[2]) if sensor is not None else max(1, T // max(K, 1))
-        trace = {"truth_pose": _f32(truth.pose),
-                 "time": _f32(np.arange(T + 1) * dt),
-                 "obs_time": _f32(np.arange(1, K + 1) * every * dt)}
+        time, obs_time = np.arange(T + 1) * dt, np.arange(1, K + 1) * every * dt
+        trace = {}
+        if trial == 0:
+            trace = {"truth_pose": _f32(truth.pose), "time": _f32(time),
+                     "obs_time": _f32(obs_time)}
         for key, out in outs.items():
-            trace[f"{key}/pose"] = _f32(out["pose"])
-            trace[f"{key}/lm_est"] = _f32(out["lm_est"])
-            trace[f"{key}/lm_seen"] = np.asarray(out["lm_seen"]).astype(bool)
-            trace[f"{key}/ess"] = _f32(out.get("ess", np.empty(0)))
-            if "lm_trace" in out:
-                trace[f"{key}/lm_trace"] = _f32(out["lm_trace"])
+            curves = slam_error_curves(out["pose"], truth.pose, time, out.get("lm_trace"),
+                                       obs_time)
+            for name in ("error_time", "heading_window_s", "map_time"):   # every run's: once
+                if name in curves:
+                    trace[name] = curves.pop(name)
+            trace.update({f"{key}/{name}": a for name, a in curves.items()})
+            if trial == 0:
+                trace[f"{key}/pose"] = _f32(out["pose"])
+                trace[f"{key}/lm_est"] = _f32(out["lm_est"])
+                trace[f"{key}/lm_seen"] = np.asarray(out["lm_seen"]).astype(bool)
+                trace[f"{key}/ess"] = _f32(out.get("ess", np.empty(0)))
+                if "lm_trace" in out:
+                    trace[f"{key}/lm_trace"] = _f32(out["lm_trace"])
         return trace
 
     def world(self, exp, model) -> dict:

@@ -133,7 +133,9 @@ def test_the_key_from_the_command_line(tmp_path):
 
 def test_slam_figures_get_the_map_trace_in_the_trials_they_draw(monkeypatch):
     """afsa_fastslam: its paper file reads diversity_l1 and distinct_frac in every trial; the
-    SLAM figures the map-error trace of the trial they draw (trial 0), and only that one."""
+    SLAM figures the map-error trace of the trials they draw (the first FIGURE_TRIALS), and only
+    those. The trace is a side output: a traced trial's rows are those of the same trial run
+    without it, number for number."""
     monkeypatch.chdir(ROOT)
     exp = load("configs/afsa_fastslam.yaml", sets=["scenario.steps=40", "trials=2"])
     p = plan(exp)
@@ -141,8 +143,13 @@ def test_slam_figures_get_the_map_trace_in_the_trials_they_draw(monkeypatch):
     assert p.for_trial(True) == Diag.DISTINCT | Diag.DIVERSITY | Diag.MAP_TRACE
     assert p.for_trial(False) == p.every
     assert any("per-run table" in w for w in p.why["distinct_frac"])
-    t0 = runner_mod.trial_result(exp, 0, traces=True)
-    assert any(k.endswith("/lm_trace") for k in t0.trace)
+    for k in (0, 1):
+        traced = runner_mod.trial_result(exp, k, traces=True)
+        assert any(name.endswith("/map_error") for name in traced.trace)
+        assert any(name.endswith("/lm_trace") for name in traced.trace) == (k == 0)
+        plain = runner_mod.run_trial(exp, k)
+        assert [{c: v for c, v in row.items() if c != "wall_s"} for row in traced.rows] == [
+            {c: v for c, v in row.items() if c != "wall_s"} for row in plain]
     out, _ = runner_mod.run_filter(exp, 1, exp.filters[0], *runner_mod.trial_data(exp, 1)[::2])
     assert "lm_trace" not in out and "div_l1" in out and "distinct" in out
 

@@ -330,3 +330,114 @@ def test_convergence_times_are_seconds_on_recorded_data():
     times = __import__("numpy").arange(30) * 0.25
     assert list(plots.converge_times(rows, Run, times)) == [1.25, 5.0]
     assert list(plots.converge_times(rows, Run, None)) == [5.0, 20.0]
+
+
+def _slam_traces(exp, trials: int, seed: int = 5):
+    """A SLAM trace of ``trials`` trials as SlamTracer keeps it, made up: each run's errors
+    drawn around a level of its own."""
+    import numpy as np
+    from pfbench.store import Traces
+    rng = np.random.default_rng(seed)
+    t, t_obs = np.arange(0, 101, 4) * 0.1, np.arange(1, 51) * 0.2
+    out = {}
+    for k in range(trials):
+        tr = {"error_time": t.astype(np.float32), "map_time": t_obs.astype(np.float32),
+              "heading_window_s": np.asarray(1.0)}
+        for i, r in enumerate(exp.filters):
+            tr[f"{r.key}/error"] = (i + 1 + rng.random(t.size)).astype(np.float32)
+            tr[f"{r.key}/heading_error"] = (0.01 * (i + 1) * rng.random(t.size)).astype(
+                np.float32)
+            m = 0.1 * (i + 1) + rng.random(t_obs.size) * 0.05
+            m[:3] = np.nan                     # before any landmark is mapped
+            tr[f"{r.key}/map_error"] = m.astype(np.float32)
+        out[k] = tr
+    return Traces({"landmarks": np.zeros((3, 2), np.float32)}, out)
+
+
+def test_slam_errors_are_medians_and_bands_over_the_traced_trials(tmp_path, monkeypatch,
+                                                                  write_config):
+    """errors.png of a SLAM experiment: a row per run, a column per error, each the median
+    over the kept trials with its interquartile band, the trial count in the title."""
+    import warnings
+
+    import numpy as np
+    exp = load(write_config(f"""\
+seed: 2
+trials: 9
+scenario: {{name: waypoint_course, world: {ROOT / 'configs/worlds/ifa_course.yaml'}, steps: 100}}
+filters:
+  fastslam: {{label: FastSLAM, particles: 10}}
+  ifa: {{type: fastslam, label: IFA-FastSLAM, refine: ifa, particles: 10}}
+  ba: {{type: fastslam, label: BA-FastSLAM, refine: ba, particles: 10}}
+"""))
+    traces = _slam_traces(exp, 6)
+    saved = _figures_saved(monkeypatch)
+    with fs.style():
+        medians = plots.slam_error_figure(exp, traces, tmp_path / "errors.png")
+    fig = saved[-1][0]
+    assert fs.legibility(fig) == []
+    axes = [ax for ax in fig.axes if ax.get_visible()]
+    assert len(axes) == 3 * 3                                  # 3 runs x 3 errors
+    title = fig._suptitle.get_text().replace("\n", " ")
+    assert "median and interquartile band over the first 6 of 9 trials" in title
+    assert [ax.get_title(loc="left") for ax in axes[::3]] == [
+        "FastSLAM (N=10)", "IFA-FastSLAM (N=10)", "BA-FastSLAM (N=10)"]
+    assert [ax.get_ylabel().split(" (")[0] for ax in axes[:3]] == [
+        "position error", "heading error", "landmark error"]
+    for r in exp.filters:
+        for name in ("error", "heading_error", "map_error"):
+            a = np.array([traces.trials[k][f"{r.key}/{name}"] for k in range(6)], dtype=float)
+            with warnings.catch_warnings():                   # a column of NaN: NaN
+                warnings.simplefilter("ignore", RuntimeWarning)
+                want = np.nanmedian(a, axis=0) if name == "map_error" else np.median(a, axis=0)
+            np.testing.assert_array_equal(medians[r.key][name], want)
+    # each panel: the other runs' medians (grey), the band (a fill) and the run's median
+    ax = axes[3]
+    assert len(ax.collections) == 1 and len(ax.lines) == 3
+    np.testing.assert_array_equal(ax.lines[-1].get_ydata(), medians["ifa@10"]["error"])
+    for j in range(3):                                         # a column shares its axis from 0
+        assert {axes[3 * i + j].get_ylim() for i in range(3)} == {axes[j].get_ylim()}
+        assert axes[j].get_ylim()[0] == 0
+    # a trace written before the error curves were kept (trial 0's paths only) still draws
+    one = {"truth_pose": np.zeros((11, 3), np.float32), "time": np.arange(11, dtype=np.float32),
+           "obs_time": np.arange(1, 6, dtype=np.float32)}
+    for r in exp.filters:
+        one[f"{r.key}/pose"] = np.ones((11, 3), np.float32)
+        one[f"{r.key}/lm_trace"] = np.full(5, 0.5, np.float32)
+    from pfbench.store import Traces
+    with fs.style():
+        old = plots.slam_error_figure(exp, Traces(traces.world, {0: one}), tmp_path / "o.png")
+    np.testing.assert_allclose(old["fastslam@10"]["error"][1:], np.sqrt(2), rtol=1e-6)
+    assert "over the first 1 of 9 trials" in saved[-1][0]._suptitle.get_text().replace("\n", " ")
+
+
+def test_a_run_time_ratio_is_drawn_from_what_judges_it_and_its_times_only_with_timings(
+        tmp_path, monkeypatch):
+    """ifa_pf_ungm's time over the PF is judged on the likelihood evaluations over the PF's:
+    ratios.png draws those from the committed trials (no run times there), beside the paper's
+    time ratio; time_ratios.png the run times' ratio, only where the rows have them."""
+    import numpy as np
+    monkeypatch.chdir(ROOT)
+    exp, rows = _committed("ifa_pf_ungm")
+    fams = plots._families(exp)
+    assert [(q.key, m) for q, m in fams["ratios"]] == [("time_ratio", "judged")]
+    assert [(q.key, m) for q, m in fams["time_ratios"]] == [("time_ratio", "ours")]
+    assert "wall_s" not in rows
+    saved = _figures_saved(monkeypatch)
+    plots.write_figures(exp, rows, tmp_path / "u", "png")
+    names = [p.name for _, p in saved]          # drawn (save_figure is replaced: not written)
+    assert "ratios.png" in names and "time_ratios.png" not in names
+    fig = next(f for f, p in saved if p.name == "ratios.png")
+    assert fs.legibility(fig) == []
+    ax = fig.axes[0]
+    assert ax.get_title().startswith("likelihood evaluations / PF")
+    dots = next(ln for ln in ax.lines if ln.get_marker() == "o")      # ours: 2 or 5, PF's own 1
+    assert set(np.round(dots.get_ydata(), 9)) == {1.0, 2.0, 5.0}
+    assert [t.get_rotation() for t in ax.get_xticklabels()][0] == 35   # 16 names: slanted
+    timed = rows.assign(wall_s=np.where(rows["label"] == "PF", 1.0, 3.0))
+    saved.clear()
+    plots.write_figures(exp, timed, tmp_path / "t", "png")
+    assert {"ratios.png", "time_ratios.png"} <= {p.name for _, p in saved}
+    fig = next(f for f, p in saved if p.name == "time_ratios.png")
+    dots = next(ln for ln in fig.axes[0].lines if ln.get_marker() == "o")
+    np.testing.assert_allclose(dots.get_ydata(), 3.0)

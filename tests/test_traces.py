@@ -5,11 +5,13 @@ import pytest
 
 from pfbench import plots, runner
 from pfbench.config import load
+from pfbench.diag import Diag
 from pfbench.errors import UserError
 from pfbench.runner import run_experiment, run_filter, trial_data
 from pfbench.store import TRACES, TRACES_PARTIAL, read_traces, stage_trace
 from pfbench.traces import (FIGURE_TRIALS, PATH_POINTS, PATH_TRIALS, SNAPSHOT_PARTICLES,
-                            error_runs, path_runs, path_steps, snapshot_runs)
+                            SlamTracer, curve_stride, error_runs, path_runs, path_steps,
+                            slam_error_curves, snapshot_runs)
 
 from .conftest import ROOT, TINY
 
@@ -151,22 +153,74 @@ def test_figures_draw_from_the_traces_without_running_a_trial(tmp_path, write_co
         "rmse.png", "course.png", "errors.png", "ess.png"}
 
 
-def test_slam_trace_is_trial_0_of_every_run(tmp_path, write_config):
-    exp = load(write_config(COURSE))
+def test_slam_traces_keep_every_traced_trials_errors_and_trial_0s_paths(tmp_path,
+                                                                         write_config):
+    """Each of the first FIGURE_TRIALS trials keeps every run's error curves (position and
+    heading error every k-th step, map error every k'-th observation), as computed from what the
+    run gave; trial 0 also its paths, map, Neff and full map-error trace."""
+    exp = load(write_config(COURSE.replace("steps: 300", "steps: 700")))     # k = 3
     run_experiment(exp, tmp_path / "c")
     traces = read_traces(tmp_path / "c")
-    assert list(traces.trials) == [0]
+    assert sorted(traces.trials) == list(range(exp.trials))         # fewer than FIGURE_TRIALS
+    tracer = SlamTracer()
+    assert tracer.keeps(exp, FIGURE_TRIALS - 1) and not tracer.keeps(exp, FIGURE_TRIALS)
+    for k in range(exp.trials):
+        model, truth, data = trial_data(exp, k)
+        T, K = truth.pose.shape[0] - 1, data.obs_n.shape[0]
+        tr = traces.trials[k]
+        step, obs = curve_stride(T + 1), curve_stride(K)
+        assert step > 1 and len(tr["error_time"]) == len(range(0, T + 1, step)) <= 301
+        assert tr["map_time"].shape == (len(range(0, K, obs)),)
+        assert ("truth_pose" in tr) == (k == 0)
+        for r in exp.filters:
+            out, _ = run_filter(exp, k, r, model, data, diag=Diag.MAP_TRACE)
+            err = np.hypot(*(out["pose"][::step, :2] - truth.pose[::step, :2]).T)
+            np.testing.assert_array_equal(tr[f"{r.key}/error"], err.astype(np.float32))
+            np.testing.assert_array_equal(tr[f"{r.key}/map_error"],
+                                          out["lm_trace"][::obs].astype(np.float32))
+            assert tr[f"{r.key}/heading_error"].shape == tr["error_time"].shape
+            assert tr[f"{r.key}/heading_error"].dtype == np.float32
+            if k == 0:
+                np.testing.assert_array_equal(tr[f"{r.key}/pose"],
+                                              out["pose"].astype(np.float32))
+                np.testing.assert_array_equal(tr[f"{r.key}/lm_seen"],
+                                              out["lm_seen"].astype(bool))
+                assert tr[f"{r.key}/lm_trace"].shape == (K,)
+            else:
+                assert f"{r.key}/pose" not in tr and f"{r.key}/lm_trace" not in tr
+    first = traces.trials[0]
     model, truth, data = trial_data(exp, 0)
-    np.testing.assert_array_equal(traces.trials[0]["truth_pose"], truth.pose.astype(np.float32))
-    assert traces.trials[0]["time"].shape == (truth.pose.shape[0],)
-    assert traces.trials[0]["obs_time"].shape == (data.obs_n.shape[0],)
-    for r in exp.filters:
-        out, _ = run_filter(exp, 0, r, model, data)
-        np.testing.assert_array_equal(traces.trials[0][f"{r.key}/pose"],
-                                      out["pose"].astype(np.float32))
-        np.testing.assert_array_equal(traces.trials[0][f"{r.key}/lm_seen"],
-                                      out["lm_seen"].astype(bool))
+    np.testing.assert_array_equal(first["truth_pose"], truth.pose.astype(np.float32))
+    assert first["time"].shape == (truth.pose.shape[0],)
+    assert first["obs_time"].shape == (data.obs_n.shape[0],)
     np.testing.assert_array_equal(traces.world["landmarks"], model.landmarks.astype(np.float32))
+
+
+def test_slam_error_curves_thin_the_steps_and_average_the_heading_over_a_window():
+    n = 1001                                   # T = 1000 steps: every 4th kept, 251 points
+    k = curve_stride(n)
+    assert k == 4 and curve_stride(301) == 1 and curve_stride(302) == 2
+    truth = np.zeros((n, 3))
+    pose = np.zeros((n, 3))
+    pose[:, 0] = 3.0 * np.arange(n)            # x error 3 t, y error 4 t: position error 5 t
+    pose[:, 1] = 4.0 * np.arange(n)
+    pose[1::2, 2] = 0.3                        # heading error 0.3 on odd steps, 0 on even
+    pose[:, 2] += 2 * np.pi                    # a whole turn more: wrapped away
+    time = 0.5 * np.arange(n)
+    lm = np.arange(500, dtype=float)
+    got = slam_error_curves(pose, truth, time, lm, 2.0 * np.arange(1, 501))
+    at = np.arange(0, n, k)
+    np.testing.assert_allclose(got["error"], 5.0 * at, rtol=1e-6)
+    np.testing.assert_array_equal(got["error_time"], (0.5 * at).astype(np.float32))
+    w = max(k, n // 100)                       # 10 steps: half of them 0.3
+    assert float(got["heading_window_s"]) == w * 0.5
+    np.testing.assert_allclose(got["heading_error"][at >= w], 0.3 / np.sqrt(2), rtol=1e-5)
+    assert abs(got["heading_error"][0]) < 1e-6           # the start: no error
+    assert curve_stride(500) == 2
+    np.testing.assert_array_equal(got["map_error"], lm[::2].astype(np.float32))
+    np.testing.assert_array_equal(got["map_time"], (2.0 * np.arange(1, 501))[::2]
+                                  .astype(np.float32))
+    assert "map_error" not in slam_error_curves(pose, truth, time, None, None)
 
 
 def test_traces_are_the_same_bytes_whatever_the_workers_and_after_a_resume(tmp_path,
