@@ -580,15 +580,22 @@ def _quartiles(a: np.ndarray) -> np.ndarray:
         return np.nanpercentile(a, [25, 50, 75], axis=0)
 
 
+# Curves of more points than this are drawn as pixels in a vector figure (SVG, PDF): a recorded
+# span of 10,000 steps would otherwise write megabytes of path a reader never resolves. The PNG
+# is the same either way.
+DENSE_POINTS = 2000
+
+
 def _median_band(ax, x: np.ndarray, quart: np.ndarray, c: str, others=()) -> None:
     """On ``ax``: a run's median over trials (a line in colour ``c``) with its interquartile band
     (``quart``, from _quartiles; a light fill), the other runs' medians ``others`` in light grey
-    behind them."""
+    behind them (as pixels in a vector figure beyond DENSE_POINTS points)."""
+    dense = len(x) > DENSE_POINTS
     for m in others:
-        ax.plot(x, m, color="0.78", lw=0.9, zorder=1)
+        ax.plot(x, m, color="0.78", lw=0.9, zorder=1, rasterized=dense)
     ax.fill_between(x, quart[0], quart[2], color=c, alpha=0.25, lw=0, zorder=2,
-                    label="interquartile band")
-    ax.plot(x, quart[1], color=c, lw=1.8, zorder=3, label="median")
+                    label="interquartile band", rasterized=dense)
+    ax.plot(x, quart[1], color=c, lw=1.8, zorder=3, label="median", rasterized=dense)
 
 
 def _kept_trials_text(exp: Experiment, n: int) -> str:
@@ -691,6 +698,11 @@ def localization_error_figure(exp: Experiment, traces: Traces, path: Path,
     fig, axes = fs.pyplot().subplots(nrow, ncol, figsize=(wide, 2.7 * nrow + 1.2), sharex=True,
                                      squeeze=False)
     t = np.arange(err[runs[0].key].shape[1])
+    times = traces.world.get("times")          # recorded data: each step's time (s)
+    if times is not None and len(times) == len(t):
+        t = np.asarray(times, dtype=float)
+    else:
+        times = None
     quart = {r.key: _quartiles(err[r.key]) for r in runs}
     medians = {r.key: quart[r.key][1] for r in runs}
     kidnaps = traces.world["kidnaps"]
@@ -704,7 +716,8 @@ def localization_error_figure(exp: Experiment, traces: Traces, path: Path,
         _median_band(ax, t, quart[r.key], fs.colour(i),
                      [medians[o.key] for o in runs if o.key != r.key])
         for kstep in kidnaps:
-            ax.axvline(kstep, color="0.3", ls=":", lw=1)
+            ax.axvline(t[int(kstep)] if int(kstep) < len(t) else kstep, color="0.3", ls=":",
+                       lw=1)
         ax.axhline(float(traces.world["bound"]), color="0.5", ls="--", lw=0.8)
         ax.set_yscale("log")
         ax.set_title(_run_name(r, rows).replace(" (N adaptive:", "\n(N adaptive:"))
@@ -716,7 +729,8 @@ def localization_error_figure(exp: Experiment, traces: Traces, path: Path,
         for i, r in enumerate(runs):
             if r in adaptive:
                 ax2.plot(t[1:], count[r.key].astype(float).mean(axis=0), color=fs.colour(i),
-                         lw=1.4, label=f"{r.label}: mean over trials")
+                         lw=1.4, label=f"{r.label}: mean over trials",
+                         rasterized=len(t) > DENSE_POINTS)
         if max(np.ptp(count[r.key]) for r in adaptive) > 1000:
             ax2.set_yscale("log")
         ax2.set_title("particle count of the adaptive runs")
@@ -726,7 +740,7 @@ def localization_error_figure(exp: Experiment, traces: Traces, path: Path,
     for p in range(n_panels, nrow * ncol):
         axes[p // ncol, p % ncol].set_visible(False)
     for j in range(ncol):
-        axes[-1, j].set_xlabel("step")
+        axes[-1, j].set_xlabel("time (s)" if times is not None else "step")
         axes[-1, j].xaxis.set_tick_params(labelbottom=True)
     kept = _kept_trials_text(exp, len(trials))
     fig.suptitle(fs.wrap(f"{exp.name}: position error per step, median and interquartile band "

@@ -441,3 +441,42 @@ def test_a_run_time_ratio_is_drawn_from_what_judges_it_and_its_times_only_with_t
     fig = next(f for f, p in saved if p.name == "time_ratios.png")
     dots = next(ln for ln in fig.axes[0].lines if ln.get_marker() == "o")
     np.testing.assert_allclose(dots.get_ydata(), 3.0)
+
+
+def test_a_recorded_spans_errors_are_over_time_and_its_dense_curves_pixels(
+        tmp_path, write_config, monkeypatch):
+    """On recorded data (step times in the world) the error figure's axis is time in seconds;
+    a curve of more than DENSE_POINTS points is rasterized in a vector figure, a short one not."""
+    import numpy as np
+    from pfbench.store import Traces
+    exp = load(write_config(PATHS))
+    saved = _figures_saved(monkeypatch)
+
+    def draw(T, times):
+        rng = np.random.default_rng(3)
+        trials = {k: {f"{r.key}/error": rng.random(T + 1).astype(np.float32)
+                      for r in exp.filters} for k in range(3)}
+        world = {"kidnaps": np.zeros(0, np.int64), "bound": np.asarray(2.0)}
+        if times:
+            world["times"] = np.arange(T + 1) * 0.2
+        with fs.style():
+            plots.localization_error_figure(exp, Traces(world, trials), tmp_path / "e.png")
+        fig, _ = saved[-1]
+        ax = fig.axes[0]
+        return ax, [a for a in ax.get_children() if getattr(a, "get_rasterized", None)
+                    and a.get_rasterized()]
+
+    ax, dense = draw(plots.DENSE_POINTS + 10, times=True)
+    assert fig_xlabel(ax) == "time (s)"
+    median = next(ln for ln in ax.get_lines() if ln.get_label() == "median")
+    assert median.get_xdata()[-1] == pytest.approx(0.2 * (plots.DENSE_POINTS + 10))
+    assert len(dense) >= 2                          # the band and the median at least
+    ax, dense = draw(100, times=False)
+    assert fig_xlabel(ax) == "step" and dense == []
+
+
+def fig_xlabel(ax) -> str:
+    """The x label of the bottom panel of ``ax``'s column (the panels share x)."""
+    fig = ax.figure
+    bottom = [a for a in fig.axes if a.get_visible() and a.get_xlabel()]
+    return bottom[0].get_xlabel() if bottom else ""
