@@ -211,7 +211,8 @@ def test_every_committed_figure_is_legible_at_1400_px(tmp_path, monkeypatch):
     assert len(panels) == 8 and all(len(ax.get_xticks()) <= 3 for ax in panels)
     assert len({ax.get_ylim() for ax in panels}) == 1          # one shared axis
     drawn = {(p.parent.parent.name, p.stem) for _, p in saved}
-    assert {("kidnap", "paths"), ("plaza_global", "paths"), ("plaza_global", "convergence")} <= drawn
+    assert {("kidnap", "paths"), ("plaza_global", "paths"), ("plaza_global", "rates"),
+            ("asrl_vs_srl", "convergence")} <= drawn
 
 
 def test_every_committed_sweep_cell_has_its_table():

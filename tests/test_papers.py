@@ -42,7 +42,7 @@ def _no_search_folders():
 
 def test_every_paper_file_reads_and_every_config_finds_its_table():
     keys = sorted(p.stem for p in PAPERS.glob("*.yaml"))
-    assert keys == ["afsa2014", "asrl2008", "ifa2021", "review2007", "sspf2008"]
+    assert keys == ["afsa2014", "asrl2008", "ifa2021", "plaza2009", "review2007", "sspf2008"]
     for key in keys:
         paper = papers.read(PAPERS / f"{key}.yaml")
         assert paper.key == key and paper.citation and paper.about
@@ -54,7 +54,7 @@ def test_every_paper_file_reads_and_every_config_finds_its_table():
                 named.add(exp.paper)
                 assert exp.reference.key == exp.paper
                 assert (exp.reported is not None) == (exp.table is not None)
-    assert named == {"afsa2014", "asrl2008", "ifa2021", "review2007", "sspf2008"}
+    assert named == {"afsa2014", "asrl2008", "ifa2021", "plaza2009", "review2007", "sspf2008"}
     # the runs behind the values, where the paper states them
     ifa = papers.read(PAPERS / "ifa2021.yaml").tables
     assert (ifa["table1"].runs, ifa["table3"].runs) == (None, 20)
