@@ -63,19 +63,24 @@ def folder_meta(folder: Path) -> dict:
 def write_parquet(folder: Path, meta: dict | None = None) -> Path:
     """Write ``folder/trials.parquet`` from ``folder/trials.csv`` (atomically), with ``meta``
     (default: folder_meta) and the trials file's checksum in its key-value metadata; returns its
-    path."""
+    path. A trials.parquet already written from the same trials file with the same metadata is
+    kept as it is (an up-to-date run writes nothing again)."""
     import pandas as pd
     import pyarrow as pa
     import pyarrow.parquet as pq
     from .store import trials_digest
     folder = Path(folder)
     data = (folder / "trials.csv").read_bytes()
+    digest = trials_digest(data)
+    meta = folder_meta(folder) if meta is None else meta
+    fresh = _fresh_parquet(folder, digest)
+    if fresh is not None and fresh["meta"] == json.loads(json.dumps(meta, sort_keys=True)):
+        return folder / PARQUET
     frame = pd.read_csv(folder / "trials.csv")
     table = pa.Table.from_pandas(frame, preserve_index=False)
     kv = dict(table.schema.metadata or {})
-    kv[META_KEY] = json.dumps(folder_meta(folder) if meta is None else meta,
-                              sort_keys=True).encode()
-    kv[DIGEST_KEY] = trials_digest(data).encode()
+    kv[META_KEY] = json.dumps(meta, sort_keys=True).encode()
+    kv[DIGEST_KEY] = digest.encode()
     table = table.replace_schema_metadata(kv)
     path = folder / PARQUET
     write_through_temp(path, lambda tmp: pq.write_table(table, tmp), ".parquet")

@@ -17,6 +17,19 @@ def test_version():
     assert res.exit_code == 0 and __version__ in res.output
 
 
+def test_the_installed_version_is_the_packages():
+    """pyproject.toml reads the version from pfbench/version.py: what pip installed says the
+    same as ``pfbench.__version__``, and the file holds it as a literal the build can read."""
+    import ast
+    from importlib.metadata import version
+    assert version("pfbench") == __version__
+    tree = ast.parse((ROOT / "pfbench" / "version.py").read_text())
+    literal = [n.value.value for n in tree.body if isinstance(n, ast.Assign)
+               and [t.id for t in n.targets] == ["__version__"]
+               and isinstance(n.value, ast.Constant)]
+    assert literal == [__version__]
+
+
 def test_list_names_every_registry_entry():
     res = runner.invoke(app, ["list", "--configs", str(ROOT / "configs")])
     assert res.exit_code == 0

@@ -65,3 +65,23 @@ def test_load_trials_refuses_what_is_no_results_folder(tmp_path):
         pfbench.load_trials(tmp_path)
     with pytest.raises(UserError, match="expected a path"):
         pfbench.load_trials(3)
+
+
+def test_a_fresh_parquet_is_kept_and_a_stale_one_written_again(tmp_path):
+    """write_parquet leaves a trials.parquet written from the same trials file with the same
+    metadata as it is (an up-to-date run), and writes it again when either changed."""
+    folder = tmp_path / "run"
+    shutil.copytree(FOLDERS[1], folder, ignore=shutil.ignore_patterns("trials.parquet"))
+    path = dataset.write_parquet(folder)
+    stamp = (path.stat().st_ino, path.stat().st_mtime_ns)      # a rewrite replaces the file
+    assert dataset.write_parquet(folder) == path
+    assert (path.stat().st_ino, path.stat().st_mtime_ns) == stamp
+    meta = json.loads((folder / "meta.json").read_text())
+    meta["host"] = "another"                       # the metadata changed: written again
+    (folder / "meta.json").write_text(json.dumps(meta))
+    dataset.write_parquet(folder)
+    assert json.loads(pq.read_schema(path).metadata[b"pfbench.meta"])["host"] == "another"
+    rows = (folder / "trials.csv").read_text().splitlines(keepends=True)
+    (folder / "trials.csv").write_text("".join(rows[:5]))      # the trials changed
+    dataset.write_parquet(folder)
+    assert pq.read_metadata(path).num_rows == 4
