@@ -915,6 +915,54 @@ def _span_words(world: dict, steps: np.ndarray) -> str:
     return words + (f", one step in {stride} drawn" if stride > 1 else "")
 
 
+def _path_panel(ax, tr: dict, r, baseline: list, truth: np.ndarray, true_xy: np.ndarray,
+                world: dict, c, dense: bool) -> None:
+    """One panel of path_figure: the true path (``true_xy``, broken at kidnappings), each
+    ``baseline`` run's path dashed, run ``r``'s estimate in colour ``c``, the start and ends,
+    the beacons with their ids, the area as the limits (equal aspect), and how many drawn steps
+    of the estimate lie off the area; ``dense``: the lines as pixels in a vector figure."""
+    W, H = float(world["area"][0]), float(world["area"][1])
+    ax.plot(true_xy[:, 0], true_xy[:, 1], "-", color="black", lw=1.0, alpha=0.55, zorder=2,
+            rasterized=dense)
+    for b in baseline:
+        dr = tr[b.key]["path"]
+        ax.plot(dr[:, 0], dr[:, 1], "--", color="0.5", lw=0.9, zorder=1, rasterized=dense)
+    est = tr[r.key]["path"]
+    ax.plot(est[:, 0], est[:, 1], "-", color=c, lw=0.9, alpha=0.85, zorder=3, rasterized=dense)
+    ax.plot(*truth[0], "o", mfc="white", mec="black", ms=7, mew=1.5, zorder=5)
+    ax.plot(*truth[-1], "s", color="black", ms=6, zorder=5)
+    ax.plot(*est[-1], "X", color=c, mec="black", mew=0.6, ms=8, zorder=6)
+    for (bx, by), bid in zip(world["beacons"], world["beacon_ids"]):
+        ax.plot(bx, by, "^", color="0.15", ms=8, zorder=4)
+        ax.annotate(f"B{int(bid)}", (bx, by), xytext=(4, 4), textcoords="offset points",
+                    fontsize=8, color="0.15", zorder=7)
+    off = ~((est[:, 0] >= 0) & (est[:, 0] <= W) & (est[:, 1] >= 0) & (est[:, 1] <= H))
+    if off.any():
+        ax.text(0.98, 0.02, f"off the area: {off.sum()} of {off.size} steps",
+                transform=ax.transAxes, fontsize=8, ha="right", va="bottom", color=c)
+    ax.set_xlim(0, W)
+    ax.set_ylim(0, H)
+    ax.set_aspect("equal")
+    ax.grid(alpha=0.25)
+    for side in ("top", "right"):
+        ax.spines[side].set_visible(True)
+
+
+def _path_legend(baseline: list) -> list:
+    """The legend entries of path_figure (``baseline``: the dead-reckoning runs)."""
+    line = fs.pyplot().Line2D
+    handles = [line([], [], color="black", alpha=0.55, lw=1.2, label="true path"),
+               line([], [], color=fs.colour(0), lw=1.2, label="the panel's filter's estimate")]
+    handles += [line([], [], color="0.5", ls="--", lw=1.1, label=b.label) for b in baseline]
+    return handles + [
+        line([], [], ls="", marker="o", mfc="white", mec="black", ms=7, mew=1.5,
+             label="start (true)"),
+        line([], [], ls="", marker="s", color="black", ms=6, label="end (true)"),
+        line([], [], ls="", marker="X", color=fs.colour(0), mec="black", mew=0.6, ms=8,
+             label="end of the estimate"),
+        line([], [], ls="", marker="^", color="0.15", ms=8, label="beacon (B: its id)")]
+
+
 def path_figure(exp: Experiment, traces: Traces, path: Path,
                 rows: pd.DataFrame | None = None) -> None:
     """The paths of the first traced trial over the map, one panel per filter (path_runs; dead
@@ -943,40 +991,14 @@ def path_figure(exp: Experiment, traces: Traces, path: Path,
     fig, axes = fs.pyplot().subplots(nrow, ncol, figsize=(
         fs.width(side * ncol + 0.9), side * H / W * nrow + 2.0), sharex=True, sharey=True,
         squeeze=False)
-    line = fs.pyplot().Line2D
     true_xy = _broken(truth, steps, kidnaps)
     dense = len(steps) > 2000          # in an SVG or PDF, thousands of vertices a line: an image
     for i, r in enumerate(shown):
         ax = axes[i // ncol, i % ncol]
-        c = fs.colour(i)
-        ax.plot(true_xy[:, 0], true_xy[:, 1], "-", color="black", lw=1.0, alpha=0.55,
-                zorder=2, rasterized=dense)
-        for b in baseline:
-            dr = tr[b.key]["path"]
-            ax.plot(dr[:, 0], dr[:, 1], "--", color="0.5", lw=0.9, zorder=1, rasterized=dense)
-        est = tr[r.key]["path"]
-        ax.plot(est[:, 0], est[:, 1], "-", color=c, lw=0.9, alpha=0.85, zorder=3,
-                rasterized=dense)
-        ax.plot(*truth[0], "o", mfc="white", mec="black", ms=7, mew=1.5, zorder=5)
-        ax.plot(*truth[-1], "s", color="black", ms=6, zorder=5)
-        ax.plot(*est[-1], "X", color=c, mec="black", mew=0.6, ms=8, zorder=6)
-        for (bx, by), bid in zip(world["beacons"], world["beacon_ids"]):
-            ax.plot(bx, by, "^", color="0.15", ms=8, zorder=4)
-            ax.annotate(f"B{int(bid)}", (bx, by), xytext=(4, 4), textcoords="offset points",
-                        fontsize=8, color="0.15", zorder=7)
-        off = ~((est[:, 0] >= 0) & (est[:, 0] <= W) & (est[:, 1] >= 0) & (est[:, 1] <= H))
-        if off.any():
-            ax.text(0.98, 0.02, f"off the area: {off.sum()} of {off.size} steps",
-                    transform=ax.transAxes, fontsize=8, ha="right", va="bottom", color=c)
+        _path_panel(ax, tr, r, baseline, truth, true_xy, world, fs.colour(i), dense)
         words = _trial_words(rows, r, trial, kidnapped, world.get("times"))
         ax.set_title(_run_name(r, rows).replace(" (N adaptive: mean", " (N: mean")
                      + (f"\n{words}" if words else ""), fontsize=9)
-        ax.set_xlim(0, W)
-        ax.set_ylim(0, H)
-        ax.set_aspect("equal")
-        ax.grid(alpha=0.25)
-        for side_ in ("top", "right"):
-            ax.spines[side_].set_visible(True)
         if i % ncol == 0:
             ax.set_ylabel("y (m)")
         if i // ncol == nrow - 1 or i + ncol >= len(shown):
@@ -984,16 +1006,7 @@ def path_figure(exp: Experiment, traces: Traces, path: Path,
             ax.xaxis.set_tick_params(labelbottom=True)
     for p in range(len(shown), nrow * ncol):
         axes[p // ncol, p % ncol].set_visible(False)
-    handles = [line([], [], color="black", alpha=0.55, lw=1.2, label="true path"),
-               line([], [], color=fs.colour(0), lw=1.2, label="the panel's filter's estimate")]
-    handles += [line([], [], color="0.5", ls="--", lw=1.1, label=b.label) for b in baseline]
-    handles += [line([], [], ls="", marker="o", mfc="white", mec="black", ms=7, mew=1.5,
-                     label="start (true)"),
-                line([], [], ls="", marker="s", color="black", ms=6, label="end (true)"),
-                line([], [], ls="", marker="X", color=fs.colour(0), mec="black", mew=0.6, ms=8,
-                     label="end of the estimate"),
-                line([], [], ls="", marker="^", color="0.15", ms=8,
-                     label="beacon (B: its id)")]
+    handles = _path_legend(baseline)
     wide = fig.get_size_inches()[0]
     which = (f"trial {trial} (the first of {exp.trials})" if exp.trials > 1 and trial == 0
              else f"trial {trial} of {exp.trials}")

@@ -48,8 +48,7 @@ def pf_kernel(f, h, lik, use_lik, theta, noise, y, prior_mean, prior_var, N, sch
         distinct particles, from the ancestors: ``distinct_count``), DIAG_DIVERSITY div_l1 (mean
         pairwise |x_i - x_j|, a sort) after each resampling; NaN at steps without resampling and
         where not asked; DIAG_SPREAD pvar[1:], the variance of the cloud xhat is the mean of (the
-        weighted particles before resampling, or the resampled ones with ``estimate_after``;
-        untouched where not asked)
+        weighted particles, or with estimate_after the resampled; untouched where not asked)
     An underflow step (every log-weight -inf or NaN) resets the weights to uniform: the measurement
     of that step is ignored rather than turned into NaN.
     """
