@@ -195,7 +195,7 @@ def _looks_numeric(text: str) -> bool:
 KEY_KINDS = {
     "int": "a whole number within int64 (1e3 and 2.0 count: they are whole), within min/max",
     "float": "a finite number (an integer is taken as a float), within min/max (min_exclusive: "
-             "strictly above min)",
+             "strictly above min; max_exclusive: strictly below max)",
     "str": "a non-empty string of UTF-8 text",
     "bool": "true or false (not 0/1, not 'yes')",
     "choice": "one of the strings in choices",
@@ -217,7 +217,8 @@ class Key:
     kind : one of ``KEY_KINDS``, what a config may give:
 
         - 'int': a whole number within int64 (1e3 and 2.0 count), within min/max
-        - 'float': a finite number, within min/max (``min_exclusive``: strictly above min)
+        - 'float': a finite number, within min/max (``min_exclusive``: strictly above min,
+          ``max_exclusive``: strictly below max)
         - 'str': a non-empty string of UTF-8 text
         - 'bool': true or false
         - 'choice': one of ``choices`` (strings)
@@ -231,7 +232,8 @@ class Key:
     doc : one line for the key reference (docs/reference/config.md, from
         ``python scripts/update_readme.py --write``), for ``pfbench list --keys`` and for the
         error that names the key
-    min, max : bounds for numbers (``min_exclusive``: strictly greater than min)
+    min, max : bounds for numbers (``min_exclusive``: strictly greater than min;
+        ``max_exclusive``: strictly less than max)
     choices : allowed values for 'choice', the names a 'names' list may hold
     words : 'names': the words it may be instead of a list
     nullable : null (None) is allowed
@@ -250,6 +252,7 @@ class Key:
     check: Callable[[Any], str | None] | None = None
     empty_ok: bool = False      # ints / floats: an empty list is allowed
     words: tuple = ()
+    max_exclusive: bool = False
 
     def __post_init__(self):
         if self.kind not in KEY_KINDS:
@@ -284,13 +287,13 @@ class Key:
         if self.min is not None:
             bounds.append(f"{'>' if self.min_exclusive else '>='} {self.min:g}")
         if self.max is not None:
-            bounds.append(f"<= {self.max:g}")
+            bounds.append(f"{'<' if self.max_exclusive else '<='} {self.max:g}")
         return noun + (" " + " and ".join(bounds) if bounds else "")
 
     def _range_ok(self, v) -> bool:
         if self.min is not None and (v <= self.min if self.min_exclusive else v < self.min):
             return False
-        return self.max is None or v <= self.max
+        return self.max is None or (v < self.max if self.max_exclusive else v <= self.max)
 
     def _wrong(self, path: str, value: Any) -> ConfigError:
         msg = f"expected {self.expected()}, got {describe(value)}"

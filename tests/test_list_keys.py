@@ -60,6 +60,7 @@ def test_bounds_defaults_and_choices_are_shown():
         in res.output
     res = runner.invoke(app, ["list", "--keys", "beacon_field"])
     assert "  kidnap_steps (ints, default []): " in res.output
+    assert "  range_outliers (float, default 0): a number >= 0 and < 1" in res.output
     assert "  alphas (floats, default [0.0014, 0.000125, 0.01, 0.26]): " in res.output
 
 
@@ -162,3 +163,14 @@ def test_every_kind_listed_validates(kind):
 def test_an_unknown_kind_is_refused_where_it_is_declared():
     with pytest.raises(ValueError, match=r"'integer' is none of .*did you mean 'int'"):
         Key("integer", 1, "a count")
+
+
+def test_a_bound_may_exclude_its_maximum():
+    """``max_exclusive``: the bound itself is refused, below it accepted, and the expected
+    values say '< max' (an outlier probability of 1 would leave no true measurement)."""
+    key = Key("float", 0.0, "a probability", min=0.0, max=1.0, max_exclusive=True)
+    assert key.expected() == "a number >= 0 and < 1"
+    assert key._range_ok(0.999) and key._range_ok(0.0)
+    assert not key._range_ok(1.0) and not key._range_ok(1.5)
+    closed = Key("float", 0.0, "a probability", min=0.0, max=1.0)
+    assert closed._range_ok(1.0) and closed.expected() == "a number >= 0 and <= 1"

@@ -105,14 +105,11 @@ SCHEMA = {
     "range_outliers": Key("float", 0.0, "probability that a range is an outlier, uniform over "
                           "[0, max_range_m], instead of the true range with Gaussian noise (0: "
                           "none, the papers' sensor; Thrun, Burgard and Fox's beam model's hit "
-                          "and random parts)", min=0.0,
-                          check=lambda v: None if v < 1.0 else "expected below 1 (some ranges "
-                          "must be the true one)"),
+                          "and random parts)", min=0.0, max=1.0, max_exclusive=True),
     "bearing_outliers": Key("float", 0.0, "range_bearing: probability that a bearing is an "
                             "outlier, uniform over the field of view, instead of the true bearing "
                             "with Gaussian noise (0: none, the papers' sensor; our addition)",
-                            min=0.0, check=lambda v: None if v < 1.0 else "expected below 1 "
-                            "(some bearings must be the true one)"),
+                            min=0.0, max=1.0, max_exclusive=True),
     "outlier_likelihood": Key("choice", "mixture", "range_outliers or bearing_outliers > 0: the "
                               "filters weigh by 'mixture', the model's own likelihood of the "
                               "outlier mixture the data are drawn from, or by 'gaussian', the "

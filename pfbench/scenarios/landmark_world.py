@@ -72,14 +72,12 @@ SCHEMA = {
                              "given: all around)", min=0.0, max=360.0, min_exclusive=True),
     "range_outliers": Key("float", 0.0, "probability that a range is an outlier, uniform over "
                           "[0, max_range_m], instead of the true range with Gaussian noise (0: "
-                          "none, afsa2014's sensor; our addition)", min=0.0,
-                          check=lambda v: None if v < 1.0 else "expected below 1 (some ranges "
-                          "must be the true one)"),
+                          "none, afsa2014's sensor; our addition)", min=0.0, max=1.0,
+                          max_exclusive=True),
     "bearing_outliers": Key("float", 0.0, "probability that a bearing is an outlier, uniform "
                             "over the field of view, instead of the true bearing with Gaussian "
                             "noise (0: none, afsa2014's sensor; our addition)", min=0.0,
-                            check=lambda v: None if v < 1.0 else "expected below 1 (some "
-                            "bearings must be the true one)"),
+                            max=1.0, max_exclusive=True),
     "outlier_likelihood": Key("choice", "mixture", "range_outliers or bearing_outliers > 0: the "
                               "model's likelihood is 'mixture', its own of the outlier mixture "
                               "the data are drawn from (it then provides no Gaussian measurement: "

@@ -77,7 +77,7 @@ SCHEMA = {
                          min=0.0, min_exclusive=True),
     "range_outliers": Key("float", 0.05, "probability of an outlier range in the likelihood, "
                           "uniform over [0, max_range_m] (0: the Gaussian alone; our choice)",
-                          min=0.0, check=lambda v: None if v < 1.0 else "expected below 1"),
+                          min=0.0, max=1.0, max_exclusive=True),
     "max_range_m": Key("float", 100.0, "largest range of an outlier (m; the sets' largest is "
                        "about 85 m)", min=0.0, min_exclusive=True),
     "alphas": Key("floats", (0.05, 0.01, 0.05, 0.0), "odometry noise alpha1..alpha4 of the "
