@@ -204,6 +204,21 @@ def _missing_figures(exp, res, folder: Path, fmt: str) -> bool:
     return any(not (figs / name).is_file() for name in expected_figures(exp, res.rows, fmt))
 
 
+def _record(exp, res, folder: Path, cmp, figures: bool, fmt: str) -> None:
+    """Keep what the console shows of this comparison for the next up-to-date run of it
+    (pfbench.replay), with the figures it checks for when ``figures``."""
+    from .replay import record
+    from .tables import console_parts
+    try:
+        names = None
+        if figures:
+            from .plots import expected_figures
+            names = expected_figures(exp, res.rows, fmt)
+        record(exp, folder, console_parts(cmp), names, fmt)
+    except Exception:       # a cache: never a run's error
+        pass
+
+
 def _frame(rows: list[dict], columns: Iterable[str]) -> pd.DataFrame:
     cols = [c for c in columns if c not in ("crc", "wall_s")] + ["wall_s"]
     import pandas as pd
@@ -274,6 +289,7 @@ def _run(exp, workers, out, resume, figures, executor, progress, warn, force,
             draw = figures and (resume or not res.up_to_date
                                 or _missing_figures(exp, res, out, figure_format))
             cmp, paths = write_experiment(exp, res, out, draw, figure_format)
+            _record(exp, res, out, cmp, figures, figure_format)
         return Result(_frame(res.rows, trial_columns(exp)), cmp.table, res.meta, exp,
                       out, cmp, paths, up_to_date=res.up_to_date, run=res.run)
     if resume:

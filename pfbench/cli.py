@@ -291,12 +291,6 @@ def _check_figure_format(fmt: str) -> None:
         raise UserError(f"--figure-format {fmt}: one of {', '.join(FORMATS)}")
 
 
-def _table_title(exp) -> str:
-    """'name (paper table)', or 'name (paper)' for a config without a table, or 'name'."""
-    where = " ".join(str(x) for x in (exp.paper, exp.table) if x)
-    return exp.name + (f"  ({where})" if where else "")
-
-
 def _rich_table(title: str, head: list[str], cells: list[list[str]], edge: bool = True):
     t = RichTable(title=title, title_justify="left", show_edge=edge)
     for h in head:
@@ -306,24 +300,21 @@ def _rich_table(title: str, head: list[str], cells: list[list[str]], edge: bool 
     return t
 
 
-def _print_table(cmp, wide: bool = False, folder: Path | None = None):
-    """The comparison on the console: the headline table (our values, the paper's, the verdicts in
-    a few words: it fits 100 columns) and a line on where the rest is; ``wide``: every column
-    and note, as before."""
-    from .tables import console_tables, footnotes, headline_tables, verdict_counts
-    exp = cmp.exp
-    title = _table_title(exp)
-    trials = int(cmp.table["trials"].max()) if len(cmp.table) else 0
+def _print_table(parts: dict, wide: bool = False, folder: Path | None = None):
+    """The comparison on the console (``parts``: pfbench.tables.console_parts): the headline table
+    (our values, the paper's, the verdicts in a few words: it fits 100 columns) and a line on
+    where the rest is; ``wide``: every column and note, as before."""
+    title = parts["title"]
     if wide:
-        for name, head, cells in console_tables(cmp):
+        for name, head, cells in parts["wide"]:
             out.print(_rich_table(f"{title}: {name}" if name else title, head, cells), wide=True)
-        for note in footnotes(cmp):
+        for note in parts["footnotes"]:
             out.print(note, markup=False)
     else:
-        out.print(f"{title}: {trials} trials", markup=False, style="bold")
-        for name, head, cells in headline_tables(cmp):
+        out.print(f"{title}: {parts['trials']} trials", markup=False, style="bold")
+        for name, head, cells in parts["headline"]:
             out.print(_rich_table(name, head, cells, edge=False))
-    counts = verdict_counts(cmp)
+    counts = parts["counts"]
     where = f"{folder}/table.md" if folder else "table.md"
     out.print((f"{counts}. " if counts else "") + "Intervals: 95% over trials; verdicts "
               "Holm-adjusted across the table. "
@@ -394,11 +385,19 @@ def run(
         most = until_decided_budget(exp, max_trials) if until_decided else exp.trials
         workers = _workers_that_fit([(replace(exp, trials=most), str(config))], workers,
                                     executor)
-        res = _run_trials(exp, folder, out_dir, most, workers, (executor, scheduler),
-                          until_decided, dict(resume=resume, figures=not no_figures,
-                                              figure_format=figure_format, force=force))
-        _print_table(res.comparison, wide, folder)
-        _say_what_ran(exp, res, folder, until_decided)
+        parts = None
+        if not (until_decided or resume or force) and executor == "local":
+            parts = _replayed(exp, folder, out_dir, not no_figures, figure_format)
+        if parts is not None:           # up to date, and the table it printed last time
+            _print_table(parts, wide, folder)
+            _say_up_to_date(exp, folder)
+        else:
+            res = _run_trials(exp, folder, out_dir, most, workers, (executor, scheduler),
+                              until_decided, dict(resume=resume, figures=not no_figures,
+                                                  figure_format=figure_format, force=force))
+            from .tables import console_parts
+            _print_table(console_parts(res.comparison), wide, folder)
+            _say_what_ran(exp, res, folder, until_decided)
         if plan is not None:
             _run_readings(plan, folder, out_dir, workers, (executor, scheduler))
 
@@ -462,7 +461,7 @@ def _results_folder(name: str, config: Path, out_dir: Path | None) -> Path:
     """The results folder of the experiment ``name``: --out, else results/<name> (a name no
     other config reserves); a replace of it killed half-way is recovered first."""
     if out_dir is None:
-        from .regen import reserved_name
+        from .store import reserved_name
         reserved_name(name, config)
     folder = out_dir or Path("results") / name
     from .fsutil import recover_aside
@@ -501,12 +500,31 @@ def _run_trials(exp, folder: Path, out_dir, most: int, workers: int, where: tupl
                                       executor=ex, warn=_warn, **opts)
 
 
+def _replayed(exp, folder: Path, out_dir, figures: bool, fmt: str) -> dict | None:
+    """When ``folder`` is up to date and still holds what the run that printed its table left
+    (pfbench.replay), that table's strings: the run then neither computes nor writes anything
+    (nor imports pandas). None otherwise: the run takes its ordinary path."""
+    if not (folder / "meta.json").is_file():
+        return None
+    from .fsutil import FolderLock
+    from .replay import replay
+    from .runner import up_to_date
+    with FolderLock(folder, "--out" if out_dir else "results folder"):
+        if up_to_date(exp, folder) is None:
+            return None
+        return replay(exp, folder, figures, fmt)
+
+
+def _say_up_to_date(exp, folder: Path) -> None:
+    err.print(f"{folder} is up to date: it holds the {exp.trials} trials of this "
+              "experiment (the table above is computed from them; nothing ran). "
+              "--force runs them again.", markup=False)
+
+
 def _say_what_ran(exp, res, folder: Path, until_decided: bool) -> None:
     """The lines after a run's table: nothing ran (up to date), or what ran and was written."""
     if res.up_to_date:
-        err.print(f"{folder} is up to date: it holds the {exp.trials} trials of this "
-                  "experiment (the table above is computed from them; nothing ran). "
-                  "--force runs them again.", markup=False)
+        _say_up_to_date(exp, folder)
         return
     if until_decided:
         u = res.meta["until_decided"]

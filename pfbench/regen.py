@@ -31,6 +31,7 @@ import pandas as pd
 
 from .config import load, read_yaml
 from .errors import UserError
+from .store import REPORT_NAMES, reserved_name  # noqa: F401  (this module's API)
 from .metrics import METRICS
 from .fsutil import FolderLock, child, own_folder, recover_aside, remove_tree, replace_tree
 from .runner import LocalExecutor, keep_provenance, missing_data, run_experiment
@@ -82,17 +83,6 @@ def holder_of(folder: Path) -> Path | None:
         if any((p / m).is_file() for m in RESULT_MARKS):
             return p
     return None
-
-
-# what 'pfbench report' writes into a results folder: no experiment's folder can be one
-REPORT_NAMES = ("report", "REPORT.md")
-
-
-def reserved_name(name: str, config) -> None:
-    """Refuse an experiment name whose folder in a results folder would be the report's."""
-    if name in REPORT_NAMES:
-        raise UserError(f"{config}: name '{name}': results/{name} holds the reproduction report; "
-                        "give the experiment another name (or choose its folder with --out)")
 
 
 def check_outputs(files: list[Path], results: Path, names: list[str] | None = None) -> list[str]:

@@ -43,7 +43,8 @@ from .fsutil import FolderLock, remove_tree, require_regular
 from .filters import FILTERS, LOAD_SECONDS
 from .kinds import check_outputs, kind_of
 from .plugins import FILTER_GROUP, SCENARIO_GROUP
-from .precompile import compile_ahead, uncompiled  # noqa: F401  (uncompiled: this module's API)
+from .precompile import compile_ahead, load_ahead
+from .precompile import uncompiled  # noqa: F401  (this module's API)
 from .rng import state_from_seed
 from .scenarios import SCENARIOS
 from .seeding import run_seed
@@ -963,6 +964,14 @@ def _check_folder(exp: Experiment, out_dir: Path, resume: bool, force: bool,
             return True, RunResult(rows, out_dir, 0.0, 0, old, up_to_date=True,
                                    run={"trials_run_now": 0, "wall_s": 0.0})
     return True, None
+
+
+def up_to_date(exp: Experiment, out_dir: Path) -> RunResult | None:
+    """The result of a run of ``exp`` into ``out_dir`` when the folder holds every trial of it
+    (run_experiment's 'up to date': nothing would run), else None; refuses what run_experiment
+    refuses (a folder of another experiment, or of more trials). Call it holding the folder's
+    lock."""
+    return _check_folder(exp, Path(out_dir), False, False, True)[1]
 
 
 def run_experiment(exp: Experiment, out_dir: Path, *, workers: int = 1, resume: bool = False,

@@ -64,6 +64,17 @@ TIMING_COLUMNS = ("wall_s",)
 _LEGACY_END = ("wall_s", "crc")
 
 
+# what 'pfbench report' writes into a results folder: no experiment's folder can be one
+REPORT_NAMES = ("report", "REPORT.md")
+
+
+def reserved_name(name: str, config) -> None:
+    """Refuse an experiment name whose folder in a results folder would be the report's."""
+    if name in REPORT_NAMES:
+        raise UserError(f"{config}: name '{name}': results/{name} holds the reproduction report; "
+                        "give the experiment another name (or choose its folder with --out)")
+
+
 def write_json(path: Path, obj, indent: int | None = 2) -> None:
     """``obj`` as JSON into ``path``, through a temporary file (never half written)."""
     atomic_write(Path(path), json.dumps(obj, indent=indent) + "\n")

@@ -520,6 +520,27 @@ def consistency_notes(cmp: Comparison) -> list[str]:
             "than 5%.")]
 
 
+def table_title(exp) -> str:
+    """'name  (paper table)', or 'name  (paper)' for a config without a table, or 'name'."""
+    where = " ".join(str(x) for x in (exp.paper, exp.table) if x)
+    return exp.name + (f"  ({where})" if where else "")
+
+
+def console_parts(cmp: Comparison) -> dict:
+    """Everything ``pfbench run`` prints of a comparison, as strings (JSON-able): ``title`` and
+    ``trials`` (its first line), ``headline`` (headline_tables), ``wide`` (console_tables),
+    ``footnotes`` and ``counts`` (verdict_counts). The console prints these, and an up-to-date
+    run prints them again from pfbench.replay without computing the comparison."""
+    trials = int(cmp.table["trials"].max()) if len(cmp.table) else 0
+
+    def plain(tables):
+        return [[str(name), [str(h) for h in head], [[str(c) for c in row] for row in cells]]
+                for name, head, cells in tables]
+    return {"title": table_title(cmp.exp), "trials": trials,
+            "headline": plain(headline_tables(cmp)), "wide": plain(console_tables(cmp)),
+            "footnotes": [str(n) for n in footnotes(cmp)], "counts": verdict_counts(cmp)}
+
+
 def verdict_counts(cmp: Comparison) -> str:
     """'15 cells judged: 1 reproduced, 14 differ; 2 not comparable' for the paper's table (factors
     counted with the cells); '' without one."""

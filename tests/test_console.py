@@ -7,7 +7,8 @@ from rich.console import Console
 from typer.testing import CliRunner
 
 from pfbench.api import load_results
-from pfbench.cli import _rich_table, _table_title, app
+from pfbench.cli import _rich_table, app
+from pfbench.tables import table_title
 from pfbench.regen import config_files, is_sweep
 from pfbench.tables import headline_tables, short_verdict
 
@@ -75,9 +76,9 @@ def test_run_prints_the_headline_and_wide_prints_every_column(tmp_path, write_co
 def test_a_title_never_prints_none(write_config):
     from pfbench.config import load
     exp = load(write_config(TINY))
-    assert _table_title(exp) == exp.name
+    assert table_title(exp) == exp.name
     sweep = load(ROOT / "configs" / "ifa_pf_ungm.yaml")
-    assert _table_title(sweep) == "ifa_pf_ungm  (ifa2021 table1)"
+    assert table_title(sweep) == "ifa_pf_ungm  (ifa2021 table1)"
 
 
 def test_a_sweep_prints_the_experiments_metrics_in_100_columns(tmp_path, write_config):

@@ -28,7 +28,7 @@ LAYERS = {
     "experiment": ("pfbench.kinds", "pfbench.traces", "pfbench.diagnostics", "pfbench.resources",
                    "pfbench.papers", "pfbench.verdicts", "pfbench.compare", "pfbench.config"),
     "running": ("pfbench.workers", "pfbench.store", "pfbench.runner", "pfbench.precompile",
-                "pfbench.sweep", "pfbench.curves", "pfbench.rank", "pfbench.dataset", "pfbench.tables", "pfbench.tablecache", "pfbench.plots",
+                "pfbench.sweep", "pfbench.curves", "pfbench.rank", "pfbench.dataset", "pfbench.tables", "pfbench.tablecache", "pfbench.replay", "pfbench.plots",
                 "pfbench.contract", "pfbench.traps"),
     "outputs": ("pfbench.outputs", "pfbench.api", "pfbench.readings", "pfbench.runs_compare",
                 "pfbench.regen",

@@ -128,3 +128,23 @@ def test_sending_to_a_worker_that_has_ended_is_an_error_naming_it():
         with pytest.raises(WorkerDied):
             for _ in range(100):        # a pipe may take a write or two before it breaks
                 pool.send(0, 1 << 16)
+
+
+def _freeze_count(_item):
+    import gc
+    return gc.get_freeze_count()
+
+
+def test_workers_start_with_the_parents_objects_frozen_and_the_parent_thaws():
+    """The pool forks with the parent's objects out of the collector's reach (gc.freeze: a
+    worker's collections then never write to, and so copy, the pages it shares with its
+    parent), and the parent's collector has them back once the workers are started."""
+    import gc
+    keep = [[i] for i in range(10000)]         # objects the collector tracks
+    assert gc.get_freeze_count() == 0
+    with Workers(1, _freeze_count) as pool:
+        assert gc.get_freeze_count() == 0
+        pool.send(0, "how many")
+        (_, ok, frozen), = pool.results(timeout=30)
+        assert ok and frozen >= len(keep)
+    assert keep

@@ -1,0 +1,175 @@
+"""What an up-to-date ``pfbench run`` prints, without computing it again.
+
+A run that finds its results folder up to date (every trial of its experiment already there)
+runs nothing and writes the same bytes again: what it spends its second on is importing pandas,
+scipy and the tables to compute the comparison it printed last time. After each run into a
+folder, ``record`` keeps what the console showed of that comparison (pfbench.tables.
+console_parts: strings) and the SHA-256 of the files the run left (table.csv, table.md,
+trials.parquet), under a key made of everything the comparison depends on:
+
+- the SHA-256 of every source file of pfbench, and the versions of Python, numpy, scipy, pandas
+  and pyarrow (an edit or an upgrade is a new key);
+- the experiment (its settings and its paper's table);
+- the bytes of the folder's meta.json, trials.csv and timings.csv (the rows, their run times,
+  and what meta.json says of the run).
+
+``replay`` gives those strings back only when the key finds an entry and the folder still holds
+the files it names with the same bytes (and, where the run draws figures, every figure an
+up-to-date run checks for, with no half-written figure left). Anything else (an entry missing
+or unreadable, a file changed or gone, another figure format) returns None, and the run takes
+its ordinary path, which computes, writes and records again. The entries are JSON files beside
+the table cache's (pfbench.tablecache), the newest ``KEEP`` kept; a folder that cannot be
+written records nothing.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+from ._cache import sources_hash
+
+KEEP = 256
+FORMAT = 1
+FILES = ("table.csv", "table.md", "trials.parquet")   # what an up-to-date run (re)writes
+INPUTS = ("meta.json", "trials.csv", "timings.csv")     # what its comparison is computed from
+_CODE: str | None = None
+
+
+def _version(package: str) -> str:
+    from importlib import metadata
+    try:
+        return metadata.version(package)
+    except metadata.PackageNotFoundError:
+        return "-"
+
+
+def _code() -> str:
+    """SHA-256 of the package's sources and the versions the comparison's strings depend on,
+    read without importing those libraries (once per process)."""
+    global _CODE
+    if _CODE is None:
+        h = sources_hash()
+        h.update(sys.version.encode())
+        for package in ("numpy", "scipy", "pandas", "pyarrow"):
+            h.update(f"|{package}={_version(package)}".encode())
+        _CODE = h.hexdigest()
+    return _CODE
+
+
+def _digest(path: Path) -> str | None:
+    """SHA-256 of a regular file's bytes; None when it is absent or not a regular file."""
+    try:
+        if not path.is_file() or path.is_symlink():
+            return None
+        return hashlib.sha256(path.read_bytes()).hexdigest()
+    except OSError:
+        return None
+
+
+def key(exp, folder: Path) -> str:
+    """The entry's key for ``exp``'s results in ``folder`` (see the module)."""
+    h = hashlib.sha256(_code().encode())
+    h.update(repr(exp).encode())
+    h.update(repr(exp.reported).encode())
+    for name in INPUTS:
+        h.update(f"|{name}={_digest(Path(folder) / name)}".encode())
+    return h.hexdigest()
+
+
+def _where() -> Path | None:
+    from .tablecache import folder
+    return folder()
+
+
+def record(exp, folder: Path, parts: dict, figures: list[str] | None, fmt: str) -> None:
+    """Keep what the console printed (``parts``) of ``exp``'s run into ``folder``, with the files
+    the run left there and ``figures`` (the names an up-to-date run checks for in format
+    ``fmt``; None: the run was asked for none). Never an error: a cache that cannot be written
+    is no cache."""
+    where = _where()
+    if where is None:
+        return
+    try:
+        folder = Path(folder)
+        files = {name: _digest(folder / name) for name in FILES}
+        entry = {"format": FORMAT, "parts": parts, "files": files,
+                 "figures": None if figures is None else {"format": fmt,
+                                                          "names": list(figures)}}
+        data = json.dumps(entry, sort_keys=True).encode()
+        _store(where, where / f"{key(exp, folder)}.replay.json", data)
+    except Exception:
+        pass
+
+
+def _store(where: Path, path: Path, data: bytes) -> None:
+    where.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=where, prefix=".", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        os.unlink(tmp)
+        raise
+    entries = sorted(where.glob("*.replay.json"), key=lambda p: p.stat().st_mtime)
+    for old in entries[:-KEEP]:
+        old.unlink(missing_ok=True)
+
+
+def _figures_there(folder: Path, want: dict | None, fmt: str) -> bool:
+    """Whether ``folder/figures`` holds every figure of the entry's list for format ``fmt``, and
+    no temporary file a killed drawing left (the ordinary path removes those)."""
+    if not isinstance(want, dict) or want.get("format") != fmt:
+        return False
+    figs = folder / "figures"
+    names = want.get("names")
+    if not isinstance(names, list) or (names and (figs.is_symlink() or not figs.is_dir())):
+        return False
+    if figs.is_dir() and any(p.name.startswith(".") and ".tmp" in p.name
+                             for p in figs.iterdir()):
+        return False
+    return all(isinstance(n, str) and (figs / n).is_file() for n in names)
+
+
+def replay(exp, folder: Path, figures: bool, fmt: str) -> dict | None:
+    """What the console printed of ``exp``'s comparison when ``folder`` last got its files
+    (pfbench.tables.console_parts), if the folder still holds them with the same bytes (and,
+    with ``figures``, every figure in format ``fmt``); else None. Call it only for a folder
+    the runner found up to date, holding its lock."""
+    where = _where()
+    if where is None:
+        return None
+    folder = Path(folder)
+    try:
+        entry = json.loads((where / f"{key(exp, folder)}.replay.json").read_text("utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(entry, dict) or entry.get("format") != FORMAT:
+        return None
+    files = entry.get("files")
+    if not isinstance(files, dict) or set(files) != set(FILES) or any(
+            sha is None or _digest(folder / name) != sha for name, sha in files.items()):
+        return None
+    if figures and not _figures_there(folder, entry.get("figures"), fmt):
+        return None
+    parts = entry.get("parts")
+    return parts if _parts_ok(parts) else None
+
+
+def _parts_ok(parts) -> bool:
+    """Whether an entry's ``parts`` have the shape pfbench.tables.console_parts gives."""
+    def tables_ok(tables):
+        return isinstance(tables, list) and all(
+            isinstance(t, list) and len(t) == 3 and isinstance(t[0], str)
+            and isinstance(t[1], list) and all(isinstance(h, str) for h in t[1])
+            and isinstance(t[2], list) and all(isinstance(r, list) and all(
+                isinstance(c, str) for c in r) for r in t[2]) for t in tables)
+    return (isinstance(parts, dict) and isinstance(parts.get("title"), str)
+            and type(parts.get("trials")) is int and tables_ok(parts.get("headline"))
+            and tables_ok(parts.get("wide")) and isinstance(parts.get("footnotes"), list)
+            and all(isinstance(n, str) for n in parts["footnotes"])
+            and isinstance(parts.get("counts"), str))
