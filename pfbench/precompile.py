@@ -269,28 +269,6 @@ def compile_ahead(exp, trial: Callable, processes: int | None = None) -> int:
     return len(jobs)
 
 
-def load_ahead(exp, trial: Callable) -> int:
-    """Build, in this process, the kernels a trial of ``exp`` calls that the numba cache holds
-    (``trial``: the runner's trial_result, as for compile_ahead): the worker processes forked
-    next inherit them, with numba's compiler context already set up (a third of a second, which
-    each worker would otherwise spend before its first trial, and which costs it more there:
-    every page of this process it writes to is copied first). What the cache lacks is left to
-    the workers' first trial, as before; a kernel that fails to load is left to the run, which
-    reports it. Returns the kernels built now."""
-    if not _cache.ENABLED or in_worker():
-        return 0
-    built = 0
-    for kern in roots(exp, trial):
-        if kern.built or not _cached(kern):
-            continue
-        try:
-            kern.dispatcher
-        except Exception:
-            continue
-        built += 1
-    return built
-
-
 def uncompiled(exp) -> list[str]:
     """The names of the experiment's filter types (and its scenario) whose kernels the numba
     cache does not hold yet: they compile when the first trial uses them (pfbench._lazy)."""

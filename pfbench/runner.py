@@ -43,8 +43,7 @@ from .fsutil import FolderLock, remove_tree, require_regular
 from .filters import FILTERS, LOAD_SECONDS
 from .kinds import check_outputs, kind_of
 from .plugins import FILTER_GROUP, SCENARIO_GROUP
-from .precompile import compile_ahead, load_ahead
-from .precompile import uncompiled  # noqa: F401  (this module's API)
+from .precompile import compile_ahead, uncompiled  # noqa: F401  (uncompiled: this module's API)
 from .rng import state_from_seed
 from .scenarios import SCENARIOS
 from .seeding import run_seed
