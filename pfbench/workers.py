@@ -73,8 +73,14 @@ class Workers:
         # The workers fork with this process's objects frozen out of the cyclic collector: a
         # worker's collections then never write to (and so copy) the pages it shares with this
         # process. Starting numba's compiler in a forked worker took 0.32 s, 0.20 s so (medians
-        # of three, this project's 2-core machine). This process has them back at once.
+        # of three, this project's 2-core machine). This process has them back at once, unless
+        # it keeps objects frozen already (the command line, which ends soon: pfbench.cli.main);
+        # then they stay frozen, once the garbage among them is collected (a collection of
+        # what is not frozen yet, which is little).
         import gc
+        kept = gc.get_freeze_count() > 0
+        if kept:
+            gc.collect()
         gc.freeze()
         try:
             for slot in range(count):
@@ -89,7 +95,8 @@ class Workers:
             self.stop()
             raise
         finally:
-            gc.unfreeze()
+            if not kept:
+                gc.unfreeze()
 
     @property
     def pids(self) -> list[int]:

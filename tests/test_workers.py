@@ -148,3 +148,25 @@ def test_workers_start_with_the_parents_objects_frozen_and_the_parent_thaws():
         (_, ok, frozen), = pool.results(timeout=30)
         assert ok and frozen >= len(keep)
     assert keep
+
+
+def test_a_process_that_keeps_objects_frozen_keeps_them_so_without_its_garbage():
+    """A process that froze its objects itself (the command line) keeps them frozen through a
+    pool's start, with the new ones, but not the garbage among those: it is collected first."""
+    import gc
+    import weakref
+
+    class Node:
+        pass
+    gc.freeze()
+    try:
+        node = Node()
+        node.me = node                  # a cycle: only the collector frees it
+        gone = weakref.ref(node)
+        del node
+        kept = gc.get_freeze_count()
+        with Workers(1, _freeze_count):
+            assert gone() is None
+            assert gc.get_freeze_count() >= kept
+    finally:
+        gc.unfreeze()
