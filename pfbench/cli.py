@@ -1323,12 +1323,18 @@ def main():  # console-script entry point
     lives until the process ends, so it is frozen out of the cyclic collector (gc.freeze): the
     collections of a command no longer walk it, nor do those of the workers it forks
     (pfbench.workers), and the process ends without the collector's last pass over its heap.
-    Together 0.1 s of a two-trial run (two full collections of 0.07 s each gone)."""
+    Together 0.1 s of a two-trial run (two full collections of 0.07 s each gone). A ``run``
+    starts its worker first of all (pfbench.runner.prestart)."""
     import gc
     gc.freeze()
+    if sys.argv[1:2] == ["run"]:
+        from .runner import prestart
+        prestart()          # its worker starts numba while the command line and config are read
     try:
         app()
     finally:
+        from .runner import discard_prestarted
+        discard_prestarted()
         gc.freeze()
 
 

@@ -566,15 +566,13 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
     units = Units(exp, trials, count, workers)
     compile_ahead(exp, trial_result)
     _preload()
-    import multiprocessing as mp
-    now = mp.RawArray("q", [-1] * (2 * workers))
-    if running is not None:
-        running.append(lambda: [tuple(now[i:i + 2]) for i in range(0, len(now), 2)])
     from .rank import ranks_filters
     from .tablecache import settle
     settle()                        # no fork while a thread of this process imports
-    with Workers(workers, partial(_run_chunk_in_worker, exp, traces=traces),
-                 setup=_worker_init, setup_args=(now,)) as pool:
+    pool, now, send = _pool(exp, workers, traces)
+    if running is not None:
+        running.append(lambda: [tuple(now[i:i + 2]) for i in range(0, len(now), 2)])
+    with pool:
         # the table's modules, while the workers run the trials
         import_ahead(stats=ranks_filters(exp))
         sizes: list[list[int]] = [[] for _ in range(workers)]   # units each worker holds
@@ -584,7 +582,7 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
                 unit = units.next()
                 if not unit:
                     return
-                pool.send(slot, unit)
+                send(slot, unit)
                 sizes[slot].append(len(unit))
 
         try:
@@ -604,6 +602,100 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
         except WorkerDied as dead:
             raise _died(exp, dead, now) from None
         pool.close()
+
+
+def _pool(exp: Experiment, workers: int, traces: bool):
+    """(the pool of ``workers`` worker processes that runs the trials of ``exp``, the array of
+    what each runs (_NOW), ``send(slot, unit)``): the worker the command line started early
+    (prestart) when it fits, else a pool forked now, which inherits ``exp``."""
+    early = _claim(exp, workers)
+    if early is not None:
+        pool, now = early
+        first = set(range(workers))
+        token = id(exp)
+
+        def send(slot: int, unit: list[int]) -> None:
+            pool.send(slot, (token, exp if slot in first else None, traces, unit))
+            first.discard(slot)
+        return pool, now, send
+    import multiprocessing as mp
+    now = mp.RawArray("q", [-1] * (2 * workers))
+    pool = Workers(workers, partial(_run_chunk_in_worker, exp, traces=traces),
+                   setup=_worker_init, setup_args=(now,))
+    return pool, now, pool.send
+
+
+# ---------------------------------------------------------------- a worker started early
+
+# The worker `prestart` started, with its array of what it runs, until a run claims it.
+_EARLY: list = []
+# In that worker: the experiment its units run, and whether they keep traces, by token.
+_SENT: dict = {}
+
+
+def prestart() -> None:
+    """Start now the worker process a run's trials will need (one, as a run has by default),
+    and have it start numba's compiler (a third of a second on a small machine) while this
+    process reads its command line and its config: the run then hands it the experiment
+    (pickled, with its first unit of trials) instead of forking a worker once the config is
+    read. For the command line, first thing; a run of another worker count, or none,
+    leaves it to ``discard_prestarted``. Never an error: a worker that cannot start is one the
+    run forks later, as without this."""
+    if _EARLY or _in_process():
+        return
+    import multiprocessing as mp
+    now = mp.RawArray("q", [-1, -1])
+    try:
+        pool = Workers(1, _run_sent_chunk, setup=_early_worker_init, setup_args=(now,))
+    except Exception:
+        return
+    _EARLY.append((pool, now))
+
+
+def discard_prestarted() -> None:
+    """Stop the worker ``prestart`` started, when no run claimed it."""
+    while _EARLY:
+        _EARLY.pop()[0].stop()
+
+
+def _claim(exp: Experiment, workers: int):
+    """(pool, now) of the worker ``prestart`` started, for a run of ``workers`` workers, when it
+    is alive, one is what the run needs, and ``exp`` can be sent to it; None otherwise (and the
+    early worker, if any, is stopped)."""
+    if not _EARLY:
+        return None
+    pool, now = _EARLY.pop()
+    if workers == 1 and all(p.exitcode is None for p in pool.procs):
+        import pickle
+        try:
+            pickle.dumps(exp)
+            return pool, now
+        except Exception:           # an experiment only a fork can hand over
+            pass
+    pool.stop()
+    return None
+
+
+def _early_worker_init(now, slot: int) -> None:
+    """The early worker's setup: a worker's (_worker_init), then numba's compiler started, as
+    loading the first kernel from the cache would."""
+    _worker_init(now, slot)
+    try:
+        from numba.core.registry import cpu_target
+        cpu_target.target_context.refresh()
+    except Exception:               # the first kernel meets it, and the run reports it
+        pass
+
+
+def _run_sent_chunk(item) -> tuple:
+    """The early worker's handle: ``(token, experiment or None, traces, trials)``, the
+    experiment sent with a run's first unit and kept for the next ones (_run_chunk_in_worker)."""
+    token, exp, traces, trials = item
+    if exp is not None:
+        _SENT.clear()
+        _SENT[token] = (exp, traces)
+    exp, traces = _SENT[token]
+    return _run_chunk_in_worker(exp, trials, traces)
 
 
 def _died(exp: Experiment, dead, now) -> UserError:

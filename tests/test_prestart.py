@@ -1,0 +1,84 @@
+"""The worker the command line starts before it reads its config (pfbench.runner.prestart): a
+run of one worker takes it, with the same trials, bit for bit, as a worker forked later; a run
+that needs another count, or none, stops it."""
+from __future__ import annotations
+
+import subprocess
+import sys
+
+from typer.testing import CliRunner
+
+import pfbench.runner as runner_mod
+from pfbench.cli import app
+
+from .conftest import TINY
+
+runner = CliRunner()
+
+# runs pfbench.cli.main in a process of its own with ARGS, noting what the run claimed, and
+# prints: whether it took the early worker, the workers left alive, the exit status
+_SCRIPT = """
+import multiprocessing, sys
+import pfbench.runner as R
+claims = []
+original = R._claim
+def claim(exp, workers):
+    got = original(exp, workers)
+    claims.append(got is not None)
+    return got
+R._claim = claim
+sys.argv = ["pfbench"] + {args!r}
+from pfbench.cli import main
+try:
+    main()
+    code = 0
+except SystemExit as e:
+    code = e.code
+print(claims, len(R._EARLY), len(multiprocessing.active_children()), code)
+"""
+
+
+def _main(tmp_path, *args):
+    res = subprocess.run([sys.executable, "-c", _SCRIPT.format(args=list(args))],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=600)
+    return res, res.stdout.strip().splitlines()[-1] if res.stdout.strip() else ""
+
+
+def test_a_run_takes_the_early_worker_and_gets_the_same_trials(tmp_path, write_config):
+    cfg = write_config(TINY)
+    res, last = _main(tmp_path, "run", str(cfg), "--out", str(tmp_path / "early"),
+                      "--no-figures")
+    assert last == "[True] 0 0 0", (last, res.stderr)
+    later = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "later"),
+                                "--no-figures"])
+    assert later.exit_code == 0, later.output
+    assert ((tmp_path / "early" / "trials.csv").read_bytes()
+            == (tmp_path / "later" / "trials.csv").read_bytes())
+
+
+def test_a_run_of_two_workers_stops_it_and_forks_its_own(tmp_path, write_config):
+    cfg = write_config(TINY)
+    res, last = _main(tmp_path, "run", str(cfg), "--out", str(tmp_path / "two"),
+                      "--no-figures", "--workers", "2")
+    assert last == "[False] 0 0 0", (last, res.stderr)
+
+
+def test_a_command_that_runs_nothing_stops_it(tmp_path, write_config):
+    res, last = _main(tmp_path, "run", str(tmp_path / "no-such.yaml"))
+    assert last == "[] 0 0 2", (last, res.stderr)
+    assert res.stderr.startswith("pfbench: error: ") and res.stderr.count("\n") == 1
+    cfg = write_config(TINY)
+    _main(tmp_path, "run", str(cfg), "--out", str(tmp_path / "o"), "--no-figures")
+    res, last = _main(tmp_path, "run", str(cfg), "--out", str(tmp_path / "o"), "--no-figures")
+    assert last == "[] 0 0 0" and "is up to date" in res.stderr, (last, res.stderr)
+
+
+def test_an_experiment_that_cannot_be_sent_gets_a_forked_worker():
+    runner_mod.prestart()
+    try:
+        assert len(runner_mod._EARLY) == 1
+        pool = runner_mod._EARLY[0][0]
+        assert runner_mod._claim(lambda: None, 1) is None       # no pickle of it
+        assert runner_mod._EARLY == [] and all(p.exitcode is not None for p in pool.procs)
+    finally:
+        runner_mod.discard_prestarted()
