@@ -18,21 +18,19 @@ the files it names with the same bytes (and, where the run draws figures, every 
 up-to-date run checks for, with no half-written figure left). Anything else (an entry missing
 or unreadable, a file changed or gone, another figure format) returns None, and the run takes
 its ordinary path, which computes, writes and records again. The entries are JSON files beside
-the table cache's (pfbench.tablecache), the newest ``KEEP`` kept; a folder that cannot be
-written records nothing.
+the table cache's (pfbench.tablecache), the newest ``tablecache.KEEP`` kept; a folder that
+cannot be written records nothing.
 """
 from __future__ import annotations
 
 import hashlib
 import json
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 from ._cache import sources_hash
+from .tablecache import folder, store
 
-KEEP = 256
 FORMAT = 1
 FILES = ("table.csv", "table.md", "trials.parquet")   # what an up-to-date run (re)writes
 INPUTS = ("meta.json", "trials.csv", "timings.csv")     # what its comparison is computed from
@@ -81,7 +79,6 @@ def key(exp, folder: Path) -> str:
 
 
 def _where() -> Path | None:
-    from .tablecache import folder
     return folder()
 
 
@@ -100,24 +97,9 @@ def record(exp, folder: Path, parts: dict, figures: list[str] | None, fmt: str) 
                  "figures": None if figures is None else {"format": fmt,
                                                           "names": list(figures)}}
         data = json.dumps(entry, sort_keys=True).encode()
-        _store(where, where / f"{key(exp, folder)}.replay.json", data)
+        store(where, where / f"{key(exp, folder)}.replay.json", data, "*.replay.json")
     except Exception:
         pass
-
-
-def _store(where: Path, path: Path, data: bytes) -> None:
-    where.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=where, prefix=".", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise
-    entries = sorted(where.glob("*.replay.json"), key=lambda p: p.stat().st_mtime)
-    for old in entries[:-KEEP]:
-        old.unlink(missing_ok=True)
 
 
 def _figures_there(folder: Path, want: dict | None, fmt: str) -> bool:

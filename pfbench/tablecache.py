@@ -129,23 +129,30 @@ def cached_ranking(exp, rows) -> list[str]:
 
 
 def _store(where: Path, path: Path, cmp) -> None:
-    """Write ``cmp`` to ``path`` through a temporary file; keep the newest KEEP entries. Never an
-    error: a cache that cannot be written is no cache."""
+    """Write ``cmp`` to ``path`` (store). Never an error: a cache that cannot be written is no
+    cache."""
     try:
-        where.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=where, prefix=".", suffix=".tmp")
-        try:
-            with os.fdopen(fd, "wb") as fh:
-                pickle.dump(cmp, fh, protocol=pickle.HIGHEST_PROTOCOL)
-            os.replace(tmp, path)
-        except BaseException:
-            os.unlink(tmp)
-            raise
-        entries = sorted(where.glob("*.pickle"), key=lambda p: p.stat().st_mtime)
-        for old in entries[:-KEEP]:
-            old.unlink(missing_ok=True)
+        store(where, path, pickle.dumps(cmp, protocol=pickle.HIGHEST_PROTOCOL), "*.pickle")
     except Exception:
         pass
+
+
+def store(where: Path, path: Path, data: bytes, kind: str) -> None:
+    """Write ``data`` to the entry ``path`` of the folder ``where`` through a temporary file, and
+    keep the newest KEEP entries of its ``kind`` (a pattern of their names); OSError when it
+    cannot."""
+    where.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=where, prefix=".", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        os.unlink(tmp)
+        raise
+    entries = sorted(where.glob(kind), key=lambda p: p.stat().st_mtime)
+    for old in entries[:-KEEP]:
+        old.unlink(missing_ok=True)
 
 
 _AHEAD: list = []       # the threads of runner.import_ahead, while they may run
