@@ -131,6 +131,7 @@ def test_a_filter_kind_without_a_scenario_is_named(monkeypatch):
     assert "filter lonely: no registered scenario of kind 'scalar' it runs on" in problems
 
 
+@pytest.mark.slow     # the whole contract on a Dask cluster: 20 s
 def test_the_contract_holds_under_the_dask_executor():
     pytest.importorskip("distributed")
     from pfbench.runner import DaskExecutor

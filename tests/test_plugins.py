@@ -190,6 +190,7 @@ def test_the_contract_covers_the_plugins_under_dask(site, tmp_path):
         res.stderr
 
 
+@pytest.mark.slow     # the whole contract, every configs' probes, through the installed plug-in: 20 s
 def test_a_plugin_that_breaks_the_contract_is_named(site, tmp_path):
     # the example filter, its generator seeded from the clock instead of the state it is given
     path = site / "pfbench_example" / "filters.py"
