@@ -190,6 +190,7 @@ def test_titles_count_the_trials_each_figure_shows(tmp_path, monkeypatch):
         assert f"{k} of {len(rows[rows['filter'] == r.key])}" in text
 
 
+@pytest.mark.slow     # every committed figure drawn again: 14 s
 def test_every_committed_figure_is_legible_at_1400_px(tmp_path, monkeypatch):
     """Drawn again from the committed trials and traces (no trial runs): no figure wider than
     1400 px, no text under 8 pt; many runs make small multiples with a shared axis."""

@@ -90,6 +90,7 @@ def test_every_paper_table_and_figure_is_in_the_report(report, monkeypatch):
     assert all(re.match(r"^(\[.\])?", v) for v in verdicts)
 
 
+@pytest.mark.slow     # the whole report written twice: 11 s
 def test_the_report_is_the_same_bytes_again_and_check_sees_a_change(tmp_path):
     results = tmp_path / "results"
     shutil.copytree(ROOT / "results", results, ignore=shutil.ignore_patterns("report"))
