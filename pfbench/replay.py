@@ -3,9 +3,9 @@
 A run that finds its results folder up to date (every trial of its experiment already there)
 runs nothing and writes the same bytes again: what it spends its second on is importing pandas,
 scipy and the tables to compute the comparison it printed last time. After each run into a
-folder, ``record`` keeps what the console showed of that comparison (pfbench.tables.
-console_parts: strings) and the SHA-256 of the files the run left (table.csv, table.md,
-trials.parquet), under a key made of everything the comparison depends on:
+folder, ``record`` keeps what the console showed of that comparison (strings:
+``pfbench.tables.console_parts``) and the SHA-256 of the files the run left (table.csv,
+table.md, trials.parquet), under a key made of everything the comparison depends on:
 
 - the SHA-256 of every source file of pfbench, and the versions of Python, numpy, scipy, pandas
   and pyarrow (an edit or an upgrade is a new key);
