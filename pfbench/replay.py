@@ -25,37 +25,13 @@ from __future__ import annotations
 
 import hashlib
 import json
-import sys
 from pathlib import Path
 
-from ._cache import sources_hash
-from .tablecache import folder, store
+from .tablecache import code_digest, folder, store
 
 FORMAT = 1
 FILES = ("table.csv", "table.md", "trials.parquet")   # what an up-to-date run (re)writes
 INPUTS = ("meta.json", "trials.csv", "timings.csv")     # what its comparison is computed from
-_CODE: str | None = None
-
-
-def _version(package: str) -> str:
-    from importlib import metadata
-    try:
-        return metadata.version(package)
-    except metadata.PackageNotFoundError:
-        return "-"
-
-
-def _code() -> str:
-    """SHA-256 of the package's sources and the versions the comparison's strings depend on,
-    read without importing those libraries (once per process)."""
-    global _CODE
-    if _CODE is None:
-        h = sources_hash()
-        h.update(sys.version.encode())
-        for package in ("numpy", "scipy", "pandas", "pyarrow"):
-            h.update(f"|{package}={_version(package)}".encode())
-        _CODE = h.hexdigest()
-    return _CODE
 
 
 def _digest(path: Path) -> str | None:
@@ -70,7 +46,7 @@ def _digest(path: Path) -> str | None:
 
 def key(exp, folder: Path) -> str:
     """The entry's key for ``exp``'s results in ``folder`` (see the module)."""
-    h = hashlib.sha256(_code().encode())
+    h = hashlib.sha256(code_digest().encode())
     h.update(repr(exp).encode())
     h.update(repr(exp.reported).encode())
     for name in INPUTS:

@@ -4,8 +4,8 @@ second instead of computing its intervals again (the bootstrap intervals alone t
 ``compare`` (pfbench.compare) is a pure function of the experiment, its trials' rows and the
 code that compares them. ``cached_compare`` keys its result on a SHA-256 of all of these: the
 experiment (its settings and its paper's table), every row (run times included), ``anytime``,
-the source of every module of pfbench, and the versions of Python, numpy, scipy and pandas. A
-change of any of them is a new key: the table is computed again, never served stale.
+the source of every module of pfbench, and the versions of Python, numpy, scipy, pandas and
+pyarrow. A change of any of them is a new key: the table is computed again, never served stale.
 
 The entries are pickles in ``pfbench-tables`` beside the kernel cache (pfbench._cache: by
 default ``~/.cache/pfbench/numba/pfbench-tables``), a folder of this user's that numba's own
@@ -30,18 +30,24 @@ KEEP = 256
 _CODE: str | None = None
 
 
-def _code_digest() -> str:
-    """SHA-256 of every source file of the package (once per process) and of the libraries'
-    versions the comparison's numbers depend on."""
+def _version(package: str) -> str:
+    from importlib import metadata
+    try:
+        return metadata.version(package)
+    except metadata.PackageNotFoundError:
+        return "-"
+
+
+def code_digest() -> str:
+    """SHA-256 of every source file of the package and of the versions of Python and of the
+    libraries a comparison and its printed strings depend on (numpy, scipy, pandas, pyarrow),
+    read without importing them (once per process: this cache's and pfbench.replay's keys)."""
     global _CODE
     if _CODE is None:
-        import numpy
-        import pandas
-        import scipy
-
         h = sources_hash()
-        h.update(f"{sys.version}|{numpy.__version__}|{scipy.__version__}|"
-                 f"{pandas.__version__}".encode())
+        h.update(sys.version.encode())
+        for package in ("numpy", "scipy", "pandas", "pyarrow"):
+            h.update(f"|{package}={_version(package)}".encode())
         _CODE = h.hexdigest()
     return _CODE
 
@@ -66,7 +72,7 @@ def _rows_bytes(rows) -> bytes:
 
 def key(exp, rows, anytime) -> str:
     """The cache key of ``compare(exp, rows, anytime)``."""
-    h = hashlib.sha256(_code_digest().encode())
+    h = hashlib.sha256(code_digest().encode())
     h.update(repr(exp).encode())
     h.update(repr(exp.reported).encode())
     h.update(repr(anytime).encode())
