@@ -1327,14 +1327,16 @@ def main():  # console-script entry point
     starts its worker first of all (pfbench.runner.prestart)."""
     import gc
     gc.freeze()
-    if sys.argv[1:2] == ["run"]:
+    early = sys.argv[1:2] == ["run"]
+    if early:
         from .runner import prestart
         prestart()          # its worker starts numba while the command line and config are read
     try:
         app()
     finally:
-        from .runner import discard_prestarted
-        discard_prestarted()
+        if early:           # (another command never imports the runner for it)
+            from .runner import discard_prestarted
+            discard_prestarted()
         gc.freeze()
 
 
