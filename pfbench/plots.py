@@ -31,7 +31,7 @@ from .compare import MACHINE_METRICS
 from .store import Traces, read_traces
 from .tables import judged_title
 from .traces import (SNAPSHOT_PARTICLES, error_runs, path_runs, runs_in, slam_error_curves,
-                     snapshot_runs)
+                     snapshot_runs, split_curves)
 
 
 def save_figure(fig, path: Path) -> None:
@@ -622,11 +622,10 @@ def slam_error_figure(exp: Experiment, traces: Traces, path: Path,
         # a trace written before the error curves were kept (trial 0 only): from its paths
         out = {"": {}}
         for r in runs:
-            got = slam_error_curves(tr[r.key]["pose"], tr[""]["truth_pose"], tr[""]["time"],
-                                    tr[r.key].get("lm_trace"), tr[""]["obs_time"])
-            out[""].update({n: got.pop(n) for n in ("error_time", "heading_window_s", "map_time")
-                            if n in got})
-            out[r.key] = got
+            shared, out[r.key] = split_curves(slam_error_curves(
+                tr[r.key]["pose"], tr[""]["truth_pose"], tr[""]["time"],
+                tr[r.key].get("lm_trace"), tr[""]["obs_time"]))
+            out[""].update(shared)
         return out
 
     by_trial = [curves(tr) for tr in by_trial]

@@ -74,6 +74,17 @@ def slam_error_curves(pose, truth_pose, time, lm_trace, obs_time) -> dict:
     return out
 
 
+# what slam_error_curves gives that every run of a trial shares: kept once per trial
+SLAM_SHARED_CURVES = ("error_time", "heading_window_s", "map_time")
+
+
+def split_curves(curves: dict) -> tuple[dict, dict]:
+    """slam_error_curves' output as (what every run of the trial shares, SLAM_SHARED_CURVES;
+    the run's own curves)."""
+    shared = {n: curves[n] for n in SLAM_SHARED_CURVES if n in curves}
+    return shared, {n: a for n, a in curves.items() if n not in shared}
+
+
 class SlamTracer:
     """The first FIGURE_TRIALS trials: each run's error curves (slam_error_curves: position and
     heading error every k-th step, map error every k'-th observation) and their times. Trial 0
@@ -98,12 +109,10 @@ class SlamTracer:
             trace = {"truth_pose": _f32(truth.pose), "time": _f32(time),
                      "obs_time": _f32(obs_time)}
         for key, out in outs.items():
-            curves = slam_error_curves(out["pose"], truth.pose, time, out.get("lm_trace"),
-                                       obs_time)
-            for name in ("error_time", "heading_window_s", "map_time"):   # every run's: once
-                if name in curves:
-                    trace[name] = curves.pop(name)
-            trace.update({f"{key}/{name}": a for name, a in curves.items()})
+            shared, own = split_curves(slam_error_curves(out["pose"], truth.pose, time,
+                                                         out.get("lm_trace"), obs_time))
+            trace.update(shared)
+            trace.update({f"{key}/{name}": a for name, a in own.items()})
             if trial == 0:
                 trace[f"{key}/pose"] = _f32(out["pose"])
                 trace[f"{key}/lm_est"] = _f32(out["lm_est"])
