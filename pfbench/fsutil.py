@@ -166,6 +166,12 @@ def replace_tree(src: Path, dst: Path, root: Path) -> None:
         remove_tree(old, root)
 
 
+def left_by_a_kill(name: str) -> bool:
+    """Whether a file name is one of write_through_temp's temporary files (``.NAME.tmpPID``):
+    what a write killed half-way leaves beside the file it was writing."""
+    return name.startswith(".") and ".tmp" in name
+
+
 def write_through_temp(path: Path, write, suffix: str = "") -> None:
     """Call ``write(tmp)`` on a temporary file beside ``path``, then rename it to ``path``: never
     half-written; a failed write (a full disk) removes the temporary file."""

@@ -27,6 +27,7 @@ import hashlib
 import json
 from pathlib import Path
 
+from .fsutil import left_by_a_kill
 from .tablecache import code_digest, folder, store
 
 FORMAT = 1
@@ -87,8 +88,7 @@ def _figures_there(folder: Path, want: dict | None, fmt: str) -> bool:
     names = want.get("names")
     if not isinstance(names, list) or (names and (figs.is_symlink() or not figs.is_dir())):
         return False
-    if figs.is_dir() and any(p.name.startswith(".") and ".tmp" in p.name
-                             for p in figs.iterdir()):
+    if figs.is_dir() and any(left_by_a_kill(p.name) for p in figs.iterdir()):
         return False
     return all(isinstance(n, str) and (figs / n).is_file() for n in names)
 
