@@ -8,6 +8,7 @@ import sys
 
 from typer.testing import CliRunner
 
+import pfbench
 import pfbench.runner as runner_mod
 from pfbench.cli import app
 
@@ -28,20 +29,50 @@ def claim(exp, workers):
     return got
 R._claim = claim
 sys.argv = ["pfbench"] + {args!r}
-from pfbench.cli import main
+before = []
+original_prestart = R.prestart
+def prestart():
+    before.append("typer" in sys.modules or "rich" in sys.modules)
+    original_prestart()
+R.prestart = prestart
+from pfbench.{entry} import main
 try:
     main()
     code = 0
 except SystemExit as e:
     code = e.code
 print(claims, len(R._EARLY), len(multiprocessing.active_children()), code)
+print(before[:1])  # the first start: later ones find it started
 """
 
 
-def _main(tmp_path, *args):
-    res = subprocess.run([sys.executable, "-c", _SCRIPT.format(args=list(args))],
+def _main(tmp_path, *args, entry="cli"):
+    res = subprocess.run([sys.executable, "-c", _SCRIPT.format(args=list(args), entry=entry)],
                          capture_output=True, text=True, cwd=tmp_path, timeout=600)
-    return res, res.stdout.strip().splitlines()[-1] if res.stdout.strip() else ""
+    lines = res.stdout.strip().splitlines()
+    return res, lines[-2] if len(lines) >= 2 else ""
+
+
+def test_the_console_script_starts_it_before_the_command_line_is_imported(tmp_path,
+                                                                          write_config):
+    """The console script (pfbench.__main__.main) forks a run's worker before it imports typer
+    and rich, and the run takes it; pfbench.cli.main starts it after them."""
+    import tomllib
+    from pathlib import Path
+    project = tomllib.loads((Path(__file__).parents[1] / "pyproject.toml").read_text())
+    assert project["project"]["scripts"]["pfbench"] == "pfbench.__main__:main"
+    cfg = write_config(TINY)
+    res, last = _main(tmp_path, "run", str(cfg), "--out", str(tmp_path / "o"), "--no-figures",
+                      entry="__main__")
+    assert last == "[True] 0 0 0", (last, res.stderr)
+    assert res.stdout.strip().splitlines()[-1] == "[False]", res.stdout
+    res, last = _main(tmp_path, "run", str(cfg), "--out", str(tmp_path / "p"), "--no-figures")
+    assert last == "[True] 0 0 0", (last, res.stderr)
+    assert res.stdout.strip().splitlines()[-1] == "[True]", res.stdout
+    version = subprocess.run([sys.executable, "-m", "pfbench", "--version"], capture_output=True,
+                             text=True, cwd=tmp_path, timeout=600)
+    assert version.returncode == 0 and version.stdout.split()[-1] == pfbench.__version__, \
+        version
 
 
 def test_a_run_takes_the_early_worker_and_gets_the_same_trials(tmp_path, write_config):
