@@ -168,3 +168,70 @@ def test_shipped_equal_evaluation_pf_matches_ifa_evaluations():
     for n, n_eq in ((50, 100), (100, 200), (150, 300)):
         assert rows[f"ifa@{n}"]["lik_evals_per_step"] == n_eq
         assert rows[f"pf_equal@{n_eq}"]["lik_evals_per_step"] == n_eq
+
+
+def _firefly_reference(X, bright, D, beta0, gamma, alpha, R, adaptive, law, toward, scale, s):
+    """The firefly move as its docstring states it, one pair at a time in plain Python, drawing
+    from the same generator: each i toward each brighter j (or the first brightest), in the order
+    (i, j, coordinate), x_i += beta0 exp(-gamma r_ij^2) (x_j - x_i) + a scale e."""
+    from pfbench.codes import (RANDOM_GAUSSIAN, RANDOM_UNIFORM_HALF, RANDOM_UNIFORM_SQRT3,
+                               TOWARD_BRIGHTER_ALL_AT_ONCE, TOWARD_BRIGHTEST)
+    from pfbench.rng import normal, uniform
+
+    def term():
+        if law == RANDOM_UNIFORM_HALF:
+            return uniform(s) - 0.5
+        if law == RANDOM_UNIFORM_SQRT3:
+            return math.sqrt(3.0) * (2.0 * uniform(s) - 1.0)
+        if law == RANDOM_GAUSSIAN:
+            return normal(s)
+        return 0.0
+    N = bright.size
+    src = X.copy() if toward == TOWARD_BRIGHTER_ALL_AT_ONCE else X
+    first = 0                                  # the first of the brightest (a NaN is not)
+    for j in range(1, N):
+        if bright[j] > bright[first]:
+            first = j
+    targets = [first] if toward == TOWARD_BRIGHTEST else range(N)
+    for i in range(N):
+        for j in targets:
+            if not bright[j] > bright[i]:
+                continue
+            r2 = 0.0
+            for d in range(D):
+                e = src[i * D + d] - src[j * D + d]
+                r2 += e * e
+            b = beta0 * math.exp(-gamma * r2)
+            a = math.exp(-R * bright[i] / bright[j]) if adaptive else alpha
+            for d in range(D):
+                X[i * D + d] += b * (src[j * D + d] - src[i * D + d]) + a * scale[d] * term()
+
+
+@pytest.mark.parametrize("D", [1, 3])
+@pytest.mark.parametrize("law", [0, 1, 2, 3])
+@pytest.mark.parametrize("toward", [0, 1, 2])
+@pytest.mark.parametrize("adaptive", [False, True])
+def test_firefly_moves_match_the_pairwise_reference_bit_for_bit(D, law, toward, adaptive):
+    """fa_move and ifa_move (which list each particle's brighter ones before moving it, and keep
+    a scalar state in registers) give the reference's positions and generator state exactly, ties
+    in brightness and a NaN one included."""
+    N = 40
+    rng = np.random.default_rng(D * 100 + law * 10 + toward)
+    X0 = rng.normal(size=N * D)
+    bright = rng.random(N)
+    if adaptive:
+        bright = -bright                       # IFA's brightness as a distance: -d
+    bright[3] = bright[7]                      # a tie: neither is brighter than the other
+    bright[11] = np.nan                        # never brighter, nor dimmer
+    scale = np.linspace(0.5, 1.5, D)
+    X, s = X0.copy(), _state(5)
+    if adaptive:
+        swarm.ifa_move(X, bright, D, 1.0, 0.7, 1.3, scale, s, law, toward)
+    else:
+        swarm.fa_move(X, bright, D, 1.0, 0.7, 0.2, scale, s, law, toward)
+    Xr, sr = X0.copy(), _state(5)
+    _firefly_reference(Xr, bright, D, 1.0, 0.7, 0.0 if adaptive else 0.2, 1.3 if adaptive else 0.0,
+                       adaptive, law, toward, scale, sr)
+    assert not np.array_equal(X, X0)
+    assert np.array_equal(X.view(np.uint64), Xr.view(np.uint64))
+    assert np.array_equal(s, sr)
