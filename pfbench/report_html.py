@@ -279,6 +279,71 @@ def _draw_figures(e: rp.Entry, into: Path) -> list[Path]:
     return plots.write_figures(e.exp, rows, e.folder, "svg", e.table, into=into)
 
 
+# A report's figures, kept once drawn: an entry of the table cache's folder per results folder
+# (pfbench.tablecache), ``<key>.figures.pkl``, a zlib-compressed pickle of {file name: SVG bytes}.
+_FIGURES = "*.figures.pkl"
+
+
+def figures_key(e: rp.Entry) -> str:
+    """What a results folder's report figures are drawn from: the package's code and the
+    versions of the libraries it reads them with (tablecache.code_digest) and matplotlib's, the
+    experiment and its paper table (of a sweep, every cell's, with the paper's curves), and the
+    bytes of every file of the folder but its figures (trials, traces, meta, a sweep's cells),
+    each by its path inside the folder. A SHA-256."""
+    import hashlib
+
+    from .tablecache import _version, code_digest
+    h = hashlib.sha256(code_digest().encode())
+    h.update(f"|matplotlib={_version('matplotlib')}|{e.name}|{e.exp!r}|{e.exp.reported!r}"
+             f"|{e.sweep_keys!r}|{e.cells!r}".encode())
+    folder = Path(e.folder)
+    for path in sorted(folder.rglob("*")):
+        rel = path.relative_to(folder)
+        if "figures" in rel.parts or not path.is_file() or path.is_symlink():
+            continue
+        h.update(f"|{rel.as_posix()}|".encode())
+        h.update(hashlib.sha256(path.read_bytes()).digest())
+    return h.hexdigest()
+
+
+def _kept_figures(e: rp.Entry, into: Path, drawing=None) -> list[Path]:
+    """The entry's figures as SVG into ``into``: the same bytes again where this code drew them
+    from the same folder before (figures_key), else drawn (``drawing(e)`` told first) and kept.
+    An entry that cannot be read, or a cache that cannot be written, only means drawing them."""
+    import pickle
+    import zlib
+
+    from .tablecache import folder, store
+    where, path = folder(), None
+    if where is not None:
+        try:
+            path = where / f"{figures_key(e)}.figures.pkl"
+        except OSError:             # a file of the folder that cannot be read: draw
+            path = None
+    if path is not None and path.is_file():
+        try:
+            kept = pickle.loads(zlib.decompress(path.read_bytes()))
+            if (isinstance(kept, dict) and kept and all(
+                    isinstance(n, str) and isinstance(b, bytes) and n.endswith(".svg")
+                    and Path(n).name == n for n, b in kept.items())):
+                into.mkdir(parents=True, exist_ok=True)
+                for name, data in kept.items():
+                    (into / name).write_bytes(data)
+                return [into / name for name in kept]
+        except Exception:           # cut short, another format: draw again
+            pass
+    if drawing:
+        drawing(e)
+    paths = _draw_figures(e, into)
+    if path is not None and paths and all(p.parent == into for p in paths):
+        try:
+            data = {p.name: p.read_bytes() for p in paths}
+            store(where, path, zlib.compress(pickle.dumps(data, protocol=4)), _FIGURES)
+        except Exception:
+            pass
+    return paths
+
+
 def _section(e: rp.Entry, out_dir: Path, figures: bool, drawing=None) -> dict:
     table = e.exp.reported
     s = {"name": e.name, "status": e.status, "description": e.exp.description,
@@ -309,10 +374,8 @@ def _section(e: rp.Entry, out_dir: Path, figures: bool, drawing=None) -> dict:
         s["tables"] = [{"title": None, "head": ["Filter", "N", "Trials", "RMSE mean [95% CI]"],
                         "rows": rows}]
     if figures:
-        if drawing:
-            drawing(e)
         into = out_dir / "figures" / e.name
-        for p in sorted(_draw_figures(e, into)):
+        for p in sorted(_kept_figures(e, into, drawing)):
             s["figures"].append({"src": os.path.relpath(p, out_dir).replace(os.sep, "/"),
                                  "alt": figure_words(p.stem, e)})
     return s
