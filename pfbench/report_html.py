@@ -287,15 +287,21 @@ _FIGURES = "*.figures.pkl"
 def figures_key(e: rp.Entry) -> str:
     """What a results folder's report figures are drawn from: the package's code and the
     versions of the libraries it reads them with (tablecache.code_digest) and matplotlib's, the
-    experiment and its paper table (of a sweep, every cell's, with the paper's curves), and the
-    bytes of every file of the folder but its figures (trials, traces, meta, a sweep's cells),
-    each by its path inside the folder. A SHA-256."""
+    experiment and its paper table (of a sweep, every cell's, with the paper's curves; not the
+    path its config was read from, which draws nothing), and the bytes of every file of the
+    folder but its figures (trials, traces, meta, a sweep's cells), each by its path inside the
+    folder. A SHA-256."""
     import hashlib
+    from dataclasses import replace
 
     from .tablecache import _version, code_digest
+
+    def exp_text(exp) -> str:
+        return f"{replace(exp, source='')!r}|{exp.reported!r}"
+    cells = [(c.name, c.values, exp_text(c.exp), c.curves) for c in e.cells or ()]
     h = hashlib.sha256(code_digest().encode())
-    h.update(f"|matplotlib={_version('matplotlib')}|{e.name}|{e.exp!r}|{e.exp.reported!r}"
-             f"|{e.sweep_keys!r}|{e.cells!r}".encode())
+    h.update(f"|matplotlib={_version('matplotlib')}|{e.name}|{exp_text(e.exp)}"
+             f"|{e.sweep_keys!r}|{cells!r}".encode())
     folder = Path(e.folder)
     for path in sorted(folder.rglob("*")):
         rel = path.relative_to(folder)

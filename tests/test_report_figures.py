@@ -100,3 +100,13 @@ def test_a_cache_folder_that_cannot_be_written_draws_every_time(setup, monkeypat
     report_html.write(configs, results)
     report_html.write(configs, results)
     assert drawn == ["plain", "plain"] and _figures(results)
+
+
+def test_the_same_configs_read_through_another_path_draw_nothing(setup):
+    """The key holds what the figures are drawn from, not where the config lies: a report of the
+    same results from the configs' absolute path, then their relative one, draws them once."""
+    from pathlib import Path
+    configs, results, drawn, _ = setup
+    report_html.write(configs.resolve(), results)
+    report_html.write(Path("configs"), Path("results"))
+    assert drawn == ["plain"]
