@@ -314,8 +314,9 @@ def figures_key(e: rp.Entry) -> str:
 
 def _kept_figures(e: rp.Entry, into: Path, drawing=None) -> list[Path]:
     """The entry's figures as SVG into ``into``: the same bytes again where this code drew them
-    from the same folder before (figures_key), else drawn (``drawing(e)`` told first) and kept.
-    An entry that cannot be read, or a cache that cannot be written, only means drawing them."""
+    from the same folder before (figures_key), else drawn and kept; ``drawing(e, kept)`` is told
+    which, first. An entry that cannot be read, or a cache that cannot be written, only means
+    drawing them."""
     import pickle
     import zlib
 
@@ -335,6 +336,8 @@ def _kept_figures(e: rp.Entry, into: Path, drawing=None) -> list[Path]:
                 into.mkdir(parents=True, exist_ok=True)
                 for name, data in kept.items():
                     (into / name).write_bytes(data)
+                if drawing:
+                    drawing(e, kept=True)
                 return [into / name for name in kept]
         except Exception:           # cut short, another format: draw again
             pass
@@ -437,10 +440,11 @@ def build(configs: Path, results: Path, out_dir: Path, figures: bool = True,
     entries = list(entries) if entries is not None else rp.collect(configs, results)
     count = [0, sum(e.status == "ok" for e in entries)]
 
-    def drawing(e):
+    def drawing(e, kept: bool = False):
         count[0] += 1
         if status:
-            status(f"drawing the figures of {e.name} ({count[0]} of {count[1]})")
+            status(f"the figures of {e.name} ({count[0]} of {count[1]}): as drawn before" if kept
+                   else f"drawing the figures of {e.name} ({count[0]} of {count[1]})")
     papers = rp.reported_papers(entries, configs)
     by_name = {e.name: e for e in entries}
     # the experiments that name no paper get a page of their own, as REPORT.md's last section

@@ -35,7 +35,7 @@ LAYERS = {
                 "pfbench.report_data",
                 "pfbench.report_html", "pfbench.report"),
     "tooling": ("pfbench.benchmarks",),
-    "entry": ("pfbench.cli", "pfbench"),
+    "entry": ("pfbench.cli", "pfbench", "pfbench.__main__"),
 }
 
 # Modules whose own imports are not checked yet (they are still imported-from like any other):
@@ -54,7 +54,7 @@ NEVER = (
     ("pfbench.scenarios.*", "pfbench.filters.*", "worlds never import a filter"),
     ("pfbench.models", "pfbench.filters.*", "models never import a filter"),
     ("pfbench.models", "pfbench.scenarios.*", "models never import a world"),
-    ("*", "pfbench.cli", "nothing imports the command line"),
+    ("*", "pfbench.cli", "nothing imports the command line but the console script"),
     ("*", "pfbench", "nothing below the command line imports the package's own namespace, whose "
      "API it imports (pfbench.version holds the version and the cache folder)"),
 )
@@ -66,10 +66,11 @@ LIGHT = ("pfbench.errors", "pfbench.version", "pfbench._cache", "pfbench.fsutil"
          "pfbench.workers")
 # The command line defers even those: ``import pfbench.cli`` loads nothing a command does not
 # need (the startup of every command).
-DEFER_ALL = {"pfbench.cli"}
+DEFER_ALL = {"pfbench.cli", "pfbench.__main__"}
 
-# What the command line may do that no other module may: read the package's namespace.
-ALLOWED = {("pfbench.cli", "pfbench")}
+# What the command line may do that no other module may: read the package's namespace; and the
+# console script (pfbench.__main__, which starts a run's worker first) imports the command line.
+ALLOWED = {("pfbench.cli", "pfbench"), ("pfbench.__main__", "pfbench.cli")}
 
 
 def _modules() -> dict[str, tuple[Path, bool]]:

@@ -110,3 +110,14 @@ def test_the_same_configs_read_through_another_path_draw_nothing(setup):
     report_html.write(configs.resolve(), results)
     report_html.write(Path("configs"), Path("results"))
     assert drawn == ["plain"]
+
+
+def test_the_status_says_which_figures_are_drawn_and_which_kept(setup, tmp_path):
+    configs, results, drawn, _ = setup
+    said = []
+    report_html.build(configs, results, tmp_path / "a", status=said.append)
+    report_html.build(configs, results, tmp_path / "b", status=said.append)
+    assert [s for s in said if "figures" in s] == [
+        "drawing the figures of plain (1 of 1)",
+        "the figures of plain (1 of 1): as drawn before"]
+    assert drawn == ["plain"]
