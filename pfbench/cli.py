@@ -45,7 +45,9 @@ class _OneLineErrors(TyperGroup):
                 param = getattr(exc, "param", None)
                 if param is not None and getattr(param, "opts", None) and param.opts[0] not in msg:
                     msg = f"{param.opts[0]}: {msg}"
-                sub = ctx.command_path.split(" ", 1)[1:] if ctx is not None else []
+                # the command's words after the program's name ('pfbench', or 'python -m pfbench')
+                root = ctx.find_root().command_path if ctx is not None else ""
+                sub = ctx.command_path[len(root):].split() if ctx is not None else []
                 hint = f" (see 'pfbench {' '.join(sub + ['--help'])}')" if ctx is not None else ""
                 msg = msg.replace("greater than or equal to ", ">= ")
                 print(f"pfbench: error: {msg}{hint}", file=sys.stderr)

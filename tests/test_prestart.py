@@ -73,6 +73,10 @@ def test_the_console_script_starts_it_before_the_command_line_is_imported(tmp_pa
                              text=True, cwd=tmp_path, timeout=600)
     assert version.returncode == 0 and version.stdout.split()[-1] == pfbench.__version__, \
         version
+    bad = subprocess.run([sys.executable, "-m", "pfbench", "run"], capture_output=True,
+                         text=True, cwd=tmp_path, timeout=600)
+    assert bad.returncode == 2 and bad.stderr == (
+        "pfbench: error: Missing argument 'config'. (see 'pfbench run --help')\n"), bad.stderr
 
 
 def test_a_run_takes_the_early_worker_and_gets_the_same_trials(tmp_path, write_config):
