@@ -44,6 +44,43 @@ def write_experiment(exp, res, folder: Path, figures: bool = True,
     return cmp, paths
 
 
+def _drawn_key(curves: tuple, paths: list[Path]) -> str:
+    """A SHA-256 of the package's code, a sweep's paper ``curves`` and the names and bytes of
+    the figures at ``paths``."""
+    import hashlib
+
+    from .tablecache import code_digest
+    h = hashlib.sha256(f"{code_digest()}|{curves!r}".encode())
+    for p in sorted(paths, key=lambda p: p.name):
+        h.update(f"|{p.name}|".encode())
+        h.update(hashlib.sha256(p.read_bytes()).digest())
+    return h.hexdigest()
+
+
+def _drawn_with(curves: tuple, paths: list[Path]) -> bool:
+    """Whether this code drew the figures at ``paths``, as they are now, with the paper's
+    ``curves`` on them (_note_drawn noted it in the table cache's folder, pfbench.tablecache).
+    No cache, or a figure that cannot be read: False (they are drawn again)."""
+    from .tablecache import folder
+    where = folder()
+    try:
+        return where is not None and (where / f"{_drawn_key(curves, paths)}.curves").is_file()
+    except OSError:
+        return False
+
+
+def _note_drawn(curves: tuple, paths: list[Path]) -> None:
+    """Note that the figures at ``paths`` show ``curves`` (see _drawn_with). Never an error."""
+    from .tablecache import folder, store
+    where = folder()
+    if where is None or not paths:
+        return
+    try:
+        store(where, where / f"{_drawn_key(curves, paths)}.curves", b"", "*.curves")
+    except Exception:
+        pass
+
+
 def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: str,
                 figures: bool = True, figure_format: str = "png", exp=None,
                 missing_only: bool = False, curves: tuple = ()) -> tuple:
@@ -52,7 +89,8 @@ def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: st
     verdicts against them (curves.csv, curves.md) and their points on the figures. Returns
     (summary, figure paths); the summary's ``attrs["curves"]`` holds the curves' verdicts (a
     frame, pfbench.curves.judge). ``missing_only`` (an up-to-date sweep): the figures are drawn
-    only when one is missing, as an up-to-date run's."""
+    only when one is missing, as an up-to-date run's, or, with ``curves``, when they are not
+    known to show these curves (_drawn_with: the paper's points may have changed since)."""
     if figures:
         check_figure_format(figure_format)
         own_folder(Path(folder) / "figures", folder, "figures folder")
@@ -69,16 +107,19 @@ def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: st
         return summ, []
     from .kinds import kind_of
     from .plots import sweep_figures, sweep_metrics
-    if missing_only and not curves:
+    if missing_only:
         which = sweep_metrics(exp) if exp else ["rmse"]
         want = [folder / "figures" / f"{m}.{figure_format}" for m in which
                 if f"{m}_mean" in summ and not summ[f"{m}_mean"].isna().all()]
-        if want and all(p.is_file() for p in want):
+        if want and all(p.is_file() for p in want) and (not curves
+                                                       or _drawn_with(curves, want)):
             summ.attrs["curves"] = judged
             return summ, want
     paths = sweep_figures(summ, keys, folder, name, sweep_metrics(exp) if exp else None,
                           fmt=figure_format, unit=kind_of(exp.scenario).unit if exp else "",
                           curves=curves)
+    if curves:
+        _note_drawn(curves, paths)
     prune(folder / "figures", paths)
     if "wall_s" in trials_df and trials_df["wall_s"].notna().any():
         # the run times: beside the timings file, never in figures/ (they depend on the machine)

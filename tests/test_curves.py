@@ -221,3 +221,28 @@ def test_only_the_filters_a_curve_names_are_judged():
     got = cv.judge((("c", _curve(POINTS, filters=("PF",))),), pd.concat([t, other]),
                    ["scenario.speed_mps"])
     assert set(got["label"]) == {"PF"} and len(got) == 3
+
+
+def test_an_up_to_date_sweep_draws_its_figures_again_only_for_other_curves(tmp_path, monkeypatch):
+    """A sweep whose trials are all there draws its figures only when they are not known to
+    show its paper's curves as they are now: not again for the same curves, again after the
+    paper's points changed, and again when they change back (the figures on disk then show the
+    other ones)."""
+    from pfbench import plots, tablecache
+    monkeypatch.setattr(tablecache, "folder", lambda: tmp_path / "cache")
+    drawn = []
+    original = plots.sweep_figures
+
+    def sweep_figures(*args, **kw):
+        # the figures (not the run times', drawn beside the timings file: ``where`` given)
+        if kw.get("where", args[5] if len(args) > 5 else None) is None:
+            drawn.append(tuple(kw.get("curves", ())))
+        return original(*args, **kw)
+    monkeypatch.setattr(plots, "sweep_figures", sweep_figures)
+    moved = CURVE.replace("[[10, 2.0], [30, 1.5]]", "[[10, 2.0], [30, 1.8]]")
+    for paper, draws in ((CURVE, 1), (CURVE, 1), (moved, 2), (moved, 2), (CURVE, 3)):
+        res, out = _sweep(tmp_path, paper=paper)
+        assert res.exit_code == 0, res.output
+        assert len(drawn) == draws, (paper, drawn)
+        assert (out / "figures" / "rmse.png").is_file()
+    assert drawn[1] != drawn[0] and drawn[2] == drawn[0]
