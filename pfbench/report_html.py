@@ -294,13 +294,13 @@ def figures_key(e: rp.Entry) -> str:
     import hashlib
     from dataclasses import replace
 
-    from .tablecache import _version, code_digest
+    from .tablecache import code_digest, library_version
 
     def exp_text(exp) -> str:
         return f"{replace(exp, source='')!r}|{exp.reported!r}"
     cells = [(c.name, c.values, exp_text(c.exp), c.curves) for c in e.cells or ()]
     h = hashlib.sha256(code_digest().encode())
-    h.update(f"|matplotlib={_version('matplotlib')}|{e.name}|{exp_text(e.exp)}"
+    h.update(f"|matplotlib={library_version('matplotlib')}|{e.name}|{exp_text(e.exp)}"
              f"|{e.sweep_keys!r}|{cells!r}".encode())
     folder = Path(e.folder)
     for path in sorted(folder.rglob("*")):

@@ -30,7 +30,10 @@ KEEP = 256
 _CODE: str | None = None
 
 
-def _version(package: str) -> str:
+def library_version(package: str) -> str:
+    """The installed version of ``package``, read from its metadata without importing it ('-'
+    when it is not installed): the cache keys of this module, pfbench.replay and the report's
+    figures (pfbench.report_html) name the libraries they depend on so."""
     from importlib import metadata
     try:
         return metadata.version(package)
@@ -47,7 +50,7 @@ def code_digest() -> str:
         h = sources_hash()
         h.update(sys.version.encode())
         for package in ("numpy", "scipy", "pandas", "pyarrow"):
-            h.update(f"|{package}={_version(package)}".encode())
+            h.update(f"|{package}={library_version(package)}".encode())
         _CODE = h.hexdigest()
     return _CODE
 

@@ -60,8 +60,8 @@ def test_what_the_figures_are_drawn_from_draws_them_again(setup, monkeypatch, ch
     if change == "a file of the folder":
         (results / "plain" / "notes.txt").write_text("a note")
     elif change == "matplotlib's version":
-        original = tablecache._version
-        monkeypatch.setattr(tablecache, "_version",
+        original = tablecache.library_version
+        monkeypatch.setattr(tablecache, "library_version",
                             lambda p: "0.0" if p == "matplotlib" else original(p))
     else:
         monkeypatch.setattr(tablecache, "code_digest", lambda: "another")
