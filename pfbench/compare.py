@@ -110,6 +110,8 @@ class Comparison:
     # per column n_Q of a quantity measured in run time: each row's trials it is taken over (the
     # trials paired with a baseline run), which the trials file alone determines
     untimed_n: dict = field(default_factory=dict)
+    # what pfbench run prints of it (pfbench.tables.console_parts), once computed
+    _console: dict | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def reported(self) -> Table | None:
@@ -242,33 +244,127 @@ def _ratio_of_means(a, b, axis=-1):
     return np.mean(b, axis=axis) / np.mean(a, axis=axis)
 
 
-def estimate(q: Quantity, g: pd.DataFrame, base: pd.DataFrame | None, seed: int = 0,
-             key: str = "") -> Estimate:
-    """Our estimate of quantity q for one filter run (g: its trials; base: its baseline run's
-    trials, or None): the value, its standard error, the trials, and its intervals
-    (interval_method; a bootstrap is seeded by ``seed`` and ``key``)."""
+class _Columns:
+    """A trials frame's columns as numpy arrays, each converted the first time it is read (a
+    numeric column of a nullable dtype as floats, NaN for its missing values)."""
+
+    def __init__(self, frame: pd.DataFrame):
+        self._frame = frame
+        self._got: dict = {}
+
+    def __contains__(self, column) -> bool:
+        return column in self._frame
+
+    def __len__(self) -> int:
+        return len(self._frame)
+
+    def __getitem__(self, column) -> np.ndarray:
+        v = self._got.get(column)
+        if v is None:
+            col = self._frame[column]
+            if isinstance(col.dtype, pd.api.extensions.ExtensionDtype) \
+                    and pd.api.types.is_numeric_dtype(col.dtype):
+                v = col.to_numpy(dtype=float, na_value=math.nan)
+            else:
+                v = col.to_numpy()
+            self._got[column] = v
+        return v
+
+
+class RunTrials:
+    """One filter run's trials, each column a numpy array in the order of the run's rows: what
+    a comparison reads of them per cell, in microseconds where a pandas selection, index and
+    reindex took a millisecond (the same values, so the same bits).
+
+    ``columns``: the trials frame's (_Columns); ``rows``: the positions of the run's rows in it
+    (None: every row)."""
+
+    def __init__(self, columns: _Columns, rows: np.ndarray | None = None):
+        self._columns = columns
+        self._rows = rows
+        self._got: dict = {}
+
+    @classmethod
+    def of(cls, trials) -> "RunTrials":
+        """``trials`` (a run's trials frame, or already a RunTrials) as a RunTrials."""
+        return trials if isinstance(trials, RunTrials) else cls(_Columns(trials))
+
+    def __contains__(self, column) -> bool:
+        return column in self._columns
+
+    def __len__(self) -> int:
+        return len(self._columns) if self._rows is None else len(self._rows)
+
+    def __getitem__(self, column) -> np.ndarray:
+        v = self._got.get(column)
+        if v is None:
+            v = self._columns[column]
+            if self._rows is not None:
+                v = v[self._rows]
+            self._got[column] = v
+        return v
+
+    def at_trials_of(self, other: "RunTrials", column) -> np.ndarray:
+        """This run's ``column`` at each of ``other``'s trials, in other's order, as floats: NaN
+        where this run has no such trial (pandas' reindex by trial)."""
+        mine, wanted = self["trial"], other["trial"]
+        values = np.asarray(self[column], dtype=float)
+        out = np.full(len(wanted), math.nan)
+        if len(mine) == 0 or len(wanted) == 0:
+            return out
+        order = np.argsort(mine, kind="stable")
+        at = np.minimum(np.searchsorted(mine[order], wanted), len(mine) - 1)
+        found = mine[order][at] == wanted
+        out[found] = values[order[at[found]]]
+        return out
+
+
+def _skipna_sum(v):
+    """The sum of ``v`` without its NaN, as pandas' Series.sum adds (NaN as 0: the same bits)."""
+    v = np.asarray(v)
+    if v.dtype.kind == "f":
+        nan = np.isnan(v)
+        if nan.any():
+            v = np.where(nan, 0.0, v)
+    return v.sum()
+
+
+def _skipna_mean(v) -> float:
+    """The mean of ``v`` without its NaN, as pandas' Series.mean computes it (the sum with NaN
+    as 0, over the count of the others: the same bits); NaN when every value is."""
+    v = np.asarray(v, dtype=float)
+    count = v.size - int(np.isnan(v).sum())
+    return float(_skipna_sum(v) / np.float64(count)) if count > 0 else math.nan
+
+
+def estimate(q: Quantity, g, base, seed: int = 0, key: str = "") -> Estimate:
+    """Our estimate of quantity q for one filter run (g: its trials, a frame or a RunTrials;
+    base: its baseline run's trials, or None): the value, its standard error, the trials, and
+    its intervals (interval_method; a bootstrap is seeded by ``seed`` and ``key``)."""
     nan = Estimate(math.nan, math.nan, 0)
     method = interval_method(q)
+    g = RunTrials.of(g)
     if q.metric in ("gain_mean", "gain_var"):
         if base is None:
             return nan
-        a = g.set_index("trial")["rmse"]
-        b = base.set_index("trial")["rmse"].reindex(a.index)
+        a = g["rmse"]
+        b = RunTrials.of(base).at_trials_of(g, "rmse")
         if q.metric == "gain_mean":         # 100 (1 - mean_a / mean_b), paired by trial
-            d = summarize(a.values - b.values)
-            value = -100 * _ratio(d["mean"], b.mean())
-            return _bootstrap((a.values, b.values), _gain_mean, value, seed, key)
-        sa, sb = summarize(a.values), summarize(b.values)    # 100 (1 - var_a / var_b)
+            d = summarize(a - b)
+            value = -100 * _ratio(d["mean"], _skipna_mean(b))
+            return _bootstrap((a, b), _gain_mean, value, seed, key)
+        sa, sb = summarize(a), summarize(b)    # 100 (1 - var_a / var_b)
         value = 100 * (1 - _ratio(sa["var"], sb["var"]))
-        return _bootstrap((a.values, b.values), _gain_var, value, seed, key)
+        return _bootstrap((a, b), _gain_var, value, seed, key)
     values = _metric_values(q.metric, g, base) * q.scale
     s = summarize(values)
     if q.stat == "var":
-        return _bootstrap((values.to_numpy(float),), _var, s["var"], seed, key)
+        return _bootstrap((values,), _var, s["var"], seed, key)
     if method == "bca":
-        return _bootstrap((values.to_numpy(float),), _mean, s["mean"], seed, key)
+        return _bootstrap((values,), _mean, s["mean"], seed, key)
     if method == "wilson" and s["n"] > 0:
-        k = int(round(float(g[q.metric].dropna().sum())))
+        hits = g[q.metric]
+        k = int(round(float(hits[~pd.isna(hits)].sum())))
         n, scale = s["n"], q.scale
 
         def wilson(level: float) -> tuple[float, float]:
@@ -279,28 +375,29 @@ def estimate(q: Quantity, g: pd.DataFrame, base: pd.DataFrame | None, seed: int 
     return Estimate(s["mean"], s["se"], s["n"])
 
 
-def _metric_values(metric: str, g: pd.DataFrame, base: pd.DataFrame | None):
-    """Per-trial values of ``metric`` for one filter run (g); 'time_ratio' is the wall time over the
-    baseline run's on the same trial, 'evals_ratio' the likelihood evaluations per step over the
-    baseline's (NaN without a baseline)."""
+def _metric_values(metric: str, g, base) -> np.ndarray:
+    """Per-trial values of ``metric`` for one filter run (g, and its baseline run's trials base:
+    frames or RunTrials); 'time_ratio' is the wall time over the baseline run's on the same
+    trial, 'evals_ratio' the likelihood evaluations per step over the baseline's (NaN without a
+    baseline)."""
+    g = RunTrials.of(g)
     ratio_of = {"time_ratio": "wall_s", "evals_ratio": "lik_evals_per_step"}.get(metric)
     if ratio_of is None:
         return g[metric]
     if base is None or ratio_of not in g or ratio_of not in base:
-        return pd.Series([math.nan] * len(g))
-    a = g.set_index("trial")[ratio_of]
-    return a / base.set_index("trial")[ratio_of].reindex(a.index)
+        return np.full(len(g), math.nan)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return g[ratio_of] / RunTrials.of(base).at_trials_of(g, ratio_of)
 
 
-def _pair_estimate(q: Quantity, a: pd.DataFrame | None, b: pd.DataFrame | None
-                   ) -> Estimate | None:
-    """The mean paired per-trial difference of q's metric between two rows' trials (a - b), or
-    None (a variance, a gain or a ratio has no per-trial values)."""
+def _pair_estimate(q: Quantity, a, b) -> Estimate | None:
+    """The mean paired per-trial difference of q's metric between two rows' trials (a - b,
+    frames or RunTrials), or None (a variance, a gain or a ratio has no per-trial values)."""
     if a is None or b is None or q.stat != "mean" or q.metric not in a:
         return None
-    xs = a.set_index("trial")[q.metric]
-    ys = b.set_index("trial")[q.metric].reindex(xs.index)
-    x, y = (xs * q.scale).to_numpy(float), (ys * q.scale).to_numpy(float)
+    a, b = RunTrials.of(a), RunTrials.of(b)
+    x = np.asarray(a[q.metric] * q.scale, dtype=float)
+    y = b.at_trials_of(a, q.metric) * q.scale
     ok = ~(np.isnan(x) | np.isnan(y))
     s = summarize(x[ok] - y[ok])
     return Estimate(s["mean"], s["se"], s["n"])
@@ -318,19 +415,23 @@ def rankings(exp: Experiment, tab: pd.DataFrame, by_key: dict | None = None,
         return []
     keys = table.ranking
     found = []
+    rows = list(zip(tab["label"].tolist(), tab["particles"].tolist()))
+    filters = tab["filter"].tolist() if "filter" in tab else None
     counts = sorted({n for (_, n) in table.values}, key=lambda v: (v is None, v or 0))
     for q in (q for key in keys for q in table.quantities if q.key == key):
         for n in counts:
             labels = [lab for (lab, m) in table.values
                       if m == n and q.key in table.values[(lab, m)]]
             ours, runs = {}, {}
+            values = tab[f"ours_{q.key}"].tolist()
             for lab in labels:
                 # a paper that gives no particle count (n None) is matched by label alone
-                r = tab[(tab["label"] == lab) & ((tab["particles"] == n) if n is not None else True)]
-                if len(r):
-                    ours[lab] = float(r.iloc[0][f"ours_{q.key}"])
-                    if by_key is not None and "filter" in r:
-                        runs[lab] = by_key.get(r.iloc[0]["filter"])
+                i = next((i for i, (tl, tn) in enumerate(rows)
+                          if tl == lab and (n is None or tn == n)), None)
+                if i is not None:
+                    ours[lab] = float(values[i])
+                    if by_key is not None and filters is not None:
+                        runs[lab] = by_key.get(filters[i])
             if len(ours) < 2:
                 continue
             paper_value = {lab: table.values[(lab, n)][q.key] for lab in ours}
@@ -385,7 +486,10 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame,
     if "wall_s" in df:          # the run times, where the trials came with them (NaN elsewhere)
         df = df.assign(wall_s=pd.to_numeric(df["wall_s"], errors="coerce"))
     table: Table | None = exp.reported
-    by_key = {f.key: df[df["filter"] == f.key] for f in exp.filters}
+    columns = _Columns(df)
+    run_of_row = columns["filter"]
+    by_key = {f.key: RunTrials(columns, np.flatnonzero(run_of_row == f.key))
+              for f in exp.filters}
     floor = None
     if exp.compare["floor"] is not None:
         floor = summarize(by_key[exp.compare["floor"]]["rmse"])["ci_lo"]
@@ -416,7 +520,7 @@ def compare(exp: Experiment, rows: list[dict] | pd.DataFrame,
                       rankings(exp, tab, by_key, anytime), anytime, untimed)
 
 
-def _summary_row(run, g: pd.DataFrame, by_key: dict, pairs: dict, steps=None) -> dict:
+def _summary_row(run, g: RunTrials, by_key: dict, pairs: dict, steps=None) -> dict:
     """A filter run's row of the comparison before the paper's cells: its metrics' means with
     their Monte Carlo standard errors and intervals, counters, time a trial, the paired
     difference to its baseline run, and (where the trials have them) the NEES and NIS with their
@@ -432,19 +536,18 @@ def _summary_row(run, g: pd.DataFrame, by_key: dict, pairs: dict, steps=None) ->
     for metric in CONSISTENCY_METRICS:      # only where the trials file has the column
         if metric in g:
             r.update(consistency(g[metric], steps, metric))
-    r["underflow_steps"] = float(g["underflow_steps"].sum())
-    dv = g["diverged_steps"] if "diverged_steps" in g else pd.Series(dtype=float)
-    r["diverged_steps"] = float(dv.sum())
+    r["underflow_steps"] = float(_skipna_sum(g["underflow_steps"]))
+    dv = g["diverged_steps"] if "diverged_steps" in g else np.empty(0)
+    r["diverged_steps"] = float(_skipna_sum(dv))
     r["diverged_trials"] = float((dv > 0).sum())
-    wall = g["wall_s"] if "wall_s" in g else pd.Series(dtype=float)
-    timed = wall.notna().any()
-    r["wall_ms_per_trial"] = 1e3 * float(wall.mean()) if timed else math.nan
+    wall = np.asarray(g["wall_s"], dtype=float) if "wall_s" in g else np.empty(0)
+    timed = bool((~np.isnan(wall)).any())
+    r["wall_ms_per_trial"] = 1e3 * _skipna_mean(wall) if timed else math.nan
     r["wall_ms_per_trial_se"] = 1e3 * summarize(wall)["se"] if timed else math.nan
     r["baseline"] = pairs.get(run.key)
     if run.key in pairs:
-        a = g.set_index("trial")["rmse"]
-        b = by_key[pairs[run.key]].set_index("trial")["rmse"].reindex(a.index)
-        r.update({f"rmse_{k}": v for k, v in paired(a.values, b.values).items()})
+        b = by_key[pairs[run.key]].at_trials_of(g, "rmse")
+        r.update({f"rmse_{k}": v for k, v in paired(g["rmse"], b).items()})
     else:
         r.update(rmse_diff_mean=math.nan, rmse_diff_se=math.nan, rmse_diff_ci_lo=math.nan,
                  rmse_diff_ci_hi=math.nan, rmse_win_rate=math.nan)
@@ -486,8 +589,8 @@ def steps_of(exp: Experiment):
         else None
 
 
-def _paper_cell(exp: Experiment, table: Table, run, q: Quantity, r: dict, g: pd.DataFrame,
-                base: pd.DataFrame | None, floor, anytime: int | None,
+def _paper_cell(exp: Experiment, table: Table, run, q: Quantity, r: dict, g: RunTrials,
+                base: RunTrials | None, floor, anytime: int | None,
                 untimed: dict) -> tuple:
     """The cell of quantity q in run's row r: our value, its interval and the paper's (into r);
     returns the estimate judged and the claim to judge it by."""
@@ -501,7 +604,7 @@ def _paper_cell(exp: Experiment, table: Table, run, q: Quantity, r: dict, g: pd.
     r[f"n_{q.key}"] = est.n         # the trials it averages (a conditional metric:
                                     # those where it is defined)
     if q.metric in MACHINE_METRICS:
-        paired_n = 0 if base is None else int(g["trial"].isin(base["trial"]).sum())
+        paired_n = 0 if base is None else int(np.isin(g["trial"], base["trial"]).sum())
         untimed.setdefault(f"n_{q.key}", []).append(paired_n)
     r[f"method_{q.key}"] = est.method
     if isinstance(paper, tuple):      # a range: shown as such, ratio to its middle
@@ -558,10 +661,11 @@ def factor_claims(exp: Experiment, table: Table, by_key: dict,
             continue
         pa = table.values.get((a_label, a_run.particles), {}).get(key)
         pb = table.values.get((b_label, b_run.particles), {}).get(key)
-        a = by_key[a_run.key].set_index("trial")[q.metric]
-        b = by_key[b_run.key].set_index("trial")[q.metric].reindex(a.index)
-        ok = a.notna() & b.notna()
-        a, b = a[ok].to_numpy(float), b[ok].to_numpy(float)
+        a_trials = RunTrials.of(by_key[a_run.key])
+        a = np.asarray(a_trials[q.metric], dtype=float)
+        b = RunTrials.of(by_key[b_run.key]).at_trials_of(a_trials, q.metric)
+        ok = ~(np.isnan(a) | np.isnan(b))
+        a, b = a[ok], b[ok]
         if a.size < 2 or a.mean() == 0:
             continue
         est = _bootstrap((a, b), _ratio_of_means, b.mean() / a.mean(), exp.seed,
@@ -587,9 +691,10 @@ def per_trial(exp: Experiment, table: Table, by_key: dict) -> PerTrial | None:
                                 float(np.mean(vals))))
         if run is None:
             continue
-        g = by_key[run.key].sort_values("trial")
+        g = RunTrials.of(by_key[run.key])
+        order = np.argsort(g["trial"], kind="stable")
         for metric in (spec.metric, *spec.also):
-            v = g[metric].to_numpy(float)
+            v = np.asarray(g[metric], dtype=float)[order]
             s = summarize(v)
             what = f"ours: {label}" + ("" if metric == spec.metric else f", {metric}")
             rows.append(PerTrialRow(what, v[:spec.runs], s["mean"], s["ci_lo"], s["ci_hi"]))

@@ -530,15 +530,20 @@ def console_parts(cmp: Comparison) -> dict:
     """Everything ``pfbench run`` prints of a comparison, as strings (JSON-able): ``title`` and
     ``trials`` (its first line), ``headline`` (headline_tables), ``wide`` (console_tables),
     ``footnotes`` and ``counts`` (verdict_counts). The console prints these, and an up-to-date
-    run prints them again from pfbench.replay without computing the comparison."""
+    run prints them again from pfbench.replay without computing the comparison. Computed once
+    per comparison (a run records them, then prints them)."""
+    if getattr(cmp, "_console", None) is not None:
+        return cmp._console
     trials = int(cmp.table["trials"].max()) if len(cmp.table) else 0
 
     def plain(tables):
         return [[str(name), [str(h) for h in head], [[str(c) for c in row] for row in cells]]
                 for name, head, cells in tables]
-    return {"title": table_title(cmp.exp), "trials": trials,
-            "headline": plain(headline_tables(cmp)), "wide": plain(console_tables(cmp)),
-            "footnotes": [str(n) for n in footnotes(cmp)], "counts": verdict_counts(cmp)}
+    cmp._console = {"title": table_title(cmp.exp), "trials": trials,
+                    "headline": plain(headline_tables(cmp)), "wide": plain(console_tables(cmp)),
+                    "footnotes": [str(n) for n in footnotes(cmp)],
+                    "counts": verdict_counts(cmp)}
+    return cmp._console
 
 
 def verdict_counts(cmp: Comparison) -> str:

@@ -1,7 +1,11 @@
 """Computing a comparison: per-trial ratios and the factors' intervals (pfbench.compare; the
 verdicts themselves: test_verdicts)."""
+import math
+
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from .conftest import ROOT
 from .test_tables import _afsa_cfg, _afsa_rows
@@ -14,7 +18,7 @@ def test_time_ratio_is_per_trial_against_the_baseline():
     g = pd.DataFrame({"trial": [0, 1, 2], "wall_s": [2.0, 3.0, 4.0]})
     base = pd.DataFrame({"trial": [2, 0, 1], "wall_s": [2.0, 1.0, 1.0]})
     assert list(_metric_values("time_ratio", g, base)) == [2.0, 3.0, 2.0]
-    assert list(_metric_values("time_ratio", g, None).isna()) == [True] * 3
+    assert list(np.isnan(_metric_values("time_ratio", g, None))) == [True] * 3
 
 
 @pytest.mark.slow
@@ -185,3 +189,57 @@ def test_every_mean_in_the_table_carries_its_standard_error_beside_it(write_conf
     cmp = compare(exp, df)
     assert cmp.table["wall_ms_per_trial_se"].notna().all()
     assert cmp.without_timings().table["wall_ms_per_trial_se"].isna().all()
+
+
+# ---- the per-run view a comparison reads (compare.RunTrials): pandas' own results, bit for bit
+
+_finite = st.floats(-1e6, 1e6, allow_nan=False, allow_infinity=False)
+
+
+@settings(max_examples=200, deadline=None)
+@given(mine=st.dictionaries(st.integers(0, 40), st.one_of(_finite, st.just(math.nan)),
+                            max_size=25),
+       wanted=st.lists(st.integers(0, 45), unique=True, max_size=25))
+def test_a_run_read_at_another_runs_trials_is_pandas_reindex(mine, wanted):
+    """A baseline run's values at a run's trials (NaN where it lacks one) equal pandas'
+    set_index('trial').reindex, whatever the order and overlap of the two runs' trials."""
+    import pandas as pd
+
+    from pfbench.compare import RunTrials
+    base = pd.DataFrame({"trial": list(mine), "rmse": [mine[k] for k in mine]})
+    run = pd.DataFrame({"trial": wanted, "rmse": [0.0] * len(wanted)})
+    got = RunTrials.of(base).at_trials_of(RunTrials.of(run), "rmse")
+    want = base.set_index("trial")["rmse"].reindex(pd.Index(wanted)).to_numpy(float)
+    assert got.dtype == np.float64 and got.shape == want.shape
+    assert np.array_equal(got, want, equal_nan=True)
+
+
+@settings(max_examples=200, deadline=None)
+@given(values=st.lists(st.one_of(_finite, st.just(math.nan)), max_size=300))
+def test_sums_and_means_without_nan_are_pandas_bit_for_bit(values):
+    """The sum and mean a run's row takes over its trials, NaN left out, are pandas' Series.sum
+    and Series.mean to the last bit (numpy's pairwise sum over as many values in the same
+    order)."""
+    import pandas as pd
+
+    from pfbench.compare import _skipna_mean, _skipna_sum
+    s = pd.Series(values, dtype=float)
+    assert float(_skipna_sum(s.to_numpy())) == float(s.sum())
+    mean = _skipna_mean(s.to_numpy())
+    assert (math.isnan(mean) and math.isnan(s.mean())) or mean == float(s.mean())
+
+
+def test_the_comparison_reads_a_run_by_its_own_rows_in_a_frame_of_many():
+    """Rows of many runs interleaved by trial, with a baseline missing a trial: each run's
+    statistics are its own rows' (the paired difference where both have the trial)."""
+    import pandas as pd
+
+    from pfbench.compare import RunTrials, _Columns
+    df = pd.DataFrame({"trial": [0, 0, 1, 1, 2], "filter": ["a", "b", "a", "b", "a"],
+                       "rmse": [1.0, 10.0, 2.0, 20.0, 3.0]})
+    cols = _Columns(df)
+    a = RunTrials(cols, np.flatnonzero(cols["filter"] == "a"))
+    b = RunTrials(cols, np.flatnonzero(cols["filter"] == "b"))
+    assert len(a) == 3 and list(a["rmse"]) == [1.0, 2.0, 3.0]
+    assert np.array_equal(b.at_trials_of(a, "rmse"), [10.0, 20.0, math.nan], equal_nan=True)
+    assert list(a.at_trials_of(b, "rmse")) == [1.0, 2.0]
