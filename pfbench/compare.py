@@ -161,6 +161,14 @@ RATE_METRICS = ("converged",)
 SKEWED_METRICS = ("recovery_failures", "recovery_steps", "converge_step")
 # quantities that depend on the machine that ran them: shown, never judged
 MACHINE_METRICS = ("time_ratio",)
+# the figures of those (pfbench.plots: a family 'time_...'), drawn only where a timings file gives
+# the run times: never part of the committed results, nor of a report made of them
+MACHINE_FIGURE_PREFIX = "time_"
+
+
+def machine_figure(name: str) -> bool:
+    """Whether the figure file ``name`` shows what the machine measured (MACHINE_FIGURE_PREFIX)."""
+    return name.startswith(MACHINE_FIGURE_PREFIX)
 BOOTSTRAP_RESAMPLES = 9999
 
 

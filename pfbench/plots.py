@@ -27,7 +27,7 @@ from . import figstyle as fs
 from .config import Experiment
 from .errors import UserError
 from .kinds import kind_of
-from .compare import MACHINE_METRICS
+from .compare import MACHINE_FIGURE_PREFIX, MACHINE_METRICS
 from .store import Traces, read_traces
 from .tables import judged_title
 from .traces import (SNAPSHOT_PARTICLES, error_runs, path_runs, runs_in, slam_error_curves,
@@ -407,7 +407,7 @@ def _families(exp: Experiment) -> dict[str, list]:
         if q.judged_by is not None:
             out.setdefault(fam, []).append((q, "judged"))
             if q.metric in MACHINE_METRICS:
-                fam = f"time_{fam}"
+                fam = f"{MACHINE_FIGURE_PREFIX}{fam}"
         out.setdefault(fam, []).append((q, "ours"))
     return out
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import pandas as pd
 
 from . import tables as tb
-from .compare import Comparison, pair_counts
+from .compare import Comparison, machine_figure, pair_counts
 from .tablecache import cached_compare
 from .config import Experiment, load, read_yaml
 from .errors import UserError
@@ -382,8 +382,11 @@ def comparison(e: Entry) -> list[str]:
 
 
 def _figures(folder: Path, where: Path) -> list[str]:
+    """The Markdown lines of the figures in ``folder`` (links relative to ``where``), but those
+    of the machine's run times (compare.machine_figure): the report shows the committed results,
+    the same on every machine."""
     figs = sorted(p for p in (folder / "figures").glob("*.*")
-                  if p.suffix in (".png", ".svg"))
+                  if p.suffix in (".png", ".svg") and not machine_figure(p.name))
     return [f"![{f.stem}]({os.path.relpath(f, where).replace(os.sep, '/')})" for f in figs]
 
 

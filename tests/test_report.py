@@ -254,3 +254,28 @@ def test_every_paper_table_has_a_headline_that_fills_from_the_committed_results(
     # the localization rates and the Gamma benchmark are in the index's words
     text = "\n".join(report.index_md(lines))
     assert "SSPF localizes from a uniform start" in text and "source benchmark" in text
+
+
+def test_a_figure_of_the_machines_run_times_is_not_in_the_report(small_results, tmp_path):
+    """A run on this machine draws its run times beside the committed figures (time_ratios:
+    what the timings file measured, never committed); REPORT.md shows the committed results the
+    same on every machine: it links the other figures, not that one, and stays up to date."""
+    configs, results = small_results
+    out = tmp_path / "REPORT.md"
+    args = ["report", "--configs", str(configs), "--results", str(results), "--out", str(out)]
+    figures = results / "sspf_ungm" / "figures"
+    figures.mkdir(exist_ok=True)
+    try:
+        (figures / "rmse.png").write_bytes(b"\x89PNG")
+        assert runner.invoke(app, args).exit_code == 0
+        text = out.read_text()
+        assert "sspf_ungm/figures/rmse.png" in text
+        (figures / "time_ratios.png").write_bytes(b"\x89PNG")
+        r = runner.invoke(app, args + ["--check"])
+        assert r.exit_code == 0 and "up to date" in r.output, r.output
+        assert runner.invoke(app, args).exit_code == 0
+        assert out.read_text() == text and "time_ratios" not in text
+    finally:
+        for p in figures.iterdir():
+            p.unlink()
+        figures.rmdir()
