@@ -511,13 +511,14 @@ def _count(trials) -> int:
 def import_ahead(stats: bool = False) -> None:
     """Import, in a thread of this process, the modules the table of a run needs (scipy.special
     for its intervals, the comparison and the tables; with ``stats``, scipy.stats for the
-    ranking of its filters, pfbench.rank) while this process waits for the trials of its worker
-    processes: a short run's table then starts at once. Call it only after those workers are
+    ranking of its filters, pfbench.rank), and hash the package's sources for the table cache's
+    key, while this process waits for the trials of its worker processes: a short run's table
+    then starts at once. Call it only after those workers are
     forked, and ``settle`` before forking others (a fork while a thread imports could copy a
     held import lock into the child: tablecache.settle)."""
     import threading
 
-    from .tablecache import hold, settle
+    from .tablecache import code_digest, hold, settle
     wanted = ("scipy.special", "pfbench.compare", "pfbench.tables") + (
         ("scipy.stats",) if stats else ())
     if all(m in sys.modules for m in wanted):
@@ -530,6 +531,7 @@ def import_ahead(stats: bool = False) -> None:
             from . import compare, tables  # noqa: F401
             if stats:
                 import scipy.stats  # noqa: F401
+            code_digest()       # the table cache's key reads every source file (7 ms)
         except Exception:       # imported again where needed, and failing there if it must
             pass
     settle()
@@ -1174,16 +1176,54 @@ def _resumed_traces(exp: Experiment, out_dir: Path, done: dict[int, list[dict]])
 PROVENANCE = ("host", "platform", "cpus", "git_commit", "versions")
 
 
-def stamp_meta(exp: Experiment, out_dir: Path, trials_text: str | None = None) -> dict:
+def _machine() -> dict:
+    """Where trials run now: this machine's name, platform and cores, and the git commit of the
+    code (pfbench's checkout, '-dirty' with changes)."""
+    return {"host": socket.gethostname(), "platform": platform.platform(),
+            "cpus": os.cpu_count(), "git_commit": git_commit()}
+
+
+def provenance() -> dict:
+    """The provenance of trials that run now (PROVENANCE): _machine() and the versions."""
+    return {**_machine(), "versions": versions()}
+
+
+def provenance_ahead() -> Callable[[], dict]:
+    """Start ``_machine()`` in a thread of this process, to run beside the trials (git's two
+    commands take 5 to 10 ms that would otherwise follow the last trial); returns the function
+    that gives ``provenance()``, waiting for the thread (computing it then if the thread failed).
+    The thread imports nothing and is noted (tablecache.hold): a fork of this process waits for
+    it."""
+    import threading
+
+    from .tablecache import hold
+    got: dict = {}
+
+    def work():
+        try:
+            got["machine"] = _machine()
+        except Exception:       # computed again where needed, and failing there if it must
+            pass
+    thread = threading.Thread(target=work, name="pfbench-provenance", daemon=True)
+    thread.start()
+    hold(thread)
+
+    def result() -> dict:
+        thread.join()
+        return {**(got["machine"] if "machine" in got else _machine()), "versions": versions()}
+    return result
+
+
+def stamp_meta(exp: Experiment, out_dir: Path, trials_text: str | None = None,
+               where: dict | None = None) -> dict:
     """The meta.json of a folder that holds every trial of ``exp``: what the seed and the config
-    determine, and the provenance of its trials (kept from the folder's earlier meta.json when
-    ``trials_text`` is the trials file it already held)."""
+    determine, and the provenance of its trials (``where``, default provenance() now; kept from
+    the folder's earlier meta.json when ``trials_text`` is the trials file it already held)."""
+    where = provenance() if where is None else where
     meta = {
         "format": FORMAT_VERSION, "experiment": exp.name, "config": exp.source,
         "experiment_hash": exp.hash, "paper": exp.paper, "table": exp.table, "seed": exp.seed,
-        "trials": exp.trials, "host": socket.gethostname(), "platform": platform.platform(),
-        "cpus": os.cpu_count(), "git_commit": git_commit(), "versions": versions(),
-        "identity": exp.identity,
+        "trials": exp.trials, **{k: where[k] for k in PROVENANCE}, "identity": exp.identity,
     }
     if trials_text is not None:
         meta.update(_earlier_provenance(out_dir, trials_text.encode("utf-8"), exp.hash))
@@ -1259,6 +1299,7 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn, traces)
     if progress:
         progress(len(done), total)
     t0 = time.perf_counter()
+    where = provenance_ahead()
     with open(partial, "a", encoding="utf-8", newline="") as fh, \
             open(out_dir / TIMINGS_PARTIAL, "a", encoding="utf-8", newline="") as th:
         chunks = executor.run(exp, todo, n_todo, traces)
@@ -1284,7 +1325,7 @@ def _run_locked(exp, out_dir, workers, resume, progress, executor, warn, traces)
     wall = time.perf_counter() - t0
     rows = [r for k in sorted(done) for r in done[k]]
     text = csv_text(rows, True, columns)
-    meta = stamp_meta(exp, out_dir, text)
+    meta = stamp_meta(exp, out_dir, text, where())
     # the folder never pairs these trials with another run's meta.json: the old one goes first
     # (a kill before the new one leaves trials.csv that no meta.json describes, which readers
     # refuse), and the new one records the trials file's checksum

@@ -9,6 +9,7 @@ import pytest
 
 import pfbench
 import pfbench.compare as compare_module
+import pfbench.runner
 from pfbench import tablecache
 from pfbench.config import load
 
@@ -95,12 +96,18 @@ def test_a_cache_folder_that_cannot_be_written_is_no_cache(tmp_path, monkeypatch
 
 
 def test_the_cache_keeps_its_newest_entries(tmp_path, cache, monkeypatch):
+    """Entries accumulate to PRUNE_AT; the store that passes it keeps the newest KEEP."""
     monkeypatch.setattr(tablecache, "KEEP", 3)
+    monkeypatch.setattr(tablecache, "PRUNE_AT", 4)
     exp = load(CONFIG, {"trials": 2})
     rows = pfbench.runner.run_trial(exp, 0) + pfbench.runner.run_trial(exp, 1)
+    counts = []
     for anytime in (100, 200, 300, 400, 500):
         tablecache.cached_compare(exp, rows, anytime)
-    assert len(list(cache.glob("*.pickle"))) == 3
+        counts.append(len(list(cache.glob("*.pickle"))))
+    assert counts == [1, 2, 3, 4, 3]
+    kept = {p.name for p in cache.glob("*.pickle")}
+    assert kept == {f"{tablecache.key(exp, rows, a)}.pickle" for a in (300, 400, 500)}
     assert not list(cache.glob(".*"))           # no temporary file left
 
 

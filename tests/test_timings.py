@@ -140,6 +140,35 @@ def test_a_regeneration_keeps_the_provenance_of_unchanged_trials(tmp_path, write
     assert json.loads((c / "meta.json").read_text())["git_commit"] != "0" * 40
 
 
+def test_the_provenance_is_taken_beside_the_trials(tmp_path, write_config, monkeypatch):
+    """The git commit of a run's meta.json is asked for in a thread while its trials run (git's
+    commands no longer follow the last trial), and meta.json holds it with the rest of the
+    provenance; where the thread fails, it is asked for again after the trials."""
+    import threading
+
+    import pfbench.runner as runner_module
+    asked = []
+
+    def commit(cwd=None):
+        asked.append(threading.current_thread() is threading.main_thread())
+        return "c" * 40
+    monkeypatch.setattr(runner_module, "git_commit", commit)
+    exp = load(write_config(TINY))
+    run_experiment(exp, tmp_path / "a", traces=False)
+    meta = json.loads((tmp_path / "a" / "meta.json").read_text())
+    assert asked == [False] and meta["git_commit"] == "c" * 40
+    assert set(runner_module.PROVENANCE) <= set(meta)
+    assert meta["versions"] == runner_module.versions()
+
+    def not_in_a_thread(cwd=None):
+        if threading.current_thread() is not threading.main_thread():
+            raise RuntimeError("not here")
+        return "d" * 40
+    monkeypatch.setattr(runner_module, "git_commit", not_in_a_thread)
+    run_experiment(exp, tmp_path / "b", traces=False)
+    assert json.loads((tmp_path / "b" / "meta.json").read_text())["git_commit"] == "d" * 40
+
+
 def test_a_sweep_keeps_its_run_times_apart(tmp_path, write_config):
     cfg = write_config(TINY)
     out = tmp_path / "s"
