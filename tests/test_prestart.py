@@ -35,6 +35,8 @@ def prestart():
     before.append("typer" in sys.modules or "rich" in sys.modules)
     original_prestart()
 R.prestart = prestart
+import pfbench.__main__ as M
+M._end = lambda code: sys.exit(M._status(code))     # (it would end the process here)
 from pfbench.{entry} import main
 try:
     main()
@@ -117,3 +119,36 @@ def test_an_experiment_that_cannot_be_sent_gets_a_forked_worker():
         assert runner_mod._EARLY == [] and all(p.exitcode is not None for p in pool.procs)
     finally:
         runner_mod.discard_prestarted()
+
+
+_ENDING = """
+import atexit, sys, threading, time
+import pfbench.__main__ as M
+atexit.register(lambda: print("exit function ran", end=" "))
+print("buffered", end=" ")
+if "thread" in sys.argv:
+    def late():
+        time.sleep(0.3)
+        print("thread done", end=" ")
+    threading.Thread(target=late).start()
+M._end(int(sys.argv[1]) if sys.argv[1].isdigit() else sys.argv[1])
+print("never")
+"""
+
+
+def test_the_console_script_ends_its_process_as_the_interpreter_would():
+    """pfbench.__main__._end ends the process once the exit functions have run and the output
+    is flushed, with sys.exit's status (a message: 1, on stderr); a thread that is not a daemon
+    is waited for, as the interpreter would."""
+    def end(*args):
+        return subprocess.run([sys.executable, "-c", _ENDING, *args], capture_output=True,
+                              text=True, timeout=600)
+    res = end("3")
+    assert (res.returncode, res.stdout) == (3, "buffered exit function ran "), res
+    res = end("0")
+    assert (res.returncode, res.stdout, res.stderr) == (0, "buffered exit function ran ", "")
+    res = end("no such file")
+    assert (res.returncode, res.stderr) == (1, "no such file\n"), res
+    res = end("2", "thread")
+    assert res.returncode == 2 and "thread done" in res.stdout, res
+    assert "exit function ran" in res.stdout and "never" not in res.stdout
