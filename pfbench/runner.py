@@ -511,9 +511,9 @@ def _count(trials) -> int:
 def import_ahead(stats: bool = False) -> None:
     """Import, in a thread of this process, the modules the table of a run needs (scipy.special
     for its intervals, the comparison and the tables; with ``stats``, scipy.stats for the
-    ranking of its filters, pfbench.rank), and hash the package's sources for the table cache's
-    key, while this process waits for the trials of its worker processes: a short run's table
-    then starts at once. Call it only after those workers are
+    ranking of its filters, pfbench.rank) and what writes the results folder (pyarrow's
+    parquet), and hash the package's sources for the table cache's key, while this process waits
+    for the trials of its worker processes: a short run's table then starts at once. Call it only after those workers are
     forked, and ``settle`` before forking others (a fork while a thread imports could copy a
     held import lock into the child: tablecache.settle)."""
     import threading
@@ -532,6 +532,13 @@ def import_ahead(stats: bool = False) -> None:
             if stats:
                 import scipy.stats  # noqa: F401
             code_digest()       # the table cache's key reads every source file (7 ms)
+            # what writing the results folder imports: trials.parquet (pyarrow's parquet, 12
+            # ms), table.csv, the replay record
+            import pandas.io.formats.csvs  # noqa: F401
+            import pyarrow.pandas_compat  # noqa: F401
+            import pyarrow.parquet  # noqa: F401
+
+            from . import dataset, replay  # noqa: F401
         except Exception:       # imported again where needed, and failing there if it must
             pass
     settle()
