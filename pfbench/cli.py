@@ -578,6 +578,16 @@ def sweep(
         total = sum(c.exp.trials for c in cells)
         workers = _workers_that_fit([(c.exp, f"{config} (sweep cell {c.name})") for c in cells],
                                     workers, executor)
+        parts = None
+        if not (resume or force) and executor == "local":
+            parts = _sweep_replayed(cells, folder, out_dir, figure_format)
+        if parts is not None:       # up to date, and the tables it printed last time
+            _show_sweep(parts["table"], name, keys, cells[0].exp.trials, folder)
+            _show_curves(parts["curves"])
+            err.print(f"{folder} is up to date: its {len(cells)} cells hold their "
+                      f"{cells[0].exp.trials} trials each (the tables above are computed from "
+                      "them; nothing ran). --force runs them again.", markup=False)
+            return
         header = _once(lambda: err.print(
             f"{name}: {len(cells)} cells ({', '.join(keys)}) x {cells[0].exp.trials} trials "
             f"= {total} trials -> {folder}", markup=False))
@@ -597,64 +607,110 @@ def sweep(
                                          cells[0].exp,
                                          missing_only=trials_df.attrs.get("up_to_date", False),
                                          curves=cells[0].curves)
-        _print_sweep(summ, trials_df, keys, cells[0].exp, name, folder, len(figs))
-        _print_curves(cells[0].curves, summ.attrs.get("curves"), keys, folder)
+            parts = {"table": _sweep_table(summ, trials_df, keys, cells[0].exp),
+                     "curves": _curves_blocks(cells[0].curves, summ.attrs.get("curves"), keys)}
+            from .replay import record_sweep
+            record_sweep(cells, folder, parts, figs, figure_format)
+        _show_sweep(parts["table"], name, keys, cells[0].exp.trials, folder)
+        err.print(f"wrote {folder}/trials.csv, summary.csv, {len(figs)} figures and a results "
+                  "folder per cell under cells/", markup=False)
+        _show_curves(parts["curves"])
+        if parts["curves"]:
+            err.print(f"wrote {folder}/curves.csv and curves.md", markup=False)
 
 
-def _print_sweep(summ, trials_df, keys: list, exp, name: str, folder: Path,
-                 figures: int) -> None:
-    """A sweep's table: a row per cell and filter run (the means of RMSE and two more metrics,
-    the time a trial took), and the lines that say where the rest is."""
+def _sweep_table(summ, trials_df, keys: list, exp) -> dict:
+    """A sweep's table as strings (JSON-able, what pfbench.replay keeps): ``head`` and a row per
+    cell and filter run, the means of RMSE and two more metrics, and the time a trial took."""
     from . import sweep as sw
     from .figstyle import label
     from .plots import sweep_metrics
     extra = [m for m in sweep_metrics(exp)[1:] if f"{m}_mean" in summ][:2]
-    out.print(f"{name}: sweep over {', '.join(keys)}, {exp.trials} trials a cell; "
-              f"means, every metric with its interval in {folder}/summary.csv",
-              markup=False, style="bold")
-    t = RichTable(show_edge=False)
-    for h in ([k.split(".")[-1] for k in keys] + ["Filter", "N", "RMSE [95% CI]"]
-              + [label(m) for m in extra] + ["ms/trial"]):
-        t.add_column(h, no_wrap=h in ("RMSE [95% CI]", "Filter"))
+    head = ([k.split(".")[-1] for k in keys] + ["Filter", "N", "RMSE [95% CI]"]
+            + [label(m) for m in extra] + ["ms/trial"])
     # the run times (not in summary.csv): the same cells and filter runs, in the same order
     wall = sw.summary(trials_df, keys, ("wall_s",))
     ms_per_trial = (list(1e3 * wall["wall_s_mean"]) if "wall_s_mean" in wall
                     else [float("nan")] * len(summ))
+    rows = []
     for (_, r), ms in zip(summ.iterrows(), ms_per_trial):
         n = r["particles"]
-        t.add_row(*[str(r[k]) for k in keys], str(r["label"]),
-                  "-" if n != n or n is None else str(int(n)),
-                  f"{r['rmse_mean']:.3g} [{r['rmse_ci_lo']:.3g}, {r['rmse_ci_hi']:.3g}]",
-                  *[f"{r[f'{m}_mean']:.3g}" for m in extra],
-                  "-" if ms != ms else f"{ms:.3g}")
+        rows.append([*[str(r[k]) for k in keys], str(r["label"]),
+                     "-" if n != n or n is None else str(int(n)),
+                     f"{r['rmse_mean']:.3g} [{r['rmse_ci_lo']:.3g}, {r['rmse_ci_hi']:.3g}]",
+                     *[f"{r[f'{m}_mean']:.3g}" for m in extra],
+                     "-" if ms != ms else f"{ms:.3g}"])
+    return {"head": head, "rows": rows}
+
+
+def _show_sweep(table: dict, name: str, keys: list, trials: int, folder: Path) -> None:
+    """Print a sweep's table (_sweep_table) under its title line."""
+    out.print(f"{name}: sweep over {', '.join(keys)}, {trials} trials a cell; "
+              f"means, every metric with its interval in {folder}/summary.csv",
+              markup=False, style="bold")
+    t = RichTable(show_edge=False)
+    for h in table["head"]:
+        t.add_column(h, no_wrap=h in ("RMSE [95% CI]", "Filter"))
+    for row in table["rows"]:
+        t.add_row(*row)
     out.print(t)
-    err.print(f"wrote {folder}/trials.csv, summary.csv, {figures} figures and a results "
-              "folder per cell under cells/", markup=False)
 
 
-def _print_curves(curves: tuple, judged, keys: list, folder: Path) -> None:
-    """The sweep's verdicts against the paper's curves: per curve, what it is, the counts and a
-    row per point (pfbench.curves)."""
+def _curves_blocks(curves: tuple, judged, keys: list) -> list[dict]:
+    """The sweep's verdicts against the paper's curves as strings (JSON-able): per curve, a
+    ``title`` (its counts), its ``description`` and its table (``head``, a row per point)."""
     if not curves or judged is None:
-        return
+        return []
     from . import curves as cv
+    blocks = []
     for name, c in curves:
         g = judged[judged["curve"] == name]
-        out.print(f"curve {name}: {cv.counts(judged, name)}", markup=False, style="bold")
-        out.print(cv.describe(name, c), markup=False)
-        t = RichTable(show_edge=False)
-        for h in [k.split(".")[-1] for k in keys] + ["Filter", "paper", "ours [95% CI]",
-                                                     "verdict"]:
-            t.add_column(h, no_wrap=h != "verdict")
+        rows = []
         for _, r in g.iterrows():
             paper = ("-" if r["paper"] != r["paper"] else
                      f"{r['paper']:.4g} +- {r['reading_error']:.2g}"
                      + (" (interpolated)" if r["how"].startswith("interpolated") else ""))
-            t.add_row(*[str(r[k]) for k in keys], str(r["label"]), paper,
-                      f"{r['ours']:.4g} [{r['ours_lo']:.4g}, {r['ours_hi']:.4g}]",
-                      str(r["verdict"]))
+            rows.append([*[str(r[k]) for k in keys], str(r["label"]), paper,
+                         f"{r['ours']:.4g} [{r['ours_lo']:.4g}, {r['ours_hi']:.4g}]",
+                         str(r["verdict"])])
+        blocks.append({"title": f"curve {name}: {cv.counts(judged, name)}",
+                       "description": cv.describe(name, c),
+                       "head": [k.split(".")[-1] for k in keys]
+                       + ["Filter", "paper", "ours [95% CI]", "verdict"], "rows": rows})
+    return blocks
+
+
+def _show_curves(blocks: list[dict]) -> None:
+    """Print the sweep's verdicts against the paper's curves (_curves_blocks)."""
+    for b in blocks:
+        out.print(b["title"], markup=False, style="bold")
+        out.print(b["description"], markup=False)
+        t = RichTable(show_edge=False)
+        for h in b["head"]:
+            t.add_column(h, no_wrap=h != "verdict")
+        for row in b["rows"]:
+            t.add_row(*row)
         out.print(t)
-    err.print(f"wrote {folder}/curves.csv and curves.md", markup=False)
+
+
+def _sweep_replayed(cells: list, folder: Path, out_dir, fmt: str) -> dict | None:
+    """When every cell of the sweep in ``folder`` is up to date and the folder still holds what
+    the sweep that printed its tables left (pfbench.replay), those tables' strings: the sweep
+    then neither computes nor writes anything (nor imports pandas). None otherwise: it takes its
+    ordinary path."""
+    if (folder / "meta.json").exists() or not (folder / "summary.csv").is_file():
+        return None
+    if (folder / "cells").is_symlink() or not (folder / "cells").is_dir():
+        return None
+    from .fsutil import FolderLock
+    from .replay import replay_sweep
+    from .runner import up_to_date
+    with FolderLock(folder, "--out" if out_dir else "results folder"):
+        for cell in cells:
+            with FolderLock(folder / "cells" / cell.name, "sweep cell", root=folder):
+                if up_to_date(cell.exp, folder / "cells" / cell.name) is None:
+                    return None
+        return replay_sweep(cells, folder, fmt)
 
 
 @app.command("tables")

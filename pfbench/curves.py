@@ -24,15 +24,18 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from .fsutil import atomic_write
 from .papers import Curve, Quantity
 from .schema import ConfigError, did_you_mean
 from .store import write_csv
 from .verdicts import ALPHA, Claim, decide_family, percent
+
+if TYPE_CHECKING:     # pandas loads where a curve is judged: an up-to-date sweep replays without it
+    import pandas as pd
 
 FILES = ("curves.csv", "curves.md")
 
@@ -121,6 +124,8 @@ def judge(curves: tuple, trials: pd.DataFrame, keys: list[str], seed: int = 0) -
     """A row per curve, swept cell and filter run the curve is about: the paper's value there
     (paper_at), ours with its 95% interval, and the verdict (the curve's points judged together,
     Holm-adjusted). ``trials``: the sweep's trials (a column per swept key)."""
+    import pandas as pd
+
     from .compare import estimate
     rows = []
     for name, c in curves:

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 from .errors import UserError
 from .figstyle import FORMATS, prune
-from .fsutil import own_folder
+from .fsutil import left_by_a_kill, own_folder
 from .tablecache import anytime_of  # noqa: F401  (api, report_data and regen import it from here)
 
 if TYPE_CHECKING:     # pandas loads with the tables, after a run's workers start
@@ -42,6 +42,15 @@ def write_experiment(exp, res, folder: Path, figures: bool = True,
         from .plots import write_figures
         paths = write_figures(exp, res.rows, folder, figure_format, cmp.table)
     return cmp, paths
+
+
+def _clear_leftovers(figures: Path) -> None:
+    """Remove from ``figures`` the temporary files a drawing killed half-way left (as an
+    up-to-date run does: pfbench.api._missing_figures)."""
+    if figures.is_dir() and not figures.is_symlink():
+        for p in figures.iterdir():
+            if left_by_a_kill(p.name) and p.is_file():
+                p.unlink()
 
 
 def _drawn_key(curves: tuple, paths: list[Path]) -> str:
@@ -108,6 +117,7 @@ def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: st
     from .kinds import kind_of
     from .plots import sweep_figures, sweep_metrics
     if missing_only:
+        _clear_leftovers(Path(folder) / "figures")
         which = sweep_metrics(exp) if exp else ["rmse"]
         want = [folder / "figures" / f"{m}.{figure_format}" for m in which
                 if f"{m}_mean" in summ and not summ[f"{m}_mean"].isna().all()]

@@ -1,4 +1,4 @@
-"""What an up-to-date ``pfbench run`` prints, without computing it again.
+"""What an up-to-date ``pfbench run`` (or ``pfbench sweep``) prints, without computing it again.
 
 A run that finds its results folder up to date (every trial of its experiment already there)
 runs nothing and writes the same bytes again: what it spends its second on is importing pandas,
@@ -20,6 +20,11 @@ or unreadable, a file changed or gone, another figure format) returns None, and 
 its ordinary path, which computes, writes and records again. The entries are JSON files beside
 the table cache's (pfbench.tablecache), the newest ``tablecache.KEEP`` kept; a folder that
 cannot be written records nothing.
+
+A sweep's entry (``record_sweep``, ``replay_sweep``) keeps its table and its curves' verdicts,
+with every file an up-to-date sweep writes (SWEEP_FILES, and CELL_FILES in each cell's folder)
+and every figure it drew, under a key of the code, the paper's curves, and each cell's name,
+experiment and INPUTS.
 """
 from __future__ import annotations
 
@@ -131,3 +136,97 @@ def _parts_ok(parts) -> bool:
             and tables_ok(parts.get("wide")) and isinstance(parts.get("footnotes"), list)
             and all(isinstance(n, str) for n in parts["footnotes"])
             and isinstance(parts.get("counts"), str))
+
+
+# ---- a sweep's (pfbench sweep): the same, for every cell and the sweep's own files
+
+SWEEP_FILES = ("trials.csv", "timings.csv", "summary.csv", "trials.parquet", "curves.csv",
+               "curves.md")                     # what an up-to-date sweep (re)writes
+CELL_FILES = ("table.csv", "table.md")           # and in each cell's folder
+
+
+def sweep_key(cells, folder: Path) -> str:
+    """The entry's key for the sweep of ``cells`` (pfbench.sweep.Cell) in ``folder``: the code
+    (as ``key``), the paper's curves the sweep names, and per cell its name, its experiment and
+    the bytes of its INPUTS."""
+    folder = Path(folder)
+    h = hashlib.sha256(code_digest().encode())
+    h.update(repr(cells[0].curves if cells else ()).encode())
+    for cell in cells:
+        h.update(f"|cell {cell.name}|{cell.exp!r}|{cell.exp.reported!r}".encode())
+        for name in INPUTS:
+            h.update(f"|{name}={_digest(folder / 'cells' / cell.name / name)}".encode())
+    return h.hexdigest()
+
+
+def _sweep_files(cells, folder: Path) -> dict:
+    """The SHA-256 of every file an up-to-date sweep of ``cells`` writes in ``folder`` (None:
+    absent), by its path in the folder."""
+    out = {name: _digest(folder / name) for name in SWEEP_FILES}
+    for cell in cells:
+        for name in CELL_FILES:
+            out[f"cells/{cell.name}/{name}"] = _digest(folder / "cells" / cell.name / name)
+    return out
+
+
+def record_sweep(cells, folder: Path, parts: dict, figures: list[Path], fmt: str) -> None:
+    """Keep what the console printed (``parts``: the sweep's table and its curves' blocks) of
+    the sweep of ``cells`` into ``folder``, with the files it left there and its ``figures`` (in
+    format ``fmt``). Never an error: a cache that cannot be written is no cache."""
+    where = _where()
+    if where is None or not cells:
+        return
+    try:
+        folder = Path(folder)
+        entry = {"format": FORMAT, "parts": parts, "files": _sweep_files(cells, folder),
+                 "figures": {"format": fmt, "files": {Path(p).name: _digest(Path(p))
+                                                      for p in figures}}}
+        data = json.dumps(entry, sort_keys=True).encode()
+        store(where, where / f"{sweep_key(cells, folder)}.sweep.json", data, "*.sweep.json")
+    except Exception:
+        pass
+
+
+def replay_sweep(cells, folder: Path, fmt: str) -> dict | None:
+    """What the console printed of the sweep of ``cells`` when ``folder`` last got its files,
+    if it still holds every one with the same bytes (absent where it was), and every figure in
+    format ``fmt`` with no half-written one beside them; else None. Call it only for a sweep
+    whose every cell the runner found up to date, holding the folders' locks."""
+    where = _where()
+    if where is None or not cells:
+        return None
+    folder = Path(folder)
+    try:
+        entry = json.loads((where / f"{sweep_key(cells, folder)}.sweep.json").read_text("utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(entry, dict) or entry.get("format") != FORMAT:
+        return None
+    if entry.get("files") != _sweep_files(cells, folder):
+        return None
+    figures = entry.get("figures")
+    if not isinstance(figures, dict) or figures.get("format") != fmt:
+        return None
+    kept = figures.get("files")
+    figs = folder / "figures"
+    if not isinstance(kept, dict) or not kept or figs.is_symlink() or not figs.is_dir():
+        return None
+    if any(left_by_a_kill(p.name) for p in figs.iterdir()) or any(
+            sha is None or _digest(figs / name) != sha for name, sha in kept.items()):
+        return None
+    parts = entry.get("parts")
+    return parts if _sweep_parts_ok(parts) else None
+
+
+def _sweep_parts_ok(parts) -> bool:
+    """Whether an entry's ``parts`` have the shape pfbench.cli's sweep tables give."""
+    def strings(v):
+        return isinstance(v, list) and all(isinstance(x, str) for x in v)
+
+    def table_ok(t):
+        return (isinstance(t, dict) and strings(t.get("head")) and isinstance(t.get("rows"), list)
+                and all(strings(r) for r in t["rows"]))
+    return (isinstance(parts, dict) and table_ok(parts.get("table"))
+            and isinstance(parts.get("curves"), list)
+            and all(table_ok(b) and isinstance(b.get("title"), str)
+                    and isinstance(b.get("description"), str) for b in parts["curves"]))

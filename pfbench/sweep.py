@@ -20,9 +20,7 @@ import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
-
-import pandas as pd
+from typing import TYPE_CHECKING, Any, Callable
 
 from .config import Experiment, apply_override, locate, read_yaml, validate
 from .curves import resolve as resolve_curves
@@ -33,6 +31,9 @@ from .store import TIMINGS, write_csv
 from .store import sweep_summary as summary  # noqa: F401  (this module's API)
 from .schema import ConfigError
 from .yamlio import parse_yaml
+
+if TYPE_CHECKING:     # pandas loads where a sweep runs: an up-to-date one replays without it
+    import pandas as pd
 
 CONFIRM_ABOVE = 50       # cells; more need --yes
 MAX_CELLS = 10_000       # cells; more are refused (each is a folder of results)
@@ -181,6 +182,7 @@ def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: boo
     ``progress(done, total)`` is called as trials finish, over every cell's (done counts the
     trials of the cells before, so it only grows, and reaches the total); ``status(line)`` as
     each cell begins ('cell particles=100 (2 of 8)')."""
+    import pandas as pd
     total = sum(c.exp.trials for c in cells)
     if not force and (Path(out_dir) / "meta.json").exists():
         raise UserError(f"{out_dir} holds the results of a run, not of a sweep: --force "

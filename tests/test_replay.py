@@ -162,3 +162,117 @@ def test_an_up_to_date_run_imports_no_table_library(tmp_path, write_config):
     assert all(r.returncode == 0 for r in runs), runs
     assert "'pandas'" in runs[0].stdout.splitlines()[-1]      # the first run computes
     assert runs[1].stdout.splitlines()[-1] == "[] 0", runs[1].stdout
+
+
+# ---- an up-to-date sweep (pfbench sweep): its tables and curves replayed the same way
+
+def _sweep_args(out, *more):
+    from .conftest import ROOT
+    return ["sweep", str(ROOT / "configs" / "ifa_pf_particles.yaml"), "--trials", "2",
+            "--set", "filters.pf.particles=50,100", "--out", str(out), *more]
+
+
+@pytest.fixture
+def swept(tmp_path, monkeypatch):
+    """A replay cache of the test's own, and a counter of the sweeps that took the ordinary
+    path (pfbench.sweep.run_sweep)."""
+    import pfbench.sweep as sw
+    where = tmp_path / "cache"
+    monkeypatch.setattr(rp, "_where", lambda: where)
+    ran = []
+    original = sw.run_sweep
+
+    def counted(*a, **k):
+        ran.append(1)
+        return original(*a, **k)
+    monkeypatch.setattr(sw, "run_sweep", counted)
+    return where, ran
+
+
+def _sweep(out, *more):
+    res = runner.invoke(app, _sweep_args(out, *more))
+    assert res.exit_code == 0, res.output
+    return res
+
+
+def _written(folder):
+    """Every file under folder with the time it was last written."""
+    return {str(p.relative_to(folder)): p.stat().st_mtime_ns for p in sorted(folder.rglob("*"))
+            if p.is_file()}
+
+
+def test_an_up_to_date_sweep_prints_its_tables_and_curves_again(tmp_path, swept):
+    """The second sweep into the same folder prints the table and the curves' verdicts the first
+    printed, from the entry, writing nothing; without the entry the ordinary path computes the
+    same text (and records it again)."""
+    where, ran = swept
+    out = tmp_path / "s"
+    first = _sweep(out)
+    assert len(ran) == 1 and len(list(where.glob("*.sweep.json"))) == 1
+    assert "curve table1_pf" in first.stdout and "RMSE [95% CI]" in first.stdout
+    files, times = tree(out), _written(out)
+    replayed = _sweep(out)
+    assert len(ran) == 1 and "is up to date" in replayed.stderr
+    assert replayed.stdout == first.stdout and _written(out) == times     # not a byte written
+    for p in where.glob("*.sweep.json"):
+        p.unlink()
+    computed = _sweep(out)
+    assert len(ran) == 2 and computed.stdout == first.stdout and tree(out) == files
+    _sweep(out)
+    assert len(ran) == 2                                # recorded again, replayed
+
+
+@pytest.mark.parametrize("change", ["summary.csv", "cell table.md", "curves.md", "figure",
+                                    "half-written figure", "entry", "--force", "another --set"])
+def test_a_changed_sweep_folder_or_entry_takes_the_ordinary_path(tmp_path, swept, change):
+    """Whatever no longer matches the entry (a file the sweep writes, a figure, a leftover of a
+    killed drawing, the entry itself), or a sweep asked to run again or of other cells, computes
+    and writes again: the files come back as the sweep writes them."""
+    where, ran = swept
+    out = tmp_path / "s"
+    first = _sweep(out)
+    files = tree(out)
+    cell = sorted((out / "cells").iterdir())[0]
+    figure = sorted((out / "figures").iterdir())[0]
+    more = ()
+    if change == "summary.csv" or change == "curves.md":
+        with open(out / change, "a") as fh:
+            fh.write("\n")
+    elif change == "cell table.md":
+        (cell / "table.md").write_text("edited\n")
+    elif change == "figure":
+        figure.unlink()
+    elif change == "half-written figure":
+        (out / "figures" / f".{figure.name}.tmp").write_bytes(b"half")
+    elif change == "entry":
+        for p in where.glob("*.sweep.json"):
+            p.write_text("{not json")
+    elif change == "--force":
+        more = ("--force",)
+    res = runner.invoke(app, _sweep_args(out, *more) if change != "another --set" else
+                        [a if a != "filters.pf.particles=50,100" else "filters.pf.particles=50"
+                         for a in _sweep_args(out)])
+    assert res.exit_code == 0, res.output
+    assert len(ran) == 2, change                        # the ordinary path
+    if change == "another --set":
+        return
+    if change == "--force":                             # run again: their own run times
+        return
+    assert tree(out) == files, change                   # the same trials: the same bytes
+    assert res.stdout == first.stdout
+
+
+def test_an_up_to_date_sweep_imports_no_table_library(tmp_path):
+    """The whole command, in a process of its own: the second sweep replays without pandas,
+    scipy's statistics or special functions, matplotlib or pyarrow."""
+    out = tmp_path / "s"
+    code = ("import sys\nfrom pfbench.cli import main\n"
+            f"sys.argv = ['pfbench'] + {_sweep_args(out)[:]!r}\n"
+            "try:\n    main()\nexcept SystemExit as e:\n    code = e.code\n"
+            "print(sorted(m for m in ('pandas', 'scipy.special', 'scipy.stats', 'matplotlib', "
+            "'pyarrow') if m in sys.modules), code)\n")
+    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                           cwd=tmp_path, timeout=600) for _ in range(2)]
+    assert all(r.returncode == 0 for r in runs), runs
+    assert "'pandas'" in runs[0].stdout.splitlines()[-1]      # the first sweep computes
+    assert runs[1].stdout.splitlines()[-1] == "[] 0", (runs[1].stdout, runs[1].stderr)
