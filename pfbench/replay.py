@@ -84,6 +84,19 @@ def record(exp, folder: Path, parts: dict, figures: list[str] | None, fmt: str) 
         pass
 
 
+def _entry(name) -> dict | None:
+    """The entry of the cache's file ``name()`` (called only when there is a cache folder), or
+    None: no cache, no such entry, or one unreadable or of another format."""
+    where = _where()
+    if where is None:
+        return None
+    try:
+        entry = json.loads((where / name()).read_text("utf-8"))
+    except (OSError, ValueError):
+        return None
+    return entry if isinstance(entry, dict) and entry.get("format") == FORMAT else None
+
+
 def _figures_there(folder: Path, want: dict | None, fmt: str) -> bool:
     """Whether ``folder/figures`` holds every figure of the entry's list for format ``fmt``, and
     no temporary file a killed drawing left (the ordinary path removes those)."""
@@ -103,15 +116,9 @@ def replay(exp, folder: Path, figures: bool, fmt: str) -> dict | None:
     (pfbench.tables.console_parts), if the folder still holds them with the same bytes (and,
     with ``figures``, every figure in format ``fmt``); else None. Call it only for a folder
     the runner found up to date, holding its lock."""
-    where = _where()
-    if where is None:
-        return None
     folder = Path(folder)
-    try:
-        entry = json.loads((where / f"{key(exp, folder)}.replay.json").read_text("utf-8"))
-    except (OSError, ValueError):
-        return None
-    if not isinstance(entry, dict) or entry.get("format") != FORMAT:
+    entry = _entry(lambda: f"{key(exp, folder)}.replay.json")
+    if entry is None:
         return None
     files = entry.get("files")
     if not isinstance(files, dict) or set(files) != set(FILES) or any(
@@ -192,17 +199,9 @@ def replay_sweep(cells, folder: Path, fmt: str) -> dict | None:
     if it still holds every one with the same bytes (absent where it was), and every figure in
     format ``fmt`` with no half-written one beside them; else None. Call it only for a sweep
     whose every cell the runner found up to date, holding the folders' locks."""
-    where = _where()
-    if where is None or not cells:
-        return None
     folder = Path(folder)
-    try:
-        entry = json.loads((where / f"{sweep_key(cells, folder)}.sweep.json").read_text("utf-8"))
-    except (OSError, ValueError):
-        return None
-    if not isinstance(entry, dict) or entry.get("format") != FORMAT:
-        return None
-    if entry.get("files") != _sweep_files(cells, folder):
+    entry = _entry(lambda: f"{sweep_key(cells, folder)}.sweep.json") if cells else None
+    if entry is None or entry.get("files") != _sweep_files(cells, folder):
         return None
     figures = entry.get("figures")
     if not isinstance(figures, dict) or figures.get("format") != fmt:

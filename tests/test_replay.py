@@ -19,19 +19,26 @@ from .conftest import TINY, one_line_exit_2, tree
 runner = CliRunner()
 
 
-@pytest.fixture
-def entries(tmp_path, monkeypatch):
-    """A replay cache of the test's own; returns its folder. Counts the runs that took the
-    ordinary path (cli._run_trials) in ``entries.ran``."""
+def _own_cache(tmp_path, monkeypatch, module, name: str):
+    """A replay cache of the test's own (its folder), and the list that grows by one at each
+    call of ``module.name`` (the ordinary path)."""
     where = tmp_path / "cache"
     monkeypatch.setattr(rp, "_where", lambda: where)
     ran = []
-    original = cli._run_trials
+    original = getattr(module, name)
 
     def counted(*a, **k):
         ran.append(1)
         return original(*a, **k)
-    monkeypatch.setattr(cli, "_run_trials", counted)
+    monkeypatch.setattr(module, name, counted)
+    return where, ran
+
+
+@pytest.fixture
+def entries(tmp_path, monkeypatch):
+    """A replay cache of the test's own; returns its folder. Counts the runs that took the
+    ordinary path (cli._run_trials) in ``entries.ran``."""
+    where, ran = _own_cache(tmp_path, monkeypatch, cli, "_run_trials")
 
     class Entries:
         folder = where
@@ -148,20 +155,29 @@ def test_a_cache_that_cannot_be_written_records_nothing(tmp_path, write_config, 
     assert first.stdout == again.stdout and "is up to date" in again.stderr
 
 
-def test_an_up_to_date_run_imports_no_table_library(tmp_path, write_config):
-    """The whole command, in a process of its own: the second run replays, without pandas,
-    scipy's statistics (numba itself imports scipy's top package), matplotlib or pyarrow."""
-    cfg, out = write_config(TINY), tmp_path / "o"
-    code = ("import sys\nfrom pfbench.cli import main\nsys.argv = ['pfbench', 'run', "
-            f"{str(cfg)!r}, '--out', {str(out)!r}, '--no-figures']\n"
+def _modules_of_two_commands(tmp_path, args: list[str]) -> list[str]:
+    """Run ``pfbench ARGS`` twice, each in a process of its own; per run, the last line it
+    printed: the table libraries it imported (pandas, scipy's statistics and special functions,
+    matplotlib, pyarrow; numba itself imports scipy's top package) and its exit status."""
+    code = ("import sys\nfrom pfbench.cli import main\n"
+            f"sys.argv = ['pfbench'] + {list(args)!r}\n"
             "try:\n    main()\nexcept SystemExit as e:\n    code = e.code\n"
-            "print(sorted(m for m in ('pandas', 'scipy.special', 'scipy.stats', 'matplotlib', 'pyarrow') "
-            "if m in sys.modules), code)\n")
+            "print(sorted(m for m in ('pandas', 'scipy.special', 'scipy.stats', 'matplotlib', "
+            "'pyarrow') if m in sys.modules), code)\n")
     runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                            cwd=tmp_path, timeout=600) for _ in range(2)]
     assert all(r.returncode == 0 for r in runs), runs
-    assert "'pandas'" in runs[0].stdout.splitlines()[-1]      # the first run computes
-    assert runs[1].stdout.splitlines()[-1] == "[] 0", runs[1].stdout
+    return [r.stdout.splitlines()[-1] for r in runs]
+
+
+def test_an_up_to_date_run_imports_no_table_library(tmp_path, write_config):
+    """The whole command, in a process of its own: the second run replays, without pandas,
+    scipy's statistics, matplotlib or pyarrow."""
+    cfg, out = write_config(TINY), tmp_path / "o"
+    first, second = _modules_of_two_commands(
+        tmp_path, ["run", str(cfg), "--out", str(out), "--no-figures"])
+    assert "'pandas'" in first                          # the first run computes
+    assert second == "[] 0", second
 
 
 # ---- an up-to-date sweep (pfbench sweep): its tables and curves replayed the same way
@@ -177,16 +193,7 @@ def swept(tmp_path, monkeypatch):
     """A replay cache of the test's own, and a counter of the sweeps that took the ordinary
     path (pfbench.sweep.run_sweep)."""
     import pfbench.sweep as sw
-    where = tmp_path / "cache"
-    monkeypatch.setattr(rp, "_where", lambda: where)
-    ran = []
-    original = sw.run_sweep
-
-    def counted(*a, **k):
-        ran.append(1)
-        return original(*a, **k)
-    monkeypatch.setattr(sw, "run_sweep", counted)
-    return where, ran
+    return _own_cache(tmp_path, monkeypatch, sw, "run_sweep")
 
 
 def _sweep(out, *more):
@@ -265,14 +272,6 @@ def test_a_changed_sweep_folder_or_entry_takes_the_ordinary_path(tmp_path, swept
 def test_an_up_to_date_sweep_imports_no_table_library(tmp_path):
     """The whole command, in a process of its own: the second sweep replays without pandas,
     scipy's statistics or special functions, matplotlib or pyarrow."""
-    out = tmp_path / "s"
-    code = ("import sys\nfrom pfbench.cli import main\n"
-            f"sys.argv = ['pfbench'] + {_sweep_args(out)[:]!r}\n"
-            "try:\n    main()\nexcept SystemExit as e:\n    code = e.code\n"
-            "print(sorted(m for m in ('pandas', 'scipy.special', 'scipy.stats', 'matplotlib', "
-            "'pyarrow') if m in sys.modules), code)\n")
-    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                           cwd=tmp_path, timeout=600) for _ in range(2)]
-    assert all(r.returncode == 0 for r in runs), runs
-    assert "'pandas'" in runs[0].stdout.splitlines()[-1]      # the first sweep computes
-    assert runs[1].stdout.splitlines()[-1] == "[] 0", (runs[1].stdout, runs[1].stderr)
+    first, second = _modules_of_two_commands(tmp_path, _sweep_args(tmp_path / "s"))
+    assert "'pandas'" in first                          # the first sweep computes
+    assert second == "[] 0", second
