@@ -513,9 +513,9 @@ def import_ahead(stats: bool = False) -> None:
     for its intervals, the comparison and the tables; with ``stats``, scipy.stats for the
     ranking of its filters, pfbench.rank) and what writes the results folder (pyarrow's
     parquet), and hash the package's sources for the table cache's key, while this process waits
-    for the trials of its worker processes: a short run's table then starts at once. Call it only after those workers are
-    forked, and ``settle`` before forking others (a fork while a thread imports could copy a
-    held import lock into the child: tablecache.settle)."""
+    for the trials of its worker processes: a short run's table then starts at once. Call it
+    only after those workers are forked, and ``settle`` before forking others (a fork while a
+    thread imports could copy a held import lock into the child: tablecache.settle)."""
     import threading
 
     from .tablecache import code_digest, hold, settle
