@@ -21,9 +21,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping
 
 from .errors import UserError
-from .fsutil import FolderLock, left_by_a_kill, recover_aside, require_regular
+from .fsutil import FolderLock, recover_aside, require_regular
 from .outputs import anytime_of, check_figure_format  # noqa: F401  (this module's API)
-from .outputs import write_experiment
+from .outputs import clear_leftovers, write_experiment
 from .progress import shown
 from .schema import ConfigError, describe
 
@@ -197,10 +197,7 @@ def _missing_figures(exp, res, folder: Path, fmt: str) -> bool:
     the temporary files such a kill left are removed."""
     from .plots import expected_figures
     figs = folder / "figures"
-    if figs.is_dir() and not figs.is_symlink():
-        for p in figs.iterdir():
-            if left_by_a_kill(p.name) and p.is_file():
-                p.unlink()
+    clear_leftovers(figs)
     return any(not (figs / name).is_file() for name in expected_figures(exp, res.rows, fmt))
 
 

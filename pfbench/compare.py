@@ -164,12 +164,12 @@ MACHINE_METRICS = ("time_ratio",)
 # the figures of those (pfbench.plots: a family 'time_...'), drawn only where a timings file gives
 # the run times: never part of the committed results, nor of a report made of them
 MACHINE_FIGURE_PREFIX = "time_"
+BOOTSTRAP_RESAMPLES = 9999
 
 
 def machine_figure(name: str) -> bool:
     """Whether the figure file ``name`` shows what the machine measured (MACHINE_FIGURE_PREFIX)."""
     return name.startswith(MACHINE_FIGURE_PREFIX)
-BOOTSTRAP_RESAMPLES = 9999
 
 
 def interval_method(q: Quantity) -> str:

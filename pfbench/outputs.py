@@ -44,9 +44,9 @@ def write_experiment(exp, res, folder: Path, figures: bool = True,
     return cmp, paths
 
 
-def _clear_leftovers(figures: Path) -> None:
-    """Remove from ``figures`` the temporary files a drawing killed half-way left (as an
-    up-to-date run does: pfbench.api._missing_figures)."""
+def clear_leftovers(figures: Path) -> None:
+    """Remove from ``figures`` the temporary files a drawing killed half-way left (an up-to-date
+    run's or sweep's, before it checks its figures)."""
     if figures.is_dir() and not figures.is_symlink():
         for p in figures.iterdir():
             if left_by_a_kill(p.name) and p.is_file():
@@ -117,7 +117,7 @@ def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: st
     from .kinds import kind_of
     from .plots import sweep_figures, sweep_metrics
     if missing_only:
-        _clear_leftovers(Path(folder) / "figures")
+        clear_leftovers(Path(folder) / "figures")
         which = sweep_metrics(exp) if exp else ["rmse"]
         want = [folder / "figures" / f"{m}.{figure_format}" for m in which
                 if f"{m}_mean" in summ and not summ[f"{m}_mean"].isna().all()]

@@ -97,6 +97,12 @@ def _entry(name) -> dict | None:
     return entry if isinstance(entry, dict) and entry.get("format") == FORMAT else None
 
 
+def _half_drawn(figs: Path) -> bool:
+    """Whether the folder ``figs`` holds what a drawing killed half-way left (the ordinary path
+    removes it, then draws)."""
+    return any(left_by_a_kill(p.name) for p in figs.iterdir())
+
+
 def _figures_there(folder: Path, want: dict | None, fmt: str) -> bool:
     """Whether ``folder/figures`` holds every figure of the entry's list for format ``fmt``, and
     no temporary file a killed drawing left (the ordinary path removes those)."""
@@ -106,7 +112,7 @@ def _figures_there(folder: Path, want: dict | None, fmt: str) -> bool:
     names = want.get("names")
     if not isinstance(names, list) or (names and (figs.is_symlink() or not figs.is_dir())):
         return False
-    if figs.is_dir() and any(left_by_a_kill(p.name) for p in figs.iterdir()):
+    if figs.is_dir() and _half_drawn(figs):
         return False
     return all(isinstance(n, str) and (figs / n).is_file() for n in names)
 
@@ -210,7 +216,7 @@ def replay_sweep(cells, folder: Path, fmt: str) -> dict | None:
     figs = folder / "figures"
     if not isinstance(kept, dict) or not kept or figs.is_symlink() or not figs.is_dir():
         return None
-    if any(left_by_a_kill(p.name) for p in figs.iterdir()) or any(
+    if _half_drawn(figs) or any(
             sha is None or _digest(figs / name) != sha for name, sha in kept.items()):
         return None
     parts = entry.get("parts")
