@@ -17,12 +17,15 @@ from typing import Callable
 
 
 def bar(console):
-    """A rich progress bar on ``console`` (gone when done)."""
+    """A rich progress bar on ``console`` (gone when done). Where the console cannot redraw a
+    line (a log, a pipe, a dumb terminal) the bar is off: it would draw nothing there, and
+    rich's bar would still end with an empty line (before a run's one-line error, say)."""
     from rich.progress import (BarColumn, MofNCompleteColumn, Progress, SpinnerColumn,
                                TextColumn, TimeElapsedColumn)
     return Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(),
                     MofNCompleteColumn(), TimeElapsedColumn(), time_left_column(),
-                    console=console, transient=True)
+                    console=console, transient=True,
+                    disable=not (console.is_interactive or console.is_jupyter))
 
 
 def time_left_column():

@@ -52,8 +52,8 @@ def one_line_exit_2(res) -> str:
     """The one line a CLI run gave for bad input (exit status 2, no traceback)."""
     assert res.exit_code == 2, res.output
     assert "Traceback" not in res.output
-    lines = [l for l in res.output.strip().splitlines() if l.strip()]
-    assert len(lines) == 1, res.output
+    lines = res.output.splitlines()
+    assert len(lines) == 1, res.output          # no empty line before it either
     assert lines[0].startswith("pfbench: error: ")
     return lines[0]
 
