@@ -15,7 +15,7 @@ import pandas as pd
 from .config import Experiment
 from .metrics import chi2_mean_bounds, paired, summarize
 from .papers import Quantity, Table
-from .verdicts import ALPHA, Claim, Estimate, decide_family
+from .verdicts import ALPHA, MIN_TRIALS, Claim, Estimate, decide_family
 
 # Per-trial metrics summarised as their mean over trials in every table.
 MEAN_COLUMNS = ("mean_ess", "resample_count", "diversity_l1", "distinct_frac",
@@ -165,6 +165,7 @@ MACHINE_METRICS = ("time_ratio",)
 # the run times: never part of the committed results, nor of a report made of them
 MACHINE_FIGURE_PREFIX = "time_"
 BOOTSTRAP_RESAMPLES = 9999
+BOOTSTRAP_MIN = MIN_TRIALS["bca"]     # the trials a bootstrap interval needs
 
 
 def machine_figure(name: str) -> bool:
@@ -185,18 +186,23 @@ def interval_method(q: Quantity) -> str:
 def _bootstrap(samples: tuple, statistic, value: float, seed: int, key: str) -> Estimate:
     """A BCa bootstrap estimate of statistic(*samples) (paired by trial when there are two
     samples; vectorised over the last axis), its value ``value``; seeded by the experiment's
-    seed and ``key`` (pfbench.seeding.keyed_seed), so the same trials give the same interval. A
-    sample too small or too uniform to bootstrap keeps Student's t."""
+    seed and ``key`` (pfbench.seeding.keyed_seed), so the same trials give the same interval.
+    Trials that all give the same value: an interval of width 0. Fewer than BOOTSTRAP_MIN
+    trials that differ: no interval (a standard error of NaN), for two values have no spread a
+    bootstrap could resample, and Student's t on them would pretend to know the statistic's
+    spread (of a variance of two trials, say: its two terms are always equal)."""
     samples = tuple(np.asarray(x, dtype=float) for x in samples)
     ok = np.logical_and.reduce([~np.isnan(x) for x in samples])
     samples = tuple(x[ok] for x in samples)
     n = int(ok.sum())
-    if n < 3:
-        return Estimate(value, 0.0 if n >= 2 else math.nan, n)
+    if n < 2:
+        return Estimate(value, math.nan, n, "bca")
     with np.errstate(invalid="ignore", over="ignore"):     # inf - inf: a diverged trial
         flat = [np.ptp(x) == 0 for x in samples]
     if all(flat):
-        return Estimate(value, 0.0 if n >= 2 else math.nan, n)
+        return Estimate(value, 0.0, n)
+    if n < BOOTSTRAP_MIN:
+        return Estimate(value, math.nan, n, "bca")
     from scipy import stats         # here, not at import: a run's first trial need not wait for it
     from .seeding import keyed_seed
     rng = np.random.default_rng(keyed_seed(seed, key))

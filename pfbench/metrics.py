@@ -188,11 +188,16 @@ def chi2_mean_bounds(k: int, level: float = 0.95) -> tuple[float, float]:
     return float(chdtri(k, 1.0 - tail)) / k, float(chdtri(k, tail)) / k
 
 
+VAR_SE_MIN = 4      # the fewest trials the variance's standard error is given for
+
+
 def summarize(values) -> dict:
     """Mean, variance, standard error and 95% intervals over trials (NaN values are dropped).
 
     The mean's interval uses Student's t; the variance's uses the distribution-free standard error
-    sqrt((m4 - s^4 (n-3)/(n-1)) / n) with a normal quantile (values over 30 trials or so).
+    sqrt((m4 - s^4 (n-3)/(n-1)) / n) with a normal quantile (values over 30 trials or so), and
+    none under VAR_SE_MIN trials: a fourth moment of fewer values says nothing (of two, the
+    formula's terms are fixed by the variance alone).
     """
     v = np.asarray(values, dtype=float)
     v = v[~np.isnan(v)]
@@ -211,9 +216,11 @@ def summarize(values) -> dict:
         m4 = float(np.mean(sq * sq))    # (numpy's vectorised pow differs in the last bit)
     se = math.sqrt(var / n)
     half = t975(n - 1) * se
-    var_se = math.sqrt(max(m4 - var * var * (n - 3) / (n - 1), 0.0) / n)
-    out.update(var=var, se=se, ci_lo=mean - half, ci_hi=mean + half, var_se=var_se,
-               var_ci_lo=max(var - Z975 * var_se, 0.0), var_ci_hi=var + Z975 * var_se)
+    out.update(var=var, se=se, ci_lo=mean - half, ci_hi=mean + half)
+    if n >= VAR_SE_MIN:
+        var_se = math.sqrt(max(m4 - var * var * (n - 3) / (n - 1), 0.0) / n)
+        out.update(var_se=var_se, var_ci_lo=max(var - Z975 * var_se, 0.0),
+                   var_ci_hi=var + Z975 * var_se)
     return out
 
 

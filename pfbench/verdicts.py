@@ -9,7 +9,8 @@ sqrt(1 + n / r): se_w = sqrt(se^2 + se_b^2) with se_b = se sqrt(n / r)):
   margin with its reason);
 - **differs**: otherwise, when p lies outside our (widened) (1 - a) interval;
 - **inconclusive**: neither, with the number of trials that would likely decide it (keeping the
-  spread and the difference seen so far), or why no number of trials can;
+  spread and the difference seen so far), or why no number of trials can; or too few trials
+  for the quantity's interval (MIN_TRIALS: two, three for a bootstrap);
 - **not comparable** (with the reason), and ``; paper below the model's floor`` after a
   'differs' whose paper value lies under what a near-optimal filter reaches.
 
@@ -52,6 +53,12 @@ METHODS = {
     "cs": "asymptotic confidence sequence (valid at every look; Waudby-Smith et al. 2024)",
 }
 
+# The fewest trials each method's interval needs: Student's t and Wilson's need two (one trial
+# has no spread); a bootstrap three (two trials that differ give no distribution to resample).
+MIN_TRIALS = {"t": 2, "wilson": 2, "cs": 2, "bca": 3}
+_SHORT = {"t": "Student's t", "wilson": "Wilson's interval", "cs": "a confidence sequence",
+          "bca": "a bootstrap"}
+
 # What each verdict means, for the report and the docs (the code below decides them so).
 DEFINITIONS = (
     f"*reproduced*: equivalence shown: the {1 - 2 * ALPHA:.0%} interval of ours - paper (two "
@@ -61,7 +68,8 @@ DEFINITIONS = (
     "*differs*: the paper's value lies outside our 95% interval (for a range: our interval "
     "misses it), with the ratio ours / paper.",
     "*inconclusive*: neither, with about how many trials would likely decide it (or why none "
-    "can); a quantity without a declared margin is never called reproduced.",
+    "can), or too few trials for an interval at all; a quantity without a declared margin is "
+    "never called reproduced.",
     "*not comparable*: the paper's setting cannot be rebuilt (a real robot, an unpublished "
     "course, a single run) or the quantity depends on the machine (run times): shown, never "
     "judged; the notes give each reason. Where the paper file names a deterministic measure of "
@@ -420,6 +428,12 @@ def _decide(c: Claim, a_d: float, a_e: float, holm_d: str = "", holm_e: str = ""
     if not c.judged:
         return Verdict("not comparable", "shown, not judged: it depends on the machine", lo, hi,
                        level)
+    least = MIN_TRIALS.get(est.method, 2)
+    if 1 <= est.n < least:
+        return Verdict("inconclusive", f"inconclusive: {est.n} trial"
+                       f"{'s give' if est.n != 1 else ' gives'} no interval "
+                       f"({_SHORT.get(est.method, est.method)} needs at least {least})",
+                       lo, hi, level)
     if not c.testable:
         return Verdict("not comparable", "not comparable: no finite result", lo, hi, level)
     eq_level = est.equivalence_level(a_e)

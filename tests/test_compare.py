@@ -97,6 +97,56 @@ def test_bootstrap_of_a_metric_no_trial_defined_is_nan_not_an_error():
         assert math.isnan(est.se) or est.se == 0.0
 
 
+def test_two_trials_that_differ_give_a_bootstrapped_statistic_no_interval():
+    """A variance (or a gain, a ratio) of two trials has no interval: its bootstrap has nothing
+    to resample, and a standard error of 0 (Student's t on the two equal terms of a variance, as
+    before) would judge 'differs' on an interval of width 0. Three trials bootstrap; two equal
+    values are exact (width 0)."""
+    import math
+
+    import numpy as np
+
+    from pfbench.compare import _bootstrap
+
+    def var(x, axis=-1):
+        return np.var(x, axis=axis, ddof=1)
+
+    two = _bootstrap((np.array([4.1, 4.3]),), var, 0.02, 0, "run:q")
+    assert two.n == 2 and math.isnan(two.se) and two.method == "bca"
+    lo, hi = two.interval(0.95)
+    assert math.isnan(lo) and math.isnan(hi)
+    three = _bootstrap((np.array([4.1, 4.3, 3.9]),), var, 0.04, 0, "run:q")
+    assert three.method == "bca" and three.se > 0
+    same = _bootstrap((np.array([2.0, 2.0]),), var, 0.0, 0, "run:q")
+    assert same.se == 0.0 and same.interval(0.95) == (0.0, 0.0)
+
+
+def test_a_two_trial_table_judges_no_variance_and_says_why(tmp_path):
+    """The command line, end to end: two trials of sspf_ungm judge the means (Student's t with
+    one degree of freedom) and leave every variance 'inconclusive', saying that two trials give
+    no interval; the cells without an interval leave Holm's family (4 means, not 8 cells)."""
+    from pathlib import Path
+
+    import pandas as pd
+    from typer.testing import CliRunner
+
+    from pfbench.cli import app
+
+    config = Path(__file__).resolve().parents[1] / "configs" / "sspf_ungm.yaml"
+    res = CliRunner().invoke(app, ["run", str(config), "--trials", "2", "--out",
+                                   str(tmp_path / "out"), "--no-figures"])
+    assert res.exit_code == 0, res.output
+    table = pd.read_csv(tmp_path / "out" / "table.csv")
+    judged = table.dropna(subset=["kind_mse_var"])
+    assert len(judged) == 4
+    assert (judged["kind_mse_var"] == "inconclusive").all()
+    assert judged["verdict_mse_var"].str.startswith(
+        "inconclusive: 2 trials give no interval (a bootstrap needs at least 3)").all()
+    means = table.dropna(subset=["kind_mse_mean"])
+    assert (means["kind_mse_mean"] == "differs").all()
+    assert means["verdict_mse_mean"].str.contains("Holm over 4").all()
+
+
 def test_consistency_checks_a_mean_against_its_chi_square_bounds():
     from pfbench.compare import consistency
     from pfbench.metrics import chi2_mean_bounds

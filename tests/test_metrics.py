@@ -41,6 +41,16 @@ def test_summary_drops_nan_and_handles_tiny_samples():
     assert math.isnan(summarize([1.0])["ci_lo"])
 
 
+def test_the_variance_has_no_distribution_free_interval_under_four_trials():
+    """sqrt((m4 - s^4 (n-3)/(n-1)) / n) of two values is fixed by their variance alone (an
+    interval that looks like one); three: a fourth moment of three values. Four or more: one."""
+    for values in ([4.1, 4.3], [4.1, 4.3, 3.9]):
+        s = summarize(values)
+        assert s["var"] > 0 and math.isnan(s["var_se"]) and math.isnan(s["var_ci_lo"])
+    s = summarize([4.1, 4.3, 3.9, 4.6])
+    assert s["var_se"] > 0 and s["var_ci_lo"] <= s["var"] <= s["var_ci_hi"]
+
+
 def test_paired_difference_and_win_rate():
     a = np.array([1.0, 2.0, 3.0, 4.0])
     b = np.array([2.0, 2.0, 1.0, 5.0])

@@ -92,6 +92,19 @@ def test_the_papers_runs_widen_every_interval_the_verdict_uses():
     assert decide(1.3, est).kind == "differs"           # and outside ours alone
 
 
+def test_too_few_trials_for_an_interval_is_inconclusive_and_says_so():
+    """One trial (Student's t) or two (a bootstrap): no interval, so neither 'differs' nor
+    'reproduced', and never 'not comparable' (the setting is comparable; the trials are few)."""
+    one = decide(2.0, Estimate(3.0, math.nan, 1), margin=TEN)
+    assert one.kind == "inconclusive"
+    assert one.text == "inconclusive: 1 trial gives no interval (Student's t needs at least 2)"
+    two = decide(2.0, Estimate(30.0, math.nan, 2, "bca"), margin=TEN)
+    assert two.kind == "inconclusive" and "2 trials give no interval" in two.text
+    assert "a bootstrap needs at least 3" in two.text
+    none = decide(2.0, Estimate(math.nan, math.nan, 0), margin=TEN)
+    assert none.kind == "not comparable"
+
+
 def test_ranges_floors_and_what_is_not_judged():
     ten_twenty = (10.0, 20.0)
     zero = Margin(absolute=0.0, why="the range is its own tolerance")
