@@ -201,10 +201,13 @@ def _missing_figures(exp, res, folder: Path, fmt: str) -> bool:
     return any(not (figs / name).is_file() for name in expected_figures(exp, res.rows, fmt))
 
 
-def _record(exp, res, folder: Path, cmp, figures: bool, fmt: str) -> None:
+def _record(exp, res, folder: Path, cmp, figures: bool, fmt: str,
+            replace: bool | None = None) -> None:
     """Keep what the console shows of this comparison for the next up-to-date run of it
-    (pfbench.replay), with the figures it checks for when ``figures``."""
-    from .replay import record
+    (pfbench.replay), with the figures it checks for when ``figures``; and in the folder, what
+    it shows without the run times (replay.record_in_folder: replaced where ``replace``, by
+    default where trials ran)."""
+    from .replay import record, record_in_folder
     from .tables import console_parts
     try:
         names = None
@@ -212,6 +215,8 @@ def _record(exp, res, folder: Path, cmp, figures: bool, fmt: str) -> None:
             from .plots import expected_figures
             names = expected_figures(exp, res.rows, fmt)
         record(exp, folder, console_parts(cmp), names, fmt)
+        record_in_folder(exp, folder, console_parts(cmp.without_timings()), names, fmt,
+                         not res.up_to_date if replace is None else replace)
     except Exception:       # a cache: never a run's error
         pass
 

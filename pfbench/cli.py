@@ -536,7 +536,7 @@ def _say_what_ran(exp, res, folder: Path, until_decided: bool) -> None:
     ran = res.run["trials_run_now"]
     note = f" ({exp.trials - ran} resumed)" if ran < exp.trials else ""
     err.print(f"{ran} trials in {res.run['wall_s']:.1f} s{note}; wrote {folder}/trials.csv, "
-              "trials.parquet, table.csv, table.md, meta.json, timings.csv"
+              "trials.parquet, table.csv, table.md, meta.json, timings.csv, console.json"
               + (f" and {len(res.figures)} figures" if res.figures else ""), markup=False)
 
 

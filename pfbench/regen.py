@@ -159,7 +159,9 @@ def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int |
             else:
                 res = run_experiment(exp, stage, resume=resume, progress=progress,
                                      executor=executor)
-                write_experiment(exp, res, stage, figures, figure_format)
+                cmp, _ = write_experiment(exp, res, stage, figures, figure_format)
+                from .api import _record
+                _record(exp, res, stage, cmp, figures, figure_format, replace=True)
                 _readings(exp, folder, stage, executor, readings, warn, status)
         with FolderLock(folder, "results folder", root=results):
             keep_provenance(stage, folder)

@@ -21,6 +21,18 @@ its ordinary path, which computes, writes and records again. The entries are JSO
 the table cache's (pfbench.tablecache), the newest ``tablecache.KEEP`` kept; a folder that
 cannot be written records nothing.
 
+The results folder keeps one entry of its own, ``console.json`` (FOLDER_RECORD), for where the
+run times are not there: a fresh clone of a repository that commits its results (the timings
+file is the machine's, never committed). It holds what the console prints of the comparison
+without the run times (what a folder without a timings file prints), under a key of the code,
+the experiment, meta.json and trials.csv, with the SHA-256 of table.csv and table.md. A run
+that ran trials writes it (and a regeneration of committed results, and an up-to-date run into
+a folder that has none); an up-to-date run never replaces one, so a folder whose record an
+edit of the code has made stale stays as it is (the run computes, as without one). ``replay``
+reads it only in a folder without a timings file, when its key is the current one and the two
+tables have its bytes, and trials.parquet (ignored where results are committed) is absent or has
+the bytes it had.
+
 A sweep's entry (``record_sweep``, ``replay_sweep``) keeps its table and its curves' verdicts,
 with every file an up-to-date sweep writes (SWEEP_FILES, and CELL_FILES in each cell's folder)
 and every figure it drew, under a key of the code, the paper's curves, and each cell's name,
@@ -32,12 +44,15 @@ import hashlib
 import json
 from pathlib import Path
 
-from .fsutil import left_by_a_kill
+from .fsutil import atomic_write, left_by_a_kill
 from .tablecache import code_digest, folder, store
 
 FORMAT = 1
 FILES = ("table.csv", "table.md", "trials.parquet")   # what an up-to-date run (re)writes
 INPUTS = ("meta.json", "trials.csv", "timings.csv")     # what its comparison is computed from
+FOLDER_RECORD = "console.json"      # the folder's own entry, for a folder without run times
+UNTIMED_INPUTS = ("meta.json", "trials.csv")
+UNTIMED_FILES = ("table.csv", "table.md")
 
 
 def _digest(path: Path) -> str | None:
@@ -60,8 +75,61 @@ def key(exp, folder: Path) -> str:
     return h.hexdigest()
 
 
+def untimed_key(exp, folder: Path) -> str:
+    """The key of the folder's own entry (FOLDER_RECORD): as ``key``, without the timings file."""
+    h = hashlib.sha256(code_digest().encode())
+    h.update(b"|untimed|")
+    h.update(repr(exp).encode())
+    h.update(repr(exp.reported).encode())
+    for name in UNTIMED_INPUTS:
+        h.update(f"|{name}={_digest(Path(folder) / name)}".encode())
+    return h.hexdigest()
+
+
 def _where() -> Path | None:
     return folder()
+
+
+def record_in_folder(exp, folder: Path, parts: dict, figures: list[str] | None, fmt: str,
+                     replace: bool) -> None:
+    """Write the folder's own entry (FOLDER_RECORD): ``parts``, what the console prints of the
+    comparison without the run times, with the tables' digests and ``figures`` (as ``record``);
+    ``replace``: also where the folder has one (a run that ran trials, a regeneration), else only
+    where it has none. Never an error: a folder that cannot take it has none."""
+    folder = Path(folder)
+    path = folder / FOLDER_RECORD
+    try:
+        if not replace and (path.exists() or path.is_symlink()):
+            return
+        entry = {"format": FORMAT, "key": untimed_key(exp, folder), "parts": parts,
+                 "files": {name: _digest(folder / name) for name in UNTIMED_FILES},
+                 "parquet": _digest(folder / "trials.parquet"),
+                 "figures": None if figures is None else {"format": fmt,
+                                                          "names": list(figures)}}
+        atomic_write(path, json.dumps(entry, sort_keys=True, indent=1) + "\n")
+    except Exception:
+        pass
+
+
+def _folder_entry(exp, folder: Path) -> dict | None:
+    """The folder's own entry when the folder has no timings file and the entry's key is the
+    current one (see the module), else None."""
+    if (folder / "timings.csv").exists() or (folder / "timings.csv").is_symlink():
+        return None
+    path = folder / FOLDER_RECORD
+    try:
+        if path.is_symlink() or not path.is_file():
+            return None
+        entry = json.loads(path.read_text("utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not (isinstance(entry, dict) and entry.get("format") == FORMAT
+            and entry.get("key") == untimed_key(exp, folder)):
+        return None
+    files = entry.get("files")
+    if not isinstance(files, dict) or set(files) != set(UNTIMED_FILES):
+        return None
+    return entry
 
 
 def record(exp, folder: Path, parts: dict, figures: list[str] | None, fmt: str) -> None:
@@ -125,10 +193,18 @@ def replay(exp, folder: Path, figures: bool, fmt: str) -> dict | None:
     folder = Path(folder)
     entry = _entry(lambda: f"{key(exp, folder)}.replay.json")
     if entry is None:
-        return None
-    files = entry.get("files")
-    if not isinstance(files, dict) or set(files) != set(FILES) or any(
-            sha is None or _digest(folder / name) != sha for name, sha in files.items()):
+        entry = _folder_entry(exp, folder)
+        if entry is None:
+            return None
+        parquet = _digest(folder / "trials.parquet")    # absent in a fresh clone: left so
+        if parquet is not None and parquet != entry.get("parquet"):
+            return None
+        files = dict(entry["files"])
+    else:
+        files = entry.get("files")
+        if not isinstance(files, dict) or set(files) != set(FILES):
+            return None
+    if any(sha is None or _digest(folder / name) != sha for name, sha in files.items()):
         return None
     if figures and not _figures_there(folder, entry.get("figures"), fmt):
         return None

@@ -275,3 +275,65 @@ def test_an_up_to_date_sweep_imports_no_table_library(tmp_path):
     first, second = _modules_of_two_commands(tmp_path, _sweep_args(tmp_path / "s"))
     assert "'pandas'" in first                          # the first sweep computes
     assert second == "[] 0", second
+
+
+# ---- the folder's own entry (console.json): a fresh clone, without the run times
+
+def _clone_like(out):
+    """The folder as a fresh clone of committed results has it: no timings file (the machine's,
+    ignored) and no trials.parquet (ignored)."""
+    for name in ("timings.csv", "timings.json", "trials.parquet"):
+        (out / name).unlink(missing_ok=True)
+
+
+def test_a_folder_without_run_times_replays_its_own_entry(tmp_path, write_config, entries):
+    """A run writes console.json; in the folder as a fresh clone has it, with no entry in the
+    user's cache, an up-to-date run prints from it the very text the comparison gives there,
+    writing nothing; the ordinary path's console.json has the same bytes."""
+    cfg, out = write_config(TINY), tmp_path / "o"
+    ran = _run(cfg, out, "--no-figures")
+    assert "console.json" in ran.stderr and (out / rp.FOLDER_RECORD).is_file()
+    _clone_like(out)
+    for p in entries.folder.glob("*"):
+        p.unlink()
+    before = tree(out)
+    replayed = _run(cfg, out, "--no-figures")
+    assert entries.ran == 1 and "is up to date" in replayed.stderr      # nothing computed
+    assert tree(out) == before                                          # nothing written
+    kept = (out / rp.FOLDER_RECORD).read_bytes()
+    (out / rp.FOLDER_RECORD).unlink()
+    for p in entries.folder.glob("*"):
+        p.unlink()
+    computed = _run(cfg, out, "--no-figures")       # the ordinary path, without run times
+    assert entries.ran == 2 and replayed.stdout == computed.stdout
+    assert (out / rp.FOLDER_RECORD).read_bytes() == kept     # written again where it had none
+
+
+@pytest.mark.parametrize("change", ["trials.csv", "table.md", "parquet", "timings", "entry"])
+def test_the_folder_entry_is_read_only_where_it_still_holds(tmp_path, write_config, entries,
+                                                            change):
+    """Other trials (a key of other inputs), a table of other bytes, a trials.parquet of other
+    bytes, a timings file (the folder is not a clone's: the user's cache speaks for it), an
+    entry of another key: the ordinary path, which never replaces the folder's entry."""
+    cfg, out = write_config(TINY), tmp_path / "o"
+    _run(cfg, out, "--no-figures")
+    _clone_like(out)
+    record = out / rp.FOLDER_RECORD
+    if change == "trials.csv":      # the same trials, written otherwise: other bytes, same rows
+        (out / "trials.csv").write_text((out / "trials.csv").read_text() + "\n")
+    elif change == "table.md":
+        (out / "table.md").write_text((out / "table.md").read_text() + "\n")
+    elif change == "parquet":
+        (out / "trials.parquet").write_bytes(b"not the parquet it was")
+    elif change == "timings":
+        (out / "timings.csv").write_text("trial,filter,wall_s\n")
+    else:
+        entry = json.loads(record.read_text())
+        entry["key"] = "0" * 64
+        record.write_text(json.dumps(entry))
+    kept = record.read_bytes()
+    for p in entries.folder.glob("*"):
+        p.unlink()
+    res = runner.invoke(app, ["run", str(cfg), "--out", str(out), "--no-figures"])
+    assert res.exit_code == 0 and entries.ran == 2, res.output     # computed
+    assert record.read_bytes() == kept                      # an up-to-date run never replaces it
