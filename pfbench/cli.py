@@ -607,10 +607,13 @@ def sweep(
                                          cells[0].exp,
                                          missing_only=trials_df.attrs.get("up_to_date", False),
                                          curves=cells[0].curves)
-            parts = {"table": _sweep_table(summ, trials_df, keys, cells[0].exp),
-                     "curves": _curves_blocks(cells[0].curves, summ.attrs.get("curves"), keys)}
-            from .replay import record_sweep
+            parts = sw.console_parts(summ, trials_df, keys, cells[0].exp, cells[0].curves)
+            from .replay import record_sweep, record_sweep_in_folder
             record_sweep(cells, folder, parts, figs, figure_format)
+            record_sweep_in_folder(cells, folder, sw.untimed_parts(parts, summ, trials_df, keys,
+                                                                   cells[0].exp),
+                                   figs, figure_format,
+                                   not trials_df.attrs.get("up_to_date", False))
         _show_sweep(parts["table"], name, keys, cells[0].exp.trials, folder)
         err.print(f"wrote {folder}/trials.csv, summary.csv, {len(figs)} figures and a results "
                   "folder per cell under cells/", markup=False)
@@ -619,32 +622,8 @@ def sweep(
             err.print(f"wrote {folder}/curves.csv and curves.md", markup=False)
 
 
-def _sweep_table(summ, trials_df, keys: list, exp) -> dict:
-    """A sweep's table as strings (JSON-able, what pfbench.replay keeps): ``head`` and a row per
-    cell and filter run, the means of RMSE and two more metrics, and the time a trial took."""
-    from . import sweep as sw
-    from .figstyle import label
-    from .plots import sweep_metrics
-    extra = [m for m in sweep_metrics(exp)[1:] if f"{m}_mean" in summ][:2]
-    head = ([k.split(".")[-1] for k in keys] + ["Filter", "N", "RMSE [95% CI]"]
-            + [label(m) for m in extra] + ["ms/trial"])
-    # the run times (not in summary.csv): the same cells and filter runs, in the same order
-    wall = sw.summary(trials_df, keys, ("wall_s",))
-    ms_per_trial = (list(1e3 * wall["wall_s_mean"]) if "wall_s_mean" in wall
-                    else [float("nan")] * len(summ))
-    rows = []
-    for (_, r), ms in zip(summ.iterrows(), ms_per_trial):
-        n = r["particles"]
-        rows.append([*[str(r[k]) for k in keys], str(r["label"]),
-                     "-" if n != n or n is None else str(int(n)),
-                     f"{r['rmse_mean']:.3g} [{r['rmse_ci_lo']:.3g}, {r['rmse_ci_hi']:.3g}]",
-                     *[f"{r[f'{m}_mean']:.3g}" for m in extra],
-                     "-" if ms != ms else f"{ms:.3g}"])
-    return {"head": head, "rows": rows}
-
-
 def _show_sweep(table: dict, name: str, keys: list, trials: int, folder: Path) -> None:
-    """Print a sweep's table (_sweep_table) under its title line."""
+    """Print a sweep's table (pfbench.sweep.console_parts) under its title line."""
     out.print(f"{name}: sweep over {', '.join(keys)}, {trials} trials a cell; "
               f"means, every metric with its interval in {folder}/summary.csv",
               markup=False, style="bold")
@@ -656,32 +635,8 @@ def _show_sweep(table: dict, name: str, keys: list, trials: int, folder: Path) -
     out.print(t)
 
 
-def _curves_blocks(curves: tuple, judged, keys: list) -> list[dict]:
-    """The sweep's verdicts against the paper's curves as strings (JSON-able): per curve, a
-    ``title`` (its counts), its ``description`` and its table (``head``, a row per point)."""
-    if not curves or judged is None:
-        return []
-    from . import curves as cv
-    blocks = []
-    for name, c in curves:
-        g = judged[judged["curve"] == name]
-        rows = []
-        for _, r in g.iterrows():
-            paper = ("-" if r["paper"] != r["paper"] else
-                     f"{r['paper']:.4g} +- {r['reading_error']:.2g}"
-                     + (" (interpolated)" if r["how"].startswith("interpolated") else ""))
-            rows.append([*[str(r[k]) for k in keys], str(r["label"]), paper,
-                         f"{r['ours']:.4g} [{r['ours_lo']:.4g}, {r['ours_hi']:.4g}]",
-                         str(r["verdict"])])
-        blocks.append({"title": f"curve {name}: {cv.counts(judged, name)}",
-                       "description": cv.describe(name, c),
-                       "head": [k.split(".")[-1] for k in keys]
-                       + ["Filter", "paper", "ours [95% CI]", "verdict"], "rows": rows})
-    return blocks
-
-
 def _show_curves(blocks: list[dict]) -> None:
-    """Print the sweep's verdicts against the paper's curves (_curves_blocks)."""
+    """Print the sweep's verdicts against the paper's curves (pfbench.sweep.console_parts)."""
     for b in blocks:
         out.print(b["title"], markup=False, style="bold")
         out.print(b["description"], markup=False)

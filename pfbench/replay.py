@@ -33,6 +33,11 @@ reads it only in a folder without a timings file, when its key is the current on
 tables have its bytes, and trials.parquet (ignored where results are committed) is absent or has
 the bytes it had.
 
+A sweep folder keeps one too (``record_sweep_in_folder``): the sweep's table without its run
+times and its curves' verdicts, under a key of the code, the paper's curves and each cell's
+name, experiment, meta.json and trials.csv, with the digests of the files and figures an
+up-to-date sweep leaves; it is read only where neither the folder nor a cell has a timings file.
+
 A sweep's entry (``record_sweep``, ``replay_sweep``) keeps its table and its curves' verdicts,
 with every file an up-to-date sweep writes (SWEEP_FILES, and CELL_FILES in each cell's folder)
 and every figure it drew, under a key of the code, the paper's curves, and each cell's name,
@@ -258,6 +263,73 @@ def _sweep_files(cells, folder: Path) -> dict:
     return out
 
 
+UNTIMED_SWEEP_FILES = ("trials.csv", "summary.csv", "curves.csv", "curves.md")
+
+
+def untimed_sweep_key(cells, folder: Path) -> str:
+    """The key of a sweep folder's own entry (FOLDER_RECORD): as ``sweep_key``, without the
+    cells' timings files."""
+    folder = Path(folder)
+    h = hashlib.sha256(code_digest().encode())
+    h.update(b"|untimed|")
+    h.update(repr(cells[0].curves if cells else ()).encode())
+    for cell in cells:
+        h.update(f"|cell {cell.name}|{cell.exp!r}|{cell.exp.reported!r}".encode())
+        for name in UNTIMED_INPUTS:
+            h.update(f"|{name}={_digest(folder / 'cells' / cell.name / name)}".encode())
+    return h.hexdigest()
+
+
+def _untimed_sweep_files(cells, folder: Path) -> dict:
+    """As ``_sweep_files``, without the timings file and trials.parquet."""
+    out = {name: _digest(folder / name) for name in UNTIMED_SWEEP_FILES}
+    for cell in cells:
+        for name in CELL_FILES:
+            out[f"cells/{cell.name}/{name}"] = _digest(folder / "cells" / cell.name / name)
+    return out
+
+
+def record_sweep_in_folder(cells, folder: Path, parts: dict, figures: list[Path], fmt: str,
+                           replace: bool) -> None:
+    """A sweep folder's own entry (FOLDER_RECORD): ``parts``, what the console prints of the
+    sweep without the run times, with the digests of the files and figures an up-to-date sweep
+    leaves; ``replace`` as ``record_in_folder``. Never an error."""
+    folder = Path(folder)
+    path = folder / FOLDER_RECORD
+    try:
+        if not cells or (not replace and (path.exists() or path.is_symlink())):
+            return
+        entry = {"format": FORMAT, "key": untimed_sweep_key(cells, folder), "parts": parts,
+                 "files": _untimed_sweep_files(cells, folder),
+                 "parquet": _digest(folder / "trials.parquet"),
+                 "figures": {"format": fmt, "files": {Path(p).name: _digest(Path(p))
+                                                      for p in figures}}}
+        atomic_write(path, json.dumps(entry, sort_keys=True, indent=1) + "\n")
+    except Exception:
+        pass
+
+
+def _sweep_folder_entry(cells, folder: Path) -> dict | None:
+    """A sweep folder's own entry, when neither the folder nor a cell has a timings file and
+    its key, files and trials.parquet (absent, or its bytes) still hold; else None."""
+    if any((f / "timings.csv").exists() or (f / "timings.csv").is_symlink()
+           for f in [folder] + [folder / "cells" / c.name for c in cells]):
+        return None
+    path = folder / FOLDER_RECORD
+    try:
+        if path.is_symlink() or not path.is_file():
+            return None
+        entry = json.loads(path.read_text("utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not (isinstance(entry, dict) and entry.get("format") == FORMAT
+            and entry.get("key") == untimed_sweep_key(cells, folder)
+            and entry.get("files") == _untimed_sweep_files(cells, folder)):
+        return None
+    parquet = _digest(folder / "trials.parquet")
+    return entry if parquet is None or parquet == entry.get("parquet") else None
+
+
 def record_sweep(cells, folder: Path, parts: dict, figures: list[Path], fmt: str) -> None:
     """Keep what the console printed (``parts``: the sweep's table and its curves' blocks) of
     the sweep of ``cells`` into ``folder``, with the files it left there and its ``figures`` (in
@@ -283,7 +355,11 @@ def replay_sweep(cells, folder: Path, fmt: str) -> dict | None:
     whose every cell the runner found up to date, holding the folders' locks."""
     folder = Path(folder)
     entry = _entry(lambda: f"{sweep_key(cells, folder)}.sweep.json") if cells else None
-    if entry is None or entry.get("files") != _sweep_files(cells, folder):
+    if entry is None and cells:
+        entry = _sweep_folder_entry(cells, folder)
+    elif entry is not None and entry.get("files") != _sweep_files(cells, folder):
+        return None
+    if entry is None:
         return None
     figures = entry.get("figures")
     if not isinstance(figures, dict) or figures.get("format") != fmt:

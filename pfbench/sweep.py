@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any, Callable
 from .config import Experiment, apply_override, locate, read_yaml, validate
 from .curves import resolve as resolve_curves
 from .errors import UserError
+from .figstyle import label
 from .fsutil import FolderLock, own_folder
 from .runner import run_experiment
 from .store import TIMINGS, write_csv
@@ -234,3 +235,65 @@ def write_cell_table(exp, rows, meta: dict | None, folder: Path) -> None:
     from . import tables
     from .tablecache import anytime_of, cached_compare
     tables.write(cached_compare(exp, rows, anytime=anytime_of(meta)), folder, meta, rows)
+
+
+# ---- what a sweep prints (JSON-able strings: what pfbench.replay keeps)
+
+def console_parts(summ, trials_df, keys: list, exp, curves: tuple) -> dict:
+    """What the console prints of a sweep: its table (``console_table``) and its verdicts
+    against the paper's ``curves`` (``curves_blocks``, from ``summ.attrs["curves"]``)."""
+    return {"table": console_table(summ, trials_df, keys, exp),
+            "curves": curves_blocks(curves, summ.attrs.get("curves"), keys)}
+
+
+def untimed_parts(parts: dict, summ, trials_df, keys: list, exp) -> dict:
+    """``parts`` as a sweep prints them without its run times (pfbench.replay's folder entry):
+    the table's time column empty; the curves' verdicts do not read run times."""
+    return {"table": console_table(summ, trials_df.drop(columns=["wall_s"], errors="ignore"),
+                                  keys, exp), "curves": parts["curves"]}
+
+
+def console_table(summ, trials_df, keys: list, exp) -> dict:
+    """A sweep's table as strings (JSON-able, what pfbench.replay keeps): ``head`` and a row per
+    cell and filter run, the means of RMSE and two more metrics, and the time a trial took."""
+    from .plots import sweep_metrics
+    extra = [m for m in sweep_metrics(exp)[1:] if f"{m}_mean" in summ][:2]
+    head = ([k.split(".")[-1] for k in keys] + ["Filter", "N", "RMSE [95% CI]"]
+            + [label(m) for m in extra] + ["ms/trial"])
+    # the run times (not in summary.csv): the same cells and filter runs, in the same order
+    wall = summary(trials_df, keys, ("wall_s",))
+    ms_per_trial = (list(1e3 * wall["wall_s_mean"]) if "wall_s_mean" in wall
+                    else [float("nan")] * len(summ))
+    rows = []
+    for (_, r), ms in zip(summ.iterrows(), ms_per_trial):
+        n = r["particles"]
+        rows.append([*[str(r[k]) for k in keys], str(r["label"]),
+                     "-" if n != n or n is None else str(int(n)),
+                     f"{r['rmse_mean']:.3g} [{r['rmse_ci_lo']:.3g}, {r['rmse_ci_hi']:.3g}]",
+                     *[f"{r[f'{m}_mean']:.3g}" for m in extra],
+                     "-" if ms != ms else f"{ms:.3g}"])
+    return {"head": head, "rows": rows}
+
+
+def curves_blocks(curves: tuple, judged, keys: list) -> list[dict]:
+    """The sweep's verdicts against the paper's curves as strings (JSON-able): per curve, a
+    ``title`` (its counts), its ``description`` and its table (``head``, a row per point)."""
+    if not curves or judged is None:
+        return []
+    from . import curves as cv
+    blocks = []
+    for name, c in curves:
+        g = judged[judged["curve"] == name]
+        rows = []
+        for _, r in g.iterrows():
+            paper = ("-" if r["paper"] != r["paper"] else
+                     f"{r['paper']:.4g} +- {r['reading_error']:.2g}"
+                     + (" (interpolated)" if r["how"].startswith("interpolated") else ""))
+            rows.append([*[str(r[k]) for k in keys], str(r["label"]), paper,
+                         f"{r['ours']:.4g} [{r['ours_lo']:.4g}, {r['ours_hi']:.4g}]",
+                         str(r["verdict"])])
+        blocks.append({"title": f"curve {name}: {cv.counts(judged, name)}",
+                       "description": cv.describe(name, c),
+                       "head": [k.split(".")[-1] for k in keys]
+                       + ["Filter", "paper", "ours [95% CI]", "verdict"], "rows": rows})
+    return blocks

@@ -46,6 +46,12 @@ def test_tables_regenerates_every_config_then_check_passes(folders):
     assert (results / "swept" / "summary.csv").exists()
     assert len(list((results / "swept" / "cells").iterdir())) == 2
     assert not list(results.glob(".*"))                       # no staging folder left
+    # what an up-to-date run or sweep in a fresh clone prints (pfbench.replay), for the folder
+    from pfbench import replay as rp
+    from pfbench.config import load
+    record = json.loads((results / "small" / rp.FOLDER_RECORD).read_text())
+    assert record["key"] == rp.untimed_key(load(configs / "small.yaml"), results / "small")
+    assert (results / "swept" / rp.FOLDER_RECORD).is_file()
 
     r = tables("--check", "--configs", configs, "--results", results)
     assert r.exit_code == 0, r.output

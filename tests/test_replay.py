@@ -337,3 +337,67 @@ def test_the_folder_entry_is_read_only_where_it_still_holds(tmp_path, write_conf
     res = runner.invoke(app, ["run", str(cfg), "--out", str(out), "--no-figures"])
     assert res.exit_code == 0 and entries.ran == 2, res.output     # computed
     assert record.read_bytes() == kept                      # an up-to-date run never replaces it
+
+
+def _sweep_clone_like(out):
+    """A sweep folder as a fresh clone of committed results has it: no timings files and no
+    trials.parquet, in the folder or any cell."""
+    for p in list(out.rglob("timings.*")) + list(out.rglob("trials.parquet")):
+        p.unlink()
+
+
+def test_a_sweep_folder_without_run_times_replays_its_own_entry(tmp_path, swept):
+    """A sweep writes console.json; in the folder as a fresh clone has it, with no entry in the
+    user's cache, an up-to-date sweep prints from it the text the ordinary path prints there
+    (the time column empty), writing nothing; the ordinary path's console.json has the same
+    bytes."""
+    where, ran = swept
+    out = tmp_path / "s"
+    _sweep(out)
+    assert (out / rp.FOLDER_RECORD).is_file() and len(ran) == 1
+    _sweep_clone_like(out)
+    for p in where.glob("*"):
+        p.unlink()
+    times = _written(out)
+    replayed = _sweep(out)
+    assert len(ran) == 1 and "is up to date" in replayed.stderr
+    assert _written(out) == times                                   # not a byte written
+    kept = (out / rp.FOLDER_RECORD).read_bytes()
+    (out / rp.FOLDER_RECORD).unlink()
+    for p in where.glob("*"):
+        p.unlink()
+    computed = _sweep(out)
+    assert len(ran) == 2 and computed.stdout == replayed.stdout
+    assert "curve table1_pf" in computed.stdout
+    assert (out / rp.FOLDER_RECORD).read_bytes() == kept
+
+
+@pytest.mark.parametrize("change", ["summary.csv", "cell table.md", "figure", "cell timings",
+                                    "entry"])
+def test_a_sweep_folder_entry_is_read_only_where_it_still_holds(tmp_path, swept, change):
+    """A file or figure of other bytes, a cell's timings file, an entry of another key: the
+    ordinary path, which never replaces the folder's entry."""
+    where, ran = swept
+    out = tmp_path / "s"
+    _sweep(out)
+    _sweep_clone_like(out)
+    record = out / rp.FOLDER_RECORD
+    cell = next(p for p in (out / "cells").iterdir() if p.is_dir())
+    if change == "summary.csv":
+        (out / "summary.csv").write_text((out / "summary.csv").read_text() + "\n")
+    elif change == "cell table.md":
+        (cell / "table.md").write_text((cell / "table.md").read_text() + "\n")
+    elif change == "figure":
+        fig = next((out / "figures").iterdir())
+        fig.write_bytes(fig.read_bytes() + b"\0")
+    elif change == "cell timings":
+        (cell / "timings.csv").write_text("trial,filter,wall_s\n")
+    else:
+        entry = json.loads(record.read_text())
+        entry["key"] = "0" * 64
+        record.write_text(json.dumps(entry))
+    kept = record.read_bytes()
+    for p in where.glob("*"):
+        p.unlink()
+    _sweep(out)
+    assert len(ran) == 2 and record.read_bytes() == kept
