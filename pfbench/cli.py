@@ -584,9 +584,7 @@ def sweep(
         if parts is not None:       # up to date, and the tables it printed last time
             _show_sweep(parts["table"], name, keys, cells[0].exp.trials, folder)
             _show_curves(parts["curves"])
-            err.print(f"{folder} is up to date: its {len(cells)} cells hold their "
-                      f"{cells[0].exp.trials} trials each (the tables above are computed from "
-                      "them; nothing ran). --force runs them again.", markup=False)
+            _say_sweep_up_to_date(folder, cells)
             return
         header = _once(lambda: err.print(
             f"{name}: {len(cells)} cells ({', '.join(keys)}) x {cells[0].exp.trials} trials "
@@ -608,18 +606,36 @@ def sweep(
                                          missing_only=trials_df.attrs.get("up_to_date", False),
                                          curves=cells[0].curves)
             parts = sw.console_parts(summ, trials_df, keys, cells[0].exp, cells[0].curves)
-            from .replay import record_sweep, record_sweep_in_folder
-            record_sweep(cells, folder, parts, figs, figure_format)
-            record_sweep_in_folder(cells, folder, sw.untimed_parts(parts, summ, trials_df, keys,
-                                                                   cells[0].exp),
-                                   figs, figure_format,
-                                   not trials_df.attrs.get("up_to_date", False))
+            _record_sweep(cells, folder, parts, summ, trials_df, figs, figure_format)
         _show_sweep(parts["table"], name, keys, cells[0].exp.trials, folder)
+        if trials_df.attrs.get("up_to_date", False):    # as a replayed one says it
+            _show_curves(parts["curves"])
+            _say_sweep_up_to_date(folder, cells)
+            return
         err.print(f"wrote {folder}/trials.csv, summary.csv, {len(figs)} figures and a results "
                   "folder per cell under cells/", markup=False)
         _show_curves(parts["curves"])
         if parts["curves"]:
             err.print(f"wrote {folder}/curves.csv and curves.md", markup=False)
+
+
+def _record_sweep(cells: list, folder: Path, parts: dict, summ, trials_df, figs: list,
+                  fmt: str) -> None:
+    """Keep what the sweep printed (pfbench.replay): in the user's cache, and in the folder
+    without the run times (replaced where trials ran)."""
+    from . import sweep as sw
+    from .replay import record_sweep, record_sweep_in_folder
+    keys = list(cells[0].values)
+    record_sweep(cells, folder, parts, figs, fmt)
+    record_sweep_in_folder(cells, folder, sw.untimed_parts(parts, summ, trials_df, keys,
+                                                           cells[0].exp),
+                           figs, fmt, not trials_df.attrs.get("up_to_date", False))
+
+
+def _say_sweep_up_to_date(folder: Path, cells: list) -> None:
+    err.print(f"{folder} is up to date: its {len(cells)} cells hold their "
+              f"{cells[0].exp.trials} trials each (the tables above are computed from "
+              "them; nothing ran). --force runs them again.", markup=False)
 
 
 def _show_sweep(table: dict, name: str, keys: list, trials: int, folder: Path) -> None:
@@ -663,7 +679,7 @@ def _sweep_replayed(cells: list, folder: Path, out_dir, fmt: str) -> dict | None
     with FolderLock(folder, "--out" if out_dir else "results folder"):
         for cell in cells:
             with FolderLock(folder / "cells" / cell.name, "sweep cell", root=folder):
-                if up_to_date(cell.exp, folder / "cells" / cell.name) is None:
+                if up_to_date(cell.exp, folder / "cells" / cell.name, traces=False) is None:
                     return None
         return replay_sweep(cells, folder, fmt)
 

@@ -1066,12 +1066,13 @@ def _check_folder(exp: Experiment, out_dir: Path, resume: bool, force: bool,
     return True, None
 
 
-def up_to_date(exp: Experiment, out_dir: Path) -> RunResult | None:
+def up_to_date(exp: Experiment, out_dir: Path, traces: bool = True) -> RunResult | None:
     """The result of a run of ``exp`` into ``out_dir`` when the folder holds every trial of it
     (run_experiment's 'up to date': nothing would run), else None; refuses what run_experiment
-    refuses (a folder of another experiment, or of more trials). Call it holding the folder's
-    lock."""
-    return _check_folder(exp, Path(out_dir), False, False, True)[1]
+    refuses (a folder of another experiment, or of more trials). ``traces``: as run_experiment's
+    (a run that keeps them needs the folder's traces file too; a sweep's cells keep none). Call
+    it holding the folder's lock."""
+    return _check_folder(exp, Path(out_dir), False, False, traces)[1]
 
 
 def run_experiment(exp: Experiment, out_dir: Path, *, workers: int = 1, resume: bool = False,

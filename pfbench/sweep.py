@@ -222,8 +222,8 @@ def run_sweep(cells: list[Cell], out_dir: Path, *, workers: int = 1, resume: boo
     # the trials file holds what the seed determines; the run times go to the timings file
     keys = list(cells[0].values) if cells else []
     write_csv(out_dir / "trials.csv", trials.drop(columns=["wall_s"], errors="ignore"))
-    if "wall_s" in trials:
-        write_csv(out_dir / TIMINGS, trials[keys + ["trial", "filter", "wall_s"]])
+    if "wall_s" in trials and trials["wall_s"].notna().any():    # none: the cells have no
+        write_csv(out_dir / TIMINGS, trials[keys + ["trial", "filter", "wall_s"]])  # timings
     trials.attrs["up_to_date"] = fresh      # every cell held its trials: nothing ran
     return trials
 

@@ -369,6 +369,9 @@ def test_a_sweep_folder_without_run_times_replays_its_own_entry(tmp_path, swept)
     computed = _sweep(out)
     assert len(ran) == 2 and computed.stdout == replayed.stdout
     assert "curve table1_pf" in computed.stdout
+    # the ordinary path of an up-to-date sweep says so too, and writes no timings file of none
+    assert "is up to date" in computed.stderr and "wrote" not in computed.stderr
+    assert not (out / "timings.csv").exists()
     assert (out / rp.FOLDER_RECORD).read_bytes() == kept
 
 
@@ -401,3 +404,18 @@ def test_a_sweep_folder_entry_is_read_only_where_it_still_holds(tmp_path, swept,
         p.unlink()
     _sweep(out)
     assert len(ran) == 2 and record.read_bytes() == kept
+
+
+def test_a_sweep_of_a_kind_with_traces_replays_too(tmp_path, swept):
+    """A sweep's cells keep no traces (the sweep runs them without): an up-to-date sweep of
+    FastSLAM, whose runs keep traces, replays as any other (it never did: each cell was taken
+    for out of date for want of a traces file, so the sweep computed every time)."""
+    from .conftest import ROOT
+    where, ran = swept
+    args = ["sweep", str(ROOT / "configs" / "ifa_fastslam_speed.yaml"), "--trials", "1",
+            "--set", "scenario.speed_mps=1.0,2.0", "--out", str(tmp_path / "s")]
+    first = runner.invoke(app, args)
+    assert first.exit_code == 0 and len(ran) == 1, first.output
+    again = runner.invoke(app, args)
+    assert again.exit_code == 0 and len(ran) == 1, again.output
+    assert "is up to date" in again.stderr and again.stdout == first.stdout
