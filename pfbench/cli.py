@@ -578,21 +578,20 @@ def sweep(
         total = sum(c.exp.trials for c in cells)
         workers = _workers_that_fit([(c.exp, f"{config} (sweep cell {c.name})") for c in cells],
                                     workers, executor)
-        parts = None
-        if not (resume or force) and executor == "local":
-            parts = _sweep_replayed(cells, folder, out_dir, figure_format)
+        parts, fresh = (_sweep_replayed(cells, folder, out_dir, figure_format)
+                        if not (resume or force) and executor == "local" else (None, False))
         if parts is not None:       # up to date, and the tables it printed last time
             _show_sweep(parts["table"], name, keys, cells[0].exp.trials, folder)
             _show_curves(parts["curves"])
             _say_sweep_up_to_date(folder, cells)
             return
-        header = _once(lambda: err.print(
+        header = (lambda: None) if fresh else _once(lambda: err.print(   # fresh: nothing runs
             f"{name}: {len(cells)} cells ({', '.join(keys)}) x {cells[0].exp.trials} trials "
             f"= {total} trials -> {folder}", markup=False))
         with _executor(executor, workers, scheduler) as ex, \
                 FolderLock(folder, "--out" if out_dir else "results folder"):
             with _bar() as bar:
-                progress = _progress(bar, total, header, [c.exp for c in cells],
+                progress = _progress(bar, total, header, [] if fresh else [c.exp for c in cells],
                                      getattr(ex, "underway", None))
                 with _stop_on_interrupt(bar, "interrupted in a cell: "):
                     trials_df = sw.run_sweep(cells, folder, workers=workers, resume=resume,
@@ -664,15 +663,15 @@ def _show_curves(blocks: list[dict]) -> None:
         out.print(t)
 
 
-def _sweep_replayed(cells: list, folder: Path, out_dir, fmt: str) -> dict | None:
-    """When every cell of the sweep in ``folder`` is up to date and the folder still holds what
-    the sweep that printed its tables left (pfbench.replay), those tables' strings: the sweep
-    then neither computes nor writes anything (nor imports pandas). None otherwise: it takes its
-    ordinary path."""
+def _sweep_replayed(cells: list, folder: Path, out_dir, fmt: str) -> tuple[dict | None, bool]:
+    """(parts, up to date): when every cell of the sweep in ``folder`` is up to date (then True)
+    and the folder still holds what the sweep that printed its tables left (pfbench.replay),
+    those tables' strings: the sweep then neither computes nor writes anything (nor imports
+    pandas). None otherwise: it takes its ordinary path (which, up to date, runs nothing)."""
     if (folder / "meta.json").exists() or not (folder / "summary.csv").is_file():
-        return None
+        return None, False
     if (folder / "cells").is_symlink() or not (folder / "cells").is_dir():
-        return None
+        return None, False
     from .fsutil import FolderLock
     from .replay import replay_sweep
     from .runner import up_to_date
@@ -680,8 +679,8 @@ def _sweep_replayed(cells: list, folder: Path, out_dir, fmt: str) -> dict | None
         for cell in cells:
             with FolderLock(folder / "cells" / cell.name, "sweep cell", root=folder):
                 if up_to_date(cell.exp, folder / "cells" / cell.name, traces=False) is None:
-                    return None
-        return replay_sweep(cells, folder, fmt)
+                    return None, False
+        return replay_sweep(cells, folder, fmt), True
 
 
 @app.command("tables")
