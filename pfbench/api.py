@@ -215,7 +215,7 @@ def _record(exp, res, folder: Path, cmp, figures: bool, fmt: str,
             from .plots import expected_figures
             names = expected_figures(exp, res.rows, fmt)
         record(exp, folder, console_parts(cmp), names, fmt)
-        record_in_folder(exp, folder, console_parts(cmp.without_timings()), names, fmt,
+        record_in_folder(exp, folder, lambda: console_parts(cmp.without_timings()), names, fmt,
                          not res.up_to_date if replace is None else replace)
     except Exception:       # a cache: never a run's error
         pass

@@ -626,9 +626,9 @@ def _record_sweep(cells: list, folder: Path, parts: dict, summ, trials_df, figs:
     from .replay import record_sweep, record_sweep_in_folder
     keys = list(cells[0].values)
     record_sweep(cells, folder, parts, figs, fmt)
-    record_sweep_in_folder(cells, folder, sw.untimed_parts(parts, summ, trials_df, keys,
-                                                           cells[0].exp),
-                           figs, fmt, not trials_df.attrs.get("up_to_date", False))
+    record_sweep_in_folder(cells, folder, lambda: sw.console_parts(
+        summ, trials_df, keys, cells[0].exp, cells[0].curves, run_times=False),
+        figs, fmt, not trials_df.attrs.get("up_to_date", False))
 
 
 def _say_sweep_up_to_date(folder: Path, cells: list) -> None:

@@ -48,6 +48,7 @@ from __future__ import annotations
 import hashlib
 import json
 from pathlib import Path
+from typing import Callable
 
 from .fsutil import atomic_write, left_by_a_kill
 from .tablecache import code_digest, folder, store
@@ -70,56 +71,52 @@ def _digest(path: Path) -> str | None:
         return None
 
 
-def key(exp, folder: Path) -> str:
-    """The entry's key for ``exp``'s results in ``folder`` (see the module)."""
+def _run_key(exp, folder: Path, untimed: bool) -> str:
     h = hashlib.sha256(code_digest().encode())
+    if untimed:
+        h.update(b"|untimed|")
     h.update(repr(exp).encode())
     h.update(repr(exp.reported).encode())
-    for name in INPUTS:
+    for name in UNTIMED_INPUTS if untimed else INPUTS:
         h.update(f"|{name}={_digest(Path(folder) / name)}".encode())
     return h.hexdigest()
+
+
+def key(exp, folder: Path) -> str:
+    """The entry's key for ``exp``'s results in ``folder`` (see the module)."""
+    return _run_key(exp, folder, False)
 
 
 def untimed_key(exp, folder: Path) -> str:
     """The key of the folder's own entry (FOLDER_RECORD): as ``key``, without the timings file."""
-    h = hashlib.sha256(code_digest().encode())
-    h.update(b"|untimed|")
-    h.update(repr(exp).encode())
-    h.update(repr(exp.reported).encode())
-    for name in UNTIMED_INPUTS:
-        h.update(f"|{name}={_digest(Path(folder) / name)}".encode())
-    return h.hexdigest()
+    return _run_key(exp, folder, True)
 
 
 def _where() -> Path | None:
     return folder()
 
 
-def record_in_folder(exp, folder: Path, parts: dict, figures: list[str] | None, fmt: str,
-                     replace: bool) -> None:
-    """Write the folder's own entry (FOLDER_RECORD): ``parts``, what the console prints of the
-    comparison without the run times, with the tables' digests and ``figures`` (as ``record``);
-    ``replace``: also where the folder has one (a run that ran trials, a regeneration), else only
-    where it has none. Never an error: a folder that cannot take it has none."""
-    folder = Path(folder)
+def _write_folder_entry(folder: Path, replace: bool, make: Callable[[], dict]) -> None:
+    """Write ``folder``'s own entry (FOLDER_RECORD): what ``make()`` gives (its key, parts, files
+    and figures), with the format and the digest of trials.parquet; ``replace``: also where the
+    folder has one, else only where it has none (``make`` is then not called). Never an error:
+    a folder that cannot take it has none."""
     path = folder / FOLDER_RECORD
     try:
         if not replace and (path.exists() or path.is_symlink()):
             return
-        entry = {"format": FORMAT, "key": untimed_key(exp, folder), "parts": parts,
-                 "files": {name: _digest(folder / name) for name in UNTIMED_FILES},
-                 "parquet": _digest(folder / "trials.parquet"),
-                 "figures": None if figures is None else {"format": fmt,
-                                                          "names": list(figures)}}
+        entry = {"format": FORMAT, "parquet": _digest(folder / "trials.parquet"), **make()}
         atomic_write(path, json.dumps(entry, sort_keys=True, indent=1) + "\n")
     except Exception:
         pass
 
 
-def _folder_entry(exp, folder: Path) -> dict | None:
-    """The folder's own entry when the folder has no timings file and the entry's key is the
-    current one (see the module), else None."""
-    if (folder / "timings.csv").exists() or (folder / "timings.csv").is_symlink():
+def _read_folder_entry(folder: Path, timed: list[Path], key: Callable[[], str],
+                       files: Callable[[], dict]) -> dict | None:
+    """``folder``'s own entry when none of the folders ``timed`` has a timings file, the entry's
+    key is ``key()``, its files' digests are ``files()`` and trials.parquet is absent (a fresh
+    clone: left so) or has the bytes it had; else None."""
+    if any((f / "timings.csv").exists() or (f / "timings.csv").is_symlink() for f in timed):
         return None
     path = folder / FOLDER_RECORD
     try:
@@ -129,12 +126,35 @@ def _folder_entry(exp, folder: Path) -> dict | None:
     except (OSError, ValueError):
         return None
     if not (isinstance(entry, dict) and entry.get("format") == FORMAT
-            and entry.get("key") == untimed_key(exp, folder)):
+            and entry.get("key") == key() and entry.get("files") == files()):
         return None
-    files = entry.get("files")
-    if not isinstance(files, dict) or set(files) != set(UNTIMED_FILES):
+    parquet = _digest(folder / "trials.parquet")
+    return entry if parquet is None or parquet == entry.get("parquet") else None
+
+
+def _untimed_files(folder: Path) -> dict:
+    return {name: _digest(folder / name) for name in UNTIMED_FILES}
+
+
+def record_in_folder(exp, folder: Path, parts: Callable[[], dict], figures: list[str] | None,
+                     fmt: str, replace: bool) -> None:
+    """Write the folder's own entry (FOLDER_RECORD): ``parts()``, what the console prints of the
+    comparison without the run times, with the tables' digests and ``figures`` (as ``record``);
+    ``replace``: also where the folder has one (a run that ran trials, a regeneration), else only
+    where it has none. Never an error: a folder that cannot take it has none."""
+    folder = Path(folder)
+    _write_folder_entry(folder, replace, lambda: {
+        "key": untimed_key(exp, folder), "parts": parts(), "files": _untimed_files(folder),
+        "figures": None if figures is None else {"format": fmt, "names": list(figures)}})
+
+
+def _folder_entry(exp, folder: Path) -> dict | None:
+    """The folder's own entry where it still holds (_read_folder_entry): both tables there."""
+    files = _untimed_files(folder)
+    if None in files.values():
         return None
-    return entry
+    return _read_folder_entry(folder, [folder], lambda: untimed_key(exp, folder),
+                              lambda: files)
 
 
 def record(exp, folder: Path, parts: dict, figures: list[str] | None, fmt: str) -> None:
@@ -201,16 +221,11 @@ def replay(exp, folder: Path, figures: bool, fmt: str) -> dict | None:
         entry = _folder_entry(exp, folder)
         if entry is None:
             return None
-        parquet = _digest(folder / "trials.parquet")    # absent in a fresh clone: left so
-        if parquet is not None and parquet != entry.get("parquet"):
-            return None
-        files = dict(entry["files"])
     else:
         files = entry.get("files")
-        if not isinstance(files, dict) or set(files) != set(FILES):
+        if not isinstance(files, dict) or set(files) != set(FILES) or any(
+                sha is None or _digest(folder / name) != sha for name, sha in files.items()):
             return None
-    if any(sha is None or _digest(folder / name) != sha for name, sha in files.items()):
-        return None
     if figures and not _figures_there(folder, entry.get("figures"), fmt):
         return None
     parts = entry.get("parts")
@@ -237,97 +252,70 @@ def _parts_ok(parts) -> bool:
 SWEEP_FILES = ("trials.csv", "timings.csv", "summary.csv", "trials.parquet", "curves.csv",
                "curves.md")                     # what an up-to-date sweep (re)writes
 CELL_FILES = ("table.csv", "table.md")           # and in each cell's folder
+UNTIMED_SWEEP_FILES = ("trials.csv", "summary.csv", "curves.csv", "curves.md")  # folder entry's
+
+
+def _sweep_key(cells, folder: Path, untimed: bool) -> str:
+    folder = Path(folder)
+    h = hashlib.sha256(code_digest().encode())
+    if untimed:
+        h.update(b"|untimed|")
+    h.update(repr(cells[0].curves if cells else ()).encode())
+    for cell in cells:
+        h.update(f"|cell {cell.name}|{cell.exp!r}|{cell.exp.reported!r}".encode())
+        for name in UNTIMED_INPUTS if untimed else INPUTS:
+            h.update(f"|{name}={_digest(folder / 'cells' / cell.name / name)}".encode())
+    return h.hexdigest()
 
 
 def sweep_key(cells, folder: Path) -> str:
     """The entry's key for the sweep of ``cells`` (pfbench.sweep.Cell) in ``folder``: the code
     (as ``key``), the paper's curves the sweep names, and per cell its name, its experiment and
     the bytes of its INPUTS."""
-    folder = Path(folder)
-    h = hashlib.sha256(code_digest().encode())
-    h.update(repr(cells[0].curves if cells else ()).encode())
-    for cell in cells:
-        h.update(f"|cell {cell.name}|{cell.exp!r}|{cell.exp.reported!r}".encode())
-        for name in INPUTS:
-            h.update(f"|{name}={_digest(folder / 'cells' / cell.name / name)}".encode())
-    return h.hexdigest()
+    return _sweep_key(cells, folder, False)
 
 
-def _sweep_files(cells, folder: Path) -> dict:
+def _sweep_files(cells, folder: Path, names=SWEEP_FILES) -> dict:
     """The SHA-256 of every file an up-to-date sweep of ``cells`` writes in ``folder`` (None:
-    absent), by its path in the folder."""
-    out = {name: _digest(folder / name) for name in SWEEP_FILES}
+    absent), by its path in the folder: ``names`` of the folder's own, and each cell's
+    CELL_FILES."""
+    out = {name: _digest(folder / name) for name in names}
     for cell in cells:
         for name in CELL_FILES:
             out[f"cells/{cell.name}/{name}"] = _digest(folder / "cells" / cell.name / name)
     return out
-
-
-UNTIMED_SWEEP_FILES = ("trials.csv", "summary.csv", "curves.csv", "curves.md")
 
 
 def untimed_sweep_key(cells, folder: Path) -> str:
     """The key of a sweep folder's own entry (FOLDER_RECORD): as ``sweep_key``, without the
     cells' timings files."""
+    return _sweep_key(cells, folder, True)
+
+
+def _figure_digests(fmt: str, figures: list[Path]) -> dict:
+    return {"format": fmt, "files": {Path(p).name: _digest(Path(p)) for p in figures}}
+
+
+def record_sweep_in_folder(cells, folder: Path, parts: Callable[[], dict], figures: list[Path],
+                           fmt: str, replace: bool) -> None:
+    """A sweep folder's own entry (FOLDER_RECORD): ``parts()``, what the console prints of the
+    sweep without the run times, with the digests of the files (those of ``sweep_key``'s
+    without the timings file and trials.parquet: UNTIMED_SWEEP_FILES) and figures an
+    up-to-date sweep leaves; ``replace`` as ``record_in_folder``. Never an error."""
     folder = Path(folder)
-    h = hashlib.sha256(code_digest().encode())
-    h.update(b"|untimed|")
-    h.update(repr(cells[0].curves if cells else ()).encode())
-    for cell in cells:
-        h.update(f"|cell {cell.name}|{cell.exp!r}|{cell.exp.reported!r}".encode())
-        for name in UNTIMED_INPUTS:
-            h.update(f"|{name}={_digest(folder / 'cells' / cell.name / name)}".encode())
-    return h.hexdigest()
-
-
-def _untimed_sweep_files(cells, folder: Path) -> dict:
-    """As ``_sweep_files``, without the timings file and trials.parquet."""
-    out = {name: _digest(folder / name) for name in UNTIMED_SWEEP_FILES}
-    for cell in cells:
-        for name in CELL_FILES:
-            out[f"cells/{cell.name}/{name}"] = _digest(folder / "cells" / cell.name / name)
-    return out
-
-
-def record_sweep_in_folder(cells, folder: Path, parts: dict, figures: list[Path], fmt: str,
-                           replace: bool) -> None:
-    """A sweep folder's own entry (FOLDER_RECORD): ``parts``, what the console prints of the
-    sweep without the run times, with the digests of the files and figures an up-to-date sweep
-    leaves; ``replace`` as ``record_in_folder``. Never an error."""
-    folder = Path(folder)
-    path = folder / FOLDER_RECORD
-    try:
-        if not cells or (not replace and (path.exists() or path.is_symlink())):
-            return
-        entry = {"format": FORMAT, "key": untimed_sweep_key(cells, folder), "parts": parts,
-                 "files": _untimed_sweep_files(cells, folder),
-                 "parquet": _digest(folder / "trials.parquet"),
-                 "figures": {"format": fmt, "files": {Path(p).name: _digest(Path(p))
-                                                      for p in figures}}}
-        atomic_write(path, json.dumps(entry, sort_keys=True, indent=1) + "\n")
-    except Exception:
-        pass
+    if cells:
+        _write_folder_entry(folder, replace, lambda: {
+            "key": untimed_sweep_key(cells, folder), "parts": parts(),
+            "files": _sweep_files(cells, folder, UNTIMED_SWEEP_FILES),
+            "figures": _figure_digests(fmt, figures)})
 
 
 def _sweep_folder_entry(cells, folder: Path) -> dict | None:
-    """A sweep folder's own entry, when neither the folder nor a cell has a timings file and
-    its key, files and trials.parquet (absent, or its bytes) still hold; else None."""
-    if any((f / "timings.csv").exists() or (f / "timings.csv").is_symlink()
-           for f in [folder] + [folder / "cells" / c.name for c in cells]):
-        return None
-    path = folder / FOLDER_RECORD
-    try:
-        if path.is_symlink() or not path.is_file():
-            return None
-        entry = json.loads(path.read_text("utf-8"))
-    except (OSError, ValueError):
-        return None
-    if not (isinstance(entry, dict) and entry.get("format") == FORMAT
-            and entry.get("key") == untimed_sweep_key(cells, folder)
-            and entry.get("files") == _untimed_sweep_files(cells, folder)):
-        return None
-    parquet = _digest(folder / "trials.parquet")
-    return entry if parquet is None or parquet == entry.get("parquet") else None
+    """A sweep folder's own entry where it still holds (_read_folder_entry), no cell having a
+    timings file either."""
+    return _read_folder_entry(folder, [folder] + [folder / "cells" / c.name for c in cells],
+                              lambda: untimed_sweep_key(cells, folder),
+                              lambda: _sweep_files(cells, folder, UNTIMED_SWEEP_FILES))
 
 
 def record_sweep(cells, folder: Path, parts: dict, figures: list[Path], fmt: str) -> None:
@@ -340,8 +328,7 @@ def record_sweep(cells, folder: Path, parts: dict, figures: list[Path], fmt: str
     try:
         folder = Path(folder)
         entry = {"format": FORMAT, "parts": parts, "files": _sweep_files(cells, folder),
-                 "figures": {"format": fmt, "files": {Path(p).name: _digest(Path(p))
-                                                      for p in figures}}}
+                 "figures": _figure_digests(fmt, figures)}
         data = json.dumps(entry, sort_keys=True).encode()
         store(where, where / f"{sweep_key(cells, folder)}.sweep.json", data, "*.sweep.json")
     except Exception:

@@ -239,18 +239,16 @@ def write_cell_table(exp, rows, meta: dict | None, folder: Path) -> None:
 
 # ---- what a sweep prints (JSON-able strings: what pfbench.replay keeps)
 
-def console_parts(summ, trials_df, keys: list, exp, curves: tuple) -> dict:
+def console_parts(summ, trials_df, keys: list, exp, curves: tuple,
+                  run_times: bool = True) -> dict:
     """What the console prints of a sweep: its table (``console_table``) and its verdicts
-    against the paper's ``curves`` (``curves_blocks``, from ``summ.attrs["curves"]``)."""
+    against the paper's ``curves`` (``curves_blocks``, from ``summ.attrs["curves"]``). Without
+    ``run_times``, as a sweep prints them where its cells have none (pfbench.replay's folder
+    entry): the table's time column empty; the curves' verdicts read no run times."""
+    if not run_times:
+        trials_df = trials_df.drop(columns=["wall_s"], errors="ignore")
     return {"table": console_table(summ, trials_df, keys, exp),
             "curves": curves_blocks(curves, summ.attrs.get("curves"), keys)}
-
-
-def untimed_parts(parts: dict, summ, trials_df, keys: list, exp) -> dict:
-    """``parts`` as a sweep prints them without its run times (pfbench.replay's folder entry):
-    the table's time column empty; the curves' verdicts do not read run times."""
-    return {"table": console_table(summ, trials_df.drop(columns=["wall_s"], errors="ignore"),
-                                  keys, exp), "curves": parts["curves"]}
 
 
 def console_table(summ, trials_df, keys: list, exp) -> dict:
