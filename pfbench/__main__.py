@@ -2,8 +2,8 @@
 (``pfbench.cli.main``), with a ``run``'s worker process started before the command line's own
 modules (typer, rich) are imported, and the process ended without tearing those modules down.
 
-The worker starts numba's compiler while this process imports them and reads its command line
-and config (``pfbench.runner.prestart``): a two-trial run (``pfbench run
+The worker starts what loading kernels needs while this process imports them and reads its
+command line and config (``pfbench.runner.prestart``): a two-trial run (``pfbench run
 configs/ifa_pf_ungm.yaml --trials 2``) took 0.95 times as long as with the worker forked after
 them, on this project's 2-core machine (medians of 12). Every other command goes straight to
 ``pfbench.cli.main``.

@@ -30,6 +30,7 @@ from typing import Callable, Iterable, Mapping, NamedTuple
 
 import numpy as np
 
+from ._cache import start_loading
 from ._lazy import LazyKernel
 from .version import __version__
 from .config import FORMAT_VERSION, Experiment, Params
@@ -644,11 +645,11 @@ _SENT: dict = {}
 
 def prestart() -> None:
     """Start now the worker process a run's trials will need (one, as a run has by default),
-    and have it start numba's compiler (a third of a second on a small machine) while this
-    process reads its command line and its config: the run then hands it the experiment
-    (pickled, with its first unit of trials) instead of forking a worker once the config is
-    read. For the command line, first thing; a run of another worker count, or none,
-    leaves it to ``discard_prestarted``. Never an error: a worker that cannot start is one the
+    and have it start what loading kernels from the cache needs (_cache.start_loading: a
+    quarter of a second on a small machine) while this process reads its command line and its
+    config: the run then hands it the experiment (pickled, with its first unit of trials)
+    instead of forking a worker once the config is read. For the command line, first thing; a
+    run of another worker count, or none, leaves it to ``discard_prestarted``. Never an error: a worker that cannot start is one the
     run forks later, as without this."""
     if _EARLY or _in_process():
         return
@@ -686,12 +687,11 @@ def _claim(exp: Experiment, workers: int):
 
 
 def _early_worker_init(now, slot: int) -> None:
-    """The early worker's setup: a worker's (_worker_init), then numba's compiler started, as
-    loading the first kernel from the cache would."""
+    """The early worker's setup: a worker's (_worker_init), then what loading the first kernel
+    from the cache needs (_cache.start_loading)."""
     _worker_init(now, slot)
     try:
-        from numba.core.registry import cpu_target
-        cpu_target.target_context.refresh()
+        start_loading()
     except Exception:               # the first kernel meets it, and the run reports it
         pass
 

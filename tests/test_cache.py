@@ -66,3 +66,44 @@ def test_a_writable_numba_cache_dir_is_used_without_a_word(tmp_path):
     res = _run(tmp_path, NUMBA_CACHE_DIR=str(tmp_path / "mine"))
     assert _warnings(res) == []
     assert f"cache {tmp_path / 'mine'}" in res.stdout
+
+
+LOADS = """
+import sys
+import numpy as np, numba, pfbench
+from pfbench.filters._common import mean_abs_pairwise
+value = mean_abs_pairwise(np.arange(5.0))
+hits = sum(mean_abs_pairwise.stats.cache_hits.values())
+refreshed = "numba.typed.typeddict" in sys.modules     # what numba's refresh imports
+
+@numba.njit
+def fresh(n):                   # compiles after the load: the compiler refreshes on its own
+    d = {}
+    for i in range(n):
+        d[str(i)] = i * 0.5
+    total = 0.0
+    for v in d.values():
+        total += v
+    return total
+print("result", value, "hits", hits, "refreshed", refreshed, "fresh", fresh(4))
+"""
+
+
+def test_a_kernel_loads_from_the_cache_without_numbas_compiler_refresh(tmp_path):
+    """A kernel found in the cache loads with numba's runtime alone (no import of every lowering
+    module), gives what it gave when compiled, and a kernel compiled afterwards in the same
+    process still compiles and runs; a kernel the cache lacks compiles as numba does."""
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "XDG_CACHE_HOME")}
+    env.update(PYTHONPATH=str(ROOT), NUMBA_CACHE_DIR=str(tmp_path / "mine"))
+
+    def once():
+        res = subprocess.run([sys.executable, "-c", LOADS], capture_output=True, text=True,
+                             env=env, cwd=tmp_path, timeout=600)
+        assert res.returncode == 0 and "Traceback" not in res.stderr, res.stderr
+        return res.stdout.split()
+
+    first, second = once(), once()
+    assert first[:4] == ["result", "2.0", "hits", "0"]            # compiled: nothing to load
+    assert first[5] == "True"
+    assert second[:6] == ["result", "2.0", "hits", "1", "refreshed", "False"], second
+    assert second[6:] == first[6:] == ["fresh", "3.0"]
