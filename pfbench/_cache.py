@@ -149,9 +149,10 @@ def _load_without_refresh() -> None:
     module of lowering rules (lists, dicts, strings, sets, the typed containers, polynomials,
     dates) and reloads the typing templates. Loading machine code needs none of that, only
     numba's runtime (for the arrays a kernel allocates); the modules a kernel's own environment
-    names are imported as it is rebuilt. On this project's 2-core machine the refresh took 0.15
-    s of a two-trial UNGM run's worker (0.77 s against 0.62 s from its start to its second
-    trial, medians of 5). Here a load starts the runtime only; a load that finds nothing (a
+    names are imported as it is rebuilt. On this project's 2-core machine, in one process with
+    pfbench imported, from the first load's preparation to the end of the second trial of a UNGM
+    run, the refresh made 0.77 s of what is otherwise 0.62 s (medians of 5). Here a load starts
+    the runtime only; a load that finds nothing (a
     kernel to compile) refreshes as numba does, and a compilation refreshes on its own. With a
     numba that lacks any of the parts this relies on, numba's own load stays."""
     from numba.core import caching
