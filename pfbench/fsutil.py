@@ -172,6 +172,13 @@ def left_by_a_kill(name: str) -> bool:
     return name.startswith(".") and ".tmp" in name
 
 
+def file_digest(path: Path) -> bytes:
+    """The SHA-256 of a file's bytes (32 bytes): what a cache's key takes of a file (the replay
+    records, the drawn figures, the report's figures). OSError where it cannot be read."""
+    import hashlib
+    return hashlib.sha256(Path(path).read_bytes()).digest()
+
+
 def write_through_temp(path: Path, write, suffix: str = "") -> None:
     """Call ``write(tmp)`` on a temporary file beside ``path``, then rename it to ``path``: never
     half-written; a failed write (a full disk) removes the temporary file."""

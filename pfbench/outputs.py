@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 from .errors import UserError
 from .figstyle import FORMATS, prune
-from .fsutil import left_by_a_kill, own_folder
+from .fsutil import file_digest, left_by_a_kill, own_folder
 from .tablecache import anytime_of  # noqa: F401  (api, report_data and regen import it from here)
 
 if TYPE_CHECKING:     # pandas loads with the tables, after a run's workers start
@@ -62,7 +62,7 @@ def _drawn_key(curves: tuple, paths: list[Path]) -> str:
     h = hashlib.sha256(f"{code_digest()}|{curves!r}".encode())
     for p in sorted(paths, key=lambda p: p.name):
         h.update(f"|{p.name}|".encode())
-        h.update(hashlib.sha256(p.read_bytes()).digest())
+        h.update(file_digest(p))
     return h.hexdigest()
 
 

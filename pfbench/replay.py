@@ -50,7 +50,7 @@ import json
 from pathlib import Path
 from typing import Callable
 
-from .fsutil import atomic_write, left_by_a_kill
+from .fsutil import atomic_write, file_digest, left_by_a_kill
 from .tablecache import code_digest, folder, store
 
 FORMAT = 1
@@ -66,7 +66,7 @@ def _digest(path: Path) -> str | None:
     try:
         if not path.is_file() or path.is_symlink():
             return None
-        return hashlib.sha256(path.read_bytes()).hexdigest()
+        return file_digest(path).hex()
     except OSError:
         return None
 

@@ -21,7 +21,7 @@ import jinja2
 from markupsafe import Markup, escape
 
 from .figstyle import label
-from .fsutil import FolderLock, atomic_write, make_folders, own_folder
+from .fsutil import FolderLock, atomic_write, file_digest, make_folders, own_folder
 from .traces import FIGURE_TRIALS
 from .version import __version__
 from . import report_data as rp
@@ -308,7 +308,7 @@ def figures_key(e: rp.Entry) -> str:
         if "figures" in rel.parts or not path.is_file() or path.is_symlink():
             continue
         h.update(f"|{rel.as_posix()}|".encode())
-        h.update(hashlib.sha256(path.read_bytes()).digest())
+        h.update(file_digest(path))
     return h.hexdigest()
 
 
