@@ -307,22 +307,46 @@ def _trap_configs():
         world = scen.SCHEMA.get("world")
         if world is not None:
             base["world"] = str(ROOT / "configs" / world.default)
+        if "data_dir" in scen.SCHEMA:       # recorded data: Plaza-like files written by the test
+            base.update(data_dir=DATA, verify_digest=False)
+
+        def steps(n, schema=scen.SCHEMA):
+            """n steps; of a scenario cut into steps of a time span, a span of n steps (at
+            least two: a span must be longer than one step)."""
+            if "steps" in schema or "step_s" not in schema:
+                return {"steps": n}
+            return {"end_s": max(n, 2) * schema["step_s"].default}
         noise = _noise_keys(scen.SCHEMA)
-        yield f"{name}-one-step", {**base, "steps": 1}, 2
-        yield f"{name}-tiny-noise", {**base, "steps": 40, **{k: 1e-150 for k in noise}}, 20
-        yield f"{name}-huge-noise", {**base, "steps": 40, **{k: 1e150 for k in noise}}, 20
+        yield f"{name}-one-step", {**base, **steps(1)}, 2
+        yield f"{name}-tiny-noise", {**base, **steps(40), **{k: 1e-150 for k in noise}}, 20
+        yield f"{name}-huge-noise", {**base, **steps(40), **{k: 1e150 for k in noise}}, 20
         # zero where a key allows it, else the smallest double (its square is 0)
         least = {k: 0.0 if scen.SCHEMA[k].min == 0.0 and not scen.SCHEMA[k].min_exclusive
                  else 5e-324 for k in noise}
-        yield f"{name}-no-noise", {**base, "steps": 40, **least}, 20
+        yield f"{name}-no-noise", {**base, **steps(40), **least}, 20
         if "prior_var" in scen.SCHEMA:
-            yield f"{name}-huge-prior", {**base, "steps": 40, "prior_var": 1e300}, 20
-        yield f"{name}-long", {**base, "steps": 3000}, 5
+            yield f"{name}-huge-prior", {**base, **steps(40), "prior_var": 1e300}, 20
+        yield f"{name}-long", {**base, **steps(3000)}, 5
+
+
+# the data folder of a recorded-data scenario's traps, replaced by the recorded_data fixture's
+DATA = "<recorded data>"
+
+
+@pytest.fixture(scope="module")
+def recorded_data(tmp_path_factory):
+    """Plaza-like data files (tests/test_plaza.py), long enough for the longest trap (3000
+    steps of 0.2 s)."""
+    from .test_plaza import _plaza_like
+    folder = tmp_path_factory.mktemp("recorded")
+    _plaza_like(folder / "Plaza1_.mat", 1, seconds=620.0)
+    _plaza_like(folder / "Plaza2_.mat", 2, heading_off=math.pi, seconds=620.0)
+    return str(folder)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("trap", list(_trap_configs()), ids=lambda t: t[0])
-def test_every_filter_on_every_scenario_survives_numerical_traps(trap):
+def test_every_filter_on_every_scenario_survives_numerical_traps(trap, recorded_data):
     """No exception, and every row's error finite or its lost steps counted: for every filter
     that runs on the scenario, at two particles and one step, at noise levels of 1e-150 and
     1e150, and over a long run."""
@@ -330,6 +354,8 @@ def test_every_filter_on_every_scenario_survives_numerical_traps(trap):
     from pfbench.errors import UserError
     from pfbench.scenarios import BUILTIN
     _, scen, particles = trap
+    if scen.get("data_dir") == DATA:
+        scen = {**scen, "data_dir": recorded_data}
     kind = BUILTIN[scen["name"]].KIND
     filters = {}
     for fname, ft in FILTERS.items():
