@@ -152,9 +152,9 @@ def _load_without_refresh() -> None:
     names are imported as it is rebuilt. On this project's 2-core machine, in one process with
     pfbench imported, from the first load's preparation to the end of the second trial of a UNGM
     run, the refresh made 0.77 s of what is otherwise 0.62 s (medians of 5). Here a load starts
-    the runtime only; a load that finds nothing (a
-    kernel to compile) refreshes as numba does, and a compilation refreshes on its own. With a
-    numba that lacks any of the parts this relies on, numba's own load stays."""
+    the runtime only; a load that finds nothing (a kernel to compile) refreshes as numba does,
+    and a compilation refreshes on its own. With a numba that lacks any of the parts this relies
+    on, numba's own load stays."""
     from numba.core import caching
     from numba.core.runtime import rtsys
     cache = getattr(caching, "Cache", None)

@@ -649,8 +649,8 @@ def prestart() -> None:
     quarter of a second on a small machine) while this process reads its command line and its
     config: the run then hands it the experiment (pickled, with its first unit of trials)
     instead of forking a worker once the config is read. For the command line, first thing; a
-    run of another worker count, or none, leaves it to ``discard_prestarted``. Never an error: a worker that cannot start is one the
-    run forks later, as without this."""
+    run of another worker count, or none, leaves it to ``discard_prestarted``. Never an error:
+    a worker that cannot start is one the run forks later, as without this."""
     if _EARLY or _in_process():
         return
     import multiprocessing as mp
