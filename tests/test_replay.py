@@ -309,6 +309,18 @@ def test_a_folder_without_run_times_replays_its_own_entry(tmp_path, write_config
     assert (out / rp.FOLDER_RECORD).read_bytes() == kept     # written again where it had none
 
 
+def _one_more_line(path):
+    """The same content in other bytes: a line more at the end."""
+    path.write_text(path.read_text() + "\n")
+
+
+def _other_key(record):
+    """A folder entry under a key no inputs give."""
+    entry = json.loads(record.read_text())
+    entry["key"] = "0" * 64
+    record.write_text(json.dumps(entry))
+
+
 @pytest.mark.parametrize("change", ["trials.csv", "table.md", "parquet", "timings", "entry"])
 def test_the_folder_entry_is_read_only_where_it_still_holds(tmp_path, write_config, entries,
                                                             change):
@@ -320,17 +332,15 @@ def test_the_folder_entry_is_read_only_where_it_still_holds(tmp_path, write_conf
     _clone_like(out)
     record = out / rp.FOLDER_RECORD
     if change == "trials.csv":      # the same trials, written otherwise: other bytes, same rows
-        (out / "trials.csv").write_text((out / "trials.csv").read_text() + "\n")
+        _one_more_line(out / "trials.csv")
     elif change == "table.md":
-        (out / "table.md").write_text((out / "table.md").read_text() + "\n")
+        _one_more_line(out / "table.md")
     elif change == "parquet":
         (out / "trials.parquet").write_bytes(b"not the parquet it was")
     elif change == "timings":
         (out / "timings.csv").write_text("trial,filter,wall_s\n")
     else:
-        entry = json.loads(record.read_text())
-        entry["key"] = "0" * 64
-        record.write_text(json.dumps(entry))
+        _other_key(record)
     kept = record.read_bytes()
     for p in entries.folder.glob("*"):
         p.unlink()
@@ -387,18 +397,16 @@ def test_a_sweep_folder_entry_is_read_only_where_it_still_holds(tmp_path, swept,
     record = out / rp.FOLDER_RECORD
     cell = next(p for p in (out / "cells").iterdir() if p.is_dir())
     if change == "summary.csv":
-        (out / "summary.csv").write_text((out / "summary.csv").read_text() + "\n")
+        _one_more_line(out / "summary.csv")
     elif change == "cell table.md":
-        (cell / "table.md").write_text((cell / "table.md").read_text() + "\n")
+        _one_more_line(cell / "table.md")
     elif change == "figure":
         fig = next((out / "figures").iterdir())
         fig.write_bytes(fig.read_bytes() + b"\0")
     elif change == "cell timings":
         (cell / "timings.csv").write_text("trial,filter,wall_s\n")
     else:
-        entry = json.loads(record.read_text())
-        entry["key"] = "0" * 64
-        record.write_text(json.dumps(entry))
+        _other_key(record)
     kept = record.read_bytes()
     for p in where.glob("*"):
         p.unlink()
