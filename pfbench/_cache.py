@@ -12,6 +12,7 @@ import hashlib
 import os
 import sys
 import tempfile
+import threading
 from pathlib import Path
 
 import numba
@@ -167,6 +168,7 @@ def _load_without_refresh() -> None:
 
     def load_overload(self, sig, target_context):
         rtsys.initialize(target_context)
+        _array_functions()
         found = None
         with self._guard_against_spurious_io_errors():
             found = self._load_overload(sig, target_context)
@@ -179,11 +181,58 @@ def _load_without_refresh() -> None:
 def start_loading() -> None:
     """What loading a first kernel from the cache needs, done ahead (a worker waiting for its
     first trials): numba's runtime, and the module of numpy's array functions that most kernels'
-    environments name (it looks for a BLAS through scipy.linalg: a tenth of a second)."""
+    environments name (_array_functions)."""
     from numba.core.registry import cpu_target
     from numba.core.runtime import rtsys
     rtsys.initialize(cpu_target.target_context)
-    import numba.np.arraymath  # noqa: F401
+    _array_functions()
+
+
+def _array_functions() -> None:
+    """Import numba's module of numpy's array functions (numba.np.arraymath), which most kernels'
+    environments name, once. It checks for a BLAS by importing scipy.linalg.cython_blas, which
+    would run scipy.linalg's whole ``__init__`` first (every linear-algebra routine: a tenth of a
+    second, most of what a worker's first kernel load waited for); the check gets that one module
+    alone (_blas_alone), and the module leaves ``sys.modules`` again: whatever needs it later
+    (numba fetches its BLAS functions from it when a kernel first calls one) imports it through
+    scipy.linalg as usual."""
+    if "numba.np.arraymath" in sys.modules:
+        return
+    with _ARRAY_FUNCTIONS:
+        alone = _blas_alone()
+        try:
+            import numba.np.arraymath  # noqa: F401
+        finally:
+            if alone:
+                sys.modules.pop(_BLAS, None)
+
+
+_ARRAY_FUNCTIONS = threading.Lock()
+_BLAS = "scipy.linalg.cython_blas"
+
+
+def _blas_alone() -> bool:
+    """Load scipy's BLAS module, scipy.linalg.cython_blas (a compiled module that needs nothing of
+    its package), into ``sys.modules`` without importing the scipy.linalg package around it; True
+    when it did. False where scipy.linalg or that module is imported already, or the module is
+    not where this scipy keeps it or fails to load: then it is imported the usual way."""
+    import importlib.machinery
+    import importlib.util
+    if "scipy.linalg" in sys.modules or _BLAS in sys.modules:
+        return False
+    try:
+        import scipy
+        where = os.path.join(os.path.dirname(scipy.__file__), "linalg")
+        spec = importlib.machinery.PathFinder.find_spec(_BLAS, [where])
+        if spec is None or spec.loader is None:
+            return False
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[_BLAS] = module
+        spec.loader.exec_module(module)
+    except Exception:
+        sys.modules.pop(_BLAS, None)
+        return False
+    return True
 
 
 def configure(version: str) -> Path:

@@ -72,9 +72,13 @@ LOADS = """
 import sys
 import numpy as np, numba, pfbench
 from pfbench.filters._common import mean_abs_pairwise
+from summed import total        # its environment names numba's array functions (a sum)
 value = mean_abs_pairwise(np.arange(5.0))
 hits = sum(mean_abs_pairwise.stats.cache_hits.values())
+summed = total(np.arange(5.0))
+hits += sum(total.stats.cache_hits.values())
 refreshed = "numba.typed.typeddict" in sys.modules     # what numba's refresh imports
+linalg = "scipy.linalg" in sys.modules
 
 @numba.njit
 def fresh(n):                   # compiles after the load: the compiler refreshes on its own
@@ -85,16 +89,21 @@ def fresh(n):                   # compiles after the load: the compiler refreshe
     for v in d.values():
         total += v
     return total
-print("result", value, "hits", hits, "refreshed", refreshed, "fresh", fresh(4))
+print("result", value, summed, "hits", hits, "refreshed", refreshed, "linalg", linalg,
+      "fresh", fresh(4))
 """
 
 
 def test_a_kernel_loads_from_the_cache_without_numbas_compiler_refresh(tmp_path):
     """A kernel found in the cache loads with numba's runtime alone (no import of every lowering
-    module), gives what it gave when compiled, and a kernel compiled afterwards in the same
-    process still compiles and runs; a kernel the cache lacks compiles as numba does."""
+    module, nor of scipy.linalg), gives what it gave when compiled, and a kernel compiled
+    afterwards in the same process still compiles and runs; a kernel the cache lacks compiles
+    as numba does."""
     env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "XDG_CACHE_HOME")}
-    env.update(PYTHONPATH=str(ROOT), NUMBA_CACHE_DIR=str(tmp_path / "mine"))
+    env.update(PYTHONPATH=os.pathsep.join([str(ROOT), str(tmp_path)]),
+               NUMBA_CACHE_DIR=str(tmp_path / "mine"))
+    (tmp_path / "summed.py").write_text("import numba\n\n\n@numba.njit(cache=True)\n"
+                                        "def total(a):\n    return a.sum()\n")
 
     def once():
         res = subprocess.run([sys.executable, "-c", LOADS], capture_output=True, text=True,
@@ -103,7 +112,44 @@ def test_a_kernel_loads_from_the_cache_without_numbas_compiler_refresh(tmp_path)
         return res.stdout.split()
 
     first, second = once(), once()
-    assert first[:4] == ["result", "2.0", "hits", "0"]            # compiled: nothing to load
-    assert first[5] == "True"
-    assert second[:6] == ["result", "2.0", "hits", "1", "refreshed", "False"], second
-    assert second[6:] == first[6:] == ["fresh", "3.0"]
+    assert first[:5] == ["result", "2.0", "10.0", "hits", "0"]   # compiled: nothing to load
+    assert first[6] == "True"
+    assert second[:9] == ["result", "2.0", "10.0", "hits", "2", "refreshed", "False", "linalg",
+                          "False"], second
+    assert second[9:] == first[9:] == ["fresh", "3.0"]
+
+
+BLAS = """
+import sys
+import numpy as np, numba
+from pfbench import _cache
+if sys.argv[1] == "linalg-first":
+    import scipy.linalg  # noqa: F401
+_cache.start_loading()
+after = ["scipy.linalg" in sys.modules, "scipy.linalg.cython_blas" in sys.modules,
+         "numba.np.arraymath" in sys.modules]
+
+@numba.njit
+def product(a, b):              # numpy's dot of two matrices: numba calls scipy's BLAS
+    return np.dot(a, b)
+a = np.arange(6.0).reshape(2, 3)
+b = np.arange(12.0).reshape(3, 4) / 7.0
+print("after", *after, "same", bool(np.array_equal(product(a, b), a @ b)),
+      "blas", "scipy.linalg.cython_blas" in sys.modules)
+"""
+
+
+@pytest.mark.parametrize("how", ["alone", "linalg-first"])
+def test_a_worker_gets_numbas_array_functions_without_importing_scipy_linalg(tmp_path, how):
+    """start_loading checks for a BLAS with scipy's BLAS module alone: the scipy.linalg package
+    (a tenth of a second) is not imported, the module is not left half-registered, and a kernel
+    that calls the BLAS later imports it the usual way and computes numpy's product. Where
+    scipy.linalg is imported already, nothing changes."""
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "XDG_CACHE_HOME")}
+    env.update(PYTHONPATH=str(ROOT), NUMBA_CACHE_DIR=str(tmp_path / "mine"))
+    res = subprocess.run([sys.executable, "-c", BLAS, how], capture_output=True, text=True,
+                         env=env, cwd=tmp_path, timeout=600)
+    assert res.returncode == 0 and "Traceback" not in res.stderr, res.stderr
+    linalg = "True" if how == "linalg-first" else "False"
+    assert res.stdout.split() == ["after", linalg, linalg, "True", "same", "True",
+                                  "blas", "True"], res.stdout
