@@ -623,12 +623,10 @@ def _record_sweep(cells: list, folder: Path, parts: dict, summ, trials_df, figs:
     """Keep what the sweep printed (pfbench.replay): in the user's cache, and in the folder
     without the run times (replaced where trials ran)."""
     from . import sweep as sw
-    from .replay import record_sweep, record_sweep_in_folder
-    keys = list(cells[0].values)
+    from .replay import record_sweep
     record_sweep(cells, folder, parts, figs, fmt)
-    record_sweep_in_folder(cells, folder, lambda: sw.console_parts(
-        summ, trials_df, keys, cells[0].exp, cells[0].curves, run_times=False),
-        figs, fmt, not trials_df.attrs.get("up_to_date", False))
+    sw.record_in_folder(cells, folder, summ, trials_df, figs, fmt,
+                        not trials_df.attrs.get("up_to_date", False))
 
 
 def _say_sweep_up_to_date(folder: Path, cells: list) -> None:

@@ -153,10 +153,7 @@ def regenerate(path: Path, results: Path, executor: LocalExecutor, trials: int |
                 keys = list(cells[0].values)
                 summ, figs = write_sweep(df, keys, stage, name, figures, figure_format,
                                          cells[0].exp, curves=cells[0].curves)
-                from .replay import record_sweep_in_folder
-                record_sweep_in_folder(cells, stage, lambda: sw.console_parts(
-                    summ, df, keys, cells[0].exp, cells[0].curves, run_times=False),
-                    figs, figure_format, True)
+                sw.record_in_folder(cells, stage, summ, df, figs, figure_format, True)
             elif until_decided and exp.reported is not None:
                 run_until_decided(exp, out=stage, max_trials=max_trials, resume=resume,
                                   figures=figures, executor=executor, progress=progress,

@@ -251,6 +251,20 @@ def console_parts(summ, trials_df, keys: list, exp, curves: tuple,
             "curves": curves_blocks(curves, summ.attrs.get("curves"), keys)}
 
 
+def record_in_folder(cells: list, folder: Path, summ, trials_df, figures: list[Path], fmt: str,
+                     replace: bool) -> None:
+    """Keep in the sweep's ``folder`` what the console prints of it without the run times
+    (console_parts), with the figures an up-to-date sweep leaves: the folder's own entry
+    (pfbench.replay.record_sweep_in_folder; ``replace`` as there). Never an error."""
+    from .replay import record_sweep_in_folder
+    if not cells:
+        return
+    keys = list(cells[0].values)
+    record_sweep_in_folder(cells, folder, lambda: console_parts(
+        summ, trials_df, keys, cells[0].exp, cells[0].curves, run_times=False),
+        figures, fmt, replace)
+
+
 def console_table(summ, trials_df, keys: list, exp) -> dict:
     """A sweep's table as strings (JSON-able, what pfbench.replay keeps): ``head`` and a row per
     cell and filter run, the means of RMSE and two more metrics, and the time a trial took."""
