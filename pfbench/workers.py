@@ -63,10 +63,13 @@ class Workers:
     """``count`` daemon worker processes that run ``handle(item)`` on the items sent to them,
     after ``setup(*setup_args, slot)`` (slot: the worker's index). With the fork start method
     ``handle`` is inherited, not pickled: a closure or a large object costs nothing to pass. Use
-    as a context manager (``stop`` on the way out)."""
+    as a context manager (``stop`` on the way out). ``collect``: where this process keeps its
+    objects frozen (see below), collect its garbage before the new ones are frozen too (False
+    where there is next to none to collect: the command line's first fork, right after its
+    imports)."""
 
     def __init__(self, count: int, handle: Callable[[Any], Any], setup: Callable | None = None,
-                 setup_args: tuple = ()):
+                 setup_args: tuple = (), collect: bool = True):
         ctx = _context()
         self.procs: list = []
         self.conns: list = []
@@ -76,10 +79,10 @@ class Workers:
         # of three, this project's 2-core machine). This process has them back at once, unless
         # it keeps objects frozen already (the command line, which ends soon: pfbench.cli.main);
         # then they stay frozen, once the garbage among them is collected (a collection of
-        # what is not frozen yet, which is little).
+        # what is not frozen yet, which is little), unless ``collect`` is False.
         import gc
         kept = gc.get_freeze_count() > 0
-        if kept:
+        if kept and collect:
             gc.collect()
         gc.freeze()
         try:

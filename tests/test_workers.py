@@ -170,3 +170,45 @@ def test_a_process_that_keeps_objects_frozen_keeps_them_so_without_its_garbage()
             assert gc.get_freeze_count() >= kept
     finally:
         gc.unfreeze()
+
+
+
+def test_a_pool_started_without_collecting_freezes_what_there_is():
+    """``collect=False`` (the command line's first fork, right after its imports): no collection
+    before the fork; the garbage is frozen with the rest, and the workers still start."""
+    import gc
+    import weakref
+    from unittest import mock
+
+    class Node:
+        pass
+    gc.freeze()
+    try:
+        node = Node()
+        node.me = node
+        gone = weakref.ref(node)
+        del node
+        with mock.patch("gc.collect") as collect:
+            with Workers(1, _freeze_count, collect=False) as pool:
+                pool.send(0, "how many")
+                (_, ok, frozen), = pool.results(timeout=30)
+        assert ok and frozen > 0
+        collect.assert_not_called()
+        assert gone() is not None       # frozen, not collected
+    finally:
+        gc.unfreeze()
+        gc.collect()
+
+
+def test_the_command_lines_early_worker_starts_without_a_collection(monkeypatch):
+    """runner.prestart forks its worker without collecting first (there is next to nothing to
+    collect right after the imports, and a full collection before the fork delays the run)."""
+    from unittest import mock
+
+    from pfbench import runner
+    made = mock.MagicMock()
+    monkeypatch.setattr(runner, "Workers", made)
+    monkeypatch.setattr(runner, "_EARLY", [])
+    monkeypatch.setattr(runner, "_in_process", lambda: False)
+    runner.prestart()
+    assert made.call_count == 1 and made.call_args.kwargs.get("collect") is False
