@@ -646,7 +646,7 @@ _SENT: dict = {}
 def prestart() -> None:
     """Start now the worker process a run's trials will need (one, as a run has by default),
     and have it start what loading kernels from the cache needs (_cache.start_loading: a
-    quarter of a second on a small machine) while this process reads its command line and its
+    tenth of a second on a small machine) while this process reads its command line and its
     config: the run then hands it the experiment (pickled, with its first unit of trials)
     instead of forking a worker once the config is read. For the command line, first thing; a
     run of another worker count, or none, leaves it to ``discard_prestarted``. Never an error:
