@@ -799,9 +799,12 @@ class DaskExecutor(LocalExecutor):
             if scheduler:
                 self.client = distributed.Client(scheduler, timeout=timeout)
             else:
+                # no dashboard; the scheduler's own HTTP routes (health, metrics) on a free
+                # port rather than 8787, which another cluster may hold (a warning on stderr)
                 self.cluster = distributed.LocalCluster(
                     n_workers=workers, threads_per_worker=1, processes=True,
-                    dashboard_address=None, silence_logs=40)
+                    dashboard_address=None, silence_logs=40,
+                    scheduler_kwargs={"dashboard_address": ":0"})
                 self.client = distributed.Client(self.cluster)
         except (OSError, TimeoutError, ValueError) as exc:  # refused, unreachable, no answer
             raise UserError(f"--scheduler {scheduler}: cannot connect ({exc}); start one with "

@@ -46,6 +46,29 @@ def test_dask_local_cluster_gives_the_in_process_rows_and_traces(tmp_path, write
 
 
 @pytest.mark.slow
+def test_a_local_cluster_starts_without_a_word_while_another_holds_the_dashboards_port():
+    """The local cluster has no dashboard, and its scheduler's HTTP routes take a free port: with
+    8787 held (by another cluster, say) it warns of nothing."""
+    import socket
+    import warnings
+    holder = socket.socket()
+    try:
+        holder.bind(("", 8787))
+        holder.listen()
+    except OSError:                 # held already: the case itself
+        pass
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            with DaskExecutor(1) as ex:
+                assert "1 Dask worker(s)" in ex.describe()
+        said = [str(w.message) for w in caught]
+        assert not [m for m in said if "8787" in m or "already in use" in m], said
+    finally:
+        holder.close()
+
+
+@pytest.mark.slow
 def test_a_worker_that_dies_mid_run_has_its_trials_run_again_once(tmp_path, write_config):
     # trials of a few tens of milliseconds, so that chunks are under way when a worker dies
     cfg = ("name: slow\nseed: 5\ntrials: 40\nscenario: {name: ungm, steps: 100}\n"
