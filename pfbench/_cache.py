@@ -199,6 +199,8 @@ def _array_functions() -> None:
     if "numba.np.arraymath" in sys.modules:
         return
     with _ARRAY_FUNCTIONS:
+        if "numba.np.arraymath" in sys.modules:     # another thread's load imported it meanwhile
+            return
         alone = _blas_alone()
         try:
             import numba.np.arraymath  # noqa: F401
