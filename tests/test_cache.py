@@ -18,9 +18,17 @@ print("result", mean_abs_pairwise(np.arange(5.0)), "cache", pfbench.CACHE_DIR, _
 """
 
 
-def _run(tmp_path, **env):
+def _environment(**env) -> dict:
+    """This process's environment without the user's cache folders, the checkout importable,
+    and ``env``."""
     full = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "XDG_CACHE_HOME")}
-    full.update(PYTHONPATH=str(ROOT), TMPDIR=str(tmp_path / "tmp"), **env)
+    full.update(PYTHONPATH=str(ROOT))
+    full.update(env)
+    return full
+
+
+def _run(tmp_path, **env):
+    full = _environment(TMPDIR=str(tmp_path / "tmp"), **env)
     (tmp_path / "tmp").mkdir(exist_ok=True)
     return subprocess.run([sys.executable, "-c", PROGRAM], capture_output=True, text=True,
                           env=full, cwd=tmp_path, timeout=600)
@@ -99,9 +107,8 @@ def test_a_kernel_loads_from_the_cache_without_numbas_compiler_refresh(tmp_path)
     module, nor of scipy.linalg), gives what it gave when compiled, and a kernel compiled
     afterwards in the same process still compiles and runs; a kernel the cache lacks compiles
     as numba does."""
-    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "XDG_CACHE_HOME")}
-    env.update(PYTHONPATH=os.pathsep.join([str(ROOT), str(tmp_path)]),
-               NUMBA_CACHE_DIR=str(tmp_path / "mine"))
+    env = _environment(PYTHONPATH=os.pathsep.join([str(ROOT), str(tmp_path)]),
+                       NUMBA_CACHE_DIR=str(tmp_path / "mine"))
     (tmp_path / "summed.py").write_text("import numba\n\n\n@numba.njit(cache=True)\n"
                                         "def total(a):\n    return a.sum()\n")
 
@@ -145,8 +152,7 @@ def test_a_worker_gets_numbas_array_functions_without_importing_scipy_linalg(tmp
     (a tenth of a second) is not imported, the module is not left half-registered, and a kernel
     that calls the BLAS later imports it the usual way and computes numpy's product. Where
     scipy.linalg is imported already, nothing changes."""
-    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "XDG_CACHE_HOME")}
-    env.update(PYTHONPATH=str(ROOT), NUMBA_CACHE_DIR=str(tmp_path / "mine"))
+    env = _environment(NUMBA_CACHE_DIR=str(tmp_path / "mine"))
     res = subprocess.run([sys.executable, "-c", BLAS, how], capture_output=True, text=True,
                          env=env, cwd=tmp_path, timeout=600)
     assert res.returncode == 0 and "Traceback" not in res.stderr, res.stderr

@@ -150,20 +150,24 @@ def test_workers_start_with_the_parents_objects_frozen_and_the_parent_thaws():
     assert keep
 
 
-def test_a_process_that_keeps_objects_frozen_keeps_them_so_without_its_garbage():
-    """A process that froze its objects itself (the command line) keeps them frozen through a
-    pool's start, with the new ones, but not the garbage among those: it is collected first."""
-    import gc
+def _garbage_cycle():
+    """A weak reference to an object in a cycle no one holds: garbage only the collector frees."""
     import weakref
 
     class Node:
         pass
+    node = Node()
+    node.me = node
+    return weakref.ref(node)
+
+
+def test_a_process_that_keeps_objects_frozen_keeps_them_so_without_its_garbage():
+    """A process that froze its objects itself (the command line) keeps them frozen through a
+    pool's start, with the new ones, but not the garbage among those: it is collected first."""
+    import gc
     gc.freeze()
     try:
-        node = Node()
-        node.me = node                  # a cycle: only the collector frees it
-        gone = weakref.ref(node)
-        del node
+        gone = _garbage_cycle()
         kept = gc.get_freeze_count()
         with Workers(1, _freeze_count):
             assert gone() is None
@@ -172,22 +176,14 @@ def test_a_process_that_keeps_objects_frozen_keeps_them_so_without_its_garbage()
         gc.unfreeze()
 
 
-
 def test_a_pool_started_without_collecting_freezes_what_there_is():
     """``collect=False`` (the command line's first fork, right after its imports): no collection
     before the fork; the garbage is frozen with the rest, and the workers still start."""
     import gc
-    import weakref
     from unittest import mock
-
-    class Node:
-        pass
     gc.freeze()
     try:
-        node = Node()
-        node.me = node
-        gone = weakref.ref(node)
-        del node
+        gone = _garbage_cycle()
         with mock.patch("gc.collect") as collect:
             with Workers(1, _freeze_count, collect=False) as pool:
                 pool.send(0, "how many")
