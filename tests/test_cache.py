@@ -126,6 +126,58 @@ def test_a_kernel_loads_from_the_cache_without_numbas_compiler_refresh(tmp_path)
     assert second[9:] == first[9:] == ["fresh", "3.0"]
 
 
+LINKS = """
+import numpy as np, numba, pfbench
+from pfbench.models.scalar import ModelFunction
+from scaled import scale, step
+a = np.arange(4.0)
+first = scale(a, 3.0)
+lib = scale.overloads[scale.signatures[0]].library
+lazy = type(lib).__name__ == "LinkOnDemand"
+waits = "_pfbench_bitcode" in lib.__dict__      # its linking module not read yet
+
+@numba.njit
+def twice(a):                   # compiled now: links the loaded kernel's module in
+    return scale(a, 2.0)
+linked = twice(a).tolist()
+read = "_pfbench_bitcode" not in lib.__dict__
+
+@numba.njit
+def apply(f, x, out):           # a first-class function: its address is looked up
+    f(x, 1.0, x, out)
+out = np.empty(4)
+apply(ModelFunction(step), a, out)
+print("lazy", lazy, "waits", waits, "first", first.tolist(), "linked", linked, "read", read,
+      "applied", out.tolist())
+"""
+
+
+def test_a_kernel_loaded_from_the_cache_reads_its_linking_module_only_when_needed(tmp_path):
+    """A kernel loaded from the cache runs without its linking module being parsed
+    (_cache._link_on_demand); a kernel compiled later that calls it links it in (the module is
+    parsed then), and a cached model function handed to a kernel as a first-class function is
+    found: the same values as when they were compiled."""
+    env = _environment(PYTHONPATH=os.pathsep.join([str(ROOT), str(tmp_path)]),
+                       NUMBA_CACHE_DIR=str(tmp_path / "mine"))
+    (tmp_path / "scaled.py").write_text(
+        "import numba\nfrom pfbench.models.scalar import MODEL_SIG\n\n\n"
+        "@numba.njit(cache=True)\ndef scale(a, k):\n    return a * k\n\n\n"
+        "@numba.njit(MODEL_SIG, cache=True)\ndef step(x, t, theta, out):\n"
+        "    for i in range(x.size):\n        out[i] = x[i] * t + theta[i]\n")
+
+    def once():
+        res = subprocess.run([sys.executable, "-c", LINKS], capture_output=True, text=True,
+                             env=env, cwd=tmp_path, timeout=600)
+        assert res.returncode == 0 and "Traceback" not in res.stderr, res.stderr
+        return res.stdout.split(" first ")
+
+    compiled, loaded = once(), once()
+    assert compiled[0] == "lazy False waits False"       # compiled: nothing was loaded
+    assert loaded[0] == "lazy True waits True", loaded
+    assert loaded[1] == compiled[1] == ("[0.0, 3.0, 6.0, 9.0] linked [0.0, 2.0, 4.0, 6.0] read "
+                                        "True applied [0.0, 2.0, 4.0, 6.0]\n")
+
+
 BLAS = """
 import sys
 import numpy as np, numba
