@@ -173,8 +173,8 @@ def t975(df: int) -> float:
     """0.975 quantile of Student's t with ``df`` degrees of freedom."""
     if df < 1:
         return math.nan
-    from scipy.special import stdtrit     # scipy.stats.t.ppf, without importing scipy.stats
-    return float(stdtrit(df, 0.975))
+    from ._special import functions       # scipy.stats.t.ppf, without importing scipy.stats
+    return float(functions().stdtrit(df, 0.975))
 
 
 def chi2_mean_bounds(k: int, level: float = 0.95) -> tuple[float, float]:
@@ -183,7 +183,8 @@ def chi2_mean_bounds(k: int, level: float = 0.95) -> tuple[float, float]:
     bounds of a consistent filter's NEES or NIS averaged over k steps and trials)."""
     if k < 1:
         return math.nan, math.nan
-    from scipy.special import chdtri   # scipy.stats.chi2.isf, without importing scipy.stats
+    from ._special import functions    # scipy.stats.chi2.isf, without importing scipy.stats
+    chdtri = functions().chdtri
     tail = (1.0 - level) / 2.0
     return float(chdtri(k, 1.0 - tail)) / k, float(chdtri(k, tail)) / k
 

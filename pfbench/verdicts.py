@@ -87,11 +87,11 @@ DEFINITIONS = (
 
 
 def _special():
-    """scipy.special, imported when a verdict is first computed: the t and normal distribution
-    functions scipy.stats' t and norm call (stdtrit, stdtr, ndtri), without the second it takes
-    to import scipy.stats' whole module."""
-    from scipy import special
-    return special
+    """scipy's special functions, imported when a verdict is first computed: the t and normal
+    distribution functions scipy.stats' t and norm call (stdtrit, stdtr, ndtri), without the
+    second it takes to import scipy.stats' whole module, nor scipy.special's (pfbench._special)."""
+    from ._special import functions
+    return functions()
 
 
 def cs_rho2(max_trials: int, alpha: float = ALPHA) -> float:

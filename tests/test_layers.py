@@ -21,7 +21,7 @@ LAYERS = {
              "pfbench.version", "pfbench.fsutil", "pfbench.yamlio", "pfbench.schema",
              "pfbench.seeding", "pfbench.rng", "pfbench.vecmath", "pfbench.progress",
              "pfbench.figstyle", "pfbench.metrics", "pfbench.diag", "pfbench.protocols",
-             "pfbench.codes"),
+             "pfbench.codes", "pfbench._special"),
     "models": ("pfbench.models", "pfbench.datasets"),
     "kernels and worlds": ("pfbench.resampling", "pfbench.filters.*", "pfbench.scenarios.*"),
     "registry": ("pfbench.plugins", "pfbench.filters", "pfbench.scenarios", "pfbench.kernels"),
