@@ -510,24 +510,26 @@ def _count(trials) -> int:
 
 
 def import_ahead(stats: bool = False) -> None:
-    """Import, in a thread of this process, the modules the table of a run needs (scipy.special
-    for its intervals, the comparison and the tables; with ``stats``, scipy.stats for the
-    ranking of its filters, pfbench.rank) and what writes the results folder (pyarrow's
-    parquet), and hash the package's sources for the table cache's key, while this process waits
-    for the trials of its worker processes: a short run's table then starts at once. Call it
-    only after those workers are forked, and ``settle`` before forking others (a fork while a
-    thread imports could copy a held import lock into the child: tablecache.settle)."""
+    """Import, in a thread of this process, the modules the table of a run needs (scipy's special
+    functions for its intervals, pfbench._special; the comparison and the tables; with
+    ``stats``, scipy.stats for the ranking of its filters, pfbench.rank) and what writes the
+    results folder (pyarrow's parquet), and hash the package's sources for the table cache's
+    key, while this process waits for the trials of its worker processes: a short run's table
+    then starts at once. Call it only after those workers are forked, and ``settle`` before
+    forking others (a fork while a thread imports could copy a held import lock into the child:
+    tablecache.settle)."""
     import threading
 
     from .tablecache import code_digest, hold, settle
-    wanted = ("scipy.special", "pfbench.compare", "pfbench.tables") + (
+    from ._special import _UFUNCS, functions
+    wanted = (_UFUNCS, "pfbench.compare", "pfbench.tables") + (
         ("scipy.stats",) if stats else ())
     if all(m in sys.modules for m in wanted):
         return
 
     def ahead():
         try:
-            import scipy.special  # noqa: F401
+            functions()
 
             from . import compare, tables  # noqa: F401
             if stats:
@@ -576,15 +578,10 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
     units = Units(exp, trials, count, workers)
     compile_ahead(exp, trial_result)
     _preload()
-    from .rank import ranks_filters
-    from .tablecache import settle
-    settle()                        # no fork while a thread of this process imports
     pool, now, send = _pool(exp, workers, traces)
     if running is not None:
         running.append(lambda: [tuple(now[i:i + 2]) for i in range(0, len(now), 2)])
     with pool:
-        # the table's modules, while the workers run the trials
-        import_ahead(stats=ranks_filters(exp))
         sizes: list[list[int]] = [[] for _ in range(workers)]   # units each worker holds
 
         def hand_out(slot: int) -> None:
@@ -598,6 +595,10 @@ def execute(exp: Experiment, trials: Iterable[int], workers: int, count: int | N
         try:
             for slot in range(workers):
                 hand_out(slot)
+            # the table's modules, while the workers run the trials (their first units are
+            # theirs already: the thread's start would hold them back)
+            from .rank import ranks_filters
+            import_ahead(stats=ranks_filters(exp))
             while any(sizes):
                 for slot, ok, got in pool.results(timeout=0.25):
                     n = sizes[slot].pop(0)
@@ -629,6 +630,9 @@ def _pool(exp: Experiment, workers: int, traces: bool):
             first.discard(slot)
         return pool, now, send
     import multiprocessing as mp
+
+    from .tablecache import settle
+    settle()                        # no fork while a thread of this process imports
     now = mp.RawArray("q", [-1] * (2 * workers))
     pool = Workers(workers, partial(_run_chunk_in_worker, exp, traces=traces),
                    setup=_worker_init, setup_args=(now,))
