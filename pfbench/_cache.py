@@ -249,12 +249,14 @@ def _link_on_demand() -> None:
     loads) took 0.155 s instead of 0.205 s (three runs each, the same rows).
 
     Here a load keeps the bitcode as bytes (``_on_demand_class``). It is parsed, and its symbols
-    listed, the first time it is asked for (a kernel compiled later links it in), or when numba
+    listed, the first time it is asked for (a kernel compiled later links it in), or when a symbol
+    is asked of that library (a model function's address: its own symbols first), or when numba
     asks whether the process defines a symbol it has not listed: every library waiting is read
     then, so the answer is the one numba would have given. The one symbol a load asks for itself,
     the entry point numba makes the kernel's Python function from (``get_executable``), is listed
-    at once: a cached kernel defines its own. With a numba that lacks any of the parts this relies
-    on, numba's own load stays."""
+    at once: a cached kernel defines its own. The seven loads of that first trial then read the
+    bitcode of the four small model functions only. With a numba that lacks any of the parts this
+    relies on, numba's own load stays."""
     try:
         import llvmlite.binding as ll
         from numba.core import codegen, cpu
@@ -337,6 +339,14 @@ def _on_demand_class(library: type, parse) -> type:
         @_shared_module.setter
         def _shared_module(self, module):
             self.__dict__["_pfbench_module"] = module
+
+        def get_pointer_to_function(self, name):
+            # a symbol asked of this library (a model function's address): this library's own
+            # symbols are listed first, and the others' only where it lacks the name
+            symbols = getattr(self._codegen._engine, "_defined_symbols", ())
+            if "_pfbench_bitcode" in self.__dict__ and name not in symbols:
+                self._shared_module
+            return super().get_pointer_to_function(name)
 
     return LinkOnDemand
 
