@@ -295,9 +295,8 @@ def _link_on_demand() -> None:
         if is_symbol_defined(self, name):
             return True
         with _LINKING:
-            waiting = getattr(self, "_pfbench_waiting", None)
-            while waiting:
-                waiting[0]._shared_module       # parsed, its symbols listed, off the list
+            for lib in list(getattr(self, "_pfbench_waiting", ())):
+                lib._shared_module              # parsed, its symbols listed, off the list
         return is_symbol_defined(self, name)
 
     def executable(self, lib, fndesc, env):
@@ -325,16 +324,17 @@ def _on_demand_class(library: type, parse) -> type:
         @property
         def _shared_module(self):
             with _LINKING:
-                module = self.__dict__.get("_pfbench_module")
                 bitcode = self.__dict__.pop("_pfbench_bitcode", None)
-                if module is None and bitcode is not None:
-                    module = self.__dict__["_pfbench_module"] = parse(bitcode)
+                if bitcode is not None:         # off the waiting list first, whatever follows
                     eng = self._codegen._engine
                     waiting = getattr(eng, "_pfbench_waiting", [])
-                    if self in waiting:
+                    listed = self in waiting
+                    if listed:
                         waiting.remove(self)
-                        eng._load_defined_symbols(module)
-                return module
+                    self.__dict__["_pfbench_module"] = parse(bitcode)
+                    if listed:
+                        eng._load_defined_symbols(self.__dict__["_pfbench_module"])
+                return self.__dict__.get("_pfbench_module")
 
         @_shared_module.setter
         def _shared_module(self, module):

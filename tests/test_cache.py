@@ -180,6 +180,52 @@ def test_a_kernel_loaded_from_the_cache_reads_its_linking_module_only_when_neede
                                         "linked [0.0, 2.0, 4.0, 6.0] read True\n")
 
 
+def _on_demand_library(parse):
+    """A library of the class _link_on_demand makes, on a stand-in for numba's code library and
+    engine, waiting with bitcode b"bitcode"; (library, engine, waiting list)."""
+    from pfbench import _cache
+
+    class Engine:
+        def __init__(self):
+            self.listed = []
+
+        def _load_defined_symbols(self, module):
+            self.listed.append(module)
+
+    class Codegen:
+        _engine = Engine()
+
+    class Library:
+        def __init__(self, codegen):
+            self._codegen = codegen
+
+    lib = _cache._on_demand_class(Library, parse)(Codegen())
+    lib.__dict__["_pfbench_bitcode"] = b"bitcode"
+    waiting = _cache._waiting(Codegen._engine)
+    waiting.append(lib)
+    return lib, Codegen._engine, waiting
+
+
+def test_a_waiting_linking_module_is_parsed_once_and_its_symbols_listed_once():
+    """The first look parses the bitcode, lists its symbols and takes the library off the
+    waiting list; a second look returns the same module."""
+    parsed = []
+    lib, engine, waiting = _on_demand_library(lambda b: parsed.append(b) or "module")
+    assert lib._shared_module == "module" and lib._shared_module == "module"
+    assert parsed == [b"bitcode"] and engine.listed == ["module"] and waiting == []
+
+
+def test_a_linking_module_that_fails_to_parse_leaves_nothing_waiting():
+    """Bitcode that does not parse raises where it is first needed, as numba's load would have,
+    and the library leaves the waiting list all the same: a later look over it cannot loop."""
+    def parse(bitcode):
+        raise ValueError("not bitcode")
+    lib, engine, waiting = _on_demand_library(parse)
+    with pytest.raises(ValueError):
+        lib._shared_module
+    assert waiting == [] and lib._shared_module is None and engine.listed == []
+
+
 BLAS = """
 import sys
 import numpy as np, numba
