@@ -264,11 +264,12 @@ def _link_on_demand() -> None:
         unserialize = codegen.CPUCodeLibrary.__dict__["_unserialize"].__func__
         is_symbol_defined = engine.is_symbol_defined
         get_executable = cpu.CPUContext.get_executable
-        needed = (engine._load_defined_symbols, library.enable_object_caching,
-                  library._set_compiled_object, library._finalize_final_module)
     except (ImportError, AttributeError, KeyError):
         return
-    if getattr(get_executable, "_pfbench_lazy", False) or not all(needed):
+    needed = ((engine, "_load_defined_symbols"), (library, "enable_object_caching"),
+              (library, "_set_compiled_object"), (library, "_finalize_final_module"))
+    if (getattr(get_executable, "_pfbench_lazy", False)
+            or not all(hasattr(owner, name) for owner, name in needed)):
         return
     on_demand = _on_demand_class(library, ll.parse_bitcode)
 

@@ -5,6 +5,8 @@ import math
 
 import numpy as np
 
+from ._special import functions
+
 # Per-trial metric columns, in the order trials.csv shows them.
 METRICS = {
     "rmse": "root mean squared error of the estimate over t = 1..T (a robot: of its position, m)",
@@ -173,8 +175,7 @@ def t975(df: int) -> float:
     """0.975 quantile of Student's t with ``df`` degrees of freedom."""
     if df < 1:
         return math.nan
-    from ._special import functions       # scipy.stats.t.ppf, without importing scipy.stats
-    return float(functions().stdtrit(df, 0.975))
+    return float(functions().stdtrit(df, 0.975))     # scipy.stats.t.ppf, without scipy.stats
 
 
 def chi2_mean_bounds(k: int, level: float = 0.95) -> tuple[float, float]:
@@ -183,8 +184,7 @@ def chi2_mean_bounds(k: int, level: float = 0.95) -> tuple[float, float]:
     bounds of a consistent filter's NEES or NIS averaged over k steps and trials)."""
     if k < 1:
         return math.nan, math.nan
-    from ._special import functions    # scipy.stats.chi2.isf, without importing scipy.stats
-    chdtri = functions().chdtri
+    chdtri = functions().chdtri        # scipy.stats.chi2.isf, without importing scipy.stats
     tail = (1.0 - level) / 2.0
     return float(chdtri(k, 1.0 - tail)) / k, float(chdtri(k, tail)) / k
 

@@ -43,6 +43,8 @@ import math
 from dataclasses import dataclass, field, replace
 from typing import Callable
 
+from ._special import functions
+
 ALPHA = 0.05        # each family's error: any false 'reproduced', or any false 'differs'
 
 # The interval each method gives, as a table names it.
@@ -84,14 +86,6 @@ DEFINITIONS = (
     "Wilson's for rates; the BCa bootstrap, paired by trial, for gains, variances, ratios and "
     "counts; with --until-decided, a confidence sequence valid at every look.",
 )
-
-
-def _special():
-    """scipy's special functions, imported when a verdict is first computed: the t and normal
-    distribution functions scipy.stats' t and norm call (stdtrit, stdtr, ndtri), without the
-    second it takes to import scipy.stats' whole module, nor scipy.special's (pfbench._special)."""
-    from ._special import functions
-    return functions()
 
 
 def cs_rho2(max_trials: int, alpha: float = ALPHA) -> float:
@@ -206,7 +200,7 @@ def quantile(level: float, n: int) -> float:
     """The two-sided ``level`` quantile of Student's t with n - 1 degrees of freedom."""
     if n < 2:
         return math.nan
-    return float(_special().stdtrit(n - 1, 0.5 + level / 2))     # scipy.stats.t.ppf
+    return float(functions().stdtrit(n - 1, 0.5 + level / 2))     # scipy.stats.t.ppf
 
 
 def widened_se(est: Estimate, paper_runs: int | None) -> float:
@@ -283,7 +277,7 @@ def _p_closed(est: Estimate, z: float, sides: int) -> float:
         v = est.n * (est.rho2 or cs_rho2(est.n)) + 1.0
         z = max(z, 0.0)         # z * z, not z ** 2: a square past 1e308 is inf, not an error
         return min(1.0, math.sqrt(v) * math.exp(-z * z * (v - 1.0) / (2.0 * v)))
-    return float(sides * _special().stdtr(est.n - 1, -z))     # scipy.stats.t.sf
+    return float(sides * functions().stdtr(est.n - 1, -z))     # scipy.stats.t.sf
 
 
 def _closed_form(c: Claim) -> bool:
@@ -339,8 +333,8 @@ def _trials_to_decide(c: Claim, a_d: float, a_e: float) -> tuple[str, int | None
         return _differs_at(moved, a_d) or _equivalent_at(moved, a_e)
 
     need = []
-    z_d = float(_special().ndtri(1 - a_d / 2))       # scipy.stats.norm.ppf
-    z_e = float(_special().ndtri(0.5 + est.equivalence_level(a_e) / 2))
+    z_d = float(functions().ndtri(1 - a_d / 2))       # scipy.stats.norm.ppf
+    z_e = float(functions().ndtri(0.5 + est.equivalence_level(a_e) / 2))
     if distance > 0:                                    # toward 'differs'
         slack = _square(distance / z_d) - se_b2
         if slack > 0:

@@ -63,7 +63,7 @@ NEVER = (
 # the package): importing one inside a function defers nothing, so it is imported at the top.
 LIGHT = ("pfbench.errors", "pfbench.version", "pfbench._cache", "pfbench.fsutil", "pfbench.schema",
          "pfbench.progress", "pfbench.figstyle", "pfbench.diag", "pfbench.protocols", "pfbench.codes",
-         "pfbench.workers")
+         "pfbench.workers", "pfbench._special")
 # The command line defers even those: ``import pfbench.cli`` loads nothing a command does not
 # need (the startup of every command).
 DEFER_ALL = {"pfbench.cli", "pfbench.__main__"}
