@@ -88,8 +88,16 @@ def test_bad_weights_are_rejected():
 
 def _merge_systematic(w, S, u):
     """Systematic resampling as the plain merge of the positions (u + i) S / N against the running
-    sum, never past the last positive weight: the definition the kernel must reproduce."""
+    sum, never past the last positive weight: the definition the kernel must reproduce. A total
+    outside [2^-900, 2^960 / N] is first brought to an ordinary scale, as the module's docstring
+    says: every weight times the power of two that puts the largest in [0.5, 1), summed again."""
     N = len(w)
+    if not (S >= 2.0 ** -900 and S * N <= 2.0 ** 960):
+        e = math.frexp(max(w))[1]
+        w = [math.ldexp(x, -e) for x in w]
+        S = 0.0
+        for x in w:
+            S += x
     step = S / N
     jmax = max(j for j in range(N) if w[j] > 0.0) if any(x > 0.0 for x in w) else 0
     out, j, cum = [], 0, w[0]
@@ -107,6 +115,7 @@ def _merge_systematic(w, S, u):
                 min_size=1, max_size=300),
        st.integers(0, 2**32 - 1), st.booleans())
 @example([0.0, 5e-324], 0, False)     # S / N rounds to 0: the step is zero, its inverse inf
+@example([0.0, 5e-324, 5e-324], 0, False)   # S / N rounds up to S / 2: only scaled is it S / 3
 def test_systematic_is_the_merge_bit_for_bit(w, seed, uniform_w):
     """The counting form of systematic resampling picks the merge's ancestors exactly, ties of a
     position with a running sum, zero weights, tiny and uniform weights included."""
