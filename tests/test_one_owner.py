@@ -4,6 +4,7 @@ the kernels' step functions have names of their own."""
 from __future__ import annotations
 
 import ast
+import functools
 import re
 from pathlib import Path
 
@@ -18,9 +19,10 @@ def _sources() -> dict[str, str]:
             for p in sorted(ROOT.rglob("*.py"))}
 
 
+@functools.cache
 def _code(text: str) -> str:
     """A module's code without its comments and docstrings (``ast.unparse``'s spelling: single
-    quotes, one space around operators)."""
+    quotes, one space around operators); once per text in a test process."""
     tree = ast.parse(text)
     for node in ast.walk(tree):
         body = getattr(node, "body", None)
