@@ -138,6 +138,8 @@ def _build(module: str, attr: str) -> tuple[float, str]:
 
 # the longest the warm-up stays silent: a kernel compiling longer is named again, with its time
 QUIET_S = 5.0
+# how often the warm-up looks whether a job ended, while it waits for what the pool says
+POLL_S = 0.01
 
 
 def warm(say, workers: int | None = None) -> None:
@@ -168,15 +170,20 @@ def _warm_all(say, plan: list, workers: int | None, run=None) -> set[str]:
     last = time.perf_counter()
     failed: set[str] = set()
 
-    def drain(wait: float) -> None:
+    def drain(wait: float, done=lambda: False) -> None:
+        """Say what the pool processes said, for up to ``wait`` seconds, or until ``done()``
+        (a job ended: the next one starts at once, not at the end of the wait)."""
         nonlocal last
         import queue as q
         end = time.perf_counter() + wait
-        while True:
+        while not done():
             try:
-                pid, label, text = queue.get(timeout=max(0.0, end - time.perf_counter()))
+                pid, label, text = queue.get(timeout=min(POLL_S, max(0.0,
+                                                                      end - time.perf_counter())))
             except q.Empty:
-                break
+                if time.perf_counter() >= end:
+                    break
+                continue
             if text.startswith("numba: compiling "):
                 busy[pid] = (text[len("numba: compiling "):-4], time.perf_counter())
             else:
@@ -203,7 +210,7 @@ def _warm_all(say, plan: list, workers: int | None, run=None) -> set[str]:
                 running[pool.apply_async(run or _build, plan[i][:2])] = i
             finished = [r for r in running if r.ready()]
             if not finished:
-                drain(0.25)
+                drain(0.25, lambda: any(r.ready() for r in running))
                 continue
             drain(0.0)
             for r in finished:

@@ -86,21 +86,21 @@ def _slow_job(module, attr):
     """A warm-up job that compiles for a while (a pool process's; see the test below)."""
     import time
     _kernels._QUEUE.put((__import__("os").getpid(), "m.k", "numba: compiling pfbench.m.k ..."))
-    time.sleep(2.0)
-    return 2.0, ""
+    time.sleep(1.0)
+    return 1.0, ""
 
 
 def test_the_warm_up_is_never_silent_while_a_kernel_compiles(monkeypatch):
     """What compiles in the warm-up's processes is named as it starts, and every few seconds
     (QUIET_S) while it goes on."""
     said = []
-    monkeypatch.setattr(_kernels, "QUIET_S", 0.5)
+    monkeypatch.setattr(_kernels, "QUIET_S", 0.25)
     _kernels._warm_all(said.append, [("pfbench.m", "k", frozenset(), 1.0)], 1, run=_slow_job)
     assert said[0].startswith("numba: compiling 1 kernel(s) the cache lacks")
     start = said.index("numba: [m.k] compiling pfbench.m.k ...")
     still = [s for s in said[start:] if s.startswith("numba: still compiling pfbench.m.k: ")]
     assert len(still) >= 2, said
-    assert said[-2] == "numba: [1/1] m.k: 2 s" and said[-1].startswith("numba: kernels compiled")
+    assert said[-2] == "numba: [1/1] m.k: 1 s" and said[-1].startswith("numba: kernels compiled")
 
 
 class _Config:

@@ -212,9 +212,9 @@ def test_a_filter_that_never_returns_is_stopped_and_named(monkeypatch):
     def run(model, y, params, particles, state, diag=True):
         time.sleep(3600)
     name = _register(monkeypatch, "sleeper", run)
-    found = traps.filter_traps(name, ["particles-1-2"], timeout=3.0)
+    found = traps.filter_traps(name, ["particles-1-2"], timeout=1.0)
     assert [f.status for f in found] == [BROKEN]
-    assert "did not finish within 3 s" in found[0].detail, found[0].line()
+    assert "did not finish within 1 s" in found[0].detail, found[0].line()
 
 
 def test_list_check_is_the_same_check_from_a_folder_with_no_configs(tmp_path, monkeypatch):
