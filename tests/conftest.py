@@ -1,3 +1,4 @@
+import functools
 import math
 import os
 import sys
@@ -62,6 +63,20 @@ def tree(folder: Path) -> dict:
     """Every file under folder with its bytes (to show nothing changed)."""
     return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*"))
             if p.is_file()}
+
+
+def njit_when_used(sig, **options):
+    """A decorator: ``numba.njit(sig, cache=True, **options)`` applied the first time a test
+    calls ``kern()`` for the kernel (the call returns the numba function). A module-level
+    ``@njit(sig)`` compiles when its module is imported, that is at collection, and in every
+    pytest-xdist worker, whether the worker runs a test of it or not."""
+    def wrap(func):
+        @functools.cache
+        def kern():
+            import numba
+            return numba.njit(sig, cache=True, **options)(func)
+        return functools.update_wrapper(kern, func)
+    return wrap
 
 
 def _say(config):

@@ -27,7 +27,7 @@ from pfbench.scenarios import beacon_field as bf
 from pfbench.scenarios import landmark_world
 from pfbench.schema import ConfigError
 
-from .conftest import ROOT, one_line_exit_2, tree
+from .conftest import ROOT, njit_when_used, one_line_exit_2, tree
 
 WORLD = str(ROOT / "configs" / "worlds" / "beacon_field.yaml")
 
@@ -49,7 +49,7 @@ def _run(name, model, data, N, seed=0, **over):
     return ft.run(model, data, Params(p), N, state_from_seed(np.random.SeedSequence(seed)))
 
 
-@njit(SCAN_LIK_SIG)
+@njit_when_used(SCAN_LIK_SIG)
 def mcl_gaussian(X, Y, H, bc, m, ids, zs, theta, out):
     """The range sensor's Gaussian (sr = theta[0]) in the arithmetic of MCL's own pass."""
     rr = 1.0 / theta[0]
@@ -63,7 +63,7 @@ def mcl_gaussian(X, Y, H, bc, m, ids, zs, theta, out):
         out[i] = a + cst
 
 
-@njit(SCAN_LIK_SIG)
+@njit_when_used(SCAN_LIK_SIG)
 def sspf_gaussian(X, Y, H, bc, m, ids, zs, theta, out):
     """The range sensor's Gaussian in the arithmetic of the beacons' pose_loglik."""
     cst = m * (-math.log(theta[0]) - 0.5 * math.log(2.0 * math.pi))
@@ -76,14 +76,14 @@ def sspf_gaussian(X, Y, H, bc, m, ids, zs, theta, out):
         out[i] = acc + cst
 
 
-@njit(SCAN_LIK_SIG)
+@njit_when_used(SCAN_LIK_SIG)
 def nowhere_at_step_with_range_above_15(X, Y, H, bc, m, ids, zs, theta, out):
     """-inf for every pose when the step's range passes 15 m, else 0."""
     for i in range(X.size):
         out[i] = -np.inf if m > 0 and zs[0, 0] > 15.0 else 0.0
 
 
-@njit(SCAN_SAMPLE_SIG)
+@njit_when_used(SCAN_SAMPLE_SIG)
 def always_beacon_0(x, y, th, bc, theta, s, ids, zs):
     """Beacon 0's exact range and bearing, every step."""
     ids[0] = 0
@@ -111,7 +111,7 @@ def test_without_outliers_the_model_is_the_gaussian_sensor_and_its_draws_unchang
                                   {"sampling": "kld"}])
 def test_mcl_through_a_likelihood_that_is_the_gaussian_gives_the_builtin_traces(over):
     model = _field(steps=40, kidnap_steps=[20])
-    own = dataclasses.replace(model, loglik=mcl_gaussian, theta=np.array([model.sense.sr]))
+    own = dataclasses.replace(model, loglik=mcl_gaussian(), theta=np.array([model.sense.sr]))
     _, data = bf.simulate(model, state_from_seed(np.random.SeedSequence(2)))
     a = _run("mcl", model, data, 300, seed=3, **over)
     b = _run("mcl", own, data, 300, seed=3, **over)
@@ -121,7 +121,7 @@ def test_mcl_through_a_likelihood_that_is_the_gaussian_gives_the_builtin_traces(
 
 def test_the_sspf_through_a_likelihood_that_is_the_gaussian_gives_the_builtin_traces():
     model = _field(steps=25)
-    own = dataclasses.replace(model, loglik=sspf_gaussian, theta=np.array([model.sense.sr]))
+    own = dataclasses.replace(model, loglik=sspf_gaussian(), theta=np.array([model.sense.sr]))
     _, data = bf.simulate(model, state_from_seed(np.random.SeedSequence(4)))
     a = _run("sspf_field", model, data, 60, seed=5)
     b = _run("sspf_field", own, data, 60, seed=5)
@@ -133,7 +133,7 @@ def test_the_sspf_through_a_likelihood_that_is_the_gaussian_gives_the_builtin_tr
 def test_a_likelihood_minus_inf_everywhere_at_a_step_is_an_underflow_step(name):
     model = _field(steps=30)
     _, data = bf.simulate(model, state_from_seed(np.random.SeedSequence(6)))
-    own = dataclasses.replace(model, loglik=nowhere_at_step_with_range_above_15)
+    own = dataclasses.replace(model, loglik=nowhere_at_step_with_range_above_15())
     steps = int(np.sum((data.obs_n > 0) & (data.obs_z[:, 0, 0] > 15.0)))
     assert steps > 0
     out = _run(name, own, data, 50, seed=1)
@@ -141,7 +141,7 @@ def test_a_likelihood_minus_inf_everywhere_at_a_step_is_an_underflow_step(name):
 
 
 def test_simulation_draws_the_observations_from_the_models_sampler():
-    model = dataclasses.replace(_field(steps=20), sample=always_beacon_0)
+    model = dataclasses.replace(_field(steps=20), sample=always_beacon_0())
     truth, _ = bf.simulate(model, state_from_seed(np.random.SeedSequence(7)))
     assert (truth.obs_n == 1).all() and (truth.obs_id[:, 0] == 0).all()
     r = np.hypot(*(model.beacons[0] - truth.pose[1:, :2]).T)

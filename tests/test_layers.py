@@ -4,6 +4,7 @@ or against one of the "never" rules."""
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import pytest
@@ -173,8 +174,10 @@ def _targets(module: str, is_pkg: bool, node) -> list[str]:
     return out
 
 
+@functools.cache
 def import_graph() -> dict[str, dict[str, list[tuple[int, bool]]]]:
-    """importer -> imported -> [(line, at module level)] over MODULES."""
+    """importer -> imported -> [(line, at module level)] over MODULES (parsed when a test first
+    asks, not at collection in every pytest-xdist worker)."""
     graph: dict[str, dict[str, list]] = {m: {} for m in MODULES}
     for module, (path, is_pkg) in MODULES.items():
         tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
@@ -184,8 +187,6 @@ def import_graph() -> dict[str, dict[str, list[tuple[int, bool]]]]:
                     graph[module].setdefault(target, []).append((node.lineno, top))
     return graph
 
-
-GRAPH = import_graph()
 
 
 def _where(a: str, b: str, graph) -> str:
@@ -236,32 +237,34 @@ def test_every_module_has_a_layer():
 
 
 def test_no_import_circle():
-    graph = _checked(GRAPH, circles_left=True)
+    graph = _checked(import_graph(), circles_left=True)
     cycle = find_cycle(graph)
     assert cycle is None, "import circle:\n  " + "\n  ".join(
         _where(a, b, graph) for a, b in zip(cycle, cycle[1:]))
 
 
 def test_the_circles_left_are_still_there():
-    gone = [f"{a} -> {b}" for a, b in CIRCLES_LEFT if b not in GRAPH.get(a, {})]
+    graph = import_graph()
+    gone = [f"{a} -> {b}" for a, b in CIRCLES_LEFT if b not in graph.get(a, {})]
     assert not gone, f"no longer imported (drop them from CIRCLES_LEFT): {gone}"
 
 
 def test_no_import_against_the_layers():
     names = list(LAYERS)
-    bad = []
-    for a, targets in _checked(GRAPH).items():
+    bad, graph = [], import_graph()
+    for a, targets in _checked(graph).items():
         for b in targets:
             la, lb = layer_of(a), layer_of(b)
             if lb > la:
-                bad.append(f"{_where(a, b, GRAPH)}: layer '{names[la]}' imports layer "
+                bad.append(f"{_where(a, b, graph)}: layer '{names[la]}' imports layer "
                            f"'{names[lb]}' above it")
     assert not bad, "\n".join(bad)
 
 
 @pytest.mark.parametrize("importer,imported,why", NEVER)
 def test_never(importer, imported, why):
-    bad = [_where(a, b, GRAPH) for a, targets in _checked(GRAPH).items() if _in(a, importer)
+    graph = import_graph()
+    bad = [_where(a, b, graph) for a, targets in _checked(graph).items() if _in(a, importer)
            for b in targets if _in(b, imported) and (a, b) not in ALLOWED]
     assert not bad, f"{why}:\n  " + "\n  ".join(bad)
 
@@ -270,7 +273,7 @@ def test_imports_inside_functions_defer_something():
     """An import inside a function defers an expensive module (numba's kernels and the
     registries, pandas, matplotlib, scipy, jinja2); a LIGHT one goes at the top."""
     bad = [f"{MODULES[a][0].relative_to(ROOT)}:{line} imports {b} inside a function"
-           for a, targets in _checked(GRAPH).items() if a not in DEFER_ALL
+           for a, targets in _checked(import_graph()).items() if a not in DEFER_ALL
            for b, where in targets.items() if b in LIGHT
            for line, top in where if not top]
     assert not bad, "\n".join(bad)

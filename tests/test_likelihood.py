@@ -15,12 +15,12 @@ from pfbench.models.scalar import (LIK_SIG, MODEL_SIG, SAMPLE_SIG, LikelihoodFun
 from pfbench.rng import normal, state_from_seed
 from pfbench.scenarios import ungm
 
-from .conftest import default_params
+from .conftest import default_params, njit_when_used
 
 PF_FAMILY = ("pf", "pfmh", "fa", "ifa", "ba", "pso", "afsa")
 
 
-@njit(LIK_SIG)
+@njit_when_used(LIK_SIG)
 def gaussian_loglik(x, t, theta, y, out):
     """log N(y; x^2 / 20, R), R = theta[2]: ungm's measurement written as a likelihood."""
     R = theta[2]
@@ -30,7 +30,7 @@ def gaussian_loglik(x, t, theta, y, out):
         out[i] = c - 0.5 * d * d / R
 
 
-@njit(LIK_SIG)
+@njit_when_used(LIK_SIG)
 def nothing_at_step_3(x, t, theta, y, out):
     """The Gaussian, except at t = 3, where no state can have produced y."""
     R = theta[2]
@@ -39,7 +39,7 @@ def nothing_at_step_3(x, t, theta, y, out):
         out[i] = -np.inf if t == 3.0 else -0.5 * d * d / R
 
 
-@njit(LIK_SIG)
+@njit_when_used(LIK_SIG)
 def unbounded_above_zero_at_step_3(x, t, theta, y, out):
     """The Gaussian, except at t = 3, where the density has no bound at every x > 0 (+inf)."""
     R = theta[2]
@@ -48,7 +48,7 @@ def unbounded_above_zero_at_step_3(x, t, theta, y, out):
         out[i] = np.inf if t == 3.0 and x[i] > 0.0 else -0.5 * d * d / R
 
 
-@njit(SAMPLE_SIG)
+@njit_when_used(SAMPLE_SIG)
 def exact(x, t, theta, s, out):
     """y = x (the sampler's draw), and one normal drawn to show it gets the state."""
     for i in range(x.size):
@@ -83,10 +83,10 @@ def test_the_gaussian_written_as_a_likelihood_gives_the_builtin_estimates(name):
     y = _data(builtin)[1]
     over = {"resample": "neff", "neff_ratio": 0.5} if name != "ifa" else {}
     ref = _run(name, builtin, y, **over)["xhat"]
-    own = _run(name, _ungm(loglik=gaussian_loglik), y, **over)
+    own = _run(name, _ungm(loglik=gaussian_loglik()), y, **over)
     assert own["underflow_steps"] == 0
     assert np.allclose(own["xhat"], ref, rtol=1e-9, atol=1e-9)
-    wide = _ungm(loglik=gaussian_loglik)
+    wide = _ungm(loglik=gaussian_loglik())
     wide.theta[2] = 25.0
     moved = _run(name, wide, y, **over)["xhat"]
     assert np.max(np.abs(moved - ref)) > 1e-3
@@ -94,7 +94,7 @@ def test_the_gaussian_written_as_a_likelihood_gives_the_builtin_estimates(name):
 
 @pytest.mark.parametrize("name", PF_FAMILY)
 def test_a_likelihood_that_is_minus_inf_everywhere_at_a_step_is_one_underflow_step(name):
-    model = _ungm(loglik=nothing_at_step_3, steps=8)
+    model = _ungm(loglik=nothing_at_step_3(), steps=8)
     y = _data(_ungm(steps=8))[1]
     out = _run(name, model, y, N=30)
     assert out["underflow_steps"] == 1
@@ -106,7 +106,7 @@ def test_a_likelihood_that_is_minus_inf_everywhere_at_a_step_is_one_underflow_st
 def test_a_likelihood_of_plus_inf_gives_those_particles_the_weight_never_nan(name):
     """+inf (a density without bound at y) at some particles of a step: they share the weight
     (the estimate is positive, one of them), the others none; no NaN, no underflow."""
-    model = _ungm(loglik=unbounded_above_zero_at_step_3, steps=6)
+    model = _ungm(loglik=unbounded_above_zero_at_step_3(), steps=6)
     y = _data(_ungm(steps=6))[1]
     out = _run(name, model, y, N=60, estimate="before_resampling")
     assert np.all(np.isfinite(out["xhat"])) and np.all(np.isfinite(out["ess"]))
@@ -126,20 +126,20 @@ def test_a_model_function_of_the_wrong_kind_is_refused_in_one_line():
 
     base = _ungm()
     for kw, sig in (({"loglik": as_model}, "LIK_SIG"), ({"loglik": plain}, "LIK_SIG"),
-                    ({"sample": gaussian_loglik}, "SAMPLE_SIG")):
+                    ({"sample": gaussian_loglik()}, "SAMPLE_SIG")):
         with pytest.raises(TypeError) as e:
             ScalarModel(base.transition, base.observe, base.theta, base.noise, 0.0, 0.0, 1.0, 3,
                         **kw)
         assert sig in str(e.value) and "\n" not in str(e.value)
         assert isinstance(e.value, UserError)   # one line and exit status 2 from the CLI
     with pytest.raises(TypeError, match="MODEL_SIG"):
-        ScalarModel(gaussian_loglik, base.observe, base.theta, base.noise, 0.0, 0.0, 1.0, 3)
+        ScalarModel(gaussian_loglik(), base.observe, base.theta, base.noise, 0.0, 0.0, 1.0, 3)
 
 
 def test_the_likelihood_and_sampler_are_handed_over_by_address_and_pickle():
     """As the model functions: typed by their signature, called from Python, pickled back to
     the function (the Dask engine ships models); a model without them says so."""
-    model = _ungm(loglik=gaussian_loglik, sample=exact)
+    model = _ungm(loglik=gaussian_loglik(), sample=exact())
     assert isinstance(model.loglik, LikelihoodFunction) and typeof(model.loglik) == LikFn
     assert isinstance(model.sample, SamplerFunction)
     assert model.has_likelihood and not _ungm().has_likelihood
@@ -153,7 +153,7 @@ def test_the_likelihood_and_sampler_are_handed_over_by_address_and_pickle():
 
 
 def test_simulation_draws_the_measurements_from_the_models_sampler():
-    x, y = _data(_ungm(sample=exact, steps=20))
+    x, y = _data(_ungm(sample=exact(), steps=20))
     assert np.array_equal(y[1:], x[1:])
     xg, yg = _data(_ungm(steps=20))
     assert np.array_equal(xg, x)   # this sampler draws one normal a step, as h(x) + v does
