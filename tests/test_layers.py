@@ -188,7 +188,6 @@ def import_graph() -> dict[str, dict[str, list[tuple[int, bool]]]]:
     return graph
 
 
-
 def _where(a: str, b: str, graph) -> str:
     line, top = graph[a][b][0]
     return f"{a} -> {b} ({MODULES[a][0].relative_to(ROOT)}:{line}" + (
