@@ -6,9 +6,15 @@ else: importing every filter module costs no compilation.
 
 A kernel is a stand-in for its numba dispatcher: calling it, or naming it inside another kernel,
 builds the dispatcher with the declared signatures once and uses it; attributes (``py_func``,
-``signatures``, ...) are the dispatcher's. Functions handed to a kernel as values (a model's
-transition, typed as a first-class function) stay plain ``numba.njit``: numba takes only its own
-dispatchers there.
+``signatures``, ...) are the dispatcher's.
+
+A kernel is called from Python or from other kernels. One that is also taken by its address, as
+a first-class function value (a model function, through pfbench.models.scalar.ModelFunction; a
+public kernel of pfbench.kernels, which a plug-in may hand over as a value), is declared
+``by_address=True`` and keeps numba's C-callable wrapper, the entry whose address such a value
+holds. The others leave the wrapper out (numba's ``no_cfunc_wrapper``): LLVM optimises it with
+the kernel's body inlined, and leaving it out takes about a tenth off compiling pfbench's
+kernels, with the kernel's own code, and so every number, the same.
 """
 from __future__ import annotations
 
@@ -41,6 +47,12 @@ class LazyKernel:
                     self._disp = numba.njit(self._sigs, **self._options)(self._func)
                 disp = self._disp
         return disp
+
+    @property
+    def taken_by_address(self) -> bool:
+        """Whether the kernel keeps numba's C-callable wrapper (``kernel(..., by_address=True)``),
+        the entry a first-class function value of it calls."""
+        return not self._options.get("no_cfunc_wrapper", False)
 
     @property
     def _numba_type_(self):         # what numba sees when another kernel names this one
@@ -154,12 +166,14 @@ def _dispatcher_names() -> frozenset:
     return frozenset(dir(numba.njit(lambda x: x)))
 
 
-def kernel(sigs, **options):
+def kernel(sigs, *, by_address: bool = False, **options):
     """``numba.njit(sigs, **options)``, built on first use (see the module). Kernels take numpy's
     error model unless they say otherwise: a float division by zero gives an infinity or NaN,
     which the filters count (underflow steps) and the metrics report (diverged steps), never a
-    ZeroDivisionError out of a trial."""
+    ZeroDivisionError out of a trial. ``by_address``: the kernel is also taken by its address, as
+    a first-class function value, and keeps numba's C-callable wrapper (see the module)."""
     options.setdefault("error_model", "numpy")
+    options.setdefault("no_cfunc_wrapper", not by_address)
 
     def decorate(func):
         return LazyKernel(func, sigs, options)

@@ -12,7 +12,7 @@ from numba import types
 from ._lazy import kernel
 
 
-@kernel(types.float64(types.float64), cache=True)
+@kernel(types.float64(types.float64), cache=True, by_address=True)
 def wrap(a):
     """a wrapped to [-pi, pi); an angle already inside is returned as it is (exact, and the
     common case is fast)."""

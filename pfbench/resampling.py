@@ -133,7 +133,8 @@ def _running_counts(idx):
         idx[k] = acc
 
 
-@kernel(types.void(_W, types.float64, STATE, _IDX), cache=True, error_model="numpy")
+@kernel(types.void(_W, types.float64, STATE, _IDX), cache=True, by_address=True,
+        error_model="numpy")
 def systematic(w, S, s, idx):
     """Systematic resampling: positions p_i = (u + i) S / N with one u ~ U[0, 1).
 
@@ -208,7 +209,7 @@ def systematic_from_sums(w, cum, S, s, idx, c):
     _running_counts(idx)
 
 
-@kernel(types.void(_W, types.float64, STATE, _IDX), cache=True)
+@kernel(types.void(_W, types.float64, STATE, _IDX), cache=True, by_address=True)
 def stratified(w, S, s, idx):
     """Stratified resampling: positions (u_i + i) S / N with independent u_i ~ U[0, 1)."""
     N = idx.size
@@ -243,7 +244,7 @@ def _multinomial_into(w, S, s, idx, start, M):
     _merge(w, S, pos, idx, start)
 
 
-@kernel(types.void(_W, types.float64, STATE, _IDX), cache=True)
+@kernel(types.void(_W, types.float64, STATE, _IDX), cache=True, by_address=True)
 def multinomial(w, S, s, idx):
     """Multinomial resampling: N independent draws from the normalised weights."""
     if _extreme(S, idx.size):
@@ -251,7 +252,7 @@ def multinomial(w, S, s, idx):
     _multinomial_into(w, S, s, idx, 0, idx.size)
 
 
-@kernel(types.void(_W, types.float64, STATE, _IDX), cache=True)
+@kernel(types.void(_W, types.float64, STATE, _IDX), cache=True, by_address=True)
 def residual(w, S, s, idx):
     """Residual resampling: floor(N W_i) copies of i, the remainder multinomial on the residuals."""
     N = idx.size
@@ -278,7 +279,7 @@ def residual(w, S, s, idx):
             _multinomial_into(w, S, s, idx, k, N - k)
 
 
-@kernel(types.void(types.int64, _W, types.float64, STATE, _IDX), cache=True)
+@kernel(types.void(types.int64, _W, types.float64, STATE, _IDX), cache=True, by_address=True)
 def resample(scheme, w, S, s, idx):
     """Dispatch on ``scheme`` (a value of ``SCHEME_CODES``); ``S`` must equal ``w.sum()``."""
     if scheme == SCHEME_MULTINOMIAL:

@@ -59,7 +59,7 @@ def state_from_seed(seed_seq: np.random.SeedSequence) -> np.ndarray:
     return s
 
 
-@kernel(types.uint64(STATE), cache=True, inline="always")
+@kernel(types.uint64(STATE), cache=True, by_address=True, inline="always")
 def next_u64(s):
     """Advance the xoshiro256+ state ``s`` and return 64 random bits."""
     res = s[0] + s[3]
@@ -73,13 +73,13 @@ def next_u64(s):
     return res
 
 
-@kernel(types.float64(types.uint64), cache=True, inline="always")
+@kernel(types.float64(types.uint64), cache=True, by_address=True, inline="always")
 def unit(r):
     """U[0, 1) from 64 random bits r (their top 53)."""
     return float(r >> uint64(11)) * _U53
 
 
-@kernel(types.float64(STATE), cache=True, inline="always")
+@kernel(types.float64(STATE), cache=True, by_address=True, inline="always")
 def uniform(s):
     """One draw from U[0, 1) with 53 random bits."""
     return unit(next_u64(s))
@@ -112,7 +112,7 @@ def _layer(r):
     return r >> uint64(56), rabs, rabs * _ZWS[r >> uint64(55)]
 
 
-@kernel(types.float64(STATE), cache=True)
+@kernel(types.float64(STATE), cache=True, by_address=True)
 def normal(s):
     """One standard normal draw (ziggurat: one 64-bit draw per value 98.8% of the time)."""
     while True:
@@ -185,7 +185,7 @@ def normal_off_rectangle(s, q, layer, rabs, x):
     return x, load_local(s)
 
 
-@kernel(types.void(STATE, types.float64[::1]), cache=True)
+@kernel(types.void(STATE, types.float64[::1]), cache=True, by_address=True)
 def fill_normal(s, z):
     """Fill ``z`` with independent standard normal draws: the draws of as many calls of
     :func:`normal`, bit for bit, about 2.5x faster, with the state in registers (see
@@ -200,7 +200,7 @@ def fill_normal(s, z):
     store_local(s, q)
 
 
-@kernel(types.void(STATE, types.float64, types.float64[::1]), cache=True)
+@kernel(types.void(STATE, types.float64, types.float64[::1]), cache=True, by_address=True)
 def add_normal(s, sd, x):
     """x += sd * z in place, z independent standard normal draws (the draws of as many calls of
     :func:`normal`: all of them first, by ``fill_normal``, then the sum, a pass that vectorises)."""
@@ -210,14 +210,14 @@ def add_normal(s, sd, x):
         x[i] += sd * z[i]
 
 
-@kernel(types.void(STATE, types.float64[::1]), cache=True)
+@kernel(types.void(STATE, types.float64[::1]), cache=True, by_address=True)
 def fill_uniform(s, u):
     """Fill ``u`` with independent U[0, 1) draws."""
     for i in range(u.size):
         u[i] = uniform(s)
 
 
-@kernel(types.float64(STATE, types.float64), cache=True)
+@kernel(types.float64(STATE, types.float64), cache=True, by_address=True)
 def standard_gamma(s, shape):
     """One Gamma(shape, rate 1) draw (Marsaglia & Tsang 2000; shape < 1 by the U^(1/shape) boost)."""
     boost = 1.0

@@ -71,7 +71,7 @@ def _finite_sum(w, x, sx):
     return sx
 
 
-@kernel(_F4(_F, _F, _F, types.float64), cache=True)
+@kernel(_F4(_F, _F, _F, types.float64), cache=True, by_address=True)
 def normalise(lw, w, x, m):
     """Max-shifted weights from log-weights, by the C library's exponential and one running sum.
 
@@ -183,14 +183,14 @@ def reset_unless_finite(lw, n, mx):
     return 0.0, 1.0
 
 
-@kernel(types.void(_F, types.float64, _F), cache=True)
+@kernel(types.void(_F, types.float64, _F), cache=True, by_address=True)
 def divide(w, S, out):
     """out[i] = w[i] / S: weights normalised by their sum S (out may be w)."""
     for i in range(w.size):
         out[i] = w[i] / S
 
 
-@kernel(types.float64(_F, _F, types.float64), cache=True)
+@kernel(types.float64(_F, _F, types.float64), cache=True, by_address=True)
 def normalised(lw, W, mx):
     """Normalised weights W (N,) from the log-weights lw (N,) of largest value mx, by the C
     library's exponential (a log-weight that is not finite gives 0), one running sum and a
@@ -222,7 +222,7 @@ def shifted_exp_less(a, shift, q, out):
         out[i] = math.exp(a[i] - shift - q[i])
 
 
-@kernel(types.float64(types.float64, types.float64), cache=True, inline="always")
+@kernel(types.float64(types.float64, types.float64), cache=True, by_address=True, inline="always")
 def ess(S, S2):
     """The effective sample size (sum w)^2 / sum w^2 of weights w whose sum is S and sum of
     squares S2 (as ``normalise`` returns them; normalised weights: S = 1, 1 / S2). The one
@@ -231,7 +231,7 @@ def ess(S, S2):
     return S * S / S2
 
 
-@kernel(types.float64(_F), cache=True)
+@kernel(types.float64(_F), cache=True, by_address=True)
 def log_sum_exp(lw):
     """log(sum exp(lw)) over the entries of lw that are not NaN, max-shifted so that no
     exponential overflows or underflows to nothing: m + log(sum exp(lw - m)), m the largest.

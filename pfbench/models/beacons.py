@@ -184,13 +184,13 @@ def scan_placeholder(cls):
     return cls(no_scan_loglik if cls is ScanLikelihoodFunction else no_scan_sample)
 
 
-@kernel(SCAN_LIK_SIG, cache=True)
+@kernel(SCAN_LIK_SIG, cache=True, by_address=True)
 def no_scan_loglik(X, Y, H, bc, m, ids, zs, theta, out):
     """The placeholder of a field model without its own log-likelihood (never called)."""
     out[:] = np.nan
 
 
-@kernel(SCAN_SAMPLE_SIG, cache=True)
+@kernel(SCAN_SAMPLE_SIG, cache=True, by_address=True)
 def no_scan_sample(x, y, th, bc, theta, s, ids, zs):
     """The placeholder of a field model without its own sampler (never called)."""
     return 0
@@ -239,7 +239,7 @@ def mixture_bearing_logpdf(z, b, sb, eps, half_fov):
     return hi + math.log1p(math.exp(lo - hi))
 
 
-@kernel(SCAN_LIK_SIG, cache=True, error_model="numpy")
+@kernel(SCAN_LIK_SIG, cache=True, by_address=True, error_model="numpy")
 def mixture_loglik(X, Y, H, bc, m, ids, zs, theta, out):
     """log p(z | pose) of the hit-and-random range mixture (theta: ``mixture_theta``); the
     bearings of a range-bearing sensor Gaussian as the plain sensor's, or with bearing outliers
@@ -322,7 +322,7 @@ def _scan(bc, x, y, th, sensor, sense, mix, eps, rmax, eps_b, s, ids, zs):
     return n
 
 
-@kernel(SCAN_SAMPLE_SIG, cache=True)
+@kernel(SCAN_SAMPLE_SIG, cache=True, by_address=True)
 def mixture_sample(x, y, th, bc, theta, s, ids, zs):
     """``sense_beacons`` (the same beacons seen, the same bearings' noise) with each range drawn
     from the hit-and-random mixture (``mixture_range``), and each bearing with probability eps_b

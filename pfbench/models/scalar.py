@@ -83,6 +83,10 @@ class ModelFunction(CompileResultWAP):
             raise ModelFunctionError(f"{_name(fn)} is not {need}: it compiles for the "
                                      f"arguments {sigs}") from None
         super().__init__(cres)
+        if not self.address:        # compiled without numba's C-callable wrapper
+            raise ModelFunctionError(f"{_name(fn)} is not {need}: it was compiled without the "
+                                     f"entry a function taken by address needs (a pfbench "
+                                     f"kernel declared without by_address=True)")
         self.dispatcher = disp
 
     def __reduce__(self):
@@ -229,19 +233,19 @@ def _placeholder(cls):
     return cls(no_loglik if cls is LikelihoodFunction else no_sample)
 
 
-@kernel(LIK_SIG, cache=True)
+@kernel(LIK_SIG, cache=True, by_address=True)
 def no_loglik(x, t, theta, y, out):
     """The placeholder of a model without its own log-likelihood (the kernels never call it)."""
     out[:] = np.nan
 
 
-@kernel(SAMPLE_SIG, cache=True)
+@kernel(SAMPLE_SIG, cache=True, by_address=True)
 def no_sample(x, t, theta, s, out):
     """The placeholder of a model without its own sampler (never called)."""
     out[:] = np.nan
 
 
-@kernel(types.void(STATE, types.float64[::1], types.float64[::1]), cache=True)
+@kernel(types.void(STATE, types.float64[::1], types.float64[::1]), cache=True, by_address=True)
 def add_process_noise(s, noise, x):
     """x += w with w drawn from the process noise described by ``noise``."""
     if noise[0] == NOISE_GAUSSIAN:
@@ -252,7 +256,7 @@ def add_process_noise(s, noise, x):
             x[i] += scale * standard_gamma(s, noise[1])
 
 
-@kernel(types.float64(types.float64[::1], types.float64), cache=True)
+@kernel(types.float64(types.float64[::1], types.float64), cache=True, by_address=True)
 def process_logpdf(noise, w):
     """log density of the process noise at w (the transition density p(x_t | x_{t-1}) at
     w = x_t - f(x_{t-1}))."""

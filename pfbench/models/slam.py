@@ -249,13 +249,13 @@ def slam_placeholder(cls):
     return cls(no_slam_loglik if cls is SlamLikelihoodFunction else no_slam_sample)
 
 
-@kernel(SLAM_LIK_SIG, cache=True)
+@kernel(SLAM_LIK_SIG, cache=True, by_address=True)
 def no_slam_loglik(X, Y, H, LX, LY, zr, zb, theta, out):
     """The placeholder of a SLAM model without its own log-likelihood (never called)."""
     out[:] = np.nan
 
 
-@kernel(SLAM_SAMPLE_SIG, cache=True)
+@kernel(SLAM_SAMPLE_SIG, cache=True, by_address=True)
 def no_slam_sample(x, y, th, lm, theta, s, ids, zs):
     """The placeholder of a SLAM model without its own sampler (never called)."""
     return 0
@@ -276,7 +276,7 @@ def slam_mixture_theta(sensor: SlamSensor, noise: SlamNoise, eps_r: float,
                      sensor.max_range], dtype=np.float64)
 
 
-@kernel(SLAM_LIK_SIG, cache=True, error_model="numpy")
+@kernel(SLAM_LIK_SIG, cache=True, by_address=True, error_model="numpy")
 def slam_mixture_loglik(X, Y, H, LX, LY, zr, zb, theta, out):
     """log p(z | pose, landmark) of the range and bearing outlier mixtures (theta:
     ``slam_mixture_theta``): log((1 - eps_r) N(zr; r, sr^2) + eps_r U(zr; 0, rmax)) +
@@ -290,7 +290,7 @@ def slam_mixture_loglik(X, Y, H, LX, LY, zr, zb, theta, out):
                   + mixture_bearing_logpdf(zb, math.atan2(dy, dx) - H[i], sb, eps_b, half_fov))
 
 
-@kernel(SLAM_SAMPLE_SIG, cache=True)
+@kernel(SLAM_SAMPLE_SIG, cache=True, by_address=True)
 def slam_mixture_sample(x, y, th, lm, theta, s, ids, zs):
     """The landmarks within the sensor's range and field of view seen from (x, y, th), as
     ``sense_landmarks``, each range with probability eps_r uniform over [0, rmax] and each

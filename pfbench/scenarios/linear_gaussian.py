@@ -35,26 +35,26 @@ SCHEMA = {
 __all__ = ["NAME", "KIND", "DESCRIPTION", "SCHEMA", "build", "simulate"]
 
 
-@kernel(MODEL_SIG, cache=True)
+@kernel(MODEL_SIG, cache=True, by_address=True)
 def transition(x, t, theta, out):
     """f(x) = a x."""
     for i in range(x.size):
         out[i] = theta[0] * x[i]
 
 
-@kernel(MODEL_SIG, cache=True)
+@kernel(MODEL_SIG, cache=True, by_address=True)
 def transition_jac(x, t, theta, out):
     for i in range(x.size):
         out[i] = theta[0]
 
 
-@kernel(MODEL_SIG, cache=True)
+@kernel(MODEL_SIG, cache=True, by_address=True)
 def observe_jac(x, t, theta, out):
     for i in range(x.size):
         out[i] = theta[1]
 
 
-@kernel(MODEL_SIG, cache=True)
+@kernel(MODEL_SIG, cache=True, by_address=True)
 def observe(x, t, theta, out):
     """h(x) = c x."""
     for i in range(x.size):

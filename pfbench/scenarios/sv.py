@@ -65,14 +65,14 @@ def stationary_var(phi: float, sigma: float) -> float:
     return sigma * sigma / (1.0 - phi * phi)
 
 
-@kernel(MODEL_SIG, cache=True)
+@kernel(MODEL_SIG, cache=True, by_address=True)
 def observe(x, t, theta, out):
     """h(x) = 0, the mean of y_t given x_t (for the filters that assume a Gaussian measurement)."""
     for i in range(x.size):
         out[i] = 0.0
 
 
-@kernel(LIK_SIG, cache=True)
+@kernel(LIK_SIG, cache=True, by_address=True)
 def loglik(x, t, theta, y, out):
     """log N(y; 0, beta^2 exp(x)) = -log(2 pi)/2 - log(beta) - x/2 - y^2 / (2 beta^2 exp(x))."""
     beta = theta[1]
@@ -82,7 +82,7 @@ def loglik(x, t, theta, y, out):
         out[i] = c - 0.5 * x[i] - q * math.exp(-x[i])
 
 
-@kernel(SAMPLE_SIG, cache=True)
+@kernel(SAMPLE_SIG, cache=True, by_address=True)
 def sample(x, t, theta, s, out):
     """y = beta exp(x / 2) e, e ~ N(0, 1)."""
     for i in range(x.size):

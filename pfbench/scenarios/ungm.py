@@ -42,7 +42,7 @@ SCHEMA = {
 __all__ = ["NAME", "KIND", "DESCRIPTION", "SCHEMA", "build", "simulate"]
 
 
-@kernel(MODEL_SIG, cache=True)
+@kernel(MODEL_SIG, cache=True, by_address=True)
 def transition(x, t, theta, out):
     """f(x, t) = 0.5 x + 25 x / (1 + sign x^2) + 8 cos(1.2 (t - shift))."""
     sign = theta[0]
@@ -52,7 +52,7 @@ def transition(x, t, theta, out):
         out[i] = 0.5 * xi + 25.0 * xi / (1.0 + sign * xi * xi) + c
 
 
-@kernel(MODEL_SIG, cache=True)
+@kernel(MODEL_SIG, cache=True, by_address=True)
 def transition_jac(x, t, theta, out):
     """df/dx = 0.5 + 25 (1 - sign x^2) / (1 + sign x^2)^2."""
     sign = theta[0]
@@ -62,14 +62,14 @@ def transition_jac(x, t, theta, out):
         out[i] = 0.5 + 25.0 * (1.0 - sign * x2) / (d * d)
 
 
-@kernel(MODEL_SIG, cache=True)
+@kernel(MODEL_SIG, cache=True, by_address=True)
 def observe(x, t, theta, out):
     """h(x) = x^2 / 20."""
     for i in range(x.size):
         out[i] = x[i] * x[i] / 20.0
 
 
-@kernel(MODEL_SIG, cache=True)
+@kernel(MODEL_SIG, cache=True, by_address=True)
 def observe_jac(x, t, theta, out):
     """dh/dx = x / 10."""
     for i in range(x.size):

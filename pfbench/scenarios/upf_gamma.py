@@ -46,7 +46,7 @@ SCHEMA = {
 __all__ = ["NAME", "KIND", "DESCRIPTION", "SCHEMA", "build", "simulate"]
 
 
-@kernel(MODEL_SIG, cache=True)
+@kernel(MODEL_SIG, cache=True, by_address=True)
 def transition(x, t, theta, out):
     """f(x, t) = 1 + sin(w pi t) + 0.5 x (the noise mean is not included)."""
     c = 1.0 + math.sin(theta[1] * math.pi * (t + theta[0]))
@@ -54,13 +54,13 @@ def transition(x, t, theta, out):
         out[i] = c + 0.5 * x[i]
 
 
-@kernel(MODEL_SIG, cache=True)
+@kernel(MODEL_SIG, cache=True, by_address=True)
 def transition_jac(x, t, theta, out):
     for i in range(x.size):
         out[i] = 0.5
 
 
-@kernel(MODEL_SIG, cache=True)
+@kernel(MODEL_SIG, cache=True, by_address=True)
 def observe(x, t, theta, out):
     """h(x, t) = x^2 / 5 up to the switch time, x / 2 - 2 after it."""
     if t + theta[0] <= theta[2]:
@@ -71,7 +71,7 @@ def observe(x, t, theta, out):
             out[i] = 0.5 * x[i] - 2.0
 
 
-@kernel(MODEL_SIG, cache=True)
+@kernel(MODEL_SIG, cache=True, by_address=True)
 def observe_jac(x, t, theta, out):
     if t + theta[0] <= theta[2]:
         for i in range(x.size):
