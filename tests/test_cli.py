@@ -160,7 +160,8 @@ def test_the_shipped_afsa_config_runs_small_and_prints_its_tables(tmp_path):
     assert res.exit_code == 0, res.output
     assert "AFSA-FastSLAM / PSO-FastSLAM" in res.output and "0.0829" in res.output
     wide = runner.invoke(app, ["run", str(ROOT / "configs/afsa_fastslam.yaml"), "--trials", "2",
-                               "--set", "scenario.steps=150", "--out", str(out), "--wide"])
+                               "--set", "scenario.steps=150", "--out", str(out), "--wide",
+                               "--no-figures"])
     assert "AFSA-FastSLAM / PSO-FastSLAM: paper 0.0829" in wide.output
     assert "paper: directional" in wide.output
     md = (out / "table.md").read_text()
