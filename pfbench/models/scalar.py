@@ -8,7 +8,8 @@ the particle filters weight by instead of the Gaussian of y_t - h(x_t), and a sa
 them the additive-Gaussian measurement is the (fast, inline) default.
 
 Model functions are module-level numba functions with the signature ``MODEL_SIG`` (``@njit(MODEL_SIG)``,
-or ``@kernel(MODEL_SIG)`` of pfbench._lazy, which compiles when a model first uses it): they take an
+or, in pfbench, ``@kernel(MODEL_SIG, by_address=True)`` of pfbench._lazy, which compiles when a
+model first uses it, with the entry a function taken by address needs): they take an
 array of states and fill ``out`` (one call per step for the whole particle set; a per-particle call
 through a function pointer costs several times more). Their parameters travel in ``theta``. The
 process noise w_t is described by ``noise``: float64[4] = [kind, a, b, R] with kind 0 = N(0, a) and
