@@ -24,17 +24,14 @@ def _kinds(cls=ModelFunction) -> list[type]:
 
 
 def _own_kernels() -> dict[str, LazyKernel]:
-    """module.name -> each kernel pfbench's modules define."""
+    """module.name -> each kernel pfbench's modules define (every module imported first, then
+    the warm-up's own listing of the kernels, _kernels._names)."""
+    from ._kernels import _names
     for mod in pkgutil.walk_packages(pfbench.__path__, "pfbench."):
         if not mod.name.endswith("__main__"):
             importlib.import_module(mod.name)
-    out = {}
-    for name, mod in sorted(sys.modules.items()):
-        if mod is not None and name.startswith("pfbench."):
-            for attr, value in vars(mod).items():
-                if isinstance(value, LazyKernel) and value.__module__ == name:
-                    out.setdefault(f"{name}.{attr}", value)
-    return out
+    return {f"{module}.{attr}": getattr(sys.modules[module], attr)
+            for module, attr in _names().values()}
 
 
 def _sigs(kern: LazyKernel) -> list:
