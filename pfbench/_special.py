@@ -16,7 +16,9 @@ import sys
 import threading
 import types
 
-_UFUNCS = "scipy.special._ufuncs"
+# the compiled module of scipy.special that holds the distribution functions (pfbench.runner
+# imports it ahead, in a thread, while a run waits for its workers)
+UFUNCS = "scipy.special._ufuncs"
 _PACKAGE = "scipy.special"
 _LOCK = threading.Lock()
 
@@ -25,13 +27,13 @@ def functions():
     """The module of scipy's special functions' ufuncs (``.stdtrit``, ``.stdtr``, ``.ndtri``,
     ``.chdtri``): the one scipy.special imported, where it is, else loaded alone (_alone); where
     that fails, through scipy.special as usual."""
-    module = sys.modules.get(_UFUNCS)
+    module = sys.modules.get(UFUNCS)
     if module is not None:
         return module
     with _LOCK:
-        module = sys.modules.get(_UFUNCS)
+        module = sys.modules.get(UFUNCS)
         if module is None:
-            module = _alone() or importlib.import_module(_UFUNCS)
+            module = _alone() or importlib.import_module(UFUNCS)
     return module
 
 
@@ -52,7 +54,7 @@ def _alone():
         bare.__getattr__ = _real_attribute
         sys.modules[_PACKAGE] = bare
         try:
-            module = importlib.import_module(_UFUNCS)
+            module = importlib.import_module(UFUNCS)
         finally:
             if sys.modules.get(_PACKAGE) is bare:
                 del sys.modules[_PACKAGE]

@@ -32,7 +32,7 @@ import numpy as np
 
 from ._cache import start_loading
 from ._lazy import LazyKernel
-from ._special import _UFUNCS, functions
+from ._special import UFUNCS, functions
 from .version import __version__
 from .config import FORMAT_VERSION, Experiment, Params
 from .diagnostics import NAMES as DIAGNOSTIC_NAMES
@@ -522,7 +522,7 @@ def import_ahead(stats: bool = False) -> None:
     import threading
 
     from .tablecache import code_digest, hold, settle
-    wanted = (_UFUNCS, "pfbench.compare", "pfbench.tables") + (
+    wanted = (UFUNCS, "pfbench.compare", "pfbench.tables") + (
         ("scipy.stats",) if stats else ())
     if all(m in sys.modules for m in wanted):
         return
