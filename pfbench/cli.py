@@ -556,6 +556,7 @@ def sweep(
     force: bool = typer.Option(False, "--force", help="Replace cell folders that hold another "
                                "experiment's trials."),
     yes: bool = typer.Option(False, "--yes", help="Run even when there are many cells."),
+    no_figures: bool = typer.Option(False, "--no-figures", help="Skip the figures."),
     figure_format: str = typer.Option("png", "--figure-format", help="The figures' format: png, "
                                       "svg or pdf."),
     executor: str = typer.Option("local", "--executor", help="'local' or 'dask' (see run)."),
@@ -578,7 +579,7 @@ def sweep(
         total = sum(c.exp.trials for c in cells)
         workers = _workers_that_fit([(c.exp, f"{config} (sweep cell {c.name})") for c in cells],
                                     workers, executor)
-        parts, fresh = (_sweep_replayed(cells, folder, out_dir, figure_format)
+        parts, fresh = (_sweep_replayed(cells, folder, out_dir, figure_format, not no_figures)
                         if not (resume or force) and executor == "local" else (None, False))
         if parts is not None:       # up to date, and the tables it printed last time
             _show_sweep(parts["table"], name, keys, cells[0].exp.trials, folder)
@@ -599,9 +600,9 @@ def sweep(
                                              force=force, status=progress.describe)
             from .regen import write_sweep
             with _steps("sweep") as say:
-                say(f"writing {folder}/summary.csv and the figures")
-                summ, figs = write_sweep(trials_df, keys, folder, name, True, figure_format,
-                                         cells[0].exp,
+                say(f"writing {folder}/summary.csv" + ("" if no_figures else " and the figures"))
+                summ, figs = write_sweep(trials_df, keys, folder, name, not no_figures,
+                                         figure_format, cells[0].exp,
                                          missing_only=trials_df.attrs.get("up_to_date", False),
                                          curves=cells[0].curves)
             parts = sw.console_parts(summ, trials_df, keys, cells[0].exp, cells[0].curves)
@@ -661,10 +662,11 @@ def _show_curves(blocks: list[dict]) -> None:
         out.print(t)
 
 
-def _sweep_replayed(cells: list, folder: Path, out_dir, fmt: str) -> tuple[dict | None, bool]:
+def _sweep_replayed(cells: list, folder: Path, out_dir, fmt: str,
+                    figures: bool = True) -> tuple[dict | None, bool]:
     """(parts, up to date): when every cell of the sweep in ``folder`` is up to date (then True)
-    and the folder still holds what the sweep that printed its tables left (pfbench.replay),
-    those tables' strings: the sweep then neither computes nor writes anything (nor imports
+    and the folder still holds what the sweep that printed its tables left (pfbench.replay;
+    its figures only where ``figures`` asks for them), those tables' strings: the sweep then neither computes nor writes anything (nor imports
     pandas). None otherwise: it takes its ordinary path (which, up to date, runs nothing)."""
     if (folder / "meta.json").exists() or not (folder / "summary.csv").is_file():
         return None, False
@@ -678,7 +680,7 @@ def _sweep_replayed(cells: list, folder: Path, out_dir, fmt: str) -> tuple[dict 
             with FolderLock(folder / "cells" / cell.name, "sweep cell", root=folder):
                 if up_to_date(cell.exp, folder / "cells" / cell.name, traces=False) is None:
                     return None, False
-        return replay_sweep(cells, folder, fmt), True
+        return replay_sweep(cells, folder, fmt, figures), True
 
 
 @app.command("tables")

@@ -27,7 +27,8 @@ def check_figure_format(fmt, what: str = "figure_format") -> str:
 def write_experiment(exp, res, folder: Path, figures: bool = True,
                      figure_format: str = "png") -> tuple:
     """The comparison (table.csv / table.md) and figures of a finished run; returns (comparison,
-    figure paths)."""
+    figure paths). Without ``figures``, a run that ran trials now takes away the figures the
+    folder holds of its earlier trials (drop_stale_figures)."""
     from . import tables
     from .tablecache import cached_compare
     if figures:
@@ -41,7 +42,23 @@ def write_experiment(exp, res, folder: Path, figures: bool = True,
     if figures:
         from .plots import write_figures
         paths = write_figures(exp, res.rows, folder, figure_format, cmp.table)
+    elif not getattr(res, "up_to_date", False):
+        drop_stale_figures(folder)
     return cmp, paths
+
+
+def drop_stale_figures(folder: Path) -> None:
+    """Remove the figures a results folder holds (figures/, and a sweep's run-time figure beside
+    its timings file) when trials were written into it without drawing them: they show trials
+    the folder no longer holds, and an up-to-date run or sweep asked for figures would take them
+    for its own. A figures folder that is a link is left alone (its files are not the folder's)."""
+    figs = Path(folder) / "figures"
+    if figs.is_dir() and not figs.is_symlink():
+        prune(figs, [])
+    for fmt in FORMATS:
+        p = Path(folder) / f"timings.{fmt}"
+        if p.is_file() or p.is_symlink():
+            p.unlink()
 
 
 def clear_leftovers(figures: Path) -> None:
@@ -99,7 +116,9 @@ def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: st
     (summary, figure paths); the summary's ``attrs["curves"]`` holds the curves' verdicts (a
     frame, pfbench.curves.judge). ``missing_only`` (an up-to-date sweep): the figures are drawn
     only when one is missing, as an up-to-date run's, or, with ``curves``, when they are not
-    known to show these curves (_drawn_with: the paper's points may have changed since)."""
+    known to show these curves (_drawn_with: the paper's points may have changed since).
+    Without ``figures`` none is drawn, and a sweep that ran trials now (not ``missing_only``)
+    takes away the figures of its earlier trials (drop_stale_figures)."""
     if figures:
         check_figure_format(figure_format)
         own_folder(Path(folder) / "figures", folder, "figures folder")
@@ -112,6 +131,8 @@ def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: st
     judged = cv.judge(curves, trials_df, keys, exp.seed if exp else 0) if curves else None
     cv.write(folder, curves, judged, keys)
     if not figures:
+        if not missing_only:
+            drop_stale_figures(folder)
         summ.attrs["curves"] = judged
         return summ, []
     from .kinds import kind_of

@@ -335,31 +335,36 @@ def record_sweep(cells, folder: Path, parts: dict, figures: list[Path], fmt: str
         pass
 
 
-def replay_sweep(cells, folder: Path, fmt: str) -> dict | None:
+def replay_sweep(cells, folder: Path, fmt: str, figures: bool = True) -> dict | None:
     """What the console printed of the sweep of ``cells`` when ``folder`` last got its files,
-    if it still holds every one with the same bytes (absent where it was), and every figure in
-    format ``fmt`` with no half-written one beside them; else None. Call it only for a sweep
-    whose every cell the runner found up to date, holding the folders' locks."""
+    if it still holds every one with the same bytes (absent where it was), and (with
+    ``figures``) every figure in format ``fmt`` with no half-written one beside them; else None.
+    Call it only for a sweep whose every cell the runner found up to date, holding the folders'
+    locks."""
     folder = Path(folder)
     entry = _entry(lambda: f"{sweep_key(cells, folder)}.sweep.json") if cells else None
     if entry is None and cells:
         entry = _sweep_folder_entry(cells, folder)
     elif entry is not None and entry.get("files") != _sweep_files(cells, folder):
         return None
-    if entry is None:
-        return None
-    figures = entry.get("figures")
-    if not isinstance(figures, dict) or figures.get("format") != fmt:
-        return None
-    kept = figures.get("files")
-    figs = folder / "figures"
-    if not isinstance(kept, dict) or not kept or figs.is_symlink() or not figs.is_dir():
-        return None
-    if _half_drawn(figs) or any(
-            sha is None or _digest(figs / name) != sha for name, sha in kept.items()):
+    if entry is None or (figures and not _sweep_figures_there(entry, folder, fmt)):
         return None
     parts = entry.get("parts")
     return parts if _sweep_parts_ok(parts) else None
+
+
+def _sweep_figures_there(entry: dict, folder: Path, fmt: str) -> bool:
+    """Whether ``folder/figures`` holds every figure of a sweep entry, in format ``fmt`` and
+    with the bytes the entry names, and no half-written one beside them."""
+    figures = entry.get("figures")
+    if not isinstance(figures, dict) or figures.get("format") != fmt:
+        return False
+    kept = figures.get("files")
+    figs = folder / "figures"
+    if not isinstance(kept, dict) or not kept or figs.is_symlink() or not figs.is_dir():
+        return False
+    return not _half_drawn(figs) and all(
+        sha is not None and _digest(figs / name) == sha for name, sha in kept.items())
 
 
 def _sweep_parts_ok(parts) -> bool:

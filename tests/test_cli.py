@@ -310,7 +310,7 @@ def test_a_run_and_a_sweep_do_not_take_each_others_folder(tmp_path, write_config
     cfg = write_config(SMALL)
     out = tmp_path / "s"
     res = runner.invoke(app, ["sweep", str(cfg), "--out", str(out), "--trials", "2",
-                              "--set", "scenario.steps=10,20"])
+                              "--set", "scenario.steps=10,20", "--no-figures"])
     assert res.exit_code == 0, res.output
     before = tree(out)
     line = one_line_exit_2(runner.invoke(app, ["run", str(cfg), "--out", str(out),

@@ -68,7 +68,7 @@ def test_run_prints_the_headline_and_wide_prints_every_column(tmp_path, write_co
     # (the closing note wraps where its path is long: a worker's temporary folder)
     assert "Evals/step" not in res.stdout
     assert "--wide prints them here" in " ".join(res.stdout.split())
-    wide = runner.invoke(app, ["run", str(cfg), "--out", str(out), "--wide"])
+    wide = runner.invoke(app, ["run", str(cfg), "--out", str(out), "--wide", "--no-figures"])
     assert wide.exit_code == 0, wide.output
     assert "Evals/step" in wide.stdout and "ms/trial" in wide.stdout      # up to date: timed
 
@@ -84,7 +84,7 @@ def test_a_title_never_prints_none(write_config):
 def test_a_sweep_prints_the_experiments_metrics_in_100_columns(tmp_path, write_config):
     cfg = write_config(TINY)
     res = runner.invoke(app, ["sweep", str(cfg), "--set", "scenario.steps=5,8", "--out",
-                              str(tmp_path / "s")], env={"COLUMNS": "100"})
+                              str(tmp_path / "s"), "--no-figures"], env={"COLUMNS": "100"})
     assert res.exit_code == 0, res.output
     lines = res.stdout.splitlines()
     assert max(len(line.rstrip()) for line in lines) <= 100

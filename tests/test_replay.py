@@ -421,7 +421,7 @@ def test_a_sweep_of_a_kind_with_traces_replays_too(tmp_path, swept):
     from .conftest import ROOT
     where, ran = swept
     args = ["sweep", str(ROOT / "configs" / "ifa_fastslam_speed.yaml"), "--trials", "1",
-            "--set", "scenario.speed_mps=1.0,2.0", "--out", str(tmp_path / "s")]
+            "--set", "scenario.speed_mps=1.0,2.0", "--out", str(tmp_path / "s"), "--no-figures"]
     first = runner.invoke(app, args)
     assert first.exit_code == 0 and len(ran) == 1, first.output
     again = runner.invoke(app, args)
