@@ -248,7 +248,9 @@ def run_experiment(config: str | Path | Mapping, *, trials: int | None = None,
         them is up to date: nothing runs, and only the table is written again)
     force : (with ``out``) replace a folder that holds another experiment, or more trials of
         this one (refused otherwise)
-    figures : (with ``out``) draw the figures; figure_format : png, svg or pdf
+    figures : (with ``out``) draw the figures; False: draw none, and where trials run now, take
+        away the figures the folder holds of the trials they replace; figure_format : png, svg
+        or pdf
     executor : where the trials run (a pfbench.runner executor; default: ``workers`` local
         processes)
     progress : ``progress(done, total)`` is called when the trials start (``done``: those an
