@@ -450,7 +450,8 @@ def _run_readings(plan: list, folder: Path, out_dir, workers: int, where: tuple)
                 raise typer.Exit(130) from None
             done_line()
         lines = rd.write(plan, folder)
-    out.print(f"Readings of {exp.paper} {exp.table}: {len(plan)} ({', '.join(r.name for r in plan)})"
+    names = ", ".join(r.name for r in plan)
+    out.print(f"Readings of {exp.paper} {exp.table}: {len(plan)} ({names})"
               f"; each claim across them (one Holm family over claims x readings; "
               f"{folder}/readings.md has every value):", markup=False, style="bold")
     for line in lines:
@@ -666,8 +667,9 @@ def _sweep_replayed(cells: list, folder: Path, out_dir, fmt: str,
                     figures: bool = True) -> tuple[dict | None, bool]:
     """(parts, up to date): when every cell of the sweep in ``folder`` is up to date (then True)
     and the folder still holds what the sweep that printed its tables left (pfbench.replay;
-    its figures only where ``figures`` asks for them), those tables' strings: the sweep then neither computes nor writes anything (nor imports
-    pandas). None otherwise: it takes its ordinary path (which, up to date, runs nothing)."""
+    its figures only where ``figures`` asks for them), those tables' strings: the sweep then
+    neither computes nor writes anything (nor imports pandas). None otherwise: it takes its
+    ordinary path (which, up to date, runs nothing)."""
     if (folder / "meta.json").exists() or not (folder / "summary.csv").is_file():
         return None, False
     if (folder / "cells").is_symlink() or not (folder / "cells").is_dir():
