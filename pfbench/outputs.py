@@ -42,21 +42,21 @@ def write_experiment(exp, res, folder: Path, figures: bool = True,
     if figures:
         from .plots import write_figures
         paths = write_figures(exp, res.rows, folder, figure_format, cmp.table)
-    elif not getattr(res, "up_to_date", False):
+    elif not res.up_to_date:
         drop_stale_figures(folder)
     return cmp, paths
 
 
-def drop_stale_figures(folder: Path) -> None:
-    """Remove the figures a results folder holds (figures/, and a sweep's run-time figure beside
-    its timings file) when trials were written into it without drawing them: they show trials
-    the folder no longer holds, and an up-to-date run or sweep asked for figures would take them
-    for its own. A figures folder that is a link is left alone (its files are not the folder's)."""
+def drop_stale_figures(folder: Path, others: list[Path] | tuple = ()) -> None:
+    """Remove the figures a results folder holds (figures/, and the figures ``others`` it draws
+    elsewhere in the folder) when trials were written into it without drawing them: they show
+    trials the folder no longer holds, and an up-to-date run or sweep asked for figures would
+    take them for its own. A figures folder that is a link is left alone (its files are not the
+    folder's)."""
     figs = Path(folder) / "figures"
     if figs.is_dir() and not figs.is_symlink():
         prune(figs, [])
-    for fmt in FORMATS:
-        p = Path(folder) / f"timings.{fmt}"
+    for p in others:
         if p.is_file() or p.is_symlink():
             p.unlink()
 
@@ -118,7 +118,8 @@ def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: st
     only when one is missing, as an up-to-date run's, or, with ``curves``, when they are not
     known to show these curves (_drawn_with: the paper's points may have changed since).
     Without ``figures`` none is drawn, and a sweep that ran trials now (not ``missing_only``)
-    takes away the figures of its earlier trials (drop_stale_figures)."""
+    takes away the figures of its earlier trials, its run times' figure too
+    (drop_stale_figures)."""
     if figures:
         check_figure_format(figure_format)
         own_folder(Path(folder) / "figures", folder, "figures folder")
@@ -131,8 +132,8 @@ def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: st
     judged = cv.judge(curves, trials_df, keys, exp.seed if exp else 0) if curves else None
     cv.write(folder, curves, judged, keys)
     if not figures:
-        if not missing_only:
-            drop_stale_figures(folder)
+        if not missing_only:        # and the run times' figure beside the timings file
+            drop_stale_figures(folder, [folder / f"timings.{fmt}" for fmt in FORMATS])
         summ.attrs["curves"] = judged
         return summ, []
     from .kinds import kind_of

@@ -31,8 +31,10 @@ def test_a_run_without_figures_takes_away_those_of_the_trials_it_replaced(tmp_pa
     _ok("run", cfg, "--out", out)
     old = _figures(out)
     assert old
+    (out / "timings.png").write_bytes(b"mine")         # a run draws nothing there: not its own
     _ok("run", cfg, "--out", out, "--force", "--seed", 5, "--no-figures")
     assert _figures(out) == {}                          # none of the seed-0 trials' figures
+    assert (out / "timings.png").read_bytes() == b"mine"
     _ok("run", cfg, "--out", out, "--seed", 5, "--no-figures")       # up to date: as it was
     assert _figures(out) == {}
     _ok("run", cfg, "--out", out, "--seed", 5)          # up to date, figures asked: drawn
