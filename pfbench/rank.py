@@ -16,8 +16,7 @@ or the highest for the metrics in HIGHER_IS_BETTER), ties sharing the mean of th
 
 The statistics are scipy.stats': ``friedmanchisquare`` over the blocks (three filters or more),
 ``wilcoxon`` (two-sided, its default zero handling) on each pair's per-block differences, and the
-pairs judged together by Holm's procedure (pfbench.verdicts.holm_levels, the rejections of
-statsmodels' ``multipletests(method='holm')``) at ALPHA.
+pairs judged together by Holm's procedure (pfbench.verdicts.holm_levels) at ALPHA.
 """
 from __future__ import annotations
 

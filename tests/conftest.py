@@ -171,6 +171,32 @@ def pytest_xdist_node_collection_finished(node, ids):
     _warm_first(node.config, len({i.split("::", 1)[0] for i in ids}))
 
 
+def holm_by_closure(pvalues, alpha: float) -> list[bool]:
+    """Which hypotheses Holm's procedure rejects, computed from its definition rather than as a
+    step-down: Holm's test is the closed test of Bonferroni's (Holm 1979; Marcus, Peritz and
+    Gabriel 1976), so H_i is rejected when every intersection H_S with i in S is, and Bonferroni
+    rejects H_S when min(p_j, j in S) <= alpha / |S|. Up to 10 hypotheses every such S is
+    enumerated; beyond, for each size k the S hardest to reject is i with the k - 1 largest other
+    p-values (the largest minimum), which decides all the sets of that size."""
+    import itertools
+    p = [float(x) for x in pvalues]
+    m = len(p)
+
+    def rejected(s) -> bool:
+        return min(p[j] for j in s) <= alpha / len(s)
+
+    out = []
+    for i in range(m):
+        others = [j for j in range(m) if j != i]
+        if m <= 10:
+            sets = ((i, *c) for k in range(m) for c in itertools.combinations(others, k))
+        else:
+            largest = sorted(others, key=lambda j: p[j], reverse=True)
+            sets = ((i, *largest[:k]) for k in range(m))
+        out.append(all(rejected(s) for s in sets))
+    return out
+
+
 def ewa_reference(W, beta, printed=False, copies="ceil"):
     """ifa2021 section 1.2 written plainly in numpy; ``copies``: how many copies a kept particle
     of weight W gets, n = W / delta (the key ``ewa_copies``)."""

@@ -1,5 +1,7 @@
 """The Dask executor: the in-process executor's rows bit for bit, re-run chunks of a dead worker
-counted once, and a clear message without Dask."""
+counted once, and a clear message without Dask. Dask is an extra (``pip install ".[dask]"``):
+without it the tests that start a cluster are skipped, and those of the message run."""
+import importlib.util
 import os
 import sys
 
@@ -15,9 +17,9 @@ from pfbench.store import TIMING_COLUMNS
 
 from .conftest import ROOT, SMALL
 
-pytest.importorskip("distributed")
-from distributed.comm.core import CommClosedError  # noqa: E402
 runner = CliRunner()
+needs_dask = pytest.mark.skipif(importlib.util.find_spec("distributed") is None,
+                                reason="Dask distributed is not installed (pip install '.[dask]')")
 
 
 def _numbers(path):
@@ -26,6 +28,7 @@ def _numbers(path):
     return df
 
 
+@needs_dask
 def test_dask_local_cluster_gives_the_in_process_rows_and_traces(tmp_path, write_config):
     exp = load(write_config(SMALL.replace("trials: 6", "trials: 12")))
     field = load(write_config(f"trials: 5\nscenario: {{name: beacon_field, world: "
@@ -46,6 +49,7 @@ def test_dask_local_cluster_gives_the_in_process_rows_and_traces(tmp_path, write
 
 
 @pytest.mark.slow
+@needs_dask
 def test_a_local_cluster_starts_without_a_word_while_another_holds_the_dashboards_port():
     """The local cluster has no dashboard, and its scheduler's HTTP routes take a free port: with
     8787 held (by another cluster, say) it warns of nothing."""
@@ -69,7 +73,10 @@ def test_a_local_cluster_starts_without_a_word_while_another_holds_the_dashboard
 
 
 @pytest.mark.slow
+@needs_dask
 def test_a_worker_that_dies_mid_run_has_its_trials_run_again_once(tmp_path, write_config):
+    from distributed.comm.core import CommClosedError
+
     # trials of a few tens of milliseconds, so that chunks are under way when a worker dies
     cfg = ("name: slow\nseed: 5\ntrials: 40\nscenario: {name: ungm, steps: 100}\n"
            "filters:\n  pf: {particles: 20000}\n")
@@ -119,6 +126,7 @@ def test_scheduler_without_the_dask_executor_is_refused(write_config, tmp_path):
     assert res.exit_code == 2 and "--scheduler needs --executor dask" in res.output
 
 
+@needs_dask
 @pytest.mark.parametrize("exc,name", [(SystemExit(3), "SystemExit: 3"),
                                       (KeyboardInterrupt(), "KeyboardInterrupt"),
                                       (ValueError("bad\nthing"), "ValueError: bad thing")])
