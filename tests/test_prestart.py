@@ -6,6 +6,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
 from typer.testing import CliRunner
 
 import pfbench
@@ -55,6 +56,7 @@ def _main(tmp_path, *args, entry="cli"):
     return res, lines[-2] if len(lines) >= 2 else ""
 
 
+@pytest.mark.slow     # what a fresh interpreter imports: a speed property, checked in CI
 def test_the_console_script_starts_it_before_the_command_line_is_imported(tmp_path,
                                                                           write_config):
     """The console script (pfbench.__main__.main) forks a run's worker before it imports typer

@@ -170,6 +170,7 @@ def _modules_of_two_commands(tmp_path, args: list[str]) -> list[str]:
     return [r.stdout.splitlines()[-1] for r in runs]
 
 
+@pytest.mark.slow     # what a fresh interpreter imports: a speed property, checked in CI
 def test_an_up_to_date_run_imports_no_table_library(tmp_path, write_config):
     """The whole command, in a process of its own: the second run replays, without pandas,
     scipy's statistics, matplotlib or pyarrow."""
@@ -269,6 +270,7 @@ def test_a_changed_sweep_folder_or_entry_takes_the_ordinary_path(tmp_path, swept
     assert res.stdout == first.stdout
 
 
+@pytest.mark.slow     # what a fresh interpreter imports: a speed property, checked in CI
 def test_an_up_to_date_sweep_imports_no_table_library(tmp_path):
     """The whole command, in a process of its own: the second sweep replays without pandas,
     scipy's statistics or special functions, matplotlib or pyarrow."""

@@ -124,6 +124,7 @@ print(sorted({m for m in sys.modules if m.startswith(("scipy.stats", "matplotlib
 """
 
 
+@pytest.mark.slow     # what a fresh interpreter imports: a speed property, checked in CI
 def test_a_run_without_figures_imports_only_what_it_uses(tmp_path):
     """A run that draws no figure imports no matplotlib; its verdicts (t intervals, Holm) need
     no scipy.stats or statsmodels: only the tests of table.md's ranking of its filters ("All
@@ -154,6 +155,7 @@ def test_a_run_without_figures_imports_only_what_it_uses(tmp_path):
             assert ("No test: on " in md) == (ranked and not tests)
 
 
+@pytest.mark.slow     # what a fresh interpreter imports: a speed property, checked in CI
 def test_a_run_with_consistency_bounds_imports_no_scipy_stats(tmp_path):
     """The NEES and NIS chi-square bounds of a run with a Kalman filter come from
     scipy.special: its table needs no scipy.stats either."""
@@ -188,6 +190,7 @@ print(seen)
 """
 
 
+@pytest.mark.slow     # what a fresh interpreter imports: a speed property, checked in CI
 def test_the_workers_start_before_the_tables_modules_import(tmp_path):
     """A run forks its workers before it imports pandas and the comparison (a quarter of a
     second on 2 cores): those import in this process while the workers run the trials."""
