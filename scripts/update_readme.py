@@ -313,12 +313,12 @@ def _esc(text: str) -> str:
 
 
 def cli_page() -> str:
-    import click
     import typer
 
     from pfbench.cli import app
     group = typer.main.get_command(app)
-    top = click.Context(group, info_name="pfbench")
+    # the click the command is made of (typer 0.2x carries its own copy): its Context class
+    top = group.context_class(group, info_name="pfbench")
     out = ["# Command line", "",
            "*Generated from the typer app (`pfbench.cli`) by `python scripts/update_readme.py "
            "--write`: every command and option with its help, as `pfbench COMMAND --help` "
@@ -334,7 +334,7 @@ def cli_page() -> str:
     for name, cmd in group.commands.items():
         if getattr(cmd, "hidden", False):
             continue
-        ctx = click.Context(cmd, info_name=name, parent=top)
+        ctx = cmd.context_class(cmd, info_name=name, parent=top)
         args = [p.name.upper() for p in cmd.params if p.param_type_name == "argument"]
         out += [f"## `pfbench {name}`", "", "```text",
                 " ".join(["pfbench", name, "[OPTIONS]", *args]), "```", "",
