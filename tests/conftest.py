@@ -1,3 +1,4 @@
+import ast
 import functools
 import math
 import os
@@ -63,6 +64,14 @@ def tree(folder: Path) -> dict:
     """Every file under folder with its bytes (to show nothing changed)."""
     return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*"))
             if p.is_file()}
+
+
+@functools.cache
+def parsed(text: str) -> ast.Module:
+    """``ast.parse(text)``, once per text in a test process: the tests that read the whole of
+    pfbench's source (its layers, function sizes, one owner per concept, codes) share the trees.
+    Read them; never change one."""
+    return ast.parse(text)
 
 
 def njit_when_used(sig, **options):

@@ -5,7 +5,7 @@ included, so that a function-local import cannot hide one."""
 import ast
 import importlib.util
 
-from .conftest import ROOT
+from .conftest import ROOT, parsed
 
 PKG = ROOT / "pfbench"
 BENCH = "pfbench.benchmarks"
@@ -27,7 +27,7 @@ def _modules():
 def _imports(name, path, is_pkg, known):
     """(imported module, the function it is imported in or None) for every import statement of
     the module, relative ones resolved; ``from X import y`` counts X.y when that is a module."""
-    tree = ast.parse(path.read_text(encoding="utf-8"))
+    tree = parsed(path.read_text(encoding="utf-8"))
     out = []
 
     def visit(node, func):

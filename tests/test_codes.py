@@ -12,7 +12,7 @@ import pytest
 
 from pfbench import codes
 
-from .conftest import ROOT
+from .conftest import ROOT, parsed
 
 # Names a kernel gives a categorical code it branches on (a function's argument or a local).
 CATEGORICAL = {"motion", "sensor", "scheme", "reset", "refine", "trigger", "kind", "algo", "assoc"}
@@ -44,7 +44,7 @@ def bare_code_comparisons(text: str, name: str = "<source>") -> list[str]:
     """'file:line: comparison' for each ==, != or ``in`` of an options field (or a categorical
     code's name) with a bare number, or a subscript of one (``noise[0] == 0``)."""
     found = []
-    for node in ast.walk(ast.parse(text)):
+    for node in ast.walk(parsed(text)):
         if not isinstance(node, ast.Compare):
             continue
         sides = [node.left, *node.comparators]
@@ -283,7 +283,7 @@ def _named(node, names: set[str]) -> bool:
 def index_reads(text: str, names: set[str], name: str = "<source>") -> list[str]:
     """'file:line: read' for each subscript with a number of a name in ``names`` (``p[2]``) or
     of an attribute so named (``model.noise[0]``)."""
-    return [f"{name}:{node.lineno}: {ast.unparse(node)}" for node in ast.walk(ast.parse(text))
+    return [f"{name}:{node.lineno}: {ast.unparse(node)}" for node in ast.walk(parsed(text))
             if isinstance(node, ast.Subscript) and _named(node.value, names)
             and _is_number(node.slice)]
 

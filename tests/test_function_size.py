@@ -7,6 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from .conftest import parsed
+
 ROOT = Path(__file__).resolve().parent.parent / "pfbench"
 MOST_LINES = 80
 
@@ -16,7 +18,7 @@ def long_functions(root: Path, most: int = MOST_LINES) -> list[str]:
     whose definition (decorators excluded, docstring included) spans more than ``most`` lines."""
     found = []
     for path in sorted(root.rglob("*.py")):
-        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+        tree = parsed(path.read_text(encoding="utf-8"))
         for node in ast.walk(tree):
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
                 lines = node.end_lineno - node.lineno + 1

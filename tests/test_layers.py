@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from .conftest import ROOT
+from .conftest import ROOT, parsed
 
 # The packages checked: pfbench, and any top-level package of the repository that joins it (a
 # benchmarks/ package of performance tooling, say) once it is named here.
@@ -180,7 +180,7 @@ def import_graph() -> dict[str, dict[str, list[tuple[int, bool]]]]:
     asks, not at collection in every pytest-xdist worker)."""
     graph: dict[str, dict[str, list]] = {m: {} for m in MODULES}
     for module, (path, is_pkg) in MODULES.items():
-        tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+        tree = parsed(path.read_text(encoding="utf-8"))
         for node, top in _imports(tree):
             for target in _targets(module, is_pkg, node):
                 if target != module:

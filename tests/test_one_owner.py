@@ -11,6 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from .conftest import parsed
+
 ROOT = Path(__file__).resolve().parent.parent / "pfbench"
 
 
@@ -62,7 +64,7 @@ def test_the_kernels_steps_do_not_share_names():
     none ``summarise`` beside metrics' ``summarize``, no kernel is a vague '_core'."""
     defined: dict[str, list[str]] = {}
     for name, text in _sources().items():
-        for node in ast.walk(ast.parse(text)):
+        for node in ast.walk(parsed(text)):
             if isinstance(node, (ast.FunctionDef, ast.ClassDef)) and node.col_offset == 0:
                 defined.setdefault(node.name, []).append(name)
     for twice in ("weigh", "compare", "Finding"):
@@ -79,7 +81,7 @@ def test_the_filters_steps_have_names_of_their_own():
     defined: dict[str, list[str]] = {}
     for name, text in _sources().items():
         if name.startswith("pfbench/filters/"):
-            for node in ast.parse(text).body:
+            for node in parsed(text).body:
                 if isinstance(node, (ast.FunctionDef, ast.ClassDef)):
                     defined.setdefault(node.name, []).append(name)
     assert {k: v for k, v in defined.items() if len(v) > 1 and k != "run"} == {}
@@ -248,7 +250,7 @@ def test_the_scan_leaves_other_exponentials(body):
 def test_each_weights_variant_is_defined_once():
     defined: dict[str, list[str]] = {}
     for name, text in _sources().items():
-        for node in ast.parse(text).body:
+        for node in parsed(text).body:
             if isinstance(node, ast.FunctionDef):
                 defined.setdefault(node.name, []).append(name)
     for fn in ("normalise", "normalise_lanes", "exp_pass", "exp_sum", "lane_sum", "normalised",
@@ -323,7 +325,7 @@ def test_one_swarm_scratch_record():
     """The swarm's scratch (velocities, bests, loudness, candidates) is one record type."""
     holders = []
     for name, text in _sources().items():
-        for node in ast.walk(ast.parse(text)):
+        for node in ast.walk(parsed(text)):
             if isinstance(node, ast.ClassDef):
                 fields = {b.target.id for b in node.body if isinstance(b, ast.AnnAssign)
                           and isinstance(b.target, ast.Name)}
