@@ -133,7 +133,7 @@ def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: st
     cv.write(folder, curves, judged, keys)
     if not figures:
         if not missing_only:        # and the run times' figure beside the timings file
-            drop_stale_figures(folder, [folder / f"timings.{fmt}" for fmt in FORMATS])
+            drop_stale_figures(folder, [_timings_figure(folder, fmt) for fmt in FORMATS])
         summ.attrs["curves"] = judged
         return summ, []
     from .kinds import kind_of
@@ -154,8 +154,13 @@ def write_sweep(trials_df: pd.DataFrame, keys: list[str], folder: Path, name: st
         _note_drawn(curves, paths)
     prune(folder / "figures", paths)
     if "wall_s" in trials_df and trials_df["wall_s"].notna().any():
-        # the run times: beside the timings file, never in figures/ (they depend on the machine)
         sweep_figures(sweep_summary(trials_df, keys, ("wall_s",)), keys, folder, name,
-                      ["wall_s"], folder / f"timings.{figure_format}", figure_format)
+                      ["wall_s"], _timings_figure(folder, figure_format), figure_format)
     summ.attrs["curves"] = judged
     return summ, paths
+
+
+def _timings_figure(folder: Path, fmt: str) -> Path:
+    """A sweep's figure of its run times in format ``fmt``: beside the timings file, never in
+    figures/ (the times depend on the machine)."""
+    return Path(folder) / f"timings.{fmt}"
