@@ -154,6 +154,25 @@ def _below(kern: LazyKernel) -> list[LazyKernel]:
     return list(out.values())
 
 
+def _compiled_callees(kern: LazyKernel) -> list[LazyKernel]:
+    """The pfbench kernels numba builds when it compiles ``kern``: those it calls, where a callee
+    is inlined (``LazyKernel.inlined``) those its body calls instead, for its body is compiled
+    into ``kern`` and never alone."""
+    out: dict[int, LazyKernel] = {}
+    seen: set[int] = set()
+    todo = callees(kern)
+    while todo:
+        c = todo.pop()
+        if id(c) in seen or c is kern or not _own(c):
+            continue
+        seen.add(id(c))
+        if c.inlined:
+            todo.extend(callees(c))
+        else:
+            out[id(c)] = c
+    return list(out.values())
+
+
 def _plan(kernels: list[LazyKernel]) -> list[Job]:
     """The jobs of ``kernels`` and of every kernel they call that is not cached yet (a cached
     kernel's callees are in its cache entry), ranked (see Job)."""
@@ -165,7 +184,7 @@ def _plan(kernels: list[LazyKernel]) -> list[Job]:
     links = {}
     while len(jobs) < len(index):
         k = todo[len(jobs)]
-        below = [c for c in callees(k) if _own(c)]
+        below = _compiled_callees(k)
         for c in below:
             if not _cached(c) and id(c) not in index:
                 index[id(c)] = len(index)

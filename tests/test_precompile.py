@@ -81,16 +81,48 @@ def _plan(monkeypatch, exp=None):
     return precompile.uncompiled_kernels(exp or load(CONFIG, {"trials": 2}), runner.trial_result)
 
 
+def _built_with(kern) -> set:
+    """The kernels numba builds when it compiles ``kern``: its callees, and in place of a callee
+    whose body it inlines, that callee's."""
+    out = set()
+    for c in _lazy.callees(kern):
+        if precompile._own(c):
+            out |= _built_with(c) if c.inlined else {id(c)}
+    return out
+
+
+def test_a_kernel_compiles_without_compiling_those_it_inlines():
+    """numba copies an inlined kernel's body into its caller: compiling the caller compiles
+    nothing of it; a call from Python compiles its signature."""
+    from numba import types
+    f8 = types.float64(types.float64)
+
+    @_lazy.kernel(f8, inline="always")
+    def twice(x):
+        return 2.0 * x
+
+    @_lazy.kernel(f8)
+    def caller(x):
+        return twice(x) + 1.0
+    assert twice.inlined and not caller.inlined
+    assert caller(3.0) == 7.0
+    assert caller.built and not twice.built
+    assert twice(3.0) == 6.0 and twice.built and twice.signatures == [(types.float64,)]
+
+
 def test_every_kernel_below_the_roots_is_a_job_after_its_callees(monkeypatch):
+    """Every kernel the roots call, directly or through the bodies they inline, is a job after
+    the jobs of what it calls; an inlined kernel is none (its body compiles in its callers)."""
     jobs = _plan(monkeypatch)
     kernels = [j.kernel for j in jobs]
     assert len({id(k) for k in kernels}) == len(kernels)         # each kernel once
-    want = {id(c) for k in precompile.roots(load(CONFIG, {"trials": 2}), runner.trial_result)
-            for c in [k] + precompile._below(k)}
+    roots = precompile.roots(load(CONFIG, {"trials": 2}), runner.trial_result)
+    below = [c for k in roots for c in precompile._below(k)]
+    assert sum(c.inlined for c in below) >= 10                   # the rng's, vecmath's, ...
+    want = {id(k) for k in roots} | {id(c) for c in below if not c.inlined}
     assert {id(k) for k in kernels} == want
     for i, job in enumerate(jobs):
-        assert {id(kernels[n]) for n in job.needs} == {
-            id(c) for c in _lazy.callees(job.kernel) if precompile._own(c)}
+        assert {id(kernels[n]) for n in job.needs} == _built_with(job.kernel)
         assert all(jobs[n].rank > job.rank for n in job.needs)   # a callee before its callers
     by = {j.kernel.__qualname__: j for j in jobs}
     # the swarm filters' chain is the longest: its kernels go first
