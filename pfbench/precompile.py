@@ -155,9 +155,9 @@ def _below(kern: LazyKernel) -> list[LazyKernel]:
 
 
 def _compiled_callees(kern: LazyKernel) -> list[LazyKernel]:
-    """The pfbench kernels numba builds when it compiles ``kern``: those it calls, where a callee
-    is inlined (``LazyKernel.inlined``) those its body calls instead, for its body is compiled
-    into ``kern`` and never alone."""
+    """The pfbench kernels numba builds when it compiles ``kern``: those it calls, and in place
+    of an inlined callee that compiling a caller does not build (``LazyKernel.built_by_callers``)
+    those its body calls, for its body is compiled into ``kern``."""
     out: dict[int, LazyKernel] = {}
     seen: set[int] = set()
     todo = callees(kern)
@@ -166,7 +166,7 @@ def _compiled_callees(kern: LazyKernel) -> list[LazyKernel]:
         if id(c) in seen or c is kern or not _own(c):
             continue
         seen.add(id(c))
-        if c.inlined:
+        if not c.built_by_callers:
             todo.extend(callees(c))
         else:
             out[id(c)] = c
