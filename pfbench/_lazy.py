@@ -195,7 +195,7 @@ def size(kern: LazyKernel) -> int:
     kernels it inlines, times its signatures); only for ordering compilations."""
     sigs = kern._sigs if isinstance(kern._sigs, (list, tuple)) else [kern._sigs]
     own = sum(len(c.co_code) for c in _codes(kern._func.__code__))
-    inlined = sum(size(k) for k in callees(kern) if k._options.get("inline") == "always")
+    inlined = sum(size(k) for k in callees(kern) if k.inlined)
     return max(1, len(sigs)) * own + inlined
 
 

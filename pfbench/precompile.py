@@ -13,7 +13,9 @@ process per core, into the numba cache, which the run then loads them from:
    inherit them). A filter run that names none is read from its code instead (``_named``).
 2. Their callees, from the kernels' code (``_lazy.callees``): every kernel the cache lacks is a
    job that waits for the kernels it calls, so that each compiles in one process only, once,
-   and the others load it from the cache when a caller compiles.
+   and the others load it from the cache when a caller compiles. An inlined callee that its
+   callers do not build (``LazyKernel.built_by_callers``) is no job: its body compiles in each
+   caller, which waits for the kernels that body calls instead.
 3. The jobs go out longest chain first (``_plan``: a kernel's own cost, estimated from its
    code, plus the longest chain of callers that wait for it), to as many processes as there are
    cores and as fit the memory (check_fits, as for as many workers).
