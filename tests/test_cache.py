@@ -102,6 +102,7 @@ print("result", value, summed, "hits", hits, "refreshed", refreshed, "linalg", l
 """
 
 
+@pytest.mark.slow     # what a fresh interpreter loads: a speed property, checked in CI
 def test_a_kernel_loads_from_the_cache_without_numbas_compiler_refresh(tmp_path):
     """A kernel found in the cache loads with numba's runtime alone (no import of every lowering
     module, nor of scipy.linalg), gives what it gave when compiled, and a kernel compiled
@@ -153,6 +154,7 @@ print("lazy", lazy, "waits", waits, still, "first", first.tolist(), "applied", o
 """
 
 
+@pytest.mark.slow     # what a fresh interpreter loads: a speed property, checked in CI
 def test_a_kernel_loaded_from_the_cache_reads_its_linking_module_only_when_needed(tmp_path):
     """A kernel loaded from the cache runs without its linking module being parsed
     (_cache._link_on_demand); a cached model function handed to a kernel as a first-class
@@ -246,6 +248,7 @@ print("after", *after, "same", bool(np.array_equal(product(a, b), a @ b)),
 """
 
 
+@pytest.mark.slow     # what a fresh interpreter loads: a speed property, checked in CI
 @pytest.mark.parametrize("how", ["alone", "linalg-first"])
 def test_a_worker_gets_numbas_array_functions_without_importing_scipy_linalg(tmp_path, how):
     """start_loading checks for a BLAS with scipy's BLAS module alone: the scipy.linalg package

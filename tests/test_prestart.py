@@ -95,6 +95,7 @@ def test_a_run_takes_the_early_worker_and_gets_the_same_trials(tmp_path, write_c
             == (tmp_path / "later" / "trials.csv").read_bytes())
 
 
+@pytest.mark.slow     # the early worker, in a fresh interpreter: a speed feature, checked in CI
 def test_a_run_of_two_workers_stops_it_and_forks_its_own(tmp_path, write_config):
     cfg = write_config(TINY)
     res, last = _main(tmp_path, "run", str(cfg), "--out", str(tmp_path / "two"),
@@ -102,6 +103,7 @@ def test_a_run_of_two_workers_stops_it_and_forks_its_own(tmp_path, write_config)
     assert last == "[False] 0 0 0", (last, res.stderr)
 
 
+@pytest.mark.slow     # the early worker, in a fresh interpreter: a speed feature, checked in CI
 def test_a_command_that_runs_nothing_stops_it(tmp_path, write_config):
     res, last = _main(tmp_path, "run", str(tmp_path / "no-such.yaml"))
     assert last == "[] 0 0 2", (last, res.stderr)

@@ -189,6 +189,7 @@ def _python(code: str, cwd=None, **env) -> str:
     return res.stdout
 
 
+@pytest.mark.slow     # what a fresh interpreter loads: a speed property, checked in CI
 def test_importing_the_package_builds_no_kernel_and_a_run_builds_only_its_own():
     """Kernels compile (or load from the cache) on first use: importing every filter and
     scenario builds none, and a UNGM run of the PF builds no SLAM or localization kernel."""
@@ -212,6 +213,7 @@ def test_importing_the_package_builds_no_kernel_and_a_run_builds_only_its_own():
     assert "pfbench.filters.pf" in second
 
 
+@pytest.mark.slow     # what a fresh interpreter loads: a speed property, checked in CI
 def test_every_copy_of_the_package_shares_one_kernel_cache(tmp_path):
     """The installed copy and a checkout's file their kernels under the same cache folder (by
     the path inside the package), so the test suite reuses what a run compiled."""

@@ -27,7 +27,7 @@ print("imported", *alone, "same", *same, "equal", *[a == b for a, b in zip(value
 """
 
 
-@pytest.mark.parametrize("how", ["alone", "package-first"])
+@pytest.mark.parametrize("how", ["alone", pytest.param("package-first", marks=pytest.mark.slow)])
 def test_the_distribution_functions_load_without_scipy_special_and_agree_with_scipy_stats(how):
     """Loaded alone, neither scipy.special's package nor scipy's array-API layer is imported; the
     functions are the very objects scipy.special exports once it is imported afterwards (which

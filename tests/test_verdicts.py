@@ -188,6 +188,7 @@ def test_the_distribution_functions_are_scipy_stats_bit_for_bit():
             assert p_differs(Claim(0.0, est)) == float(2 * stats.t.sf(z, n - 1))
 
 
+@pytest.mark.slow     # what a fresh interpreter loads: a speed property, checked in CI
 def test_a_verdict_imports_neither_scipy_stats_nor_statsmodels():
     """A table's verdicts (t intervals, Holm) import only scipy.special: scipy.stats takes about a
     second to import and statsmodels' Holm runs the garbage collector every call."""
