@@ -117,11 +117,30 @@ def _say(config):
     return say
 
 
+def _one_click_command_per_app() -> None:
+    """typer's CliRunner builds the click command of the app it invokes at every invoke (10 ms
+    for pfbench's, read from its functions' signatures and type hints); the suite's tests invoke
+    it some 570 times. Each Typer app's command is built once and kept while the app lives."""
+    import weakref
+
+    import typer.main
+    import typer.testing
+    built: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+    def get_command(app):
+        command = built.get(app)
+        if command is None:
+            command = built[app] = typer.main.get_command(app)
+        return command
+    typer.testing._get_command = get_command
+
+
 def pytest_configure(config):
     from numba.core import event
 
     from ._kernels import CompileReporter
     event.register("numba:compile", CompileReporter(_say(config)).listener())
+    _one_click_command_per_app()
 
 
 def _suite_files(config) -> int:
