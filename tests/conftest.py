@@ -3,6 +3,7 @@ import functools
 import math
 import os
 import sys
+import types
 from pathlib import Path
 
 import numpy as np
@@ -133,6 +134,75 @@ def _one_click_command_per_app() -> None:
             command = built[app] = typer.main.get_command(app)
         return command
     typer.testing._get_command = get_command
+
+
+class WorkerHere:
+    """pfbench.workers.Workers with its one worker in the test's process: what a test's run of
+    one worker gets unless the test is marked ``worker_processes`` (see ``_one_worker_here``).
+    An item sent is handled at once, as a worker would (``workers._serve``: its exception
+    comes back as the result), and both cross a pickle, as they would the pipe; nothing forks.
+    A fork of a test's process, grown large by the time, and a worker's first writes to the
+    pages it shares with it cost about as much as a small run's trials: 0.065 CPU-seconds of a
+    run of SMALL's 0.13."""
+
+    def __init__(self, count: int, handle, setup=None, setup_args: tuple = (),
+                 collect: bool = True):
+        assert count == 1, count
+        self._handle, self._done = handle, []
+        self.procs = [types.SimpleNamespace(exitcode=None, pid=os.getpid())]
+
+    @property
+    def pids(self) -> list[int]:
+        return [os.getpid()]
+
+    def send(self, slot: int, item) -> None:
+        import pickle
+        assert slot == 0 and self._handle is not None, (slot, "sent after close")
+        try:
+            out = (True, self._handle(pickle.loads(pickle.dumps(item))))
+        except BaseException as exc:        # as workers._serve sends it back
+            out = (False, exc)
+        try:
+            self._done.append(pickle.loads(pickle.dumps(out)))
+        except Exception as exc:
+            self._done.append((False, RuntimeError(f"{type(exc).__name__}: {exc}")))
+
+    def results(self, timeout: float | None = None) -> list:
+        done, self._done = self._done, []
+        return [(0, ok, got) for ok, got in done]
+
+    def close(self, timeout: float = 5.0) -> None:
+        self.stop()
+
+    def stop(self) -> None:
+        self._handle = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.stop()
+
+
+@pytest.fixture(autouse=True)
+def _one_worker_here(request, monkeypatch):
+    """A run of one worker runs its trials in the test's process (WorkerHere): the runner's
+    code is the same, its pool of one worker is not forked. A run of more workers forks them as
+    a user's would, and so does every run of a test marked ``worker_processes`` (what the
+    worker processes themselves do: their start, their end, Ctrl-C, a crash, the progress they
+    report). The models such a run built are forgotten after the test, as its worker would
+    have taken them with it: a test's plug-in scenario is another test's under the same name."""
+    if request.node.get_closest_marker("worker_processes"):
+        yield
+        return
+    from pfbench import runner, workers
+    real = workers.Workers
+
+    def pool(count: int, *args, **kwargs):
+        return (WorkerHere if count == 1 else real)(count, *args, **kwargs)
+    monkeypatch.setattr(runner, "Workers", pool)
+    yield
+    runner._model.cache_clear()
 
 
 def pytest_configure(config):

@@ -20,6 +20,9 @@ from pfbench.filters import FILTERS, FilterType
 from pfbench.runner import run_experiment, run_trial
 from pfbench.schema import Key
 
+# what the worker processes do: runs of one worker fork theirs here too (tests/conftest.py)
+pytestmark = pytest.mark.worker_processes
+
 cli = CliRunner()
 
 BASE = """\

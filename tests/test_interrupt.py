@@ -10,8 +10,12 @@ import time
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from .conftest import ROOT
+
+# what the worker processes do: runs of one worker fork theirs here too (tests/conftest.py)
+pytestmark = pytest.mark.worker_processes
 
 # A `pfbench run` whose filter 'stuck' spins in a numba loop (holding the interpreter) from its
 # third call on, that is from trial 2 of a one-worker run.

@@ -15,6 +15,9 @@ from pfbench.cli import app
 
 from .conftest import TINY
 
+# what the worker processes do: runs of one worker fork theirs here too (tests/conftest.py)
+pytestmark = pytest.mark.worker_processes
+
 runner = CliRunner()
 
 # runs pfbench.cli.main in a process of its own with ARGS, noting what the run claimed, and

@@ -17,6 +17,9 @@ from pfbench.progress import time_left
 
 from .conftest import ROOT, SMALL
 
+# what the worker processes do: runs of one worker fork theirs here too (tests/conftest.py)
+pytestmark = pytest.mark.worker_processes
+
 cli = CliRunner()
 
 

@@ -11,6 +11,9 @@ import pytest
 
 from pfbench.workers import WorkerDied, Workers
 
+# what the worker processes do: runs of one worker fork theirs here too (tests/conftest.py)
+pytestmark = pytest.mark.worker_processes
+
 
 def _within(seconds, fn, *args):
     """fn(*args), failing the test if it has not returned after ``seconds`` (the thread is left
