@@ -230,8 +230,15 @@ def test_an_up_to_date_sweep_prints_its_tables_and_curves_again(tmp_path, swept)
     assert len(ran) == 2                                # recorded again, replayed
 
 
-@pytest.mark.parametrize("change", ["summary.csv", "cell table.md", "curves.md", "figure",
-                                    "half-written figure", "entry", "--force", "another --set"])
+# a sweep runs its cells and draws its figures two or three times a case: the cases a run's folder
+# shares (test_a_changed_folder_or_entry_takes_the_ordinary_path) are slow tests here
+_SLOW = pytest.mark.slow
+
+
+@pytest.mark.parametrize("change", [
+    pytest.param("summary.csv", marks=_SLOW), "cell table.md", "curves.md", "figure",
+    pytest.param("half-written figure", marks=_SLOW), "entry", pytest.param("--force", marks=_SLOW),
+    "another --set"])
 def test_a_changed_sweep_folder_or_entry_takes_the_ordinary_path(tmp_path, swept, change):
     """Whatever no longer matches the entry (a file the sweep writes, a figure, a leftover of a
     killed drawing, the entry itself), or a sweep asked to run again or of other cells, computes
@@ -387,8 +394,8 @@ def test_a_sweep_folder_without_run_times_replays_its_own_entry(tmp_path, swept)
     assert (out / rp.FOLDER_RECORD).read_bytes() == kept
 
 
-@pytest.mark.parametrize("change", ["summary.csv", "cell table.md", "figure", "cell timings",
-                                    "entry"])
+@pytest.mark.parametrize("change", ["summary.csv", pytest.param("cell table.md", marks=_SLOW),
+                                    "figure", "cell timings", pytest.param("entry", marks=_SLOW)])
 def test_a_sweep_folder_entry_is_read_only_where_it_still_holds(tmp_path, swept, change):
     """A file or figure of other bytes, a cell's timings file, an entry of another key: the
     ordinary path, which never replaces the folder's entry."""

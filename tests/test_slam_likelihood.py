@@ -284,6 +284,7 @@ def _score(model, truth, data, out):
     return kind.score(model, truth, check_outputs(kind, out, model, truth, data))
 
 
+@pytest.mark.slow     # a plug-in's kernel compiled outside the cache (7 CPU-s), runs of 300 steps
 @pytest.mark.parametrize("over", [{}, {"range_outliers": 0.2, "bearing_outliers": 0.05}])
 def test_a_plug_in_particle_slam_filter_runs_through_the_models_likelihood(over, monkeypatch):
     monkeypatch.setitem(FILTERS, "pslam", PSLAM)
@@ -309,6 +310,7 @@ def test_a_plug_in_particle_slam_filter_runs_through_the_models_likelihood(over,
     assert math.isfinite(metrics["rmse"]) and metrics["rmse"] < 1.0, metrics["rmse"]
 
 
+@pytest.mark.slow     # 20 runs of 300 steps, and the plug-in's kernel above
 def test_a_particle_slam_filter_weighing_by_the_mixture_beats_one_weighing_by_the_gaussian():
     """The same plug-in and data, 10 trials of 300 steps, a fifth of the ranges outliers: its
     pose RMSE is smaller when it weighs by the model's mixture than by the Gaussian sensor
