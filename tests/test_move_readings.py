@@ -190,7 +190,6 @@ def _params(**over):
     return sw.swarm_params("afsa", keys)
 
 
-@pytest.mark.xdist_group("swarm_move")  # compiles swarm_move from Python: once, in one worker
 @pytest.mark.parametrize("afsa", [sw.AFSA_JOINT_SHIFT, sw.AFSA_FISH_SHIFT])
 def test_converge_stops_when_no_fish_improves(afsa):
     """Fish all at the optimum: no behaviour finds a fitter place, the first iteration improves
@@ -204,7 +203,6 @@ def test_converge_stops_when_no_fish_improves(afsa):
     assert evals == [4 * N] * 5
 
 
-@pytest.mark.xdist_group("swarm_move")  # compiles swarm_move from Python: once, in one worker
 @pytest.mark.parametrize("prey", ["fish", "random_point"])
 def test_converge_runs_until_an_iteration_improves_nothing_or_the_cap(prey):
     """A cloud far from the optimum: under converge each iteration is the plain one (same draws,
@@ -229,7 +227,6 @@ def test_converge_runs_until_an_iteration_improves_nothing_or_the_cap(prey):
         assert np.array_equal(Xa, Xc)
 
 
-@pytest.mark.xdist_group("swarm_move")  # compiles swarm_move from Python: once, in one worker
 @pytest.mark.parametrize("afsa", [sw.AFSA_JOINT_SHIFT, sw.AFSA_FISH_SHIFT])
 def test_random_point_prey_tries_and_counts_its_evaluations(afsa):
     """Each try asks for N evaluations of its points; the tries stop at p.tries or once every

@@ -334,7 +334,6 @@ def test_one_swarm_scratch_record():
     assert holders == ["pfbench/filters/swarm.py:SwarmWork"]
 
 
-@pytest.mark.xdist_group("swarm_move")  # compiles swarm_move from Python: once, in one worker
 @pytest.mark.parametrize("algo, afsa", [(0, 0), (1, 0), (2, 0), (3, 0), (4, 0), (4, 1)])
 def test_swarm_move_asks_for_what_it_needs(algo, afsa):
     """Driven with a fitness of our own (a Gaussian log-likelihood in D = 2), every algorithm's

@@ -9,9 +9,6 @@ from numba import njit
 
 from pfbench import angles, vecmath
 
-# its kernels compile when a test first calls them, in the worker that runs it: one worker
-pytestmark = pytest.mark.xdist_group("vecmath")
-
 
 @njit(error_model="numpy")
 def _sincos(x, s, c):
