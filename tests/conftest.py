@@ -1,4 +1,5 @@
 import ast
+import contextlib
 import functools
 import math
 import os
@@ -205,12 +206,66 @@ def _one_worker_here(request, monkeypatch):
     runner._model.cache_clear()
 
 
+# The file whose byte-range locks the pytest-xdist workers of a run take while they build a
+# kernel (one byte per kernel, at an offset its name hashes to): _one_build_per_kernel.
+_BUILD_LOCKS = "PFBENCH_TESTS_BUILD_LOCKS"
+
+
+def _one_build_per_kernel() -> None:
+    """In a pytest-xdist worker: a kernel of pfbench that this process builds (compiles, or
+    loads from the numba cache) is built under a lock the other workers of the run share, so
+    that two workers that come to the same kernel at once (two tests calling an inlined kernel
+    from Python: swarm_move, 6 CPU-seconds) do not both compile it: the second waits, then
+    loads what the first wrote to the cache. A kernel's callees are built inside it, later in
+    its call graph's order, so that two workers never wait on each other (the kernel returns
+    unlocked where the system says they would)."""
+    path = os.environ.get(_BUILD_LOCKS)
+    if not path:
+        return
+    import fcntl
+    import hashlib
+
+    from pfbench._lazy import LazyKernel
+    built = LazyKernel.dispatcher.fget
+    fd = os.open(path, os.O_RDWR)       # one descriptor: closing one drops all of them
+
+    def dispatcher(self):
+        if self._disp is not None:
+            return self._disp
+        name = f"{self._func.__module__}.{self._func.__qualname__}".encode()
+        at = int.from_bytes(hashlib.blake2b(name, digest_size=5).digest(), "big")
+        try:
+            fcntl.lockf(fd, fcntl.LOCK_EX, 1, at)
+        except OSError:                 # EDEADLK: build it unlocked
+            return built(self)
+        try:
+            return built(self)
+        finally:
+            fcntl.lockf(fd, fcntl.LOCK_UN, 1, at)
+    LazyKernel.dispatcher = property(dispatcher, doc=LazyKernel.dispatcher.__doc__)
+
+
 def pytest_configure(config):
     from numba.core import event
 
     from ._kernels import CompileReporter
     event.register("numba:compile", CompileReporter(_say(config)).listener())
     _one_click_command_per_app()
+    if hasattr(config, "workerinput"):
+        _one_build_per_kernel()
+    elif config.getoption("numprocesses", None) and not os.environ.get(_BUILD_LOCKS):
+        import tempfile
+        fd, path = tempfile.mkstemp(prefix="pfbench-tests-", suffix=".locks")
+        os.close(fd)
+        os.environ[_BUILD_LOCKS] = config._pfbench_build_locks = path
+
+
+def pytest_unconfigure(config):
+    path = getattr(config, "_pfbench_build_locks", None)
+    if path:
+        os.environ.pop(_BUILD_LOCKS, None)
+        with contextlib.suppress(OSError):
+            os.unlink(path)
 
 
 def _suite_files(config) -> int:
