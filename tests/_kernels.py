@@ -111,6 +111,10 @@ def _init(queue) -> None:
     """A pool process: its numba compilations are told to the parent through ``queue``."""
     global _QUEUE
     _QUEUE = queue
+    import gc
+
+    from pfbench.precompile import COMPILER_GC
+    gc.set_threshold(*COMPILER_GC)      # as pfbench's own compiling workers
     from numba.core import event
     event.register("numba:compile", CompileReporter(
         lambda text: queue.put((os.getpid(), _LABEL, text))).listener())

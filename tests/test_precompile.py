@@ -184,6 +184,30 @@ def test_each_kernel_compiles_once_after_its_callees_in_a_process_of_its_own(tmp
     assert precompile.compile_ahead(exp, runner.trial_result, processes=1) == 0  # one core
 
 
+def test_a_compiling_worker_collects_less_often_and_leaves_ctrl_c_to_the_run(tmp_path,
+                                                                              monkeypatch):
+    """The processes that compile ahead collect garbage at COMPILER_GC's thresholds (numba's
+    compiler allocates much and keeps most of it), not at this process's, and ignore Ctrl-C."""
+    import gc
+    import signal
+
+    def note(kernels, i):
+        handler = signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+        (tmp_path / f"{i}").write_text(f"{gc.get_threshold()} {handler}")
+        return True
+    _ready(monkeypatch)
+    monkeypatch.setattr(precompile, "_build", note)
+    kept = gc.get_threshold()
+    gc.set_threshold(700, 10, 10)           # Python's default, which a fork would inherit
+    try:
+        exp = load(CONFIG, {"trials": 2})
+        assert precompile.compile_ahead(exp, runner.trial_result, processes=2) > 0
+    finally:
+        gc.set_threshold(*kept)
+    said = {p.read_text() for p in tmp_path.iterdir()}
+    assert said == {f"{precompile.COMPILER_GC} True"}
+
+
 def test_nothing_is_compiled_ahead_when_the_cache_holds_it(monkeypatch):
     monkeypatch.setattr(precompile, "uncompiled", lambda exp: [])
     monkeypatch.setattr(precompile, "_build", lambda *a: 1 / 0)
