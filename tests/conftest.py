@@ -138,11 +138,28 @@ def _one_click_command_per_app() -> None:
     typer.testing._get_command = get_command
 
 
+class _PipeHere:
+    """The two ends of a worker's pipe in one process, for ``workers._serve``: it receives
+    ``item``, then the end, and what it sends is kept in ``sent``; both cross a pickle, as they
+    would the pipe (a result that cannot be pickled fails ``send`` as it would there)."""
+
+    def __init__(self, item):
+        self._items, self.sent = [item, None], []
+
+    def recv(self):
+        import pickle
+        return pickle.loads(pickle.dumps(self._items.pop(0)))
+
+    def send(self, obj) -> None:
+        import pickle
+        self.sent.append(pickle.loads(pickle.dumps(obj)))
+
+
 class WorkerHere:
     """pfbench.workers.Workers with its one worker in the test's process: what a test's run of
     one worker gets unless the test is marked ``worker_processes`` (see ``_one_worker_here``).
-    An item sent is handled at once, as a worker would (``workers._serve``: its exception
-    comes back as the result), and both cross a pickle, as they would the pipe; nothing forks.
+    An item sent is handled at once by a worker's own loop (``workers._serve``, on a _PipeHere):
+    its result or its exception, through a pickle, as the pipe would carry it; nothing forks.
     A fork of a test's process, grown large by the time, and a worker's first writes to the
     pages it shares with it cost about as much as a small run's trials: 0.065 CPU-seconds of a
     run of SMALL's 0.13."""
@@ -151,23 +168,14 @@ class WorkerHere:
                  collect: bool = True):
         assert count == 1, count
         self._handle, self._done = handle, []
-        self.procs = [types.SimpleNamespace(exitcode=None, pid=os.getpid())]
-
-    @property
-    def pids(self) -> list[int]:
-        return [os.getpid()]
+        self.procs = [types.SimpleNamespace(exitcode=None, pid=os.getpid())]   # runner._claim's
 
     def send(self, slot: int, item) -> None:
-        import pickle
+        from pfbench import workers
         assert slot == 0 and self._handle is not None, (slot, "sent after close")
-        try:
-            out = (True, self._handle(pickle.loads(pickle.dumps(item))))
-        except BaseException as exc:        # as workers._serve sends it back
-            out = (False, exc)
-        try:
-            self._done.append(pickle.loads(pickle.dumps(out)))
-        except Exception as exc:
-            self._done.append((False, RuntimeError(f"{type(exc).__name__}: {exc}")))
+        pipe = _PipeHere(item)
+        workers._serve(pipe, slot, self._handle, None, ())
+        self._done += pipe.sent
 
     def results(self, timeout: float | None = None) -> list:
         done, self._done = self._done, []
@@ -248,9 +256,11 @@ def _one_build_per_kernel() -> None:
 
 def pytest_configure(config):
     # A test process allocates much and keeps most of it (kernels, modules, the tests' own
-    # objects): at Python's default of a young collection every 700 allocations net, its
-    # collections took 12 CPU-seconds of a run of the suite on 2 cores, 4 so.
-    gc.set_threshold(20_000, 20, 10)
+    # objects), as numba's compiler does: at Python's default of a young collection every 700
+    # allocations net, its collections took 12 CPU-seconds of a run of the suite on 2 cores, 4
+    # at the compiling workers' thresholds.
+    from pfbench.precompile import COMPILER_GC
+    gc.set_threshold(*COMPILER_GC)
     from numba.core import event
 
     from ._kernels import CompileReporter
